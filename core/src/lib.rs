@@ -1,0 +1,6 @@
+//! tessera-core: the exact LEB hierarchy (2D and 3D), diamonds and their DAG, bounds, the
+//! screen-space error metric, the stateless cut rule and the repository format.
+//!
+//! Architecture invariant: this crate knows no GPU, no threads (no rayon) and no importer.
+
+pub mod repository;
