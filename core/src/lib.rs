@@ -3,4 +3,5 @@
 //!
 //! Architecture invariant: this crate knows no GPU, no threads (no rayon) and no importer.
 
+pub mod leb;
 pub mod repository;
