@@ -3,5 +3,8 @@
 //!
 //! Architecture invariant: this crate knows no GPU, no threads (no rayon) and no importer.
 
+pub mod bounds;
+pub mod cut;
 pub mod leb;
+pub mod metric;
 pub mod repository;

@@ -170,7 +170,10 @@ fn check_conforming(mesh: &ConformingMesh) {
                 .all(|v| v[axis] == f[0][axis] && (v[axis] == 0 || v[axis] == side))
         });
         let expected = if on_boundary { 1 } else { 2 };
-        assert_eq!(count, expected, "facet {f:?} is used {count} times: hanging vertex");
+        assert_eq!(
+            count, expected,
+            "facet {f:?} is used {count} times: hanging vertex"
+        );
     }
 }
 
@@ -197,10 +200,14 @@ fn split_reports_parents_before_children() {
     let mut mesh = ConformingMesh::new(3, BITS);
     let deep = descend(3, 2, 0b1011_0110_1101, 11);
     let mut order = Vec::new();
-    assert!(mesh.split(deep.split_point(), &mut |d| order.push((d.id, d.parents.clone()))));
+    assert!(mesh.split(deep.split_point(), &mut |d| order
+        .push((d.id, d.parents.clone()))));
     for (i, (_, parents)) in order.iter().enumerate() {
         for p in parents {
-            assert!(order[..i].iter().any(|(id, _)| id == p), "parent split after child");
+            assert!(
+                order[..i].iter().any(|(id, _)| id == p),
+                "parent split after child"
+            );
         }
     }
     assert_eq!(order.last().unwrap().0, deep.split_point());

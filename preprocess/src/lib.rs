@@ -1,5 +1,19 @@
-//! tessera-preprocess: importers, hierarchy construction, diamond simplification, repository writer.
+//! tessera-preprocess: importers, hierarchy construction, diamond simplification, repository
+//! writer. The build reads like seed 001's pipeline: `build::build_repository` calls
+//! `hierarchy` → `simplify` → `saturate` → `strips` → the core's repository writer.
+//!
+//! Architecture invariant: nothing here knows the GPU; the runtime never imports this crate.
 
+pub mod build;
+pub mod frame;
+pub mod hierarchy;
 pub mod import;
 pub mod mesh;
 pub mod procedural;
+pub mod saturate;
+pub mod simplify;
+pub mod strips;
+
+pub use build::{build_contents, build_repository, BuildConfig, BuildError, BuildSummary};
+pub use hierarchy::Construction;
+pub use mesh::InputMesh;

@@ -1,1 +1,34 @@
-//! Integration tests live in tests/tests/.
+//! Shared helpers of the cross-crate integration tests (tests/tests/*.rs).
+
+use std::path::PathBuf;
+
+use tessera_core::repository::reader::Repository;
+use tessera_preprocess::{build_repository, BuildConfig, BuildSummary, InputMesh};
+
+/// A file of the fetched test data; panics with the fix when it is missing.
+pub fn testdata(relative: &str) -> PathBuf {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../testdata");
+    let path = root.join(relative);
+    assert!(
+        path.exists(),
+        "{} is missing: run tools/fetch-testdata.sh first (README.md, 'Tests')",
+        path.display()
+    );
+    path
+}
+
+/// A built repository in a temporary directory (removed on drop).
+pub struct Built {
+    pub dir: tempfile::TempDir,
+    pub repo: Repository,
+    pub summary: BuildSummary,
+}
+
+/// Builds `mesh` with `config` into a temporary file and opens it with the validating reader.
+pub fn build(mesh: &InputMesh, config: &BuildConfig) -> Built {
+    let dir = tempfile::tempdir().expect("temporary directory");
+    let path = dir.path().join("model.tsr");
+    let summary = build_repository(mesh, config, &path, &|_| {}).expect("build");
+    let repo = Repository::open(&path).expect("the reader accepts what the writer wrote");
+    Built { dir, repo, summary }
+}

@@ -1,1 +1,62 @@
-fn main(){}
+//! `tessera`: the command-line tool. Pipeline scripts depend on it: keep the flags, the JSON
+//! keys and the exit codes stable (README.md lists them).
+//!
+//! Exit codes: 0 success; 1 a check found problems; 2 bad usage or bad input (a clear message
+//! on stderr, no output file left behind).
+
+mod cmd_build;
+mod cmd_check;
+mod cmd_demo;
+mod cmd_info;
+mod progress;
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+#[derive(Parser)]
+#[command(
+    name = "tessera",
+    version,
+    about = "Multiresolution rendering of huge triangle meshes (LEB / diamonds)"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Build a repository from a mesh (PLY, OBJ, OFF, STL, glTF/GLB; .gz accepted).
+    Build(cmd_build::BuildArgs),
+    /// Describe a repository.
+    Info(cmd_info::InfoArgs),
+    /// Check the cuts of a repository for cracks, non-manifold edges and monotonicity.
+    Check(cmd_check::CheckArgs),
+    /// Generate a procedural 1.3 M-triangle mesh, build it, check it, print a summary.
+    Demo(cmd_demo::DemoArgs),
+}
+
+/// What a command reports: success, or a check that found problems (exit 1).
+pub enum Outcome {
+    Ok,
+    CheckFailed,
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Build(args) => cmd_build::run(args),
+        Command::Info(args) => cmd_info::run(args),
+        Command::Check(args) => cmd_check::run(args),
+        Command::Demo(args) => cmd_demo::run(args),
+    };
+    match result {
+        Ok(Outcome::Ok) => ExitCode::SUCCESS,
+        Ok(Outcome::CheckFailed) => ExitCode::from(1),
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::from(2)
+        }
+    }
+}

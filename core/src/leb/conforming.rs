@@ -82,7 +82,10 @@ impl ConformingMesh {
             }
         }
         assert!(
-            diamond.simplices.iter().all(|s| self.leaves.contains_key(&s.key)),
+            diamond
+                .simplices
+                .iter()
+                .all(|s| self.leaves.contains_key(&s.key)),
             "diamond {id:?}: a simplex is missing although every parent is split"
         );
         on_split(&diamond);

@@ -91,6 +91,9 @@ mod tests {
         }
         // Far beyond i64 products: exact arithmetic still decides.
         let big = [i32::MAX, i32::MAX, i32::MAX];
-        assert_eq!(orient3d_exact(a, b, c, big), orient3d_point(a, b, c, [big[0] as f64; 3]));
+        assert_eq!(
+            orient3d_exact(a, b, c, big),
+            orient3d_point(a, b, c, [big[0] as f64; 3])
+        );
     }
 }

@@ -16,7 +16,9 @@
 //! The lattice side is a power of two, so every midpoint down to level `d·bits` is an integer:
 //! diamonds are identified by that integer midpoint, with no float ties.
 
-use super::predicates::{orient2d_exact, orient2d_point, orient3d_exact, orient3d_point, LatticePoint};
+use super::predicates::{
+    orient2d_exact, orient2d_point, orient3d_exact, orient3d_point, LatticePoint,
+};
 
 /// Identity of a simplex inside the hierarchy: its root and the child choices from that root.
 /// Bit `i` of `path` is the child taken at level `i + 1`.
@@ -64,7 +66,14 @@ impl Simplex {
         assert!((1..=30).contains(&bits), "lattice bits must be in 1..=30");
         let side = 1i32 << bits;
         let perms: &[[usize; 3]] = if dim == 3 {
-            &[[0, 1, 2], [0, 2, 1], [1, 0, 2], [1, 2, 0], [2, 0, 1], [2, 1, 0]]
+            &[
+                [0, 1, 2],
+                [0, 2, 1],
+                [1, 0, 2],
+                [1, 2, 0],
+                [2, 0, 1],
+                [2, 1, 0],
+            ]
         } else {
             &[[0, 1, 2], [1, 0, 2]]
         };
@@ -97,7 +106,14 @@ impl Simplex {
         if dim == 2 {
             return if q[0] >= q[1] { 0 } else { 1 };
         }
-        let perms = [[0, 1, 2], [0, 2, 1], [1, 0, 2], [1, 2, 0], [2, 0, 1], [2, 1, 0]];
+        let perms = [
+            [0, 1, 2],
+            [0, 2, 1],
+            [1, 0, 2],
+            [1, 2, 0],
+            [2, 0, 1],
+            [2, 1, 0],
+        ];
         perms
             .iter()
             .position(|p| q[p[0]] >= q[p[1]] && q[p[1]] >= q[p[2]])
@@ -132,7 +148,11 @@ impl Simplex {
 
     /// The two children (see the module comment). Panics if `!can_split()`.
     pub fn children(&self) -> [Simplex; 2] {
-        assert!(self.can_split(), "simplex {:?} is at the lattice resolution", self.key);
+        assert!(
+            self.can_split(),
+            "simplex {:?} is at the lattice resolution",
+            self.key
+        );
         let d = self.dim as usize;
         let k = self.tag as usize;
         let z = self.split_point();
@@ -140,8 +160,20 @@ impl Simplex {
         let mut c0 = [[0; 3]; 4];
         let mut c1 = [[0; 3]; 4];
         for i in 0..=d {
-            c0[i] = if i < k { x[i] } else if i == k { z } else { x[i] };
-            c1[i] = if i < k { x[i + 1] } else if i == k { z } else { x[i] };
+            c0[i] = if i < k {
+                x[i]
+            } else if i == k {
+                z
+            } else {
+                x[i]
+            };
+            c1[i] = if i < k {
+                x[i + 1]
+            } else if i == k {
+                z
+            } else {
+                x[i]
+            };
         }
         let tag = if k > 1 { k as u8 - 1 } else { self.dim };
         let level = self.key.level + 1;
@@ -165,11 +197,20 @@ impl Simplex {
         let z = self.split_point();
         let k = self.tag as usize;
         let x = &self.vertices;
-        let others: Vec<LatticePoint> = (1..=self.dim as usize).filter(|&i| i != k).map(|i| x[i]).collect();
+        let others: Vec<LatticePoint> = (1..=self.dim as usize)
+            .filter(|&i| i != k)
+            .map(|i| x[i])
+            .collect();
         let (side_q, side_x0) = if self.dim == 3 {
-            (orient3d_point(z, others[0], others[1], q), orient3d_exact(z, others[0], others[1], x[0]))
+            (
+                orient3d_point(z, others[0], others[1], q),
+                orient3d_exact(z, others[0], others[1], x[0]),
+            )
         } else {
-            (orient2d_point(z, others[0], q), orient2d_exact(z, others[0], x[0]))
+            (
+                orient2d_point(z, others[0], q),
+                orient2d_exact(z, others[0], x[0]),
+            )
         };
         if side_q == 0 || side_q == side_x0 {
             0
@@ -198,7 +239,9 @@ impl Simplex {
 
     /// Open (strict interior) containment of an f64 point.
     pub fn strictly_contains_point(&self, q: [f64; 3]) -> bool {
-        self.contains_by(|face, opposite| self.orient_point(face, q) == self.orient_exact(face, opposite))
+        self.contains_by(|face, opposite| {
+            self.orient_point(face, q) == self.orient_exact(face, opposite)
+        })
     }
 
     /// Twice (2D) or six times (3D) the volume, exact.
@@ -265,7 +308,9 @@ mod tests {
             let roots = Simplex::roots(dim, 6);
             let total: i128 = roots.iter().map(|r| r.scaled_volume()).sum();
             assert_eq!(total, cube);
-            assert!(roots.iter().all(|r| r.split_point() == [32, 32, if dim == 3 { 32 } else { 0 }]));
+            assert!(roots
+                .iter()
+                .all(|r| r.split_point() == [32, 32, if dim == 3 { 32 } else { 0 }]));
         }
     }
 
@@ -286,7 +331,9 @@ mod tests {
         let mut stack = Simplex::roots(3, 8);
         while let Some(s) = stack.pop() {
             let (a, b) = s.refinement_edge();
-            let len = |p: LatticePoint, q: LatticePoint| (0..3).map(|i| ((p[i] - q[i]) as i64).pow(2)).sum::<i64>();
+            let len = |p: LatticePoint, q: LatticePoint| {
+                (0..3).map(|i| ((p[i] - q[i]) as i64).pow(2)).sum::<i64>()
+            };
             let longest = (0..4)
                 .flat_map(|i| (i + 1..4).map(move |j| (i, j)))
                 .map(|(i, j)| len(s.vertices[i], s.vertices[j]))

@@ -1,0 +1,400 @@
+//! The build driver: input mesh → repository, as a list of steps (seed 001: construction,
+//! simplification, saturation; then strips and the file).
+
+use std::collections::HashMap;
+use std::path::Path;
+use std::time::Instant;
+
+use rayon::prelude::*;
+use tessera_core::bounds::{round_up_f32, NormalCone, Sphere};
+use tessera_core::leb::{DiamondId, Simplex};
+use tessera_core::repository::format::{
+    DiamondRecord, Header, TetRecord, ATTR_COLORS, ATTR_NORMALS, ATTR_UVS, NO_INDEX, POSITION_BITS,
+};
+use tessera_core::repository::patch::{encode_patch, patch_bytes_bound};
+use tessera_core::repository::writer::{write_repository_file, RepositoryContents};
+use tessera_core::repository::RepositoryError;
+
+use crate::frame::LatticeFrame;
+use crate::hierarchy::{build_hierarchy, Construction, Hierarchy};
+use crate::mesh::InputMesh;
+use crate::saturate::saturate;
+use crate::simplify::simplify_hierarchy;
+use crate::strips::build_patch;
+
+/// Default maximum triangles per leaf; chosen by the sweep in ARCHITECTURE.md.
+pub const DEFAULT_LEAF_TRIANGLES: usize = 256;
+
+/// Everything that controls a build.
+#[derive(Clone, Debug)]
+pub struct BuildConfig {
+    /// How deep the hierarchy goes (adaptive by leaf size, or a fixed number of levels).
+    pub construction: Construction,
+    /// Worker threads; None = one per core.
+    pub threads: Option<usize>,
+    /// log2 of the lattice cube side: bounds the depth at 3·bits levels.
+    pub lattice_bits: u32,
+}
+
+impl Default for BuildConfig {
+    fn default() -> Self {
+        BuildConfig {
+            construction: Construction::LeafTriangles(DEFAULT_LEAF_TRIANGLES),
+            threads: None,
+            lattice_bits: 20,
+        }
+    }
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum BuildError {
+    #[error("the mesh has no triangles")]
+    EmptyMesh,
+    #[error("vertex {index} has a non-finite coordinate")]
+    NonFinite { index: usize },
+    #[error("triangle {index} references vertex {vertex}, but the mesh has {count} vertices")]
+    IndexOutOfRange {
+        index: usize,
+        vertex: u32,
+        count: usize,
+    },
+    #[error("invalid configuration: {0}")]
+    Config(String),
+    #[error(transparent)]
+    Repository(#[from] RepositoryError),
+}
+
+/// What a build did, for `--json` and the benchmark.
+#[derive(Clone, Debug, Default)]
+pub struct BuildSummary {
+    pub input_triangles: usize,
+    pub input_vertices: usize,
+    pub tetrahedra: usize,
+    pub leaves: usize,
+    pub diamonds: usize,
+    pub depth: u16,
+    pub patch_triangles: usize,
+    pub locked_vertices: usize,
+    pub root_error: f64,
+    pub repository_bytes: u64,
+    pub seconds: f64,
+    /// (stage, seconds) in order.
+    pub stages: Vec<(&'static str, f64)>,
+}
+
+/// Builds the repository for `mesh` and writes it to `out` (temporary file + rename: a failed
+/// build never leaves a partial file). `on_stage` is told each stage's name as it starts.
+pub fn build_repository(
+    mesh: &InputMesh,
+    config: &BuildConfig,
+    out: &Path,
+    on_stage: &(dyn Fn(&str) + Sync),
+) -> Result<BuildSummary, BuildError> {
+    let start = Instant::now();
+    let (contents, mut summary) = build_contents(mesh, config, on_stage)?;
+    on_stage("write");
+    let t = Instant::now();
+    summary.repository_bytes = write_repository_file(out, &contents)?;
+    summary.stages.push(("write", t.elapsed().as_secs_f64()));
+    summary.seconds = start.elapsed().as_secs_f64();
+    Ok(summary)
+}
+
+/// Builds the repository image in memory.
+pub fn build_contents(
+    mesh: &InputMesh,
+    config: &BuildConfig,
+    on_stage: &(dyn Fn(&str) + Sync),
+) -> Result<(RepositoryContents, BuildSummary), BuildError> {
+    validate(mesh, config)?;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(config.threads.unwrap_or(0))
+        .build()
+        .map_err(|e| BuildError::Config(e.to_string()))?;
+    pool.install(|| build_in_pool(mesh, config, on_stage))
+}
+
+fn validate(mesh: &InputMesh, config: &BuildConfig) -> Result<(), BuildError> {
+    if mesh.triangles.is_empty() {
+        return Err(BuildError::EmptyMesh);
+    }
+    if let Some(index) = mesh
+        .positions
+        .iter()
+        .position(|p| p.iter().any(|x| !x.is_finite()))
+    {
+        return Err(BuildError::NonFinite { index });
+    }
+    for (index, t) in mesh.triangles.iter().enumerate() {
+        if let Some(&vertex) = t.iter().find(|&&v| v as usize >= mesh.positions.len()) {
+            return Err(BuildError::IndexOutOfRange {
+                index,
+                vertex,
+                count: mesh.positions.len(),
+            });
+        }
+    }
+    if !(4..=30).contains(&config.lattice_bits) {
+        return Err(BuildError::Config(format!(
+            "lattice bits {} not in 4..=30",
+            config.lattice_bits
+        )));
+    }
+    match config.construction {
+        Construction::LeafTriangles(0) => Err(BuildError::Config(
+            "leaf triangles must be at least 1".into(),
+        )),
+        Construction::Levels(l) if l as u32 > 3 * config.lattice_bits => {
+            Err(BuildError::Config(format!(
+                "{l} levels exceed the lattice's {} levels",
+                3 * config.lattice_bits
+            )))
+        }
+        _ => Ok(()),
+    }
+}
+
+fn build_in_pool(
+    mesh: &InputMesh,
+    config: &BuildConfig,
+    on_stage: &(dyn Fn(&str) + Sync),
+) -> Result<(RepositoryContents, BuildSummary), BuildError> {
+    let mut stages = Vec::new();
+    let mut stage = |name: &'static str, t: Instant| stages.push((name, t.elapsed().as_secs_f64()));
+
+    // Where everything sits: bounding box, repository origin (its centre), lattice cube.
+    let (bbox_min, bbox_max) = bounding_box(&mesh.positions);
+    let origin = [0, 1, 2].map(|i| 0.5 * (bbox_min[i] + bbox_max[i]));
+    let frame = LatticeFrame::around_box(bbox_min, bbox_max, config.lattice_bits);
+    let levels = (1u64 << POSITION_BITS) as f64 - 1.0;
+    let step = [0, 1, 2].map(|i| (bbox_max[i] - bbox_min[i]) / levels);
+    let model_size = crate::frame::diagonal(bbox_min, bbox_max).max(f64::MIN_POSITIVE);
+
+    // 1. Hierarchy: each triangle in the leaf holding its barycentre.
+    on_stage("hierarchy");
+    let t = Instant::now();
+    let barycenters: Vec<[f64; 3]> = mesh
+        .triangles
+        .par_iter()
+        .map(|tri| {
+            let p = tri.map(|v| mesh.positions[v as usize]);
+            frame.to_lattice([0, 1, 2].map(|i| (p[0][i] + p[1][i] + p[2][i]) / 3.0))
+        })
+        .collect();
+    let hierarchy = build_hierarchy(frame, &barycenters, config.construction);
+    drop(barycenters);
+    stage("hierarchy", t);
+
+    // 2. Simplification, diamond by diamond, finest first, borders locked.
+    on_stage("simplify");
+    let t = Instant::now();
+    let simplified = simplify_hierarchy(mesh, &hierarchy, origin);
+    stage("simplify", t);
+
+    // 3. Table order: breadth-first from the roots, so roots come first and siblings are
+    //    adjacent; saturation of errors and spheres over the diamond DAG.
+    on_stage("saturate");
+    let t = Instant::now();
+    let simplices = breadth_first(&hierarchy);
+    let relative = |g: u32| {
+        let p = mesh.positions[g as usize];
+        [p[0] - origin[0], p[1] - origin[1], p[2] - origin[2]]
+    };
+    let patch_sphere = |key| {
+        let tris = &simplified.patches[&key];
+        Sphere::around_points(tris.iter().flatten().map(|&g| relative(g)))
+    };
+    let error_floor = step.iter().copied().fold(model_size * 1e-9, f64::max);
+    let saturated = saturate(
+        &hierarchy,
+        origin,
+        &simplified.own_error,
+        &patch_sphere,
+        error_floor,
+        model_size,
+    );
+    // Diamond table in (level, id) order.
+    let mut diamond_order: Vec<usize> = (0..hierarchy.diamonds.len()).collect();
+    diamond_order.sort_by_key(|&i| (hierarchy.diamonds[i].level, hierarchy.diamonds[i].id));
+    let table_index: HashMap<DiamondId, u32> = diamond_order
+        .iter()
+        .enumerate()
+        .map(|(row, &i)| (hierarchy.diamonds[i].id, row as u32))
+        .collect();
+    let diamonds: Vec<DiamondRecord> = diamond_order
+        .iter()
+        .map(|&i| {
+            let d = &hierarchy.diamonds[i];
+            let (center, radius) = saturated.sphere[i].to_f32();
+            let mut parents = [NO_INDEX; 4];
+            for (slot, p) in parents.iter_mut().zip(&d.parents) {
+                *slot = table_index[p];
+            }
+            DiamondRecord {
+                center,
+                radius,
+                error: round_up_f32(saturated.error[i]),
+                parents,
+                parent_count: d.parents.len() as u8,
+                tet_count: d.simplices.len() as u8,
+                phase: d.phase(),
+                pad: 0,
+                level: d.level as u32,
+                id: d.id,
+            }
+        })
+        .collect();
+    stage("saturate", t);
+
+    // 4. Patches: strips, quantised positions, attributes; tet records point into the blob.
+    on_stage("strips");
+    let t = Instant::now();
+    let attributes = (mesh.normals.is_some() as u32 * ATTR_NORMALS)
+        | (mesh.colors.is_some() as u32 * ATTR_COLORS)
+        | (mesh.uvs.is_some() as u32 * ATTR_UVS);
+    let encoded: Vec<(Vec<u8>, TetRecord)> = simplices
+        .par_iter()
+        .map(|entry| {
+            let tris = &simplified.patches[&entry.simplex.key];
+            let patch = build_patch(tris, mesh, bbox_min, step);
+            let mut bytes = Vec::with_capacity(patch_bytes_bound(
+                patch.global_ids.len(),
+                patch.strip.len(),
+                attributes,
+            ));
+            encode_patch(&patch, attributes, &mut bytes);
+            let (center, radius) = patch_sphere(entry.simplex.key).to_f32();
+            let cone = NormalCone::around_normals(tris.iter().map(|t| triangle_normal(t, mesh)));
+            let diamond = table_index
+                .get(&entry.simplex.split_point())
+                .copied()
+                .unwrap_or(NO_INDEX);
+            let record = TetRecord {
+                center,
+                radius,
+                cone_axis: cone.axis,
+                cone_cos: cone.cos,
+                diamond: if entry.first_child == NO_INDEX {
+                    NO_INDEX
+                } else {
+                    diamond
+                },
+                parent_diamond: entry.parent_diamond.map_or(NO_INDEX, |p| table_index[&p]),
+                first_child: entry.first_child,
+                level: entry.simplex.level() as u32,
+                patch_offset: 0,
+                patch_bytes: bytes.len() as u32,
+                vertex_count: patch.global_ids.len() as u32,
+                strip_index_count: patch.strip.len() as u32,
+                triangle_count: patch.triangle_count,
+            };
+            (bytes, record)
+        })
+        .collect();
+    let mut patch_blob = Vec::with_capacity(encoded.iter().map(|(b, _)| b.len()).sum());
+    let mut tets = Vec::with_capacity(encoded.len());
+    for (bytes, mut record) in encoded {
+        record.patch_offset = patch_blob.len() as u64;
+        patch_blob.extend_from_slice(&bytes);
+        tets.push(record);
+    }
+    stage("strips", t);
+
+    let header = Header {
+        dimension: 3,
+        attributes,
+        root_tet_count: hierarchy.mesh.roots().len() as u64,
+        input_vertex_count: mesh.positions.len() as u64,
+        input_triangle_count: mesh.triangles.len() as u64,
+        origin,
+        bbox_min,
+        bbox_max,
+        position_step: step,
+        lattice_origin: frame.origin,
+        lattice_unit: frame.unit,
+        lattice_bits: frame.bits,
+        ..bytemuck::Zeroable::zeroed()
+    };
+    let summary = BuildSummary {
+        input_triangles: mesh.triangles.len(),
+        input_vertices: mesh.positions.len(),
+        tetrahedra: tets.len(),
+        leaves: hierarchy.mesh.leaf_count(),
+        diamonds: diamonds.len(),
+        depth: hierarchy.depth(),
+        patch_triangles: tets.iter().map(|t| t.triangle_count as usize).sum(),
+        locked_vertices: simplified.locked_vertices,
+        root_error: diamonds.first().map_or(0.0, |d| d.error as f64),
+        repository_bytes: 0,
+        seconds: 0.0,
+        stages,
+    };
+    Ok((
+        RepositoryContents {
+            header,
+            diamonds,
+            tets,
+            patch_blob,
+        },
+        summary,
+    ))
+}
+
+/// One row of the simplex table.
+struct TableEntry {
+    simplex: Simplex,
+    parent_diamond: Option<DiamondId>,
+    first_child: u32,
+}
+
+fn breadth_first(hierarchy: &Hierarchy) -> Vec<TableEntry> {
+    let mut table: Vec<TableEntry> = hierarchy
+        .mesh
+        .roots()
+        .iter()
+        .map(|&simplex| TableEntry {
+            simplex,
+            parent_diamond: None,
+            first_child: NO_INDEX,
+        })
+        .collect();
+    let mut i = 0;
+    while i < table.len() {
+        let s = table[i].simplex;
+        if hierarchy.mesh.is_split(s.split_point()) {
+            table[i].first_child = table.len() as u32;
+            for c in s.children() {
+                table.push(TableEntry {
+                    simplex: c,
+                    parent_diamond: Some(s.split_point()),
+                    first_child: NO_INDEX,
+                });
+            }
+        }
+        i += 1;
+    }
+    table
+}
+
+fn bounding_box(positions: &[[f64; 3]]) -> ([f64; 3], [f64; 3]) {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for p in positions {
+        for i in 0..3 {
+            lo[i] = lo[i].min(p[i]);
+            hi[i] = hi[i].max(p[i]);
+        }
+    }
+    (lo, hi)
+}
+
+fn triangle_normal(t: &[u32; 3], mesh: &InputMesh) -> [f64; 3] {
+    let [a, b, c] = t.map(|v| mesh.positions[v as usize]);
+    let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+    let v = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
+    [
+        u[1] * v[2] - u[2] * v[1],
+        u[2] * v[0] - u[0] * v[2],
+        u[0] * v[1] - u[1] * v[0],
+    ]
+}

@@ -1,0 +1,92 @@
+//! Hierarchy construction (seed 001, section 4): a conforming LEB tetrahedral mesh whose leaves
+//! hold the input triangles, each triangle in the leaf that contains its barycentre.
+//!
+//! - by leaf size (Algorithms 3/4): split any leaf holding more than `max_triangles`; the
+//!   conforming mesh forces the parent splits that this needs;
+//! - by levels (Algorithm 1): split every leaf down to a fixed level.
+
+use std::collections::HashMap;
+
+use tessera_core::leb::{ConformingMesh, Diamond, Simplex, SimplexKey};
+
+use crate::frame::LatticeFrame;
+
+/// How deep the hierarchy goes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Construction {
+    /// Adaptive: split leaves holding more than this many triangles.
+    LeafTriangles(usize),
+    /// Complete: every leaf at this level.
+    Levels(u16),
+}
+
+/// The LEB hierarchy over a mesh, before simplification.
+pub struct Hierarchy {
+    pub frame: LatticeFrame,
+    pub mesh: ConformingMesh,
+    /// The split diamonds, parents before children (the order they were split in).
+    pub diamonds: Vec<Diamond>,
+    /// Input triangle indices held by each leaf (every leaf has an entry, maybe empty).
+    pub leaf_triangles: HashMap<SimplexKey, Vec<u32>>,
+}
+
+impl Hierarchy {
+    /// Deepest leaf level.
+    pub fn depth(&self) -> u16 {
+        self.mesh.leaves().map(|s| s.level()).max().unwrap_or(0)
+    }
+}
+
+/// Builds the hierarchy. `barycenters` are the triangles' barycentres in lattice coordinates.
+pub fn build_hierarchy(
+    frame: LatticeFrame,
+    barycenters: &[[f64; 3]],
+    construction: Construction,
+) -> Hierarchy {
+    let mut mesh = ConformingMesh::new(3, frame.bits);
+    let mut leaf_triangles: HashMap<SimplexKey, Vec<u32>> =
+        mesh.roots().iter().map(|r| (r.key, Vec::new())).collect();
+    let roots: Vec<Simplex> = mesh.roots().to_vec();
+    for (t, b) in barycenters.iter().enumerate() {
+        let root = roots[Simplex::root_index_of(3, *b) as usize];
+        leaf_triangles.get_mut(&root.key).unwrap().push(t as u32);
+    }
+    let needs_split = |s: &Simplex, count: usize| match construction {
+        Construction::LeafTriangles(max) => count > max,
+        Construction::Levels(levels) => s.level() < levels,
+    };
+    let mut queue: Vec<Simplex> = roots
+        .iter()
+        .copied()
+        .filter(|r| needs_split(r, leaf_triangles[&r.key].len()))
+        .collect();
+    let mut diamonds = Vec::new();
+    while let Some(s) = queue.pop() {
+        if !mesh.is_leaf(s.key) || !s.can_split() {
+            continue;
+        }
+        mesh.split(s.split_point(), &mut |d: &Diamond| {
+            for t in &d.simplices {
+                let triangles = leaf_triangles.remove(&t.key).unwrap_or_default();
+                let children = t.children();
+                let mut parts = [Vec::new(), Vec::new()];
+                for tri in triangles {
+                    parts[t.child_index_of(barycenters[tri as usize])].push(tri);
+                }
+                for (c, part) in children.iter().zip(parts) {
+                    if needs_split(c, part.len()) && c.can_split() {
+                        queue.push(*c);
+                    }
+                    leaf_triangles.insert(c.key, part);
+                }
+            }
+            diamonds.push(d.clone());
+        });
+    }
+    Hierarchy {
+        frame,
+        mesh,
+        diamonds,
+        leaf_triangles,
+    }
+}

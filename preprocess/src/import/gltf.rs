@@ -1,0 +1,240 @@
+//! glTF 2.0 / GLB reader (via the `gltf` crate): every triangle primitive (triangles, strips,
+//! fans) of every mesh instance in the default scene (or the first scene; or, with no scenes,
+//! every mesh once), with node transforms applied in f64. Point and line primitives are skipped.
+//! Normals (`NORMAL`), colours (`COLOR_0`) and texture coordinates (`TEXCOORD_0`) are kept only
+//! if every primitive has them.
+
+use std::path::Path;
+
+use ::gltf::mesh::Mode;
+use ::gltf::{Gltf, Node};
+
+use super::error::{ImportErrorKind as K, Location};
+use super::RawMesh;
+
+type Mat4 = [[f64; 4]; 4]; // column-major, m[column][row]
+
+const IDENTITY: Mat4 = [
+    [1.0, 0.0, 0.0, 0.0],
+    [0.0, 1.0, 0.0, 0.0],
+    [0.0, 0.0, 1.0, 0.0],
+    [0.0, 0.0, 0.0, 1.0],
+];
+
+/// Deepest node hierarchy followed (guards against cycles in invalid files).
+const MAX_DEPTH: usize = 256;
+
+fn mul(a: &Mat4, b: &Mat4) -> Mat4 {
+    let mut m = [[0.0; 4]; 4];
+    for (c, col) in m.iter_mut().enumerate() {
+        for (r, v) in col.iter_mut().enumerate() {
+            *v = (0..4).map(|k| a[k][r] * b[c][k]).sum();
+        }
+    }
+    m
+}
+
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+fn err(at: Location, msg: impl Into<String>) -> K {
+    K::Gltf {
+        at,
+        msg: msg.into(),
+    }
+}
+
+struct Builder<'a> {
+    buffers: &'a [::gltf::buffer::Data],
+    mesh: RawMesh,
+    normals: Vec<[f32; 3]>,
+    colors: Vec<[u8; 4]>,
+    uvs: Vec<[f32; 2]>,
+    all_normals: bool,
+    all_colors: bool,
+    all_uvs: bool,
+}
+
+/// Reads a .gltf or .glb file's bytes; external buffers are looked up relative to `base`.
+pub(crate) fn read(bytes: &[u8], base: Option<&Path>) -> Result<RawMesh, K> {
+    let Gltf { document, blob } =
+        Gltf::from_slice(bytes).map_err(|e| err(Location::None, e.to_string()))?;
+    for ext in document.extensions_required() {
+        if ext.contains("compression") || ext.starts_with("EXT_meshopt") {
+            return Err(K::Unsupported {
+                at: Location::None,
+                what: format!("glTF extension {ext}"),
+            });
+        }
+    }
+    let base = match base {
+        Some(b) if !b.as_os_str().is_empty() => b,
+        _ => Path::new("."),
+    };
+    let buffers = ::gltf::import_buffers(&document, Some(base), blob)
+        .map_err(|e| err(Location::None, format!("cannot load buffers: {e}")))?;
+    let mut b = Builder {
+        buffers: &buffers,
+        mesh: RawMesh::default(),
+        normals: Vec::new(),
+        colors: Vec::new(),
+        uvs: Vec::new(),
+        all_normals: true,
+        all_colors: true,
+        all_uvs: true,
+    };
+    match document
+        .default_scene()
+        .or_else(|| document.scenes().next())
+    {
+        Some(scene) => {
+            for node in scene.nodes() {
+                b.node(&node, &IDENTITY, 0)?;
+            }
+        }
+        None => {
+            for mesh in document.meshes() {
+                b.add_mesh(&mesh, &IDENTITY)?;
+            }
+        }
+    }
+    let mut mesh = b.mesh;
+    let any = !mesh.positions.is_empty();
+    mesh.normals = (any && b.all_normals).then_some(b.normals);
+    mesh.colors = (any && b.all_colors).then_some(b.colors);
+    mesh.uvs = (any && b.all_uvs).then_some(b.uvs);
+    Ok(mesh)
+}
+
+impl Builder<'_> {
+    fn node(&mut self, node: &Node, parent: &Mat4, depth: usize) -> Result<(), K> {
+        if depth > MAX_DEPTH {
+            return Err(err(
+                Location::Other(format!("node {}", node.index())),
+                format!("node hierarchy deeper than {MAX_DEPTH} (cycle?)"),
+            ));
+        }
+        let local = node.transform().matrix().map(|c| c.map(f64::from));
+        let world = mul(parent, &local);
+        if let Some(mesh) = node.mesh() {
+            self.add_mesh(&mesh, &world)?;
+        }
+        for child in node.children() {
+            self.node(&child, &world, depth + 1)?;
+        }
+        Ok(())
+    }
+
+    fn add_mesh(&mut self, mesh: &::gltf::Mesh, m: &Mat4) -> Result<(), K> {
+        let a = [0, 1, 2].map(|c| [m[c][0], m[c][1], m[c][2]]);
+        let det = a[0][0] * cross(a[1], a[2])[0]
+            + a[0][1] * cross(a[1], a[2])[1]
+            + a[0][2] * cross(a[1], a[2])[2];
+        let sign = if det < 0.0 { -1.0 } else { 1.0 };
+        let cof = [cross(a[1], a[2]), cross(a[2], a[0]), cross(a[0], a[1])];
+
+        for prim in mesh.primitives() {
+            let at =
+                || Location::Other(format!("mesh {} primitive {}", mesh.index(), prim.index()));
+            let mode = prim.mode();
+            if !matches!(
+                mode,
+                Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
+            ) {
+                continue;
+            }
+            let buffers = self.buffers;
+            let reader = prim.reader(|buf| buffers.get(buf.index()).map(|d| &d.0[..]));
+            let Some(positions) = reader.read_positions() else {
+                return Err(err(at(), "no readable POSITION data"));
+            };
+            let base = self.mesh.positions.len();
+            for p in positions {
+                let p = p.map(f64::from);
+                let mut q = [0.0; 3];
+                for (r, v) in q.iter_mut().enumerate() {
+                    *v = m[0][r] * p[0] + m[1][r] * p[1] + m[2][r] * p[2] + m[3][r];
+                }
+                self.mesh.positions.push(q);
+            }
+            let n = self.mesh.positions.len() - base;
+            if base + n > u32::MAX as usize {
+                return Err(K::TooLarge {
+                    at: at(),
+                    msg: "more than 4294967295 vertices".into(),
+                });
+            }
+
+            match reader.read_normals() {
+                Some(normals) => self.normals.extend(normals.map(|nv| {
+                    let nv = nv.map(f64::from);
+                    let mut t = [0.0; 3];
+                    for (r, v) in t.iter_mut().enumerate() {
+                        *v = sign * (cof[0][r] * nv[0] + cof[1][r] * nv[1] + cof[2][r] * nv[2]);
+                    }
+                    let len = (t[0] * t[0] + t[1] * t[1] + t[2] * t[2]).sqrt();
+                    if len > 0.0 {
+                        t.map(|x| (x / len) as f32)
+                    } else {
+                        [0.0; 3]
+                    }
+                })),
+                None => self.all_normals = false,
+            }
+            match reader.read_colors(0) {
+                Some(colors) => self.colors.extend(colors.into_rgba_u8()),
+                None => self.all_colors = false,
+            }
+            match reader.read_tex_coords(0) {
+                Some(uvs) => self.uvs.extend(uvs.into_f32()),
+                None => self.all_uvs = false,
+            }
+            // Keep attribute vectors aligned with positions even when they will be dropped.
+            self.normals.resize(base + n, [0.0; 3]);
+            self.colors.resize(base + n, [0, 0, 0, 255]);
+            self.uvs.resize(base + n, [0.0; 2]);
+
+            let indices: Vec<u32> = match reader.read_indices() {
+                Some(ix) => ix.into_u32().collect(),
+                None => (0..n as u32).collect(),
+            };
+            if let Some(&bad) = indices.iter().find(|&&i| i as usize >= n) {
+                return Err(K::IndexOutOfRange {
+                    at: at(),
+                    index: bad as i64,
+                    count: n as u64,
+                });
+            }
+            let base = base as u32;
+            let mut push = |t: [u32; 3]| {
+                let t = t.map(|i| base + i);
+                self.mesh
+                    .triangles
+                    .push(if det < 0.0 { [t[0], t[2], t[1]] } else { t });
+            };
+            match mode {
+                Mode::Triangles => indices
+                    .chunks_exact(3)
+                    .for_each(|t| push([t[0], t[1], t[2]])),
+                Mode::TriangleStrip => {
+                    for k in 2..indices.len() {
+                        let (a, b, c) = (indices[k - 2], indices[k - 1], indices[k]);
+                        push(if k % 2 == 0 { [a, b, c] } else { [b, a, c] });
+                    }
+                }
+                Mode::TriangleFan => {
+                    for k in 2..indices.len() {
+                        push([indices[0], indices[k - 1], indices[k]]);
+                    }
+                }
+                _ => unreachable!(),
+            }
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,759 @@
+//! Streaming PLY reader: ASCII, binary little- and big-endian. Reads `vertex` (x, y, z; optional
+//! normals, colours, texture coordinates), `face` (list `vertex_indices`/`vertex_index`,
+//! fan-triangulated) and `tristrips` (list `vertex_indices`, -1 restarts); skips every other
+//! property and element.
+
+use super::error::{show, ImportErrorKind as K, Location};
+use super::input::{check_finite, fan, parse_int, Input};
+use super::RawMesh;
+
+/// Longest header line accepted.
+const MAX_HEADER_LINE: usize = 64 * 1024;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Scalar {
+    I8,
+    U8,
+    I16,
+    U16,
+    I32,
+    U32,
+    F32,
+    F64,
+}
+
+impl Scalar {
+    fn from_name(name: &str) -> Option<Self> {
+        Some(match name {
+            "char" | "int8" => Scalar::I8,
+            "uchar" | "uint8" => Scalar::U8,
+            "short" | "int16" => Scalar::I16,
+            "ushort" | "uint16" => Scalar::U16,
+            "int" | "int32" => Scalar::I32,
+            "uint" | "uint32" => Scalar::U32,
+            "float" | "float32" => Scalar::F32,
+            "double" | "float64" => Scalar::F64,
+            _ => return None,
+        })
+    }
+
+    fn name(self) -> &'static str {
+        match self {
+            Scalar::I8 => "char",
+            Scalar::U8 => "uchar",
+            Scalar::I16 => "short",
+            Scalar::U16 => "ushort",
+            Scalar::I32 => "int",
+            Scalar::U32 => "uint",
+            Scalar::F32 => "float",
+            Scalar::F64 => "double",
+        }
+    }
+
+    fn size(self) -> usize {
+        match self {
+            Scalar::I8 | Scalar::U8 => 1,
+            Scalar::I16 | Scalar::U16 => 2,
+            Scalar::I32 | Scalar::U32 | Scalar::F32 => 4,
+            Scalar::F64 => 8,
+        }
+    }
+
+    fn is_int(self) -> bool {
+        !matches!(self, Scalar::F32 | Scalar::F64)
+    }
+
+    fn int_range(self) -> (i64, i64) {
+        match self {
+            Scalar::I8 => (i8::MIN as i64, i8::MAX as i64),
+            Scalar::U8 => (0, u8::MAX as i64),
+            Scalar::I16 => (i16::MIN as i64, i16::MAX as i64),
+            Scalar::U16 => (0, u16::MAX as i64),
+            Scalar::I32 => (i32::MIN as i64, i32::MAX as i64),
+            Scalar::U32 => (0, u32::MAX as i64),
+            Scalar::F32 | Scalar::F64 => (i64::MIN, i64::MAX),
+        }
+    }
+
+    /// Decodes a binary value from the first `size()` bytes of `b`.
+    #[inline]
+    fn decode(self, b: &[u8], big: bool) -> f64 {
+        macro_rules! rd {
+            ($t:ty, $n:literal) => {{
+                let a: [u8; $n] = b[..$n].try_into().unwrap();
+                if big {
+                    <$t>::from_be_bytes(a) as f64
+                } else {
+                    <$t>::from_le_bytes(a) as f64
+                }
+            }};
+        }
+        match self {
+            Scalar::I8 => b[0] as i8 as f64,
+            Scalar::U8 => b[0] as f64,
+            Scalar::I16 => rd!(i16, 2),
+            Scalar::U16 => rd!(u16, 2),
+            Scalar::I32 => rd!(i32, 4),
+            Scalar::U32 => rd!(u32, 4),
+            Scalar::F32 => rd!(f32, 4),
+            Scalar::F64 => rd!(f64, 8),
+        }
+    }
+
+    /// Parses an ASCII value of this type (floats rounded to the declared precision, integers
+    /// range-checked).
+    #[inline]
+    fn parse_ascii(self, tok: &[u8]) -> Option<f64> {
+        match self {
+            Scalar::F32 => std::str::from_utf8(tok)
+                .ok()?
+                .parse::<f32>()
+                .ok()
+                .map(f64::from),
+            Scalar::F64 => std::str::from_utf8(tok).ok()?.parse::<f64>().ok(),
+            _ => {
+                let v = parse_int(tok)?;
+                let (lo, hi) = self.int_range();
+                (lo..=hi).contains(&v).then_some(v as f64)
+            }
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Format {
+    Ascii,
+    BinaryLe,
+    BinaryBe,
+}
+
+#[derive(Clone, Copy, Debug)]
+enum PropType {
+    Scalar(Scalar),
+    List { count: Scalar, item: Scalar },
+}
+
+#[derive(Debug)]
+struct Prop {
+    name: String,
+    ty: PropType,
+    line: u64,
+}
+
+#[derive(Debug)]
+struct Element {
+    name: String,
+    count: u64,
+    props: Vec<Prop>,
+    line: u64,
+}
+
+impl Element {
+    /// "vertices", "faces", "'foo' elements".
+    fn plural(&self) -> String {
+        match self.name.as_str() {
+            "vertex" => "vertices".into(),
+            "face" => "faces".into(),
+            name => format!("'{name}' elements"),
+        }
+    }
+
+    /// Fewest bytes one binary record can take.
+    fn min_record_size(&self) -> u128 {
+        self.props
+            .iter()
+            .map(|p| match p.ty {
+                PropType::Scalar(t) => t.size() as u128,
+                PropType::List { count, .. } => count.size() as u128,
+            })
+            .sum()
+    }
+}
+
+fn header_err(line: u64, msg: impl Into<String>) -> K {
+    K::Header {
+        at: Location::Line(line),
+        msg: msg.into(),
+    }
+}
+
+fn parse_header(input: &mut Input) -> Result<(Format, Vec<Element>), K> {
+    match input.read_line(MAX_HEADER_LINE)? {
+        Some(l) if l.trim_ascii() == b"ply" => {}
+        Some(l) => {
+            return Err(header_err(
+                1,
+                format!("expected 'ply' magic, found '{}'", show(l)),
+            ))
+        }
+        None => return Err(header_err(1, "empty file, expected 'ply' magic")),
+    }
+    let mut format = None;
+    let mut elements: Vec<Element> = Vec::new();
+    loop {
+        let line_no = input.line;
+        let Some(bytes) = input.read_line(MAX_HEADER_LINE)? else {
+            return Err(header_err(line_no, "file ends before end_header"));
+        };
+        let text = String::from_utf8_lossy(bytes).into_owned();
+        let words: Vec<&str> = text.split_ascii_whitespace().collect();
+        let unsupported = |what: String| K::Unsupported {
+            at: Location::Line(line_no),
+            what,
+        };
+        match words.first().copied() {
+            None | Some("comment") | Some("obj_info") => {}
+            Some("format") => {
+                if words.len() != 3 {
+                    return Err(header_err(line_no, format!("bad format line '{text}'")));
+                }
+                format = Some(match words[1] {
+                    "ascii" => Format::Ascii,
+                    "binary_little_endian" => Format::BinaryLe,
+                    "binary_big_endian" => Format::BinaryBe,
+                    other => return Err(unsupported(format!("PLY format '{other}'"))),
+                });
+                if words[2] != "1.0" && words[2] != "1" {
+                    return Err(unsupported(format!("PLY version '{}'", words[2])));
+                }
+            }
+            Some("element") => {
+                if words.len() != 3 {
+                    return Err(header_err(line_no, format!("bad element line '{text}'")));
+                }
+                let count = words[2].parse::<u64>().map_err(|_| {
+                    header_err(
+                        line_no,
+                        format!("invalid count '{}' for element '{}'", words[2], words[1]),
+                    )
+                })?;
+                elements.push(Element {
+                    name: words[1].to_string(),
+                    count,
+                    props: Vec::new(),
+                    line: line_no,
+                });
+            }
+            Some("property") => {
+                let Some(element) = elements.last_mut() else {
+                    return Err(header_err(line_no, "property before any element"));
+                };
+                let scalar = |name: &str| {
+                    Scalar::from_name(name)
+                        .ok_or_else(|| unsupported(format!("PLY property type '{name}'")))
+                };
+                let (ty, name) = match words.get(1).copied() {
+                    Some("list") if words.len() == 5 => {
+                        let count = scalar(words[2])?;
+                        let item = scalar(words[3])?;
+                        if !count.is_int() {
+                            return Err(unsupported(format!("list count type '{}'", words[2])));
+                        }
+                        (PropType::List { count, item }, words[4])
+                    }
+                    Some(t) if t != "list" && words.len() == 3 => {
+                        (PropType::Scalar(scalar(t)?), words[2])
+                    }
+                    _ => return Err(header_err(line_no, format!("bad property line '{text}'"))),
+                };
+                element.props.push(Prop {
+                    name: name.to_string(),
+                    ty,
+                    line: line_no,
+                });
+            }
+            Some("end_header") => break,
+            Some(other) => {
+                return Err(header_err(
+                    line_no,
+                    format!("unexpected keyword '{}'", show(other.as_bytes())),
+                ))
+            }
+        }
+    }
+    let format = format.ok_or_else(|| header_err(1, "no format line"))?;
+    Ok((format, elements))
+}
+
+/// What a vertex property feeds.
+#[derive(Clone, Copy, Debug)]
+enum Slot {
+    Skip,
+    Pos(usize),
+    Normal(usize),
+    Color(usize, Scalar),
+    Uv(usize),
+}
+
+#[derive(Clone, Copy)]
+struct VertexRec {
+    pos: [f64; 3],
+    normal: [f32; 3],
+    color: [u8; 4],
+    uv: [f32; 2],
+}
+
+const EMPTY_REC: VertexRec = VertexRec {
+    pos: [0.0; 3],
+    normal: [0.0; 3],
+    color: [0, 0, 0, 255],
+    uv: [0.0; 2],
+};
+
+struct VertexLayout {
+    slots: Vec<Slot>,
+    normals: bool,
+    colors: bool,
+    uvs: bool,
+}
+
+impl VertexLayout {
+    fn new(el: &Element) -> Result<Self, K> {
+        let mut slots = vec![Slot::Skip; el.props.len()];
+        let mut found = [false; 12]; // pos 0..3, normal 3..6, color 6..10, uv 10..12
+        for (k, prop) in el.props.iter().enumerate() {
+            let (index, slot) = match prop.name.as_str() {
+                "x" => (0, Slot::Pos(0)),
+                "y" => (1, Slot::Pos(1)),
+                "z" => (2, Slot::Pos(2)),
+                "nx" | "normal_x" => (3, Slot::Normal(0)),
+                "ny" | "normal_y" => (4, Slot::Normal(1)),
+                "nz" | "normal_z" => (5, Slot::Normal(2)),
+                "red" | "diffuse_red" => (6, Slot::Color(0, Scalar::U8)),
+                "green" | "diffuse_green" => (7, Slot::Color(1, Scalar::U8)),
+                "blue" | "diffuse_blue" => (8, Slot::Color(2, Scalar::U8)),
+                "alpha" | "diffuse_alpha" => (9, Slot::Color(3, Scalar::U8)),
+                "u" | "s" | "texture_u" | "texture_s" => (10, Slot::Uv(0)),
+                "v" | "t" | "texture_v" | "texture_t" => (11, Slot::Uv(1)),
+                _ => continue,
+            };
+            if found[index] {
+                continue; // first of several aliases wins
+            }
+            let PropType::Scalar(ty) = prop.ty else {
+                return Err(K::Unsupported {
+                    at: Location::Line(prop.line),
+                    what: format!("list type for vertex property '{}'", prop.name),
+                });
+            };
+            found[index] = true;
+            slots[k] = match slot {
+                Slot::Color(c, _) => Slot::Color(c, ty),
+                s => s,
+            };
+        }
+        if !(found[0] && found[1] && found[2]) {
+            return Err(header_err(el.line, "vertex element lacks x, y or z"));
+        }
+        Ok(VertexLayout {
+            slots,
+            normals: found[3] && found[4] && found[5],
+            colors: found[6] && found[7] && found[8],
+            uvs: found[10] && found[11],
+        })
+    }
+
+    #[inline]
+    fn apply(&self, k: usize, v: f64, rec: &mut VertexRec) {
+        match self.slots[k] {
+            Slot::Skip => {}
+            Slot::Pos(i) => rec.pos[i] = v,
+            Slot::Normal(i) => rec.normal[i] = v as f32,
+            Slot::Color(i, ty) => {
+                rec.color[i] = if ty.is_int() {
+                    v.clamp(0.0, 255.0) as u8
+                } else {
+                    (v.clamp(0.0, 1.0) * 255.0).round() as u8
+                }
+            }
+            Slot::Uv(i) => rec.uv[i] = v as f32,
+        }
+    }
+}
+
+/// How a face-like element is read.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum FaceKind {
+    Polygons,
+    Strips,
+}
+
+/// Reads a PLY file.
+pub(crate) fn read(input: &mut Input) -> Result<RawMesh, K> {
+    let (format, elements) = parse_header(input)?;
+
+    let mut vertex_el = None;
+    for (i, el) in elements.iter().enumerate() {
+        if el.name == "vertex" {
+            if vertex_el.is_some() {
+                return Err(header_err(el.line, "more than one vertex element"));
+            }
+            vertex_el = Some(i);
+        }
+    }
+    let vertex_el = vertex_el.ok_or_else(|| header_err(1, "no vertex element"))?;
+    let nv = elements[vertex_el].count;
+    if nv > u32::MAX as u64 {
+        return Err(K::TooLarge {
+            at: Location::Line(elements[vertex_el].line),
+            msg: format!(
+                "header declares {nv} vertices (at most {} supported)",
+                u32::MAX
+            ),
+        });
+    }
+    let layout = VertexLayout::new(&elements[vertex_el])?;
+
+    // Face-like elements and their index list property.
+    let mut face_prop = vec![None; elements.len()];
+    for (i, el) in elements.iter().enumerate() {
+        let kind = match el.name.as_str() {
+            "face" => FaceKind::Polygons,
+            "tristrips" => FaceKind::Strips,
+            _ => continue,
+        };
+        let k = el
+            .props
+            .iter()
+            .position(|p| {
+                matches!(p.ty, PropType::List { .. })
+                    && (p.name == "vertex_indices" || p.name == "vertex_index")
+            })
+            .ok_or_else(|| {
+                header_err(
+                    el.line,
+                    format!("{} element has no vertex_indices list", el.name),
+                )
+            })?;
+        if let PropType::List { item, .. } = el.props[k].ty {
+            if !item.is_int() {
+                return Err(K::Unsupported {
+                    at: Location::Line(el.props[k].line),
+                    what: format!("vertex index type '{}'", item.name()),
+                });
+            }
+        }
+        face_prop[i] = Some((k, kind));
+    }
+
+    // An uncompressed binary file bounds every count by its size: check before allocating.
+    let binary = format != Format::Ascii;
+    let bounded = match (binary, input.remaining()) {
+        (true, Some(rem)) => {
+            let need: u128 = elements
+                .iter()
+                .map(|e| e.count as u128 * e.min_record_size())
+                .sum();
+            if need > rem as u128 {
+                let declared: Vec<String> = elements
+                    .iter()
+                    .map(|e| format!("{} {}", e.count, e.plural()))
+                    .collect();
+                return Err(K::Truncated {
+                    at: Location::None,
+                    msg: format!(
+                        "binary data truncated: header declares {} (at least {need} bytes), but only {rem} bytes \
+                         follow the header",
+                        declared.join(", ")
+                    ),
+                });
+            }
+            true
+        }
+        _ => false,
+    };
+
+    let cap = input.prealloc(nv, bounded);
+    let mut mesh = RawMesh {
+        positions: Vec::with_capacity(cap),
+        triangles: Vec::new(),
+        normals: layout.normals.then(|| Vec::with_capacity(cap)),
+        colors: layout.colors.then(|| Vec::with_capacity(cap)),
+        uvs: layout.uvs.then(|| Vec::with_capacity(cap)),
+    };
+    let face_count: u64 = elements
+        .iter()
+        .zip(&face_prop)
+        .filter(|(_, f)| f.is_some())
+        .map(|(e, _)| e.count)
+        .sum();
+    mesh.triangles.reserve(input.prealloc(face_count, bounded));
+
+    let big = format == Format::BinaryBe;
+    for (i, el) in elements.iter().enumerate() {
+        let mut reader = Reader {
+            input: &mut *input,
+            el,
+            binary,
+            big,
+        };
+        if i == vertex_el {
+            reader.vertices(&layout, &mut mesh)?;
+        } else if let Some((k, kind)) = face_prop[i] {
+            reader.faces(k, kind, nv, &mut mesh.triangles)?;
+        } else {
+            reader.skip()?;
+        }
+    }
+    Ok(mesh)
+}
+
+/// Reads the records of one element.
+struct Reader<'a> {
+    input: &'a mut Input,
+    el: &'a Element,
+    binary: bool,
+    big: bool,
+}
+
+impl Reader<'_> {
+    fn truncated(&self, done: u64) -> K {
+        K::Truncated {
+            at: Location::None,
+            msg: format!(
+                "{}data truncated: expected {} {}, file ends after {done}",
+                if self.binary { "binary " } else { "" },
+                self.el.count,
+                self.el.plural()
+            ),
+        }
+    }
+
+    /// ASCII: moves to the next record; error at the end of the input.
+    fn start_record(&mut self, index: u64) -> Result<u64, K> {
+        if self.binary {
+            return Ok(0);
+        }
+        if !self.input.skip_blank(false)? {
+            return Err(self.truncated(index));
+        }
+        Ok(self.input.line)
+    }
+
+    /// ASCII: the record must end here.
+    fn end_record(&mut self, line: u64) -> Result<(), K> {
+        if self.binary || self.input.end_line(false)? {
+            return Ok(());
+        }
+        Err(K::Syntax {
+            at: Location::Line(line),
+            msg: format!(
+                "too many values for one {} record ({} properties declared)",
+                self.el.name,
+                self.el.props.len()
+            ),
+        })
+    }
+
+    /// One scalar value of record `index` (started on `line` in ASCII).
+    #[inline]
+    fn value(&mut self, t: Scalar, index: u64, line: u64, prop: &Prop) -> Result<f64, K> {
+        if self.binary {
+            let big = self.big;
+            match self.input.bytes(t.size())? {
+                Some(b) => Ok(t.decode(b, big)),
+                None => Err(self.truncated(index)),
+            }
+        } else {
+            match self.input.token(false)? {
+                Some(tok) => t.parse_ascii(tok).ok_or_else(|| K::Syntax {
+                    at: Location::Line(line),
+                    msg: format!(
+                        "invalid {} value '{}' for property '{}'",
+                        t.name(),
+                        show(tok),
+                        prop.name
+                    ),
+                }),
+                None => Err(self.missing(index, line, prop)?),
+            }
+        }
+    }
+
+    /// ASCII: the error for a value missing from record `index`.
+    #[cold]
+    fn missing(&mut self, index: u64, line: u64, prop: &Prop) -> Result<K, K> {
+        Ok(if self.input.at_end()? {
+            self.truncated(index)
+        } else {
+            K::Syntax {
+                at: Location::Line(line),
+                msg: format!(
+                    "missing value for property '{}' of {} {index}",
+                    prop.name, self.el.name
+                ),
+            }
+        })
+    }
+
+    /// A list length.
+    #[inline]
+    fn list_len(&mut self, t: Scalar, index: u64, line: u64, prop: &Prop) -> Result<u64, K> {
+        let n = self.value(t, index, line, prop)?;
+        if n < 0.0 {
+            let at = if self.binary {
+                Location::Record(self.el.name.clone(), index)
+            } else {
+                Location::Line(line)
+            };
+            return Err(K::Syntax {
+                at,
+                msg: format!("negative list length {n} for property '{}'", prop.name),
+            });
+        }
+        Ok(n as u64)
+    }
+
+    /// Skips a property value (scalar or whole list).
+    fn skip_prop(&mut self, prop: &Prop, index: u64, line: u64) -> Result<(), K> {
+        match prop.ty {
+            PropType::Scalar(t) => {
+                self.value(t, index, line, prop)?;
+            }
+            PropType::List { count, item } => {
+                let n = self.list_len(count, index, line, prop)?;
+                if self.binary {
+                    if !self
+                        .input
+                        .skip_bytes(n.saturating_mul(item.size() as u64))?
+                    {
+                        return Err(self.truncated(index));
+                    }
+                } else {
+                    for _ in 0..n {
+                        self.value(item, index, line, prop)?;
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn vertices(&mut self, layout: &VertexLayout, mesh: &mut RawMesh) -> Result<(), K> {
+        let el = self.el;
+        for i in 0..el.count {
+            let line = self.start_record(i)?;
+            let mut rec = EMPTY_REC;
+            for (k, prop) in el.props.iter().enumerate() {
+                match prop.ty {
+                    PropType::Scalar(t) => {
+                        let v = self.value(t, i, line, prop)?;
+                        layout.apply(k, v, &mut rec);
+                    }
+                    PropType::List { .. } => self.skip_prop(prop, i, line)?,
+                }
+            }
+            self.end_record(line)?;
+            let binary = self.binary;
+            check_finite(rec.pos, i, || {
+                if binary {
+                    Location::None
+                } else {
+                    Location::Line(line)
+                }
+            })?;
+            mesh.positions.push(rec.pos);
+            if let Some(n) = &mut mesh.normals {
+                n.push(rec.normal);
+            }
+            if let Some(c) = &mut mesh.colors {
+                c.push(rec.color);
+            }
+            if let Some(uv) = &mut mesh.uvs {
+                uv.push(rec.uv);
+            }
+        }
+        Ok(())
+    }
+
+    fn faces(
+        &mut self,
+        list: usize,
+        kind: FaceKind,
+        nv: u64,
+        out: &mut Vec<[u32; 3]>,
+    ) -> Result<(), K> {
+        let el = self.el;
+        let mut poly: Vec<u32> = Vec::new();
+        for f in 0..el.count {
+            let line = self.start_record(f)?;
+            for (k, prop) in el.props.iter().enumerate() {
+                let PropType::List { count, item } = prop.ty else {
+                    self.skip_prop(prop, f, line)?;
+                    continue;
+                };
+                if k != list {
+                    self.skip_prop(prop, f, line)?;
+                    continue;
+                }
+                let n = self.list_len(count, f, line, prop)?;
+                poly.clear();
+                for _ in 0..n {
+                    let v = if self.binary {
+                        self.value(item, f, line, prop)? as i64
+                    } else {
+                        match self.input.token(false)? {
+                            Some(tok) => parse_int(tok).ok_or_else(|| K::Syntax {
+                                at: Location::Line(line),
+                                msg: format!("invalid vertex index '{}'", show(tok)),
+                            })?,
+                            None => return Err(self.missing(f, line, prop)?),
+                        }
+                    };
+                    if v >= 0 && (v as u64) < nv {
+                        poly.push(v as u32);
+                    } else if v == -1 && kind == FaceKind::Strips {
+                        poly.push(u32::MAX);
+                    } else {
+                        let at = if self.binary {
+                            Location::Record(el.name.clone(), f)
+                        } else {
+                            Location::Line(line)
+                        };
+                        return Err(K::IndexOutOfRange {
+                            at,
+                            index: v,
+                            count: nv,
+                        });
+                    }
+                }
+                match kind {
+                    FaceKind::Polygons => fan(&poly, out),
+                    FaceKind::Strips => strips(&poly, out),
+                }
+            }
+            self.end_record(line)?;
+        }
+        Ok(())
+    }
+
+    fn skip(&mut self) -> Result<(), K> {
+        let el = self.el;
+        for i in 0..el.count {
+            if self.binary {
+                for prop in &el.props {
+                    self.skip_prop(prop, i, 0)?;
+                }
+            } else {
+                if !self.input.skip_blank(false)? {
+                    return Err(self.truncated(i));
+                }
+                self.input.skip_line()?;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Triangulates triangle strips separated by `u32::MAX` (restart) markers.
+fn strips(indices: &[u32], out: &mut Vec<[u32; 3]>) {
+    for strip in indices.split(|&v| v == u32::MAX) {
+        for k in 2..strip.len() {
+            out.push(if k % 2 == 0 {
+                [strip[k - 2], strip[k - 1], strip[k]]
+            } else {
+                [strip[k - 1], strip[k - 2], strip[k]]
+            });
+        }
+    }
+}

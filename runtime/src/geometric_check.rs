@@ -1,0 +1,212 @@
+//! The exact crack check (no pixels): extract the cut for many eyes and tolerances and compare
+//! its edges, by global vertex id, with the input's (the τ = 0 cut, i.e. every leaf).
+//!
+//! - crack: an edge used by one triangle of the cut that is not a border edge of the input;
+//! - non-manifold introduced: an edge used by more than two triangles that the input did not
+//!   have as such;
+//! - monotonicity violation: a diamond DAG edge with ρ(parent) < ρ(child) in f32, as the GPU
+//!   computes it;
+//! - traversal mismatch: the stateless scan and the top-down descent select different sets.
+
+use std::collections::HashSet;
+
+use rayon::prelude::*;
+use tessera_core::cut::{diamond_rhos, select_stateless, select_top_down};
+use tessera_core::metric::{eye_local, ScreenSpaceMetric};
+use tessera_core::repository::format::NO_INDEX;
+use tessera_core::repository::reader::Repository;
+use tessera_core::repository::RepositoryError;
+
+use crate::views::check_views;
+
+/// What to check.
+#[derive(Clone, Debug)]
+pub struct CheckConfig {
+    /// Number of eyes (around and inside the model).
+    pub views: usize,
+    /// Pixel tolerances τ.
+    pub tolerances: Vec<f32>,
+    /// Viewport height in pixels (the error metric depends on it, not on the width).
+    pub viewport_height: u32,
+    /// Vertical field of view, degrees.
+    pub fov_degrees: f64,
+}
+
+impl Default for CheckConfig {
+    fn default() -> Self {
+        CheckConfig {
+            views: 64,
+            tolerances: vec![0.5, 1.0, 2.0, 4.0, 8.0],
+            viewport_height: 1080,
+            fov_degrees: 60.0,
+        }
+    }
+}
+
+/// Totals over every cut.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct CheckReport {
+    pub cuts_checked: usize,
+    pub cracks: usize,
+    pub nonmanifold_introduced: usize,
+    pub monotonicity_violations: usize,
+    pub traversal_mismatches: usize,
+    pub min_triangles: usize,
+    pub max_triangles: usize,
+    /// (view, τ, cracks) of the cut with the most cracks, if any has one.
+    pub worst: Option<(usize, String, usize)>,
+}
+
+/// Each simplex's triangles as global vertex ids (degenerate strip triangles dropped).
+pub fn decode_all_patches(repo: &Repository) -> Result<Vec<Vec<[u32; 3]>>, RepositoryError> {
+    (0..repo.tets().len())
+        .into_par_iter()
+        .map(|i| {
+            let patch = repo.patch(i)?;
+            let ids = patch.global_ids();
+            Ok(patch
+                .triangles()
+                .map(|t| t.map(|l| ids[l as usize]))
+                .collect())
+        })
+        .collect()
+}
+
+/// Undirected edge key.
+fn edge_key(a: u32, b: u32) -> u64 {
+    ((a.min(b) as u64) << 32) | a.max(b) as u64
+}
+
+/// Sorted (edge, use count) of a triangle set.
+fn edge_counts<'a>(triangles: impl Iterator<Item = &'a [u32; 3]>) -> Vec<(u64, u32)> {
+    let mut keys: Vec<u64> = triangles
+        .flat_map(|t| {
+            [
+                edge_key(t[0], t[1]),
+                edge_key(t[1], t[2]),
+                edge_key(t[2], t[0]),
+            ]
+        })
+        .collect();
+    keys.sort_unstable();
+    let mut out: Vec<(u64, u32)> = Vec::new();
+    for k in keys {
+        match out.last_mut() {
+            Some((last, n)) if *last == k => *n += 1,
+            _ => out.push((k, 1)),
+        }
+    }
+    out
+}
+
+/// Runs the check; `patches` from `decode_all_patches`.
+pub fn check_cuts(
+    repo: &Repository,
+    patches: &[Vec<[u32; 3]>],
+    config: &CheckConfig,
+) -> CheckReport {
+    let tets = repo.tets();
+    let diamonds = repo.diamonds();
+    let header = repo.header();
+    // The input's edges: the leaves hold exactly the input triangles.
+    let reference = edge_counts(
+        (0..tets.len())
+            .filter(|&i| tets[i].first_child == NO_INDEX)
+            .flat_map(|i| patches[i].iter()),
+    );
+    let input_border: HashSet<u64> = reference
+        .iter()
+        .filter(|(_, n)| *n == 1)
+        .map(|(k, _)| *k)
+        .collect();
+    let input_nonmanifold: HashSet<u64> = reference
+        .iter()
+        .filter(|(_, n)| *n > 2)
+        .map(|(k, _)| *k)
+        .collect();
+    drop(reference);
+
+    let size = (0..3)
+        .map(|i| (header.bbox_max[i] - header.bbox_min[i]).powi(2))
+        .sum::<f64>()
+        .sqrt();
+    let metric = ScreenSpaceMetric::new(
+        config.viewport_height,
+        config.fov_degrees,
+        (size * 1e-4).max(1e-30),
+    );
+    let eyes = check_views(header.bbox_min, header.bbox_max, config.views);
+    let per_view: Vec<CheckReport> = eyes
+        .par_iter()
+        .enumerate()
+        .map(|(view, eye)| {
+            let rhos = diamond_rhos(diamonds, eye_local(*eye, header.origin), &metric);
+            let mut r = CheckReport {
+                min_triangles: usize::MAX,
+                ..Default::default()
+            };
+            for (i, d) in diamonds.iter().enumerate() {
+                for &p in &d.parents[..d.parent_count as usize] {
+                    // `!(>=)` also counts NaN as a violation.
+                    if !(rhos[p as usize] >= rhos[i]) {
+                        r.monotonicity_violations += 1;
+                    }
+                }
+            }
+            for &tau in &config.tolerances {
+                let cut = select_stateless(tets, &rhos, tau);
+                if cut != select_top_down(tets, header.root_tet_count as usize, &rhos, tau) {
+                    r.traversal_mismatches += 1;
+                }
+                let triangles: usize = cut.iter().map(|&i| patches[i as usize].len()).sum();
+                let edges = edge_counts(cut.iter().flat_map(|&i| patches[i as usize].iter()));
+                let cracks = edges
+                    .iter()
+                    .filter(|(k, n)| *n == 1 && !input_border.contains(k))
+                    .count();
+                r.nonmanifold_introduced += edges
+                    .iter()
+                    .filter(|(k, n)| *n > 2 && !input_nonmanifold.contains(k))
+                    .count();
+                r.cracks += cracks;
+                if cracks > r.worst.as_ref().map_or(0, |w| w.2) {
+                    r.worst = Some((view, format!("{tau}"), cracks));
+                }
+                r.cuts_checked += 1;
+                r.min_triangles = r.min_triangles.min(triangles);
+                r.max_triangles = r.max_triangles.max(triangles);
+            }
+            r
+        })
+        .collect();
+    let mut total = CheckReport {
+        min_triangles: usize::MAX,
+        ..Default::default()
+    };
+    for r in per_view {
+        total.cuts_checked += r.cuts_checked;
+        total.cracks += r.cracks;
+        total.nonmanifold_introduced += r.nonmanifold_introduced;
+        total.monotonicity_violations += r.monotonicity_violations;
+        total.traversal_mismatches += r.traversal_mismatches;
+        total.min_triangles = total.min_triangles.min(r.min_triangles);
+        total.max_triangles = total.max_triangles.max(r.max_triangles);
+        if r.worst.as_ref().map_or(0, |w| w.2) > total.worst.as_ref().map_or(0, |w| w.2) {
+            total.worst = r.worst;
+        }
+    }
+    if total.cuts_checked == 0 {
+        total.min_triangles = 0;
+    }
+    total
+}
+
+impl CheckReport {
+    /// True when nothing is wrong.
+    pub fn is_clean(&self) -> bool {
+        self.cracks == 0
+            && self.nonmanifold_introduced == 0
+            && self.monotonicity_violations == 0
+            && self.traversal_mismatches == 0
+    }
+}

@@ -1,0 +1,109 @@
+//! The tolerance extremes and far-from-origin models (issue 2, "Must show").
+
+use std::collections::BTreeSet;
+
+use tessera_core::cut::{diamond_rhos, select_stateless};
+use tessera_core::metric::{eye_local, ScreenSpaceMetric};
+use tessera_core::repository::format::NO_INDEX;
+use tessera_preprocess::import::load_mesh;
+use tessera_preprocess::{BuildConfig, InputMesh};
+use tessera_runtime::geometric_check::{check_cuts, decode_all_patches, CheckConfig};
+use tessera_tests::{build, testdata};
+
+/// Triangles as sorted id triples (a triangle's identity regardless of strip rotation).
+fn canonical(tris: impl Iterator<Item = [u32; 3]>) -> BTreeSet<[u32; 3]> {
+    tris.map(|mut t| {
+        // Rotate so the smallest id comes first, keeping the winding.
+        let m = (0..3).min_by_key(|&i| t[i]).unwrap();
+        t.rotate_left(m);
+        t
+    })
+    .collect()
+}
+
+fn eyes(mesh: &InputMesh) -> Vec<[f64; 3]> {
+    let p = mesh.positions[0];
+    vec![
+        [p[0] + 0.01, p[1], p[2]],
+        [p[0] + 5.0, p[1] - 3.0, p[2] + 2.0],
+        [p[0] + 1e6, p[1], p[2]],
+    ]
+}
+
+#[test]
+fn tolerance_zero_gives_back_the_input_and_infinity_the_roots() {
+    let input = load_mesh(&testdata("mesh/armadillo.off")).unwrap().mesh;
+    let built = build(&input, &BuildConfig::default());
+    let repo = &built.repo;
+    let patches = decode_all_patches(repo).unwrap();
+    let metric = ScreenSpaceMetric::new(1080, 60.0, 1e-6);
+    let expected = canonical(input.triangles.iter().copied());
+    for eye in eyes(&input) {
+        let rhos = diamond_rhos(
+            repo.diamonds(),
+            eye_local(eye, repo.header().origin),
+            &metric,
+        );
+        let fine = select_stateless(repo.tets(), &rhos, 0.0);
+        assert!(fine
+            .iter()
+            .all(|&i| repo.tets()[i as usize].first_child == NO_INDEX));
+        let got = canonical(
+            fine.iter()
+                .flat_map(|&i| patches[i as usize].iter().copied()),
+        );
+        let total: usize = fine.iter().map(|&i| patches[i as usize].len()).sum();
+        assert_eq!(total, input.triangles.len(), "no triangle twice");
+        assert_eq!(
+            got, expected,
+            "τ = 0 must give back exactly the input triangles"
+        );
+
+        let coarse = select_stateless(repo.tets(), &rhos, f32::MAX);
+        let roots: Vec<u32> = (0..repo.header().root_tet_count as u32).collect();
+        assert_eq!(coarse, roots, "τ = ∞ must give only the root patches");
+    }
+}
+
+#[test]
+fn a_model_far_from_the_origin_keeps_its_cuts_monotone_and_closed() {
+    let mut input = load_mesh(&testdata("mesh/bunny00.off")).unwrap().mesh;
+    for p in &mut input.positions {
+        for x in p.iter_mut() {
+            *x += 1e8;
+        }
+    }
+    let built = build(&input, &BuildConfig::default());
+    let patches = decode_all_patches(&built.repo).unwrap();
+    let report = check_cuts(
+        &built.repo,
+        &patches,
+        &CheckConfig {
+            views: 32,
+            ..Default::default()
+        },
+    );
+    assert!(report.is_clean(), "{report:?}");
+    assert!(report.min_triangles < report.max_triangles);
+}
+
+#[test]
+fn construction_by_levels_is_crack_free_too() {
+    let input = load_mesh(&testdata("mesh/bunny00.off")).unwrap().mesh;
+    let config = BuildConfig {
+        construction: tessera_preprocess::Construction::Levels(12),
+        ..Default::default()
+    };
+    let built = build(&input, &config);
+    assert_eq!(built.summary.depth, 12);
+    let patches = decode_all_patches(&built.repo).unwrap();
+    let report = check_cuts(
+        &built.repo,
+        &patches,
+        &CheckConfig {
+            views: 16,
+            ..Default::default()
+        },
+    );
+    assert!(report.is_clean(), "{report:?}");
+}

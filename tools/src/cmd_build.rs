@@ -1,0 +1,113 @@
+//! `tessera build INPUT -o OUT.tsr [--leaf-triangles N | --levels L] [--threads N] [--json]`
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::Context;
+use clap::Args;
+use serde_json::json;
+use tessera_preprocess::import::load_mesh;
+use tessera_preprocess::{build_repository, BuildConfig, BuildSummary, Construction};
+
+use crate::progress::Stages;
+use crate::Outcome;
+
+#[derive(Args)]
+pub struct BuildArgs {
+    /// Input mesh.
+    pub input: PathBuf,
+    /// Output repository (written to a temporary file, then renamed).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Split leaves holding more than N triangles (adaptive construction).
+    #[arg(long, value_name = "N", conflicts_with = "levels")]
+    pub leaf_triangles: Option<usize>,
+    /// Build a complete hierarchy of L levels instead.
+    #[arg(long, value_name = "L")]
+    pub levels: Option<u16>,
+    /// Worker threads (default: one per core).
+    #[arg(long, value_name = "N")]
+    pub threads: Option<usize>,
+    /// Print one JSON object on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+pub fn run(args: BuildArgs) -> anyhow::Result<Outcome> {
+    let mut config = BuildConfig {
+        threads: args.threads,
+        ..Default::default()
+    };
+    if let Some(n) = args.leaf_triangles {
+        config.construction = Construction::LeafTriangles(n);
+    }
+    if let Some(l) = args.levels {
+        config.construction = Construction::Levels(l);
+    }
+    let stages = Stages::new("build");
+    stages.stage("import");
+    let start = Instant::now();
+    let report = load_mesh(&args.input)?;
+    let import_seconds = start.elapsed().as_secs_f64();
+    let summary = build_repository(&report.mesh, &config, &args.output, &|s| stages.stage(s))
+        .with_context(|| format!("building {}", args.input.display()))?;
+    stages.finish();
+    let seconds = start.elapsed().as_secs_f64();
+    if args.json {
+        let mut value = summary_json(&summary, seconds);
+        value["import_seconds"] = json!(import_seconds);
+        value["output"] = json!(args.output.display().to_string());
+        println!("{value}");
+    } else {
+        print_summary(&summary, seconds, import_seconds);
+        println!("wrote {}", args.output.display());
+    }
+    Ok(Outcome::Ok)
+}
+
+/// The `--json` object (stable keys).
+pub fn summary_json(s: &BuildSummary, seconds: f64) -> serde_json::Value {
+    json!({
+        "input_triangles": s.input_triangles,
+        "input_vertices": s.input_vertices,
+        "tetrahedra": s.tetrahedra,
+        "leaves": s.leaves,
+        "diamonds": s.diamonds,
+        "depth": s.depth,
+        "seconds": seconds,
+        "build_seconds": s.seconds,
+        "repository_bytes": s.repository_bytes,
+        "patch_triangles": s.patch_triangles,
+        "mean_triangles_per_patch": s.patch_triangles as f64 / s.tetrahedra.max(1) as f64,
+        "root_error": s.root_error,
+        "stages": s.stages.iter().map(|(name, t)| json!({"stage": name, "seconds": t})).collect::<Vec<_>>(),
+    })
+}
+
+pub fn print_summary(s: &BuildSummary, seconds: f64, import_seconds: f64) {
+    println!(
+        "input: {} triangles, {} vertices (import {:.2} s)",
+        s.input_triangles, s.input_vertices, import_seconds
+    );
+    println!(
+        "hierarchy: {} tetrahedra ({} leaves), {} diamonds, depth {}",
+        s.tetrahedra, s.leaves, s.diamonds, s.depth
+    );
+    println!(
+        "patches: {} triangles over all levels, {:.1} per patch; root error {:.3e}",
+        s.patch_triangles,
+        s.patch_triangles as f64 / s.tetrahedra.max(1) as f64,
+        s.root_error
+    );
+    let stages: Vec<String> = s
+        .stages
+        .iter()
+        .map(|(n, t)| format!("{n} {t:.2}s"))
+        .collect();
+    println!(
+        "repository: {} bytes; {:.2} s total ({})",
+        s.repository_bytes,
+        seconds,
+        stages.join(", ")
+    );
+}

@@ -1,0 +1,68 @@
+//! `tessera info REPO [--json]`
+
+use std::path::PathBuf;
+
+use clap::Args;
+use serde_json::json;
+use tessera_core::repository::reader::Repository;
+
+use crate::Outcome;
+
+#[derive(Args)]
+pub struct InfoArgs {
+    /// Repository file.
+    pub repository: PathBuf,
+    /// Print one JSON object on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+pub fn run(args: InfoArgs) -> anyhow::Result<Outcome> {
+    let repo = Repository::open(&args.repository)?;
+    let h = repo.header();
+    let tets = repo.tets();
+    let leaves = tets.iter().filter(|t| t.first_child == u32::MAX).count();
+    let patch_triangles: u64 = tets.iter().map(|t| t.triangle_count as u64).sum();
+    let depth = tets.iter().map(|t| t.level).max().unwrap_or(0);
+    let root_error = repo.diamonds().first().map_or(0.0, |d| d.error);
+    let value = json!({
+        "format_version": h.version,
+        "dimension": h.dimension,
+        "attributes": {
+            "normals": h.attributes & 1 != 0,
+            "colors": h.attributes & 2 != 0,
+            "uvs": h.attributes & 4 != 0,
+        },
+        "input_vertices": h.input_vertex_count,
+        "input_triangles": h.input_triangle_count,
+        "tetrahedra": h.tet_count,
+        "leaves": leaves,
+        "diamonds": h.diamond_count,
+        "depth": depth,
+        "patch_triangles": patch_triangles,
+        "root_error": root_error,
+        "bbox_min": h.bbox_min,
+        "bbox_max": h.bbox_max,
+        "repository_bytes": repo.file_bytes(),
+    });
+    if args.json {
+        println!("{value}");
+    } else {
+        println!("{}", args.repository.display());
+        println!("  format version {}, {}D", h.version, h.dimension);
+        println!(
+            "  input: {} triangles, {} vertices",
+            h.input_triangle_count, h.input_vertex_count
+        );
+        println!(
+            "  hierarchy: {} simplices ({} leaves), {} diamonds, depth {}",
+            h.tet_count, leaves, h.diamond_count, depth
+        );
+        println!(
+            "  patches: {patch_triangles} triangles over all levels; root error {root_error:.3e}"
+        );
+        println!("  bbox: {:?} .. {:?}", h.bbox_min, h.bbox_max);
+        println!("  {} bytes", repo.file_bytes());
+    }
+    Ok(Outcome::Ok)
+}
