@@ -42,6 +42,8 @@ struct DiamondResult {
     locked: usize,
     /// The children's triangles it replaces.
     gathered: Vec<[u32; 3]>,
+    /// How the swap changes edge use counts.
+    edge_delta: Vec<(u64, i32)>,
 }
 
 /// Everything a diamond's simplification reads (shared by the parallel workers).
@@ -101,15 +103,15 @@ pub fn simplify_hierarchy(
                 )
             })
             .collect();
-        // Apply in a fixed order; a diamond whose output repeats a triangle that another part
-        // of the mesh has (a zero-volume fin between two diamonds) is simplified again with
-        // more vertices locked, until it repeats none.
-        let mut new_this_level: HashSet<[u32; 3]> = HashSet::new();
+        // Apply in a fixed order. A diamond whose output would give an edge of the current
+        // mesh more than two triangles (meshopt ignores the link condition at times, and two
+        // diamonds can both close a fin onto the same locked vertices) is simplified again with
+        // the vertices around those edges locked, until it introduces none.
         for mut r in results {
             let diamond = &hierarchy.diamonds[r.diamond];
             let mut extra: HashSet<u32> = HashSet::new();
             for attempt in 0.. {
-                let conflicts = r.repeated_triangles(&current, &new_this_level);
+                let conflicts = current.nonmanifold_introduced(&r.edge_delta);
                 if conflicts.is_empty() {
                     break;
                 }
@@ -120,11 +122,7 @@ pub fn simplify_hierarchy(
                 }
                 r = simplify_diamond(&ctx, r.diamond, diamond, &patches, &current, &extra);
             }
-            let own = key_counts(&r.gathered);
-            for (_, tris) in &r.patches {
-                new_this_level.extend(tris.iter().map(sorted).filter(|k| !own.contains_key(k)));
-            }
-            current.replace(&r.gathered, r.patches.iter().flat_map(|(_, t)| t.iter()));
+            current.apply(&r);
             own_error[r.diamond] = r.error;
             locked_vertices += r.locked;
             patches.extend(r.patches);
@@ -138,101 +136,108 @@ pub fn simplify_hierarchy(
 }
 
 /// Re-simplifications with a growing lock set before locking the whole diamond (which keeps
-/// its gathered triangles as they are and so cannot repeat anything).
+/// its gathered triangles as they are and so changes no edge).
 const MAX_RESIMPLIFY: usize = 4;
 
 /// The current mesh (DESIGN.md): the input with every processed diamond merged, as sharing
-/// counts per vertex and counts per triangle (by sorted vertex ids).
+/// counts per vertex and use counts per edge.
 struct CurrentMesh {
     use_count: Vec<u32>,
-    triangles: HashMap<[u32; 3], u32>,
+    edges: HashMap<u64, u32>,
+}
+
+fn edge_key(a: u32, b: u32) -> u64 {
+    ((a.min(b) as u64) << 32) | a.max(b) as u64
+}
+
+fn triangle_edges(t: &[u32; 3]) -> [u64; 3] {
+    [
+        edge_key(t[0], t[1]),
+        edge_key(t[1], t[2]),
+        edge_key(t[2], t[0]),
+    ]
 }
 
 impl CurrentMesh {
     fn new(mesh: &InputMesh) -> Self {
         let mut use_count = vec![0u32; mesh.positions.len()];
+        let mut edges = HashMap::with_capacity(mesh.triangles.len() * 3 / 2);
         for tri in &mesh.triangles {
             for &v in tri {
                 use_count[v as usize] += 1;
             }
+            for e in triangle_edges(tri) {
+                *edges.entry(e).or_default() += 1;
+            }
         }
-        CurrentMesh {
-            use_count,
-            triangles: key_counts(&mesh.triangles),
-        }
+        CurrentMesh { use_count, edges }
+    }
+
+    /// Edges that the change would leave with more than two triangles, and more than before.
+    fn nonmanifold_introduced(&self, delta: &[(u64, i32)]) -> Vec<u64> {
+        delta
+            .iter()
+            .filter(|(e, d)| {
+                let before = self.edges.get(e).copied().unwrap_or(0) as i64;
+                *d > 0 && before + *d as i64 > 2
+            })
+            .map(|(e, _)| *e)
+            .collect()
     }
 
     /// Merges a diamond: its gathered triangles leave, its output enters.
-    fn replace<'a>(&mut self, gathered: &[[u32; 3]], output: impl Iterator<Item = &'a [u32; 3]>) {
-        for t in gathered {
+    fn apply(&mut self, r: &DiamondResult) {
+        for t in &r.gathered {
             for &v in t {
                 self.use_count[v as usize] -= 1;
             }
-            let k = sorted(t);
-            let n = self
-                .triangles
-                .get_mut(&k)
-                .expect("gathered triangles are in the current mesh");
-            *n -= 1;
-            if *n == 0 {
-                self.triangles.remove(&k);
-            }
         }
-        for t in output {
+        for t in r.patches.iter().flat_map(|(_, t)| t.iter()) {
             for &v in t {
                 self.use_count[v as usize] += 1;
             }
-            *self.triangles.entry(sorted(t)).or_default() += 1;
+        }
+        for &(e, d) in &r.edge_delta {
+            let n = self.edges.entry(e).or_default();
+            *n = (*n as i64 + d as i64) as u32;
+            if *n == 0 {
+                self.edges.remove(&e);
+            }
         }
     }
 }
 
-fn sorted(t: &[u32; 3]) -> [u32; 3] {
-    let mut k = *t;
-    k.sort_unstable();
-    k
-}
-
-fn key_counts(tris: &[[u32; 3]]) -> HashMap<[u32; 3], u32> {
-    let mut counts = HashMap::with_capacity(tris.len());
-    for t in tris {
-        *counts.entry(sorted(t)).or_default() += 1;
+/// Net change of each edge's use count when `gathered` is replaced by `output` (non-zero only).
+fn edge_delta<'a>(
+    gathered: &[[u32; 3]],
+    output: impl Iterator<Item = &'a [u32; 3]>,
+) -> Vec<(u64, i32)> {
+    let mut delta: HashMap<u64, i32> = HashMap::new();
+    for t in gathered {
+        for e in triangle_edges(t) {
+            *delta.entry(e).or_default() -= 1;
+        }
     }
-    counts
+    for t in output {
+        for e in triangle_edges(t) {
+            *delta.entry(e).or_default() += 1;
+        }
+    }
+    delta.into_iter().filter(|(_, d)| *d != 0).collect()
 }
 
-/// Vertices of `gathered` sharing a triangle with a vertex of any of `triangles`.
-fn one_ring(gathered: &[[u32; 3]], triangles: &[[u32; 3]]) -> HashSet<u32> {
-    let centre: HashSet<u32> = triangles.iter().flatten().copied().collect();
+/// Vertices of `gathered` sharing a triangle with an endpoint of any of `edges`.
+fn one_ring(gathered: &[[u32; 3]], edges: &[u64]) -> HashSet<u32> {
+    let centre: HashSet<u32> = edges
+        .iter()
+        .flat_map(|e| [(e >> 32) as u32, *e as u32])
+        .collect();
     gathered
         .iter()
         .filter(|t| t.iter().any(|v| centre.contains(v)))
         .flatten()
         .copied()
         .collect()
-}
-
-impl DiamondResult {
-    /// Output triangles that exist elsewhere: in the current mesh outside this diamond's
-    /// gathered set, or among the new triangles of diamonds already applied at this level.
-    fn repeated_triangles(
-        &self,
-        current: &CurrentMesh,
-        new_this_level: &HashSet<[u32; 3]>,
-    ) -> Vec<[u32; 3]> {
-        let own = key_counts(&self.gathered);
-        self.patches
-            .iter()
-            .flat_map(|(_, tris)| tris.iter())
-            .filter(|t| {
-                let k = sorted(t);
-                let elsewhere = current.triangles.get(&k).copied().unwrap_or(0)
-                    > own.get(&k).copied().unwrap_or(0);
-                elsewhere || new_this_level.contains(&k)
-            })
-            .copied()
-            .collect()
-    }
 }
 
 fn simplify_diamond(
@@ -277,6 +282,19 @@ fn simplify_diamond(
     for (l, g) in lock.iter_mut().zip(&global_of) {
         *l |= extra_locks.contains(g);
     }
+    // Keep the triangles around non-manifold edges exactly: with only the edge's endpoints
+    // locked, meshopt may fold two of the sheets onto each other and drop them both, leaving
+    // the edge with one triangle where the input has three.
+    for (t, tri) in indices.chunks_exact(3).zip(&gathered) {
+        if triangle_edges(tri)
+            .iter()
+            .any(|e| current.edges.get(e).is_some_and(|&n| n > 2))
+        {
+            for &l in t {
+                lock[l as usize] = true;
+            }
+        }
+    }
     let locked = lock.iter().filter(|&&l| l).count();
     let (mut simplified, error) =
         simplify_locked(&indices, &global_of, &lock, &ctx.positions, mesh);
@@ -297,12 +315,14 @@ fn simplify_diamond(
         let slot = holder(&diamond.simplices, b);
         out[slot].1.push(tri);
     }
+    let edge_delta = edge_delta(&gathered, out.iter().flat_map(|(_, t)| t.iter()));
     DiamondResult {
         diamond: index,
         patches: out,
         error,
         locked,
         gathered,
+        edge_delta,
     }
 }
 
