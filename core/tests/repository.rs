@@ -1,0 +1,764 @@
+//! Repository format: write → open round trips over dimensions and attribute masks, and a bad
+//! file of every kind we can think of is an error, never a panic.
+
+use std::path::Path;
+
+use proptest::prelude::*;
+use tessera_core::repository::format::{
+    compute_checksum, oct_encode_normal, pack_position, DiamondRecord, Header, TetRecord, ATTR_ALL,
+    ATTR_COLORS, ATTR_NORMALS, ATTR_UVS, CHECKSUM_OFFSET, FORMAT_VERSION, HEADER_SIZE, NO_INDEX,
+    TET_RECORD_SIZE,
+};
+use tessera_core::repository::patch::{
+    encode_patch, patch_bytes_bound, PatchData, StripIndices, STRIP_RESTART,
+};
+use tessera_core::repository::{
+    write_repository, write_repository_file, Repository, RepositoryContents, RepositoryError,
+};
+
+const R: u32 = STRIP_RESTART;
+
+/// Meshoptimizer's `meshopt_unstripify`, transcribed independently of the crate's decoder.
+fn unstripify(indices: &[u32]) -> Vec<[u32; 3]> {
+    let mut out = Vec::new();
+    let mut start = 0;
+    for i in 0..indices.len() {
+        if indices[i] == R {
+            start = i + 1;
+        } else if i - start >= 2 {
+            let (mut a, mut b, c) = (indices[i - 2], indices[i - 1], indices[i]);
+            if (i - start) & 1 == 1 {
+                std::mem::swap(&mut a, &mut b);
+            }
+            if a != b && a != c && b != c {
+                out.push([a, b, c]);
+            }
+        }
+    }
+    out
+}
+
+/// A patch of `n` vertices: one long strip, a restart, and a short strip.
+fn patch(n: u32, seed: u32, attributes: u32) -> PatchData {
+    let strip: Vec<u32> = if n < 3 {
+        Vec::new()
+    } else {
+        (0..n).chain([R, n - 1, 0, 1, 1, 2]).collect()
+    };
+    PatchData {
+        global_ids: (0..n).map(|i| seed * 100_000 + i).collect(),
+        positions: (0..n)
+            .map(|i| pack_position([i % 2_097_152, (i * 7 + seed) % 2_097_152, seed]))
+            .collect(),
+        normals: (attributes & ATTR_NORMALS != 0).then(|| {
+            (0..n)
+                .map(|i| oct_encode_normal([i as f32, 1.0, -(seed as f32)]))
+                .collect()
+        }),
+        colors: (attributes & ATTR_COLORS != 0)
+            .then(|| (0..n).map(|i| [i as u8, seed as u8, 7, 255]).collect()),
+        uvs: (attributes & ATTR_UVS != 0)
+            .then(|| (0..n).map(|i| [i as f32 * 0.25, seed as f32]).collect()),
+        triangle_count: unstripify(&strip).len() as u32,
+        strip,
+    }
+}
+
+/// A hand-made hierarchy: roots 0, 1 split by diamond 0 into 2..=5; tets 2 and 4 split by
+/// diamond 1 into 6..=9; 3, 5 and 6..=9 are leaves. Tet 9 gets 70,000 vertices when `big`.
+fn contents(dimension: u32, attributes: u32, big: bool) -> (RepositoryContents, Vec<PatchData>) {
+    let diamond = |level: u32, error: f32, parents: &[u32], id: [i32; 3]| {
+        let mut slots = [NO_INDEX; 4];
+        slots[..parents.len()].copy_from_slice(parents);
+        DiamondRecord {
+            center: [0.5, 0.25, -1.0],
+            radius: 3.0 / (level + 1) as f32,
+            error,
+            parents: slots,
+            parent_count: parents.len() as u8,
+            tet_count: 2,
+            phase: (level % dimension) as u8,
+            pad: 0,
+            level,
+            id,
+        }
+    };
+    let diamonds = vec![
+        diamond(0, 2.0, &[], [8, 8, 0]),
+        diamond(1, 0.5, &[0], [8, 0, 0]),
+    ];
+    // (diamond, parent diamond, first child, level)
+    let shape = [
+        (0, NO_INDEX, 2, 0),
+        (0, NO_INDEX, 4, 0),
+        (1, 0, 6, 1),
+        (NO_INDEX, 0, NO_INDEX, 1),
+        (1, 0, 8, 1),
+        (NO_INDEX, 0, NO_INDEX, 1),
+        (NO_INDEX, 1, NO_INDEX, 2),
+        (NO_INDEX, 1, NO_INDEX, 2),
+        (NO_INDEX, 1, NO_INDEX, 2),
+        (NO_INDEX, 1, NO_INDEX, 2),
+    ];
+    let mut blob = Vec::new();
+    let mut patches = Vec::new();
+    let mut tets = Vec::new();
+    for (i, &(diamond, parent_diamond, first_child, level)) in shape.iter().enumerate() {
+        let n = match i {
+            0 => 0, // an empty patch
+            9 if big => 70_000,
+            _ => 3 + 2 * i as u32,
+        };
+        let p = patch(n, i as u32, attributes);
+        let offset = encode_patch(&p, attributes, &mut blob);
+        tets.push(TetRecord {
+            center: [i as f32, 0.0, 1.0],
+            radius: 1.5,
+            cone_axis: [0.0, 0.0, 1.0],
+            cone_cos: if i % 2 == 0 { -1.0 } else { 0.5 },
+            diamond,
+            parent_diamond,
+            first_child,
+            level,
+            patch_offset: offset,
+            patch_bytes: patch_bytes_bound(p.vertex_count(), p.strip.len(), attributes) as u32,
+            vertex_count: n,
+            strip_index_count: p.strip.len() as u32,
+            triangle_count: p.triangle_count,
+        });
+        patches.push(p);
+    }
+    let header = Header {
+        root_tet_count: 2,
+        input_vertex_count: 1234,
+        input_triangle_count: 2000,
+        origin: [1.0, 2.0, 3.0],
+        bbox_min: [0.0, 1.0, 2.0],
+        bbox_max: [2.0, 3.0, 4.0],
+        position_step: [2.0 / 2_097_151.0; 3],
+        lattice_origin: [-1.0, -1.0, -1.0],
+        lattice_unit: 0.25,
+        lattice_bits: 4,
+        // Whatever the caller leaves in the writer's fields is overwritten.
+        checksum: 77,
+        diamond_count: 1 << 60,
+        ..Header::new(dimension, attributes)
+    };
+    let contents = RepositoryContents {
+        header,
+        diamonds,
+        tets,
+        patch_blob: blob,
+    };
+    (contents, patches)
+}
+
+fn image(dimension: u32, attributes: u32) -> Vec<u8> {
+    let mut bytes = Vec::new();
+    write_repository(&mut bytes, &contents(dimension, attributes, false).0).unwrap();
+    bytes
+}
+
+/// Opens `repo` fully: every patch parsed and every triangle and position decoded.
+fn open_all(bytes: Vec<u8>) -> Result<(), RepositoryError> {
+    let repo = Repository::from_bytes(bytes)?;
+    for i in 0..repo.tets().len() {
+        let p = repo.patch(i)?;
+        let n = p.vertex_count() as u32;
+        for t in p.triangles() {
+            assert!(
+                t.iter().all(|&v| v < n),
+                "triangle {t:?} of a {n}-vertex patch"
+            );
+            let _ = t.map(|v| p.position(v as usize));
+        }
+    }
+    repo.validate_patches()
+}
+
+fn check_round_trip(dimension: u32, attributes: u32, big: bool, dir: &Path) {
+    let (contents, patches) = contents(dimension, attributes, big);
+    let path = dir.join(format!("d{dimension}-a{attributes}-{big}.tsr"));
+    let written = write_repository_file(&path, &contents).unwrap();
+    let repo = Repository::open(&path).unwrap();
+    assert_eq!(repo.file_bytes(), written);
+    assert_eq!(std::fs::metadata(&path).unwrap().len(), written);
+
+    let h = repo.header();
+    let expected = Header {
+        magic: *b"TESSERA\0",
+        version: FORMAT_VERSION,
+        diamond_count: 2,
+        tet_count: 10,
+        diamond_table_offset: HEADER_SIZE as u64,
+        tet_table_offset: HEADER_SIZE as u64 + 2 * 56,
+        patch_blob_offset: HEADER_SIZE as u64 + 2 * 56 + 10 * 72,
+        patch_blob_bytes: contents.patch_blob.len() as u64,
+        checksum: h.checksum,
+        ..contents.header
+    };
+    assert_eq!(*h, expected);
+    assert_eq!(repo.diamonds(), &contents.diamonds[..]);
+    assert_eq!(repo.tets(), &contents.tets[..]);
+    assert_eq!(repo.patch_blob(), &contents.patch_blob[..]);
+    for (i, original) in patches.iter().enumerate() {
+        let view = repo.patch(i).unwrap();
+        assert_eq!(view.to_patch_data(), *original, "tet {i}");
+        let triangles: Vec<[u32; 3]> = view.triangles().collect();
+        assert_eq!(triangles, unstripify(&original.strip), "tet {i}");
+        assert_eq!(triangles.len() as u32, view.triangle_count());
+        assert_eq!(
+            matches!(view.strip(), StripIndices::U32(_)),
+            original.vertex_count() > 65_535
+        );
+        for (k, &s) in original.strip.iter().enumerate() {
+            assert_eq!(view.strip_index(k), (s != R).then_some(s));
+        }
+    }
+    repo.validate_patches().unwrap();
+
+    // In memory, through the same checks.
+    let mut bytes = Vec::new();
+    assert_eq!(write_repository(&mut bytes, &contents).unwrap(), written);
+    assert_eq!(bytes, std::fs::read(&path).unwrap());
+    let again = Repository::from_bytes(bytes).unwrap();
+    assert_eq!(again.tets(), repo.tets());
+}
+
+#[test]
+fn round_trip_every_dimension_and_attribute_mask() {
+    let dir = tempfile::tempdir().unwrap();
+    for dimension in [2, 3] {
+        for attributes in 0..=ATTR_ALL {
+            check_round_trip(dimension, attributes, false, dir.path());
+        }
+    }
+    check_round_trip(3, ATTR_ALL, true, dir.path());
+    check_round_trip(2, 0, true, dir.path());
+    // Only the repositories remain: no temporary files.
+    let mut names: Vec<String> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .collect();
+    names.sort();
+    assert_eq!(names.len(), 18, "{names:?}");
+    assert!(
+        names
+            .iter()
+            .all(|n| n.ends_with(".tsr") && !n.starts_with('.')),
+        "{names:?}"
+    );
+}
+
+#[test]
+fn big_patch_uses_u32_indices() {
+    let (contents, patches) = contents(3, ATTR_NORMALS, true);
+    let mut bytes = Vec::new();
+    write_repository(&mut bytes, &contents).unwrap();
+    let repo = Repository::from_bytes(bytes).unwrap();
+    let view = repo.patch(9).unwrap();
+    let StripIndices::U32(strip) = view.strip() else {
+        panic!("a 70,000-vertex patch needs u32 indices")
+    };
+    assert_eq!(strip.len(), 70_006);
+    assert_eq!(strip[70_000], u32::MAX);
+    assert_eq!(view.strip_index(69_999), Some(69_999));
+    assert_eq!(
+        view.position(69_999),
+        [69_999, 69_999 * 7 + 9, 9]
+    );
+    assert_eq!(
+        view.triangles().count(),
+        unstripify(&patches[9].strip).len()
+    );
+    assert!(matches!(
+        repo.patch(8).unwrap().strip(),
+        StripIndices::U16(_)
+    ));
+}
+
+// ---- Corruption: every case must be an error, never a panic. ----
+
+fn header_of(bytes: &[u8]) -> Header {
+    bytemuck::pod_read_unaligned(&bytes[..HEADER_SIZE])
+}
+
+/// Stores the correct checksum (if the image is long enough to hold one).
+fn seal(bytes: &mut [u8]) {
+    if bytes.len() < HEADER_SIZE {
+        return;
+    }
+    let sum = compute_checksum(bytes);
+    bytes[CHECKSUM_OFFSET..CHECKSUM_OFFSET + 4].copy_from_slice(&sum.to_le_bytes());
+}
+
+fn edit_header(bytes: &mut [u8], f: impl FnOnce(&mut Header)) {
+    let mut h = header_of(bytes);
+    f(&mut h);
+    bytes[..HEADER_SIZE].copy_from_slice(bytemuck::bytes_of(&h));
+}
+
+fn edit_tet(bytes: &mut [u8], i: usize, f: impl FnOnce(&mut TetRecord)) {
+    let at = header_of(bytes).tet_table_offset as usize + i * TET_RECORD_SIZE;
+    let mut t: TetRecord = bytemuck::pod_read_unaligned(&bytes[at..at + TET_RECORD_SIZE]);
+    f(&mut t);
+    bytes[at..at + TET_RECORD_SIZE].copy_from_slice(bytemuck::bytes_of(&t));
+}
+
+fn edit_diamond(bytes: &mut [u8], i: usize, f: impl FnOnce(&mut DiamondRecord)) {
+    let size = std::mem::size_of::<DiamondRecord>();
+    let at = header_of(bytes).diamond_table_offset as usize + i * size;
+    let mut d: DiamondRecord = bytemuck::pod_read_unaligned(&bytes[at..at + size]);
+    f(&mut d);
+    bytes[at..at + size].copy_from_slice(bytemuck::bytes_of(&d));
+}
+
+/// Applies `corrupt` to a valid image, reseals the checksum, and expects an error whose message
+/// contains `expected` from `open` or, failing that, from parsing the patches.
+fn check(corrupt: impl FnOnce(&mut Vec<u8>), expected: &str) {
+    let mut bytes = image(3, ATTR_ALL);
+    corrupt(&mut bytes);
+    seal(&mut bytes);
+    match open_all(bytes) {
+        Ok(()) => panic!("corruption expecting {expected:?} was accepted"),
+        Err(e) => {
+            let message = e.to_string();
+            assert!(
+                message.contains(expected),
+                "{message:?} should mention {expected:?}"
+            );
+        }
+    }
+}
+
+#[test]
+fn structural_corruption_is_caught_behind_a_valid_checksum() {
+    // Header.
+    check(
+        |b| edit_header(b, |h| h.dimension = 4),
+        "dimension 4 is not 2 or 3",
+    );
+    check(
+        |b| edit_header(b, |h| h.attributes = 8),
+        "unknown attribute bits 0x8",
+    );
+    check(|b| edit_header(b, |h| h.reserved = 1), "reserved");
+    check(
+        |b| edit_header(b, |h| h.lattice_bits = 31),
+        "lattice bits 31",
+    );
+    check(|b| edit_header(b, |h| h.lattice_unit = 0.0), "lattice unit");
+    check(|b| edit_header(b, |h| h.origin[1] = f64::NAN), "origin");
+    check(|b| edit_header(b, |h| h.bbox_max[2] = -5.0), "inverted");
+    check(
+        |b| edit_header(b, |h| h.root_tet_count = 11),
+        "11 root tets but only 10",
+    );
+    // Absurd counts: an error, not an allocation.
+    check(
+        |b| edit_header(b, |h| h.diamond_count = 1 << 60),
+        "diamond table of 1152921504606846976 × 56 bytes at offset 232 exceeds the file",
+    );
+    check(
+        |b| edit_header(b, |h| h.tet_count = 1 << 60),
+        "tet table of 1152921504606846976",
+    );
+    check(
+        |b| edit_header(b, |h| h.tet_count = u64::MAX),
+        "tet table of 18446744073709551615",
+    );
+    check(
+        |b| edit_header(b, |h| h.patch_blob_bytes = 1 << 60),
+        "patch blob of",
+    );
+    check(
+        |b| edit_header(b, |h| h.patch_blob_offset = u64::MAX - 7),
+        "patch blob of",
+    );
+    // Table offsets: aligned, in order, not overlapping, nothing after the blob.
+    check(
+        |b| edit_header(b, |h| h.diamond_table_offset = 236),
+        "diamond table offset 236 is not a multiple of 8",
+    );
+    check(
+        |b| edit_header(b, |h| h.diamond_table_offset = 0),
+        "overlaps what precedes it, which ends at 232",
+    );
+    check(
+        |b| edit_header(b, |h| h.tet_table_offset -= 8),
+        "tet table at offset",
+    );
+    check(|b| b.extend_from_slice(&[0; 8]), "tables end at");
+    check(
+        |b| edit_header(b, |h| h.patch_blob_bytes -= 8),
+        "tables end at",
+    );
+
+    // Diamonds.
+    check(
+        |b| edit_diamond(b, 1, |d| d.parents[0] = 7),
+        "diamond 1: parent 0 is 7",
+    );
+    check(
+        |b| edit_diamond(b, 1, |d| d.parents[0] = 1),
+        "diamond 1: parent 0 is 1",
+    );
+    check(
+        |b| edit_diamond(b, 1, |d| d.parents[2] = 0),
+        "diamond 1: unused parent slot 2",
+    );
+    check(
+        |b| edit_diamond(b, 0, |d| d.parent_count = 5),
+        "diamond 0: 5 parents",
+    );
+    check(
+        |b| edit_diamond(b, 0, |d| d.error = 0.0),
+        "diamond 0: error 0",
+    );
+    check(
+        |b| edit_diamond(b, 0, |d| d.radius = f32::NAN),
+        "diamond 0: bounding sphere",
+    );
+    check(
+        |b| edit_diamond(b, 1, |d| d.center[2] = f32::INFINITY),
+        "diamond 1: bounding sphere",
+    );
+    check(
+        |b| edit_diamond(b, 1, |d| d.phase = 0),
+        "diamond 1: phase 0",
+    );
+    check(
+        |b| edit_diamond(b, 1, |d| d.id = [17, 0, 0]),
+        "diamond 1: id [17, 0, 0]",
+    );
+
+    // Tets.
+    check(|b| edit_tet(b, 2, |t| t.diamond = 9), "tet 2: diamond 9");
+    // A child's parent diamond is checked from its parent, which comes first.
+    check(
+        |b| edit_tet(b, 7, |t| t.parent_diamond = 2),
+        "tet 2: child (parent diamond 2, level 2)",
+    );
+    check(
+        |b| edit_tet(b, 0, |t| t.parent_diamond = 0),
+        "tet 0: parent diamond 0 but is a root",
+    );
+    check(
+        |b| edit_tet(b, 3, |t| t.parent_diamond = NO_INDEX),
+        "tet 0: child (parent diamond 4294967295",
+    );
+    check(
+        |b| edit_header(b, |h| h.root_tet_count = 1),
+        "tet 1: parent diamond 4294967295 but is not a root",
+    );
+    check(
+        |b| edit_tet(b, 3, |t| t.first_child = 6),
+        "a tet is split iff it has a diamond",
+    );
+    check(
+        |b| edit_tet(b, 2, |t| t.first_child = 9),
+        "tet 2: children 9, 10 not after it",
+    );
+    check(
+        |b| edit_tet(b, 2, |t| t.first_child = 2),
+        "tet 2: children 2, 3 not after it",
+    );
+    check(
+        |b| edit_tet(b, 2, |t| t.first_child = 4),
+        "does not come from its diamond",
+    );
+    check(
+        |b| edit_tet(b, 0, |t| t.level = 1),
+        "tet 0: level 1 differs from its diamond's 0",
+    );
+    check(
+        |b| edit_tet(b, 4, |t| t.radius = -1.0),
+        "tet 4: bounding sphere",
+    );
+    check(
+        |b| edit_tet(b, 4, |t| t.cone_cos = 1.5),
+        "tet 4: normal cone",
+    );
+    check(
+        |b| edit_tet(b, 5, |t| t.patch_offset = 1 << 40),
+        "tet 5: patch range 1099511627776..",
+    );
+    check(
+        |b| edit_tet(b, 5, |t| t.patch_offset = u64::MAX - 7),
+        "exceeds patch blob",
+    );
+    check(
+        |b| edit_tet(b, 5, |t| t.patch_offset += 4),
+        "tet 5: patch offset",
+    );
+    check(
+        |b| edit_tet(b, 5, |t| t.patch_bytes += 8),
+        "tet 5: patch is",
+    );
+    check(
+        |b| edit_tet(b, 5, |t| t.vertex_count += 1),
+        "tet 5: patch is",
+    );
+    check(
+        |b| edit_tet(b, 5, |t| t.triangle_count = t.strip_index_count),
+        "cannot fit",
+    );
+    // A strip index past the vertex count: `open` accepts the tables, the patch parse catches it.
+    let strip_index = |b: &mut Vec<u8>, value: u16| {
+        let h = header_of(b);
+        let at = h.tet_table_offset as usize + 3 * TET_RECORD_SIZE;
+        let tet: TetRecord = bytemuck::pod_read_unaligned(&b[at..at + TET_RECORD_SIZE]);
+        let n = tet.vertex_count as usize;
+        let strip = h.patch_blob_offset as usize + tet.patch_offset as usize + n * 28;
+        b[strip + 2..strip + 4].copy_from_slice(&value.to_le_bytes());
+    };
+    check(
+        |b| strip_index(b, 9),
+        "tet 3: strip index 1 is 9, but the patch has 9 vertices",
+    );
+    check(|b| strip_index(b, 0xFFFE), "tet 3: strip index 1 is 65534");
+    let mut bytes = image(3, ATTR_ALL);
+    strip_index(&mut bytes, 9);
+    seal(&mut bytes);
+    let repo = Repository::from_bytes(bytes).unwrap();
+    assert!(repo.patch(2).is_ok());
+    assert!(matches!(repo.patch(3), Err(RepositoryError::Corrupt(_))));
+    assert!(repo.validate_patches().is_err());
+    assert!(matches!(
+        repo.patch(10),
+        Err(RepositoryError::NoSuchTet {
+            index: 10,
+            count: 10
+        })
+    ));
+}
+
+#[test]
+fn wrong_magic_and_version_are_typed() {
+    let mut bytes = image(2, 0);
+    bytes[0] = b'X';
+    assert!(
+        matches!(Repository::from_bytes(bytes), Err(RepositoryError::BadMagic { found }) if found[0] == b'X')
+    );
+
+    let mut bytes = image(2, 0);
+    edit_header(&mut bytes, |h| h.version = 2);
+    let err = Repository::from_bytes(bytes.clone()).unwrap_err();
+    assert!(
+        matches!(
+            err,
+            RepositoryError::WrongVersion {
+                found: 2,
+                expected: 1
+            }
+        ),
+        "{err:?}"
+    );
+    let message = err.to_string();
+    assert!(
+        message.contains("version 2") && message.contains("version 1"),
+        "{message}"
+    );
+    // Still WrongVersion with a valid checksum.
+    seal(&mut bytes);
+    assert!(matches!(
+        Repository::from_bytes(bytes),
+        Err(RepositoryError::WrongVersion { .. })
+    ));
+}
+
+#[test]
+fn every_truncation_is_an_error() {
+    let bytes = image(3, ATTR_ALL);
+    for len in 0..bytes.len() {
+        let result = Repository::from_bytes(bytes[..len].to_vec());
+        match result {
+            Err(RepositoryError::TooSmall { len: l }) => {
+                assert!(len < HEADER_SIZE && l == len as u64)
+            }
+            Err(_) => assert!(len >= HEADER_SIZE),
+            Ok(_) => panic!("truncated to {len} of {} bytes and accepted", bytes.len()),
+        }
+    }
+    let mut big = Vec::new();
+    write_repository(&mut big, &contents(3, ATTR_ALL, true).0).unwrap();
+    for len in [
+        0,
+        1,
+        231,
+        232,
+        233,
+        1000,
+        big.len() / 2,
+        big.len() - 8,
+        big.len() - 1,
+    ] {
+        assert!(
+            Repository::from_bytes(big[..len].to_vec()).is_err(),
+            "{len}"
+        );
+    }
+    // Through the file system too (an empty file is not mapped at all).
+    let dir = tempfile::tempdir().unwrap();
+    for len in [0, 100, 232, big.len() - 1] {
+        let path = dir.path().join(format!("t{len}.tsr"));
+        std::fs::write(&path, &big[..len]).unwrap();
+        assert!(Repository::open(&path).is_err(), "{len}");
+    }
+    let missing = Repository::open(dir.path().join("missing.tsr")).unwrap_err();
+    assert!(
+        matches!(missing, RepositoryError::Io { .. })
+            && missing.to_string().contains("missing.tsr")
+    );
+}
+
+#[test]
+fn every_flipped_byte_is_an_error() {
+    let bytes = image(2, ATTR_NORMALS | ATTR_UVS);
+    let mut flipped = bytes.clone();
+    for i in 0..bytes.len() {
+        for bit in [0x01, 0x80] {
+            flipped[i] ^= bit;
+            let result = Repository::from_bytes(flipped.clone());
+            assert!(
+                result.is_err(),
+                "flipping bit {bit:#x} of byte {i} was accepted"
+            );
+            if i >= 16 {
+                assert!(
+                    matches!(
+                        result,
+                        Err(RepositoryError::ChecksumMismatch { .. })
+                            | Err(RepositoryError::Corrupt(_))
+                    ),
+                    "byte {i}: {result:?}"
+                );
+            }
+            flipped[i] ^= bit;
+        }
+    }
+}
+
+#[test]
+fn writer_refuses_invalid_contents() {
+    let (mut bad, _) = contents(3, 0, false);
+    bad.tets[4].diamond = 5;
+    let err = write_repository(Vec::new(), &bad).unwrap_err();
+    assert_eq!(err.kind(), std::io::ErrorKind::InvalidInput);
+    assert!(err.to_string().contains("tet 4: diamond 5"), "{err}");
+
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("bad.tsr");
+    let err = write_repository_file(&path, &bad).unwrap_err();
+    assert!(matches!(err, RepositoryError::Corrupt(_)), "{err:?}");
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+
+    let (mut bad, _) = contents(3, 0, false);
+    bad.patch_blob.truncate(bad.patch_blob.len() - 8);
+    assert!(write_repository(Vec::new(), &bad)
+        .unwrap_err()
+        .to_string()
+        .contains("tet 9: patch range"));
+}
+
+#[test]
+fn failed_rename_leaves_no_temporary_file() {
+    let dir = tempfile::tempdir().unwrap();
+    // The target is a non-empty directory: the rename fails after the data was written.
+    let target = dir.path().join("taken.tsr");
+    std::fs::create_dir(&target).unwrap();
+    std::fs::write(target.join("keep"), b"x").unwrap();
+    let err = write_repository_file(&target, &contents(2, 0, false).0).unwrap_err();
+    assert!(matches!(err, RepositoryError::Io { .. }), "{err:?}");
+    let names: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(names, ["taken.tsr"]);
+    assert!(target.join("keep").exists());
+
+    // A missing directory fails cleanly too.
+    let err = write_repository_file(
+        &dir.path().join("no/such/dir.tsr"),
+        &contents(2, 0, false).0,
+    )
+    .unwrap_err();
+    assert!(matches!(err, RepositoryError::Io { .. }));
+
+    // A path with no file name.
+    let err = write_repository_file(Path::new("/"), &contents(2, 0, false).0).unwrap_err();
+    assert!(matches!(err, RepositoryError::Io { .. }));
+}
+
+/// A mutation: overwrite one little-endian u32 at a 4-aligned offset with an interesting value
+/// (hits counts, offsets and indices), or xor one byte.
+#[derive(Clone, Debug)]
+enum Mutation {
+    Word(usize, u32),
+    Xor(usize, u8),
+}
+
+fn mutation() -> impl Strategy<Value = Mutation> {
+    let value = prop_oneof![
+        Just(0u32),
+        Just(1),
+        Just(2),
+        Just(7),
+        Just(8),
+        Just(0xFFFF),
+        Just(0x1_0000),
+        Just(u32::MAX),
+        Just(u32::MAX - 1),
+        Just(0x8000_0000),
+        any::<u32>(),
+    ];
+    prop_oneof![
+        (any::<prop::sample::Index>(), value)
+            .prop_map(|(i, v)| Mutation::Word(i.index(usize::MAX / 4), v)),
+        (any::<prop::sample::Index>(), 1u8..=255)
+            .prop_map(|(i, x)| Mutation::Xor(i.index(usize::MAX), x)),
+    ]
+}
+
+fn apply(bytes: &mut [u8], m: &Mutation) {
+    match *m {
+        Mutation::Word(i, v) => {
+            let at = (i % (bytes.len() / 4)) * 4;
+            bytes[at..at + 4].copy_from_slice(&v.to_le_bytes());
+        }
+        Mutation::Xor(i, x) => {
+            let at = i % bytes.len();
+            bytes[at] ^= x;
+        }
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 1024, ..ProptestConfig::default() })]
+
+    /// Random mutations behind a recomputed checksum never panic in open + decode.
+    #[test]
+    fn mutations_never_panic(
+        dimension in 2u32..=3,
+        attributes in 0..=ATTR_ALL,
+        mutations in prop::collection::vec(mutation(), 1..4),
+        truncate in prop::option::of(any::<prop::sample::Index>()),
+    ) {
+        let mut bytes = image(dimension, attributes);
+        for m in &mutations {
+            apply(&mut bytes, m);
+        }
+        if let Some(t) = truncate {
+            bytes.truncate(t.index(bytes.len() + 1));
+        }
+        seal(&mut bytes);
+        let _ = open_all(bytes);
+    }
+}
+
+#[test]
+fn repository_is_shareable_across_threads() {
+    fn assert_send_sync<T: Send + Sync>() {}
+    assert_send_sync::<Repository>();
+    assert_send_sync::<tessera_core::repository::PatchView<'static>>();
+}
