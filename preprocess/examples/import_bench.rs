@@ -4,7 +4,10 @@ fn main() {
         let t = Instant::now();
         let raw = match tessera_preprocess::import::load_raw(arg.as_ref()) {
             Ok(r) => r,
-            Err(e) => { println!("{arg}: ERROR {e}"); continue; }
+            Err(e) => {
+                println!("{arg}: ERROR {e}");
+                continue;
+            }
         };
         let t_read = t.elapsed().as_secs_f64();
         let r = tessera_preprocess::import::weld(raw);

@@ -1,7 +1,7 @@
 //! The build driver: input mesh → repository, as a list of steps (seed 001: construction,
 //! simplification, saturation; then strips and the file).
 
-use std::collections::HashMap;
+use rustc_hash::FxHashMap as HashMap;
 use std::path::Path;
 use std::time::Instant;
 
@@ -23,7 +23,7 @@ use crate::simplify::simplify_hierarchy;
 use crate::strips::build_patch;
 
 /// Default maximum triangles per leaf; chosen by the sweep in ARCHITECTURE.md.
-pub const DEFAULT_LEAF_TRIANGLES: usize = 256;
+pub const DEFAULT_LEAF_TRIANGLES: usize = 1024;
 
 /// Everything that controls a build.
 #[derive(Clone, Debug)]

@@ -5,7 +5,7 @@
 //!   conforming mesh forces the parent splits that this needs;
 //! - by levels (Algorithm 1): split every leaf down to a fixed level.
 
-use std::collections::HashMap;
+use rustc_hash::FxHashMap as HashMap;
 
 use tessera_core::leb::{ConformingMesh, Diamond, Simplex, SimplexKey};
 
@@ -70,8 +70,9 @@ pub fn build_hierarchy(
                 let triangles = leaf_triangles.remove(&t.key).unwrap_or_default();
                 let children = t.children();
                 let mut parts = [Vec::new(), Vec::new()];
+                let bisector = t.bisector();
                 for tri in triangles {
-                    parts[t.child_index_of(barycenters[tri as usize])].push(tri);
+                    parts[bisector.child_index_of(barycenters[tri as usize])].push(tri);
                 }
                 for (c, part) in children.iter().zip(parts) {
                     if needs_split(c, part.len()) && c.can_split() {

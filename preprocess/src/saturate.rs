@@ -5,7 +5,7 @@
 //! robustness"): far eyes are covered by the relative error margin, near eyes by the absolute
 //! radius margin.
 
-use std::collections::HashMap;
+use rustc_hash::FxHashMap as HashMap;
 
 use tessera_core::bounds::Sphere;
 use tessera_core::leb::{DiamondId, SimplexKey};

@@ -13,7 +13,7 @@
 //! the merge does not touch, so it must survive. Since simplification only removes vertices,
 //! any patch of any cut outside D uses a subset of what the current mesh uses outside D.
 
-use std::collections::{HashMap, HashSet};
+use rustc_hash::{FxHashMap as HashMap, FxHashSet as HashSet};
 
 use meshopt::{SimplifyOptions, VertexDataAdapter};
 use rayon::prelude::*;
@@ -89,7 +89,7 @@ pub fn simplify_hierarchy(
     for level_group in
         by_level.chunk_by(|&a, &b| hierarchy.diamonds[a].level == hierarchy.diamonds[b].level)
     {
-        let no_extra = HashSet::new();
+        let no_extra = HashSet::default();
         let results: Vec<DiamondResult> = level_group
             .par_iter()
             .map(|&d| {
@@ -109,7 +109,7 @@ pub fn simplify_hierarchy(
         // the vertices around those edges locked, until it introduces none.
         for mut r in results {
             let diamond = &hierarchy.diamonds[r.diamond];
-            let mut extra: HashSet<u32> = HashSet::new();
+            let mut extra: HashSet<u32> = HashSet::default();
             for attempt in 0.. {
                 let conflicts = current.nonmanifold_introduced(&r.edge_delta);
                 if conflicts.is_empty() {
@@ -161,7 +161,8 @@ fn triangle_edges(t: &[u32; 3]) -> [u64; 3] {
 impl CurrentMesh {
     fn new(mesh: &InputMesh) -> Self {
         let mut use_count = vec![0u32; mesh.positions.len()];
-        let mut edges = HashMap::with_capacity(mesh.triangles.len() * 3 / 2);
+        let mut edges =
+            HashMap::with_capacity_and_hasher(mesh.triangles.len() * 3 / 2, Default::default());
         for tri in &mesh.triangles {
             for &v in tri {
                 use_count[v as usize] += 1;
@@ -212,18 +213,17 @@ fn edge_delta<'a>(
     gathered: &[[u32; 3]],
     output: impl Iterator<Item = &'a [u32; 3]>,
 ) -> Vec<(u64, i32)> {
-    let mut delta: HashMap<u64, i32> = HashMap::new();
-    for t in gathered {
-        for e in triangle_edges(t) {
-            *delta.entry(e).or_default() -= 1;
-        }
-    }
-    for t in output {
-        for e in triangle_edges(t) {
-            *delta.entry(e).or_default() += 1;
-        }
-    }
-    delta.into_iter().filter(|(_, d)| *d != 0).collect()
+    let mut changes: Vec<(u64, i32)> = gathered
+        .iter()
+        .flat_map(|t| triangle_edges(t).map(|e| (e, -1)))
+        .chain(output.flat_map(|t| triangle_edges(t).map(|e| (e, 1))))
+        .collect();
+    changes.sort_unstable_by_key(|&(e, _)| e);
+    changes
+        .chunk_by(|a, b| a.0 == b.0)
+        .map(|run| (run[0].0, run.iter().map(|&(_, d)| d).sum::<i32>()))
+        .filter(|&(_, d)| d != 0)
+        .collect()
 }
 
 /// Vertices of `gathered` sharing a triangle with an endpoint of any of `edges`.
@@ -263,7 +263,8 @@ fn simplify_diamond(
                 .copied()
         })
         .collect();
-    let mut local_of: HashMap<u32, u32> = HashMap::with_capacity(gathered.len());
+    let mut local_of: HashMap<u32, u32> =
+        HashMap::with_capacity_and_hasher(gathered.len(), Default::default());
     let mut global_of: Vec<u32> = Vec::new();
     let mut local_count: Vec<u32> = Vec::new();
     let mut indices: Vec<u32> = Vec::with_capacity(gathered.len() * 3);
@@ -305,14 +306,27 @@ fn simplify_diamond(
         .iter()
         .map(|s| (s.key, Vec::new()))
         .collect();
+    // A triangle the simplifier kept stays with the simplex it came from (its barycentre is
+    // in that simplex's child); only new triangles need a point location.
+    let mut came_from: HashMap<[u32; 3], usize> =
+        HashMap::with_capacity_and_hasher(gathered.len(), Default::default());
+    for (slot, s) in diamond.simplices.iter().enumerate() {
+        for c in s.children() {
+            for t in patches.get(&c.key).map(Vec::as_slice).unwrap_or(&[]) {
+                came_from.insert(*t, slot);
+            }
+        }
+    }
     for t in simplified.chunks_exact(3) {
         let tri = [
             global_of[t[0] as usize],
             global_of[t[1] as usize],
             global_of[t[2] as usize],
         ];
-        let b = barycenter_lattice(&tri, mesh, frame);
-        let slot = holder(&diamond.simplices, b);
+        let slot = came_from
+            .get(&tri)
+            .copied()
+            .unwrap_or_else(|| holder(&diamond.simplices, barycenter_lattice(&tri, mesh, frame)));
         out[slot].1.push(tri);
     }
     let edge_delta = edge_delta(&gathered, out.iter().flat_map(|(_, t)| t.iter()));
@@ -340,16 +354,16 @@ fn lock_vertices(
         .zip(local_count)
         .map(|(&g, &n)| n < use_count[g as usize])
         .collect();
-    let mut edges: HashMap<(u32, u32), u32> = HashMap::with_capacity(indices.len());
-    for t in indices.chunks_exact(3) {
-        for (a, b) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
-            *edges.entry((a.min(b), a.max(b))).or_default() += 1;
-        }
-    }
-    for ((a, b), n) in edges {
-        if n != 2 {
-            lock[a as usize] = true;
-            lock[b as usize] = true;
+    // Count edges by sorting their keys (several times faster than hashing here).
+    let mut edges: Vec<u64> = indices
+        .chunks_exact(3)
+        .flat_map(|t| triangle_edges(&[t[0], t[1], t[2]]))
+        .collect();
+    edges.sort_unstable();
+    for run in edges.chunk_by(|a, b| a == b) {
+        if run.len() != 2 {
+            lock[(run[0] >> 32) as usize] = true;
+            lock[run[0] as u32 as usize] = true;
         }
     }
     lock
@@ -360,14 +374,17 @@ fn lock_vertices(
 /// makes its edges non-manifold. Dropping copies two at a time keeps every edge's use count
 /// parity, so borders (odd counts) are untouched.
 fn cancel_coincident_pairs(indices: &mut Vec<u32>) {
-    let mut copies: HashMap<[u32; 3], u32> = HashMap::new();
-    for t in indices.chunks_exact(3) {
-        let mut key = [t[0], t[1], t[2]];
-        key.sort_unstable();
-        *copies.entry(key).or_default() += 1;
+    let mut keys: Vec<[u32; 3]> = indices
+        .chunks_exact(3)
+        .map(|t| sorted(&[t[0], t[1], t[2]]))
+        .collect();
+    keys.sort_unstable();
+    if keys.windows(2).all(|w| w[0] != w[1]) {
+        return; // the common case: no repeated triangle
     }
-    if copies.len() * 3 == indices.len() {
-        return;
+    let mut copies: HashMap<[u32; 3], u32> = HashMap::default();
+    for k in keys {
+        *copies.entry(k).or_default() += 1;
     }
     // Keep one copy of each odd-count triangle (the first), none of an even-count one.
     let mut kept = Vec::with_capacity(indices.len());
@@ -461,4 +478,11 @@ fn holder(simplices: &[Simplex], b: [f64; 3]) -> usize {
     (0..simplices.len())
         .min_by(|&x, &y| dist2(centroid(&simplices[x])).total_cmp(&dist2(centroid(&simplices[y]))))
         .unwrap_or(0)
+}
+
+/// A triangle's vertex ids in ascending order: its identity regardless of rotation/winding.
+fn sorted(t: &[u32; 3]) -> [u32; 3] {
+    let mut k = *t;
+    k.sort_unstable();
+    k
 }

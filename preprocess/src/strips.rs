@@ -2,7 +2,7 @@
 //! first-use order, positions quantised on the one global grid (so a vertex shared by patches
 //! is bit-identical in all of them), and the attributes the input has.
 
-use std::collections::HashMap;
+use rustc_hash::FxHashMap as HashMap;
 
 use tessera_core::repository::format::{oct_encode_normal, pack_position, quantize_position};
 use tessera_core::repository::patch::PatchData;
@@ -20,7 +20,8 @@ pub fn build_patch(
     step: [f64; 3],
 ) -> PatchData {
     // Local indices in first-appearance order.
-    let mut local_of: HashMap<u32, u32> = HashMap::with_capacity(triangles.len());
+    let mut local_of: HashMap<u32, u32> =
+        HashMap::with_capacity_and_hasher(triangles.len(), Default::default());
     let mut globals: Vec<u32> = Vec::new();
     let indices: Vec<u32> = triangles
         .iter()

@@ -28,7 +28,11 @@ fn load(path: &Path) -> ImportReport {
 /// The error message for `path`, checked to name the file and contain every fragment.
 fn load_err(path: &Path, fragments: &[&str]) -> String {
     let err = match load_mesh(path) {
-        Ok(r) => panic!("{} loaded ({} triangles), expected an error", path.display(), r.mesh.triangles.len()),
+        Ok(r) => panic!(
+            "{} loaded ({} triangles), expected an error",
+            path.display(),
+            r.mesh.triangles.len()
+        ),
         Err(e) => e,
     };
     let msg = err.to_string();
@@ -71,14 +75,28 @@ const CUBE_POS: [[f64; 3]; 8] = [
     [0.0, 1.0, 1.0],
 ];
 /// Outward (counter-clockwise) quads.
-const CUBE_QUADS: [[u32; 4]; 6] =
-    [[0, 3, 2, 1], [4, 5, 6, 7], [0, 1, 5, 4], [2, 3, 7, 6], [0, 4, 7, 3], [1, 2, 6, 5]];
+const CUBE_QUADS: [[u32; 4]; 6] = [
+    [0, 3, 2, 1],
+    [4, 5, 6, 7],
+    [0, 1, 5, 4],
+    [2, 3, 7, 6],
+    [0, 4, 7, 3],
+    [1, 2, 6, 5],
+];
 
 fn cube_triangles() -> Vec<[u32; 3]> {
-    CUBE_QUADS.iter().flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]]).collect()
+    CUBE_QUADS
+        .iter()
+        .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
+        .collect()
 }
 
-const TETRA_POS: [[f64; 3]; 4] = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+const TETRA_POS: [[f64; 3]; 4] = [
+    [0.0, 0.0, 0.0],
+    [1.0, 0.0, 0.0],
+    [0.0, 1.0, 0.0],
+    [0.0, 0.0, 1.0],
+];
 const TETRA_TRIS: [[u32; 3]; 4] = [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]];
 
 fn assert_cube(r: &ImportReport) {
@@ -114,7 +132,11 @@ struct El {
 fn encode(ty: &str, v: f64, big: bool, out: &mut Vec<u8>) {
     macro_rules! put {
         ($x:expr) => {
-            out.extend_from_slice(&if big { $x.to_be_bytes() } else { $x.to_le_bytes() })
+            out.extend_from_slice(&if big {
+                $x.to_be_bytes()
+            } else {
+                $x.to_le_bytes()
+            })
         };
     }
     match ty {
@@ -139,7 +161,8 @@ fn ascii(ty: &str, v: f64) -> String {
 }
 
 fn ply(format: &str, elements: &[El]) -> Vec<u8> {
-    let mut out = format!("ply\nformat {format} 1.0\ncomment written by the tessera tests\n").into_bytes();
+    let mut out =
+        format!("ply\nformat {format} 1.0\ncomment written by the tessera tests\n").into_bytes();
     for el in elements {
         out.extend(format!("element {} {}\n", el.name, el.rows.len()).bytes());
         for (name, ty) in &el.props {
@@ -187,16 +210,30 @@ fn ply(format: &str, elements: &[El]) -> Vec<u8> {
 }
 
 fn xyz_props() -> Vec<(&'static str, Ty)> {
-    vec![("x", Ty::S("float")), ("y", Ty::S("float")), ("z", Ty::S("float"))]
+    vec![
+        ("x", Ty::S("float")),
+        ("y", Ty::S("float")),
+        ("z", Ty::S("float")),
+    ]
 }
 
 fn cube_elements() -> Vec<El> {
     vec![
-        El { name: "vertex", props: xyz_props(), rows: CUBE_POS.iter().map(|p| p.map(|c| vec![c]).to_vec()).collect() },
+        El {
+            name: "vertex",
+            props: xyz_props(),
+            rows: CUBE_POS
+                .iter()
+                .map(|p| p.map(|c| vec![c]).to_vec())
+                .collect(),
+        },
         El {
             name: "face",
             props: vec![("vertex_indices", Ty::L("uchar", "int"))],
-            rows: CUBE_QUADS.iter().map(|q| vec![q.map(f64::from).to_vec()]).collect(),
+            rows: CUBE_QUADS
+                .iter()
+                .map(|q| vec![q.map(f64::from).to_vec()])
+                .collect(),
         },
     ]
 }
@@ -253,13 +290,27 @@ fn attributed_ply(format: &str) -> Vec<u8> {
     };
     let face = El {
         name: "face",
-        props: vec![("flags", Ty::S("int")), ("vertex_index", Ty::L("uint8", "uint")), ("texcoord", Ty::L("uchar", "float"))],
-        rows: TETRA_TRIS.iter().map(|t| vec![vec![7.0], t.map(f64::from).to_vec(), vec![0.5; 6]]).collect(),
+        props: vec![
+            ("flags", Ty::S("int")),
+            ("vertex_index", Ty::L("uint8", "uint")),
+            ("texcoord", Ty::L("uchar", "float")),
+        ],
+        rows: TETRA_TRIS
+            .iter()
+            .map(|t| vec![vec![7.0], t.map(f64::from).to_vec(), vec![0.5; 6]])
+            .collect(),
     };
     let edge = El {
         name: "edge",
-        props: vec![("vertex1", Ty::S("int")), ("stuff", Ty::L("int", "double")), ("vertex2", Ty::S("int"))],
-        rows: vec![vec![vec![0.0], vec![1.5, 2.5], vec![1.0]], vec![vec![1.0], vec![], vec![2.0]]],
+        props: vec![
+            ("vertex1", Ty::S("int")),
+            ("stuff", Ty::L("int", "double")),
+            ("vertex2", Ty::S("int")),
+        ],
+        rows: vec![
+            vec![vec![0.0], vec![1.5, 2.5], vec![1.0]],
+            vec![vec![1.0], vec![], vec![2.0]],
+        ],
     };
     ply(format, &[vertex, edge, face])
 }
@@ -280,7 +331,11 @@ fn ply_ascii_cube_quads_are_fan_triangulated() {
 fn ply_ascii_and_binary_give_identical_meshes() {
     let dir = tempfile::tempdir().unwrap();
     let ascii = load(&write(dir.path(), "a.ply", cube_ply("ascii")));
-    let le = load(&write(dir.path(), "le.ply", cube_ply("binary_little_endian")));
+    let le = load(&write(
+        dir.path(),
+        "le.ply",
+        cube_ply("binary_little_endian"),
+    ));
     let be = load(&write(dir.path(), "be.ply", cube_ply("binary_big_endian")));
     assert_cube(&le);
     assert_eq!(ascii, le);
@@ -292,7 +347,11 @@ fn ply_attributes_and_unknown_properties_in_all_formats() {
     let dir = tempfile::tempdir().unwrap();
     let mut reports = Vec::new();
     for format in ["ascii", "binary_little_endian", "binary_big_endian"] {
-        let r = load(&write(dir.path(), &format!("{format}.ply"), attributed_ply(format)));
+        let r = load(&write(
+            dir.path(),
+            &format!("{format}.ply"),
+            attributed_ply(format),
+        ));
         assert_tetra(&r.mesh);
         assert_clean(&r);
         let normals = r.mesh.normals.as_ref().expect("normals");
@@ -329,9 +388,22 @@ fn ply_float_colors_and_st_texture_coordinates() {
     let face = El {
         name: "face",
         props: vec![("vertex_indices", Ty::L("uchar", "int"))],
-        rows: TETRA_TRIS.iter().map(|t| vec![t.map(f64::from).to_vec()]).collect(),
+        rows: TETRA_TRIS
+            .iter()
+            .map(|t| vec![t.map(f64::from).to_vec()])
+            .collect(),
     };
-    let bytes = ply("binary_little_endian", &[El { name: "vertex", props, rows }, face]);
+    let bytes = ply(
+        "binary_little_endian",
+        &[
+            El {
+                name: "vertex",
+                props,
+                rows,
+            },
+            face,
+        ],
+    );
     let r = load(&write(dir.path(), "fc.ply", bytes));
     assert_eq!(r.mesh.colors.unwrap()[0], [255, 128, 0, 255]);
     assert_eq!(r.mesh.uvs.unwrap()[0], [0.75, 0.125]);
@@ -343,7 +415,11 @@ fn ply_gzip_and_case_insensitive_extension() {
     let dir = tempfile::tempdir().unwrap();
     let plain = load(&write(dir.path(), "cube.ply", cube_ply("ascii")));
     let gz = load(&write(dir.path(), "cube.ply.gz", gzip(&cube_ply("ascii"))));
-    let upper = load(&write(dir.path(), "CUBE.PLY.GZ", gzip(&cube_ply("binary_big_endian"))));
+    let upper = load(&write(
+        dir.path(),
+        "CUBE.PLY.GZ",
+        gzip(&cube_ply("binary_big_endian")),
+    ));
     assert_eq!(plain, gz);
     assert_eq!(plain, upper);
 }
@@ -352,7 +428,8 @@ fn ply_gzip_and_case_insensitive_extension() {
 fn ply_tristrips_and_crlf_header() {
     let dir = tempfile::tempdir().unwrap();
     // One strip 0 1 2 3 gives (0 1 2), (2 1 3); after the restart, 1 3 2 gives (1 3 2).
-    let text = "ply\r\nformat ascii 1.0\r\nelement vertex 4\r\nproperty float x\r\nproperty float y\r\n\
+    let text =
+        "ply\r\nformat ascii 1.0\r\nelement vertex 4\r\nproperty float x\r\nproperty float y\r\n\
                 property float z\r\nelement tristrips 1\r\nproperty list int int vertex_indices\r\n\
                 end_header\r\n0 0 0\r\n1 0 0\r\n0 1 0\r\n1 1 0\r\n8 0 1 2 3 -1 1 3 0\r\n";
     let r = load(&write(dir.path(), "strip.ply", text));
@@ -368,7 +445,10 @@ fn cube_off() -> String {
     }
     s += "\n";
     for q in CUBE_QUADS {
-        s += &format!("4 {} {} {} {} 255 0 0 # with a face colour\n", q[0], q[1], q[2], q[3]);
+        s += &format!(
+            "4 {} {} {} {} 255 0 0 # with a face colour\n",
+            q[0], q[1], q[2], q[3]
+        );
     }
     s
 }
@@ -379,7 +459,11 @@ fn off_cube_with_comments_and_face_colors() {
     let r = load(&write(dir.path(), "cube.off", cube_off()));
     assert_cube(&r);
     assert_eq!(r.mesh.colors, None);
-    let gz = load(&write(dir.path(), "cube.off.gz", gzip(cube_off().as_bytes())));
+    let gz = load(&write(
+        dir.path(),
+        "cube.off.gz",
+        gzip(cube_off().as_bytes()),
+    ));
     assert_eq!(r, gz);
 }
 
@@ -416,7 +500,15 @@ fn off_counts_on_header_line_and_variants() {
     }
     let c = load(&write(dir.path(), "c.off", coff));
     assert_tetra(&c.mesh);
-    assert_eq!(c.mesh.colors.unwrap(), vec![[10, 20, 30, 255], [255, 128, 0, 255], [10, 20, 30, 255], [255, 128, 0, 255]]);
+    assert_eq!(
+        c.mesh.colors.unwrap(),
+        vec![
+            [10, 20, 30, 255],
+            [255, 128, 0, 255],
+            [10, 20, 30, 255],
+            [255, 128, 0, 255]
+        ]
+    );
     let n = load(&write(dir.path(), "n.off", noff));
     assert_eq!(n.mesh.normals.unwrap()[3], [0.0, 0.0, 3.0]);
     let st = load(&write(dir.path(), "st.off", stoff));
@@ -443,7 +535,10 @@ fn obj_cube_with_quads_groups_and_negative_indices() {
     s += "l 1 2\n";
     let r = load(&write(dir.path(), "cube.obj", &s));
     assert_cube(&r);
-    assert_eq!((r.mesh.normals, r.mesh.uvs, r.mesh.colors), (None, None, None));
+    assert_eq!(
+        (r.mesh.normals, r.mesh.uvs, r.mesh.colors),
+        (None, None, None)
+    );
     let gz = load(&write(dir.path(), "cube.obj.gz", gzip(s.as_bytes())));
     assert_eq!(gz.mesh.triangles, cube_triangles());
 }
@@ -453,10 +548,18 @@ fn obj_attributes_from_first_corner() {
     let dir = tempfile::tempdir().unwrap();
     let mut s = String::new();
     for (i, p) in TETRA_POS.iter().enumerate() {
-        s += &format!("v {} {} {} 1 0.5 0\nvt {i} 0.5\nvn 0 0 {i}\n", p[0], p[1], p[2]);
+        s += &format!(
+            "v {} {} {} 1 0.5 0\nvt {i} 0.5\nvn 0 0 {i}\n",
+            p[0], p[1], p[2]
+        );
     }
     for t in TETRA_TRIS {
-        s += &format!("f {0}/{0}/{0} {1}/{1}/{1} {2}/{2}/{2}\n", t[0] + 1, t[1] + 1, t[2] + 1);
+        s += &format!(
+            "f {0}/{0}/{0} {1}/{1}/{1} {2}/{2}/{2}\n",
+            t[0] + 1,
+            t[1] + 1,
+            t[2] + 1
+        );
     }
     // A later corner with a different normal does not override the first.
     s += "vn 1 0 0\nf 1/1/5 2/2/5 3/3/5\n";
@@ -511,7 +614,10 @@ fn assert_stl_tetra(r: &ImportReport) {
     assert_eq!(r.welded_vertices, 8);
     assert_eq!(r.mesh.normals, None);
     // Welding keeps vertices in order of first appearance: 0 2 1 3.
-    assert_eq!(r.mesh.positions, vec![TETRA_POS[0], TETRA_POS[2], TETRA_POS[1], TETRA_POS[3]]);
+    assert_eq!(
+        r.mesh.positions,
+        vec![TETRA_POS[0], TETRA_POS[2], TETRA_POS[1], TETRA_POS[3]]
+    );
     assert!((volume(&r.mesh) - 1.0 / 6.0).abs() < 1e-12);
 }
 
@@ -520,14 +626,30 @@ fn stl_ascii_and_binary() {
     let dir = tempfile::tempdir().unwrap();
     let ascii = load(&write(dir.path(), "a.stl", tetra_stl_ascii()));
     assert_stl_tetra(&ascii);
-    let binary = load(&write(dir.path(), "b.stl", tetra_stl_binary(b"binary tetra")));
+    let binary = load(&write(
+        dir.path(),
+        "b.stl",
+        tetra_stl_binary(b"binary tetra"),
+    ));
     assert_eq!(ascii, binary);
     // A binary file whose header starts with "solid" is still binary.
-    let solid = load(&write(dir.path(), "s.stl", tetra_stl_binary(b"solid but binary")));
+    let solid = load(&write(
+        dir.path(),
+        "s.stl",
+        tetra_stl_binary(b"solid but binary"),
+    ));
     assert_eq!(ascii, solid);
-    let gz_ascii = load(&write(dir.path(), "a.stl.gz", gzip(tetra_stl_ascii().as_bytes())));
+    let gz_ascii = load(&write(
+        dir.path(),
+        "a.stl.gz",
+        gzip(tetra_stl_ascii().as_bytes()),
+    ));
     assert_eq!(ascii, gz_ascii);
-    let gz_solid = load(&write(dir.path(), "s.stl.gz", gzip(&tetra_stl_binary(b"solid x"))));
+    let gz_solid = load(&write(
+        dir.path(),
+        "s.stl.gz",
+        gzip(&tetra_stl_binary(b"solid x")),
+    ));
     assert_eq!(ascii, gz_solid);
 }
 
@@ -574,13 +696,9 @@ fn tetra_gltf(uri: Option<&str>) -> (String, Vec<u8>) {
 
 fn glb(json: &str, bin: &[u8]) -> Vec<u8> {
     let mut json = json.as_bytes().to_vec();
-    while json.len() % 4 != 0 {
-        json.push(b' ');
-    }
+    json.resize(json.len().next_multiple_of(4), b' ');
     let mut bin = bin.to_vec();
-    while bin.len() % 4 != 0 {
-        bin.push(0);
-    }
+    bin.resize(bin.len().next_multiple_of(4), 0);
     let mut out = Vec::new();
     out.extend(b"glTF");
     out.extend(2u32.to_le_bytes());
@@ -604,7 +722,11 @@ fn assert_gltf_tetras(r: &ImportReport) {
     assert_eq!(m.positions[9], [-1.0, 10.0, 0.0]);
     assert_eq!(m.triangles[..4], TETRA_TRIS);
     // The mirrored copy is flipped back to counter-clockwise: all three volumes add up.
-    assert!((volume(m) - 3.0 / 6.0).abs() < 1e-12, "volume {}", volume(m));
+    assert!(
+        (volume(m) - 3.0 / 6.0).abs() < 1e-12,
+        "volume {}",
+        volume(m)
+    );
     let normals = m.normals.as_ref().unwrap();
     let s = 0.5f32.sqrt();
     assert_eq!(normals[1], [s, 0.0, s]);
@@ -632,12 +754,12 @@ fn gltf_with_external_buffer_and_glb() {
 fn weld_counts_and_keeps_first_attributes_in_order() {
     let raw = RawMesh {
         positions: vec![
-            [0.0, 0.0, 0.0], // 0
-            [9.0, 9.0, 9.0], // 1 unreferenced
-            [1.0, 0.0, 0.0], // 2
-            [0.0, 1.0, 0.0], // 3
-            [1.0, 0.0, 0.0], // 4 = 2
-            [0.0, 0.0, 1.0], // 5
+            [0.0, 0.0, 0.0],  // 0
+            [9.0, 9.0, 9.0],  // 1 unreferenced
+            [1.0, 0.0, 0.0],  // 2
+            [0.0, 1.0, 0.0],  // 3
+            [1.0, 0.0, 0.0],  // 4 = 2
+            [0.0, 0.0, 1.0],  // 5
             [0.0, -0.0, 0.0], // 6 = 0
         ],
         triangles: vec![
@@ -660,8 +782,24 @@ fn weld_counts_and_keeps_first_attributes_in_order() {
     assert_eq!(r.degenerate_triangles, 1);
     assert_eq!(r.duplicate_triangles, 3);
     assert_eq!(r.unreferenced_vertices, 1);
-    assert_eq!(r.mesh.positions, vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]);
-    assert_eq!(r.mesh.colors.unwrap(), vec![[0, 0, 0, 255], [2, 0, 0, 255], [3, 0, 0, 255], [5, 0, 0, 255]]);
+    assert_eq!(
+        r.mesh.positions,
+        vec![
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.0, 0.0, 1.0]
+        ]
+    );
+    assert_eq!(
+        r.mesh.colors.unwrap(),
+        vec![
+            [0, 0, 0, 255],
+            [2, 0, 0, 255],
+            [3, 0, 0, 255],
+            [5, 0, 0, 255]
+        ]
+    );
     assert_eq!(r.mesh.triangles, vec![[0, 1, 2], [1, 2, 3], [0, 3, 2]]);
 }
 
@@ -679,7 +817,11 @@ fn weld_many_duplicates_around_one_vertex() {
     }
     let mut all = triangles.clone();
     all.extend(triangles.iter().rev().map(|t| [t[2], t[1], t[0]]));
-    let r = weld(RawMesh { positions, triangles: all, ..Default::default() });
+    let r = weld(RawMesh {
+        positions,
+        triangles: all,
+        ..Default::default()
+    });
     assert_eq!(r.duplicate_triangles, 39);
     assert_eq!(r.mesh.triangles, triangles);
 }
@@ -701,7 +843,12 @@ fn welding_applies_to_files() {
     let s = "OFF\n6 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n1 0 0\n5 5 5\n3 0 1 2\n3 0 2 4\n3 2 1 0\n3 0 1 4\n";
     let r = load(&write(dir.path(), "w.off", s));
     assert_eq!(
-        (r.welded_vertices, r.duplicate_triangles, r.degenerate_triangles, r.unreferenced_vertices),
+        (
+            r.welded_vertices,
+            r.duplicate_triangles,
+            r.degenerate_triangles,
+            r.unreferenced_vertices
+        ),
         (1, 2, 1, 2)
     );
     assert_eq!(r.mesh.positions.len(), 3);
@@ -723,7 +870,19 @@ fn error_missing_file_and_directory() {
 fn error_unknown_extension_lists_supported() {
     let dir = tempfile::tempdir().unwrap();
     let p = write(dir.path(), "mesh.3ds", "x");
-    load_err(&p, &["unsupported file type \".3ds\"", ".ply", ".obj", ".off", ".stl", ".gltf", ".glb", ".gz"]);
+    load_err(
+        &p,
+        &[
+            "unsupported file type \".3ds\"",
+            ".ply",
+            ".obj",
+            ".off",
+            ".stl",
+            ".gltf",
+            ".glb",
+            ".gz",
+        ],
+    );
     let p = write(dir.path(), "noext", "x");
     load_err(&p, &["unsupported file type"]);
 }
@@ -732,18 +891,36 @@ fn error_unknown_extension_lists_supported() {
 fn error_malformed_headers() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    load_err(&write(d, "magic.ply", "plx\nformat ascii 1.0\nend_header\n"), &["line 1: malformed header", "'ply'"]);
-    load_err(&write(d, "empty.ply", ""), &["malformed header", "empty file"]);
     load_err(
-        &write(d, "count.ply", "ply\nformat ascii 1.0\nelement vertex lots\nend_header\n"),
+        &write(d, "magic.ply", "plx\nformat ascii 1.0\nend_header\n"),
+        &["line 1: malformed header", "'ply'"],
+    );
+    load_err(
+        &write(d, "empty.ply", ""),
+        &["malformed header", "empty file"],
+    );
+    load_err(
+        &write(
+            d,
+            "count.ply",
+            "ply\nformat ascii 1.0\nelement vertex lots\nend_header\n",
+        ),
         &["line 3: malformed header", "invalid count 'lots'"],
     );
     load_err(
-        &write(d, "noend.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n"),
+        &write(
+            d,
+            "noend.ply",
+            "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n",
+        ),
         &["malformed header", "end_header"],
     );
     load_err(
-        &write(d, "noxyz.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nend_header\n1\n"),
+        &write(
+            d,
+            "noxyz.ply",
+            "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nend_header\n1\n",
+        ),
         &["malformed header", "x, y or z"],
     );
     load_err(
@@ -755,8 +932,14 @@ fn error_malformed_headers() {
         ),
         &["malformed header", "vertex_indices"],
     );
-    load_err(&write(d, "kw.off", "OFX\n1 0 0\n"), &["line 1: malformed header", "'OFX'"]);
-    load_err(&write(d, "counts.off", "OFF\n3\n"), &["line 2: malformed header", "missing face count"]);
+    load_err(
+        &write(d, "kw.off", "OFX\n1 0 0\n"),
+        &["line 1: malformed header", "'OFX'"],
+    );
+    load_err(
+        &write(d, "counts.off", "OFF\n3\n"),
+        &["line 2: malformed header", "missing face count"],
+    );
 }
 
 #[test]
@@ -764,11 +947,19 @@ fn error_unsupported_ply_types_and_formats() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     load_err(
-        &write(d, "int64.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty int64 x\nend_header\n"),
+        &write(
+            d,
+            "int64.ply",
+            "ply\nformat ascii 1.0\nelement vertex 1\nproperty int64 x\nend_header\n",
+        ),
         &["line 4: unsupported PLY property type 'int64'"],
     );
     load_err(
-        &write(d, "fmt.ply", "ply\nformat binary_middle_endian 1.0\nend_header\n"),
+        &write(
+            d,
+            "fmt.ply",
+            "ply\nformat binary_middle_endian 1.0\nend_header\n",
+        ),
         &["line 2: unsupported PLY format 'binary_middle_endian'"],
     );
     load_err(
@@ -780,7 +971,10 @@ fn error_unsupported_ply_types_and_formats() {
         ),
         &["unsupported vertex index type 'float'"],
     );
-    load_err(&write(d, "bin.off", "OFF BINARY\n"), &["unsupported binary OFF"]);
+    load_err(
+        &write(d, "bin.off", "OFF BINARY\n"),
+        &["unsupported binary OFF"],
+    );
 }
 
 #[test]
@@ -790,22 +984,50 @@ fn error_index_out_of_range() {
     let mut elements = cube_elements();
     elements[1].rows[3][0][2] = 90210.0;
     // Line 22: 10 header lines, 8 vertex lines, then the fourth face.
-    load_err(&write(d, "idx.ply", ply("ascii", &elements)), &["line 22: vertex index 90210 out of range (8 vertices)"]);
+    load_err(
+        &write(d, "idx.ply", ply("ascii", &elements)),
+        &["line 22: vertex index 90210 out of range (8 vertices)"],
+    );
     load_err(
         &write(d, "idx_bin.ply", ply("binary_little_endian", &elements)),
         &["face 3: vertex index 90210 out of range (8 vertices)"],
     );
     elements[1].rows[3][0][2] = -1.0;
-    load_err(&write(d, "neg.ply", ply("binary_big_endian", &elements)), &["face 3: vertex index -1 out of range"]);
-    load_err(&write(d, "idx.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n"), &["line 6: vertex index 3 out of range (3 vertices)"]);
-    load_err(&write(d, "idx.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n"), &["line 4: vertex index 4 out of range (3 vertices)"]);
-    load_err(&write(d, "rel.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf -1 -2 -4\n"), &["line 4: vertex index -4 out of range"]);
-    load_err(&write(d, "zero.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n"), &["line 4: vertex index 0 is invalid"]);
-    load_err(&write(d, "vt.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/1 2/2 3/1\n"), &["line 5: texture coordinate index 2 out of range (1 defined)"]);
+    load_err(
+        &write(d, "neg.ply", ply("binary_big_endian", &elements)),
+        &["face 3: vertex index -1 out of range"],
+    );
+    load_err(
+        &write(d, "idx.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n"),
+        &["line 6: vertex index 3 out of range (3 vertices)"],
+    );
+    load_err(
+        &write(d, "idx.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n"),
+        &["line 4: vertex index 4 out of range (3 vertices)"],
+    );
+    load_err(
+        &write(d, "rel.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf -1 -2 -4\n"),
+        &["line 4: vertex index -4 out of range"],
+    );
+    load_err(
+        &write(d, "zero.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n"),
+        &["line 4: vertex index 0 is invalid"],
+    );
+    load_err(
+        &write(
+            d,
+            "vt.obj",
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/1 2/2 3/1\n",
+        ),
+        &["line 5: texture coordinate index 2 out of range (1 defined)"],
+    );
     let (json, bin) = tetra_gltf(None);
     let mut bin = bin;
     bin[96] = 9; // first index
-    load_err(&write(d, "idx.glb", glb(&json, &bin)), &["mesh 0 primitive 0: vertex index 9 out of range (4 vertices)"]);
+    load_err(
+        &write(d, "idx.glb", glb(&json, &bin)),
+        &["mesh 0 primitive 0: vertex index 9 out of range (4 vertices)"],
+    );
 }
 
 #[test]
@@ -814,14 +1036,29 @@ fn error_non_finite_coordinates() {
     let d = dir.path();
     let mut elements = cube_elements();
     elements[0].rows[2][1][0] = f64::NAN;
-    load_err(&write(d, "nan.ply", ply("ascii", &elements)), &["line 13: vertex 2 has a non-finite coordinate"]);
+    load_err(
+        &write(d, "nan.ply", ply("ascii", &elements)),
+        &["line 13: vertex 2 has a non-finite coordinate"],
+    );
     elements[0].rows[2][1][0] = f64::INFINITY;
-    load_err(&write(d, "inf.ply", ply("binary_little_endian", &elements)), &["vertex 2 has a non-finite coordinate"]);
-    load_err(&write(d, "inf.obj", "v 0 0 0\nv inf 0 0\n"), &["line 2: vertex 1 has a non-finite coordinate"]);
-    load_err(&write(d, "nan.off", "OFF\n2 0 0\n0 0 0\n0 NaN 0\n"), &["line 4: vertex 1 has a non-finite coordinate"]);
+    load_err(
+        &write(d, "inf.ply", ply("binary_little_endian", &elements)),
+        &["vertex 2 has a non-finite coordinate"],
+    );
+    load_err(
+        &write(d, "inf.obj", "v 0 0 0\nv inf 0 0\n"),
+        &["line 2: vertex 1 has a non-finite coordinate"],
+    );
+    load_err(
+        &write(d, "nan.off", "OFF\n2 0 0\n0 0 0\n0 NaN 0\n"),
+        &["line 4: vertex 1 has a non-finite coordinate"],
+    );
     let mut stl = tetra_stl_binary(b"");
     stl[84 + 50 + 12..84 + 50 + 16].copy_from_slice(&f32::NAN.to_le_bytes());
-    load_err(&write(d, "nan.stl", stl), &["triangle 1: vertex 3 has a non-finite coordinate"]);
+    load_err(
+        &write(d, "nan.stl", stl),
+        &["triangle 1: vertex 3 has a non-finite coordinate"],
+    );
 }
 
 #[test]
@@ -830,19 +1067,49 @@ fn error_truncated_text() {
     let d = dir.path();
     let text = String::from_utf8(cube_ply("ascii")).unwrap();
     let cut = text.lines().take(23).collect::<Vec<_>>().join("\n");
-    load_err(&write(d, "cut.ply", &cut), &["data truncated: expected 6 faces, file ends after 5"]);
+    load_err(
+        &write(d, "cut.ply", &cut),
+        &["data truncated: expected 6 faces, file ends after 5"],
+    );
     let cut_mid = &text[..text.len() - 4];
-    load_err(&write(d, "mid.ply", cut_mid), &["data truncated: expected 6 faces, file ends after 5"]);
+    load_err(
+        &write(d, "mid.ply", cut_mid),
+        &["data truncated: expected 6 faces, file ends after 5"],
+    );
     let cut_vertices = text.lines().take(14).collect::<Vec<_>>().join("\n");
-    load_err(&write(d, "cutv.ply", cut_vertices), &["data truncated: expected 8 vertices, file ends after 4"]);
-    load_err(&write(d, "missing.ply", text.replacen("1 1 0\n", "1 1\n", 1)), &["line 13: missing value for property 'z'"]);
-    load_err(&write(d, "extra.ply", text.replacen("1 1 0\n", "1 1 0 0\n", 1)), &["line 13: too many values for one vertex"]);
-    load_err(&write(d, "cut.off", &cube_off()[..200]), &["data truncated: expected 6 faces, file ends after"]);
-    load_err(&write(d, "cutv.off", "OFF\n4 1 0\n0 0 0\n"), &["data truncated: expected 4 vertices, file ends after 1"]);
+    load_err(
+        &write(d, "cutv.ply", cut_vertices),
+        &["data truncated: expected 8 vertices, file ends after 4"],
+    );
+    load_err(
+        &write(d, "missing.ply", text.replacen("1 1 0\n", "1 1\n", 1)),
+        &["line 13: missing value for property 'z'"],
+    );
+    load_err(
+        &write(d, "extra.ply", text.replacen("1 1 0\n", "1 1 0 0\n", 1)),
+        &["line 13: too many values for one vertex"],
+    );
+    load_err(
+        &write(d, "cut.off", &cube_off()[..200]),
+        &["data truncated: expected 6 faces, file ends after"],
+    );
+    load_err(
+        &write(d, "cutv.off", "OFF\n4 1 0\n0 0 0\n"),
+        &["data truncated: expected 4 vertices, file ends after 1"],
+    );
     let stl = tetra_stl_ascii();
-    load_err(&write(d, "cut.stl", &stl[..stl.len() - 60]), &["ASCII STL truncated"]);
-    load_err(&write(d, "bad.stl", stl.replacen("outer loop", "outer lop", 1)), &["line 3: expected 'loop', found 'lop'"]);
-    load_err(&write(d, "bad.obj", "v 0 0 zero\n"), &["line 1: invalid number 'zero'"]);
+    load_err(
+        &write(d, "cut.stl", &stl[..stl.len() - 60]),
+        &["ASCII STL truncated"],
+    );
+    load_err(
+        &write(d, "bad.stl", stl.replacen("outer loop", "outer lop", 1)),
+        &["line 3: expected 'loop', found 'lop'"],
+    );
+    load_err(
+        &write(d, "bad.obj", "v 0 0 zero\n"),
+        &["line 1: invalid number 'zero'"],
+    );
 }
 
 #[test]
@@ -850,7 +1117,11 @@ fn error_truncated_binary() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let bytes = cube_ply("binary_little_endian");
-    let header_len = bytes.windows(11).position(|w| w == b"end_header\n").unwrap() + 11;
+    let header_len = bytes
+        .windows(11)
+        .position(|w| w == b"end_header\n")
+        .unwrap()
+        + 11;
     // Uncompressed, the file size bounds the counts before anything is read...
     load_err(
         &write(d, "short.ply", &bytes[..header_len + 50]),
@@ -858,7 +1129,10 @@ fn error_truncated_binary() {
            follow the header"],
     );
     // ... and a file that passes that check still ends early.
-    load_err(&write(d, "cut.ply", &bytes[..bytes.len() - 10]), &["binary data truncated: expected 6 faces, file ends after 5"]);
+    load_err(
+        &write(d, "cut.ply", &bytes[..bytes.len() - 10]),
+        &["binary data truncated: expected 6 faces, file ends after 5"],
+    );
     // Compressed, the size is unknown up front: the reader finds the end.
     load_err(
         &write(d, "cut.ply.gz", gzip(&bytes[..header_len + 12 * 3 + 5])),
@@ -873,8 +1147,14 @@ fn error_truncated_binary() {
         &write(d, "cut.stl", &stl[..stl.len() - 1]),
         &["binary data truncated: header declares 4 triangles (284 bytes), but the file has only 283 bytes"],
     );
-    load_err(&write(d, "cut.stl.gz", gzip(&stl[..150])), &["binary data truncated: expected 4 triangles, file ends after 1"]);
-    load_err(&write(d, "tiny.stl", [0u8; 20]), &["shorter than the 84-byte header"]);
+    load_err(
+        &write(d, "cut.stl.gz", gzip(&stl[..150])),
+        &["binary data truncated: expected 4 triangles, file ends after 1"],
+    );
+    load_err(
+        &write(d, "tiny.stl", [0u8; 20]),
+        &["shorter than the 84-byte header"],
+    );
 }
 
 #[test]
@@ -883,7 +1163,10 @@ fn error_empty_mesh() {
     let d = dir.path();
     let mut elements = cube_elements();
     elements[1].rows.clear();
-    load_err(&write(d, "nofaces.ply", ply("ascii", &elements)), &["empty mesh", "0 raw triangles"]);
+    load_err(
+        &write(d, "nofaces.ply", ply("ascii", &elements)),
+        &["empty mesh", "0 raw triangles"],
+    );
     load_err(
         &write(d, "points.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nend_header\n0 0 0\n"),
         &["empty mesh"],
@@ -892,7 +1175,10 @@ fn error_empty_mesh() {
         &write(d, "degenerate.off", "OFF\n3 2 0\n0 0 0\n1 0 0\n1 0 0\n3 0 1 2\n3 2 1 0\n"),
         &["empty mesh: no triangles left after cleaning (2 raw triangles, 2 degenerate, 0 duplicate)"],
     );
-    load_err(&write(d, "empty.stl", "solid empty\nendsolid empty\n"), &["empty mesh"]);
+    load_err(
+        &write(d, "empty.stl", "solid empty\nendsolid empty\n"),
+        &["empty mesh"],
+    );
     load_err(&write(d, "empty.obj", "# nothing\n"), &["empty mesh"]);
 }
 
@@ -908,43 +1194,94 @@ fn error_absurd_counts_fail_fast() {
     };
     let start = std::time::Instant::now();
     // More vertices than 32-bit ids allow.
-    load_err(&write(d, "huge.ply", header("binary_little_endian", 1_000_000_000_000, 1)), &["too large", "1000000000000 vertices"]);
+    load_err(
+        &write(
+            d,
+            "huge.ply",
+            header("binary_little_endian", 1_000_000_000_000, 1),
+        ),
+        &["too large", "1000000000000 vertices"],
+    );
     // Bounded by the file size.
     load_err(
-        &write(d, "many.ply", header("binary_little_endian", 8, 1_000_000_000_000)),
+        &write(
+            d,
+            "many.ply",
+            header("binary_little_endian", 8, 1_000_000_000_000),
+        ),
         &["binary data truncated: header declares 8 vertices, 1000000000000 faces"],
     );
-    load_err(&write(d, "many_v.ply", header("binary_big_endian", 4_000_000_000, 0)), &["binary data truncated"]);
+    load_err(
+        &write(
+            d,
+            "many_v.ply",
+            header("binary_big_endian", 4_000_000_000, 0),
+        ),
+        &["binary data truncated"],
+    );
     // Unbounded (ASCII, compressed): capped pre-allocation, then the end of the data.
     let mut text = header("ascii", 4_000_000_000, 1_000_000_000_000);
     text += "0 0 0\n";
-    load_err(&write(d, "many.ply.gz", gzip(text.as_bytes())), &["data truncated: expected 4000000000 vertices, file ends after 1"]);
-    load_err(&write(d, "many_ascii.ply", &text), &["data truncated: expected 4000000000 vertices, file ends after 1"]);
+    load_err(
+        &write(d, "many.ply.gz", gzip(text.as_bytes())),
+        &["data truncated: expected 4000000000 vertices, file ends after 1"],
+    );
+    load_err(
+        &write(d, "many_ascii.ply", &text),
+        &["data truncated: expected 4000000000 vertices, file ends after 1"],
+    );
     let mut bin = header("binary_little_endian", 4_000_000_000, 1).into_bytes();
     bin.extend([0u8; 12]);
-    load_err(&write(d, "many_bin.ply.gz", gzip(&bin)), &["binary data truncated: expected 4000000000 vertices, file ends after 1"]);
-    load_err(&write(d, "many.off", "OFF\n4000000000 4000000000 0\n0 0 0\n"), &["data truncated: expected 4000000000 vertices"]);
-    load_err(&write(d, "huge.off", "OFF\n5000000000 1 0\n"), &["too large", "5000000000 vertices"]);
+    load_err(
+        &write(d, "many_bin.ply.gz", gzip(&bin)),
+        &["binary data truncated: expected 4000000000 vertices, file ends after 1"],
+    );
+    load_err(
+        &write(d, "many.off", "OFF\n4000000000 4000000000 0\n0 0 0\n"),
+        &["data truncated: expected 4000000000 vertices"],
+    );
+    load_err(
+        &write(d, "huge.off", "OFF\n5000000000 1 0\n"),
+        &["too large", "5000000000 vertices"],
+    );
     let mut stl = vec![0u8; 80];
     stl.extend(u32::MAX.to_le_bytes());
-    load_err(&write(d, "many.stl", &stl), &["binary data truncated: header declares 4294967295 triangles"]);
-    load_err(&write(d, "huge.stl.gz", gzip(&stl)), &["too large", "4294967295 triangles"]);
+    load_err(
+        &write(d, "many.stl", &stl),
+        &["binary data truncated: header declares 4294967295 triangles"],
+    );
+    load_err(
+        &write(d, "huge.stl.gz", gzip(&stl)),
+        &["too large", "4294967295 triangles"],
+    );
     stl[80..84].copy_from_slice(&1_000_000_000u32.to_le_bytes());
-    load_err(&write(d, "many.stl.gz", gzip(&stl)), &["binary data truncated: expected 1000000000 triangles, file ends after 0"]);
+    load_err(
+        &write(d, "many.stl.gz", gzip(&stl)),
+        &["binary data truncated: expected 1000000000 triangles, file ends after 0"],
+    );
     let elapsed = start.elapsed();
-    assert!(elapsed.as_secs_f64() < 20.0, "absurd counts took {elapsed:?}");
+    assert!(
+        elapsed.as_secs_f64() < 20.0,
+        "absurd counts took {elapsed:?}"
+    );
 }
 
 #[test]
 fn error_bad_gzip_stream() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    load_err(&write(d, "plain.ply.gz", cube_ply("ascii")), &["bad gzip stream"]);
+    load_err(
+        &write(d, "plain.ply.gz", cube_ply("ascii")),
+        &["bad gzip stream"],
+    );
     let gz = gzip(&cube_ply("ascii"));
     let mut corrupt = gz.clone();
     corrupt[10] = 0xff; // first deflate block: reserved block type
     load_err(&write(d, "corrupt.ply.gz", corrupt), &["bad gzip stream"]);
-    load_err(&write(d, "cut.ply.gz", &gz[..gz.len() / 2]), &["bad gzip stream"]);
+    load_err(
+        &write(d, "cut.ply.gz", &gz[..gz.len() / 2]),
+        &["bad gzip stream"],
+    );
 }
 
 #[test]
@@ -953,13 +1290,28 @@ fn error_gltf_invalid() {
     let d = dir.path();
     load_err(&write(d, "bad.gltf", "{ not json"), &["glTF:"]);
     let (json, _) = tetra_gltf(Some("missing.bin"));
-    load_err(&write(d, "nobin.gltf", json), &["glTF: cannot load buffers"]);
+    load_err(
+        &write(d, "nobin.gltf", json),
+        &["glTF: cannot load buffers"],
+    );
 }
 
 #[test]
 fn error_kind_is_matchable() {
     let dir = tempfile::tempdir().unwrap();
-    let err = load_mesh(&write(dir.path(), "e.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n")).unwrap_err();
-    assert!(matches!(err.kind, ImportErrorKind::IndexOutOfRange { index: 7, count: 3, .. }));
+    let err = load_mesh(&write(
+        dir.path(),
+        "e.off",
+        "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n",
+    ))
+    .unwrap_err();
+    assert!(matches!(
+        err.kind,
+        ImportErrorKind::IndexOutOfRange {
+            index: 7,
+            count: 3,
+            ..
+        }
+    ));
     assert_eq!(err.path, dir.path().join("e.off"));
 }

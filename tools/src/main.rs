@@ -4,6 +4,7 @@
 //! Exit codes: 0 success; 1 a check found problems; 2 bad usage or bad input (a clear message
 //! on stderr, no output file left behind).
 
+mod cmd_bench;
 mod cmd_build;
 mod cmd_check;
 mod cmd_demo;
@@ -33,6 +34,8 @@ enum Command {
     Info(cmd_info::InfoArgs),
     /// Check the cuts of a repository for cracks, non-manifold edges and monotonicity.
     Check(cmd_check::CheckArgs),
+    /// Benchmarks with their peers measured in the same run.
+    Bench(cmd_bench::BenchArgs),
     /// Generate a procedural 1.3 M-triangle mesh, build it, check it, print a summary.
     Demo(cmd_demo::DemoArgs),
 }
@@ -50,6 +53,7 @@ fn main() -> ExitCode {
         Command::Info(args) => cmd_info::run(args),
         Command::Check(args) => cmd_check::run(args),
         Command::Demo(args) => cmd_demo::run(args),
+        Command::Bench(args) => cmd_bench::run(args),
     };
     match result {
         Ok(Outcome::Ok) => ExitCode::SUCCESS,

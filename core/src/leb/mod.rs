@@ -9,4 +9,4 @@ pub mod simplex;
 pub use conforming::ConformingMesh;
 pub use diamond::{Diamond, DiamondId};
 pub use predicates::LatticePoint;
-pub use simplex::{Simplex, SimplexKey};
+pub use simplex::{Bisector, Simplex, SimplexKey};

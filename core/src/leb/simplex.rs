@@ -20,6 +20,33 @@ use super::predicates::{
     orient2d_exact, orient2d_point, orient3d_exact, orient3d_point, LatticePoint,
 };
 
+/// The plane that splits a simplex into its two children.
+#[derive(Clone, Copy, Debug)]
+pub struct Bisector {
+    dim: u8,
+    z: LatticePoint,
+    others: [LatticePoint; 2],
+    /// Side of x0 (child 0's own vertex).
+    side_x0: i32,
+}
+
+impl Bisector {
+    /// 0 or 1: the child holding `q`, exactly; points on the plane go to child 0.
+    #[inline]
+    pub fn child_index_of(&self, q: [f64; 3]) -> usize {
+        let side = if self.dim == 3 {
+            orient3d_point(self.z, self.others[0], self.others[1], q)
+        } else {
+            orient2d_point(self.z, self.others[0], q)
+        };
+        if side == 0 || side == self.side_x0 {
+            0
+        } else {
+            1
+        }
+    }
+}
+
 /// Identity of a simplex inside the hierarchy: its root and the child choices from that root.
 /// Bit `i` of `path` is the child taken at level `i + 1`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -192,30 +219,32 @@ impl Simplex {
 
     /// Which child holds `q`: side of the bisecting plane (through z and every vertex but x0 and
     /// xk). Points on the plane go to child 0 — the fixed tie rule that makes point location
-    /// return exactly one leaf.
+    /// return exactly one leaf. To classify many points, use `bisector()` once.
     pub fn child_index_of(&self, q: [f64; 3]) -> usize {
+        self.bisector().child_index_of(q)
+    }
+
+    /// The bisecting plane, prepared for classifying many points.
+    pub fn bisector(&self) -> Bisector {
         let z = self.split_point();
         let k = self.tag as usize;
         let x = &self.vertices;
-        let others: Vec<LatticePoint> = (1..=self.dim as usize)
-            .filter(|&i| i != k)
-            .map(|i| x[i])
-            .collect();
-        let (side_q, side_x0) = if self.dim == 3 {
-            (
-                orient3d_point(z, others[0], others[1], q),
-                orient3d_exact(z, others[0], others[1], x[0]),
-            )
+        let mut others = [[0; 3]; 2];
+        let mut m = 0;
+        for i in (1..=self.dim as usize).filter(|&i| i != k) {
+            others[m] = x[i];
+            m += 1;
+        }
+        let side_x0 = if self.dim == 3 {
+            orient3d_exact(z, others[0], others[1], x[0])
         } else {
-            (
-                orient2d_point(z, others[0], q),
-                orient2d_exact(z, others[0], x[0]),
-            )
+            orient2d_exact(z, others[0], x[0])
         };
-        if side_q == 0 || side_q == side_x0 {
-            0
-        } else {
-            1
+        Bisector {
+            dim: self.dim,
+            z,
+            others,
+            side_x0,
         }
     }
 

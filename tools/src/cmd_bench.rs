@@ -1,0 +1,289 @@
+//! `tessera bench build INPUT`: the build benchmark with its peer measured in the same run.
+//!
+//! Times our build (hierarchy, diamond simplification, saturation, strips, file) and
+//! meshoptimizer's `clod_build` (128-triangle clusters, the clusterlod DAG builder) on the same
+//! welded mesh, and reports throughput, their ratio, peak RSS, repository bytes against the
+//! binary PLY of the same mesh, and triangles per patch. `--sweep` repeats our build over leaf
+//! sizes and adds what each costs at run time: the mean cut size at τ = 1 px over the check views.
+
+use std::io::Write;
+use std::path::PathBuf;
+use std::time::Instant;
+
+use clap::{Args, Subcommand};
+use serde_json::json;
+use tessera_core::cut::{diamond_rhos, select_stateless};
+use tessera_core::metric::{eye_local, ScreenSpaceMetric};
+use tessera_core::repository::reader::Repository;
+use tessera_preprocess::import::load_mesh;
+use tessera_preprocess::{build_repository, BuildConfig, Construction, InputMesh};
+use tessera_runtime::views::check_views;
+
+use crate::Outcome;
+
+#[derive(Args)]
+pub struct BenchArgs {
+    #[command(subcommand)]
+    pub what: BenchWhat,
+}
+
+#[derive(Subcommand)]
+pub enum BenchWhat {
+    /// Build throughput against meshopt's clod_build, repository size, peak memory.
+    Build(BuildBenchArgs),
+}
+
+#[derive(Args)]
+pub struct BuildBenchArgs {
+    /// Input mesh.
+    pub input: PathBuf,
+    /// Worker threads for our build (clod_build is single-threaded).
+    #[arg(long, default_value_t = 2)]
+    pub threads: usize,
+    /// Leaf size of our build.
+    #[arg(long)]
+    pub leaf_triangles: Option<usize>,
+    /// Also build with each of these leaf sizes and report the run-time trade.
+    #[arg(long, value_delimiter = ',')]
+    pub sweep: Vec<usize>,
+    /// Print one JSON object on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+pub fn run(args: BenchArgs) -> anyhow::Result<Outcome> {
+    match args.what {
+        BenchWhat::Build(a) => bench_build(a),
+    }
+}
+
+fn bench_build(args: BuildBenchArgs) -> anyhow::Result<Outcome> {
+    let t = Instant::now();
+    let mesh = load_mesh(&args.input)?.mesh;
+    let import_seconds = t.elapsed().as_secs_f64();
+    let dir = tempfile::tempdir()?;
+    let ply_bytes = write_binary_ply(&mesh, &dir.path().join("mesh.ply"))?;
+    let triangles = mesh.triangles.len() as f64;
+
+    // Ours, first, so that the peak RSS read right after it is ours alone.
+    let leaf = args
+        .leaf_triangles
+        .unwrap_or(tessera_preprocess::build::DEFAULT_LEAF_TRIANGLES);
+    let ours = build_once(&mesh, leaf, args.threads, &dir.path().join("ours.tsr"))?;
+    let peak_rss_bytes = peak_rss_bytes();
+
+    // The peer: clod_build with 128-triangle clusters on the same positions and indices.
+    let t = Instant::now();
+    let (clusters, groups) = clod_build_count(&mesh);
+    let clod_seconds = t.elapsed().as_secs_f64();
+
+    let mut sweep = Vec::new();
+    for &n in &args.sweep {
+        let r = build_once(
+            &mesh,
+            n,
+            args.threads,
+            &dir.path().join(format!("sweep{n}.tsr")),
+        )?;
+        sweep.push(r);
+    }
+
+    let ours_mtps = triangles / ours.seconds / 1e6;
+    let clod_mtps = triangles / clod_seconds / 1e6;
+    let value = json!({
+        "input": args.input.display().to_string(),
+        "input_triangles": mesh.triangles.len(),
+        "import_seconds": import_seconds,
+        "threads": args.threads,
+        "ours": ours.to_json(),
+        "ours_mtris_per_second": ours_mtps,
+        "peak_rss_bytes": peak_rss_bytes,
+        "binary_ply_bytes": ply_bytes,
+        "repository_over_ply": ours.repository_bytes as f64 / ply_bytes as f64,
+        "clod_build": {"seconds": clod_seconds, "clusters": clusters, "groups": groups, "mtris_per_second": clod_mtps},
+        "throughput_ratio_ours_over_clod": ours_mtps / clod_mtps,
+        "sweep": sweep.iter().map(BuildRun::to_json).collect::<Vec<_>>(),
+    });
+    if args.json {
+        println!("{value}");
+    } else {
+        println!(
+            "input: {} ({} triangles), import {import_seconds:.2} s",
+            args.input.display(),
+            mesh.triangles.len()
+        );
+        println!(
+            "ours ({} threads, leaf {leaf}): {:.2} s = {ours_mtps:.3} M tri/s; peak RSS {:.0} MiB",
+            args.threads,
+            ours.seconds,
+            peak_rss_bytes as f64 / (1 << 20) as f64
+        );
+        println!(
+            "clod_build (128-tri clusters, 1 thread): {clod_seconds:.2} s = {clod_mtps:.3} M tri/s ({clusters} clusters, {groups} groups)"
+        );
+        println!(
+            "throughput ratio ours / clod_build: {:.2}",
+            ours_mtps / clod_mtps
+        );
+        println!(
+            "repository {} bytes / binary PLY {} bytes = {:.3}",
+            ours.repository_bytes,
+            ply_bytes,
+            ours.repository_bytes as f64 / ply_bytes as f64
+        );
+        println!(
+            "mean triangles per patch: {:.1}",
+            ours.mean_triangles_per_patch
+        );
+        if !sweep.is_empty() {
+            println!("leaf  seconds  bytes/ply  tris/patch  depth  root_err   cut@1px tris  cut@1px patches");
+            for r in &sweep {
+                println!(
+                    "{:5} {:8.2} {:10.3} {:11.1} {:6} {:9.2e} {:13.0} {:16.0}",
+                    r.leaf,
+                    r.seconds,
+                    r.repository_bytes as f64 / ply_bytes as f64,
+                    r.mean_triangles_per_patch,
+                    r.depth,
+                    r.root_error,
+                    r.cut_triangles,
+                    r.cut_patches
+                );
+            }
+        }
+    }
+    Ok(Outcome::Ok)
+}
+
+struct BuildRun {
+    leaf: usize,
+    seconds: f64,
+    repository_bytes: u64,
+    mean_triangles_per_patch: f64,
+    depth: u16,
+    root_error: f64,
+    /// Mean over the check views of the τ = 1 px cut.
+    cut_triangles: f64,
+    cut_patches: f64,
+}
+
+impl BuildRun {
+    fn to_json(&self) -> serde_json::Value {
+        json!({
+            "leaf_triangles": self.leaf,
+            "seconds": self.seconds,
+            "repository_bytes": self.repository_bytes,
+            "mean_triangles_per_patch": self.mean_triangles_per_patch,
+            "depth": self.depth,
+            "root_error": self.root_error,
+            "cut_1px_triangles": self.cut_triangles,
+            "cut_1px_patches": self.cut_patches,
+        })
+    }
+}
+
+fn build_once(
+    mesh: &InputMesh,
+    leaf: usize,
+    threads: usize,
+    path: &std::path::Path,
+) -> anyhow::Result<BuildRun> {
+    let config = BuildConfig {
+        construction: Construction::LeafTriangles(leaf),
+        threads: Some(threads),
+        ..Default::default()
+    };
+    let t = Instant::now();
+    let s = build_repository(mesh, &config, path, &|_| {})?;
+    let seconds = t.elapsed().as_secs_f64();
+    let repo = Repository::open(path)?;
+    let h = repo.header();
+    let size = (0..3)
+        .map(|i| (h.bbox_max[i] - h.bbox_min[i]).powi(2))
+        .sum::<f64>()
+        .sqrt();
+    let metric = ScreenSpaceMetric::new(1080, 60.0, size * 1e-4);
+    let views = check_views(h.bbox_min, h.bbox_max, 64);
+    let (mut tris, mut patches) = (0usize, 0usize);
+    for eye in &views {
+        let rhos = diamond_rhos(repo.diamonds(), eye_local(*eye, h.origin), &metric);
+        let cut = select_stateless(repo.tets(), &rhos, 1.0);
+        patches += cut
+            .iter()
+            .filter(|&&i| repo.tets()[i as usize].triangle_count > 0)
+            .count();
+        tris += cut
+            .iter()
+            .map(|&i| repo.tets()[i as usize].triangle_count as usize)
+            .sum::<usize>();
+    }
+    Ok(BuildRun {
+        leaf,
+        seconds,
+        repository_bytes: s.repository_bytes,
+        mean_triangles_per_patch: s.patch_triangles as f64 / s.tetrahedra.max(1) as f64,
+        depth: s.depth,
+        root_error: s.root_error,
+        cut_triangles: tris as f64 / views.len() as f64,
+        cut_patches: patches as f64 / views.len() as f64,
+    })
+}
+
+/// Runs meshopt's clusterlod builder and counts what it produced.
+fn clod_build_count(mesh: &InputMesh) -> (usize, usize) {
+    let centre = mesh.positions[0];
+    let positions: Vec<[f32; 3]> = mesh
+        .positions
+        .iter()
+        .map(|p| [0, 1, 2].map(|i| (p[i] - centre[i]) as f32))
+        .collect();
+    let indices: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
+    let bytes: &[u8] = bytemuck::cast_slice(&positions);
+    let adapter = meshopt::VertexDataAdapter::new(bytes, 12, 0).expect("packed positions");
+    let clod_mesh = meshopt::ClodMesh::new(&indices, &adapter);
+    let config = meshopt::clod_default_config(128);
+    let (mut clusters, mut groups) = (0usize, 0usize);
+    meshopt::clod_build(config, &clod_mesh, |_group, cs| {
+        groups += 1;
+        clusters += cs.len();
+        groups as i32
+    });
+    (clusters, groups)
+}
+
+/// Writes the mesh as a binary little-endian PLY (float xyz, uchar/int faces) and returns its size.
+fn write_binary_ply(mesh: &InputMesh, path: &std::path::Path) -> anyhow::Result<u64> {
+    let mut w = std::io::BufWriter::new(std::fs::File::create(path)?);
+    write!(
+        w,
+        "ply\nformat binary_little_endian 1.0\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\nelement face {}\nproperty list uchar int vertex_indices\nend_header\n",
+        mesh.positions.len(),
+        mesh.triangles.len()
+    )?;
+    for p in &mesh.positions {
+        for x in p {
+            w.write_all(&(*x as f32).to_le_bytes())?;
+        }
+    }
+    for t in &mesh.triangles {
+        w.write_all(&[3u8])?;
+        for v in t {
+            w.write_all(&(*v as i32).to_le_bytes())?;
+        }
+    }
+    w.flush()?;
+    drop(w);
+    Ok(std::fs::metadata(path)?.len())
+}
+
+/// Peak resident set size of this process so far (Linux; 0 elsewhere).
+fn peak_rss_bytes() -> u64 {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("VmHWM:"))
+                .and_then(|l| l.split_whitespace().nth(1)?.parse::<u64>().ok())
+        })
+        .map_or(0, |kb| kb * 1024)
+}
