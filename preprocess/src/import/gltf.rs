@@ -50,7 +50,7 @@ fn err(at: Location, msg: impl Into<String>) -> K {
 }
 
 struct Builder<'a> {
-    buffers: &'a [::gltf::buffer::Data],
+    buffers: &'a [Vec<u8>],
     mesh: RawMesh,
     normals: Vec<[f32; 3]>,
     colors: Vec<[u8; 4]>,
@@ -76,7 +76,7 @@ pub(crate) fn read(bytes: &[u8], base: Option<&Path>) -> Result<RawMesh, K> {
         Some(b) if !b.as_os_str().is_empty() => b,
         _ => Path::new("."),
     };
-    let buffers = ::gltf::import_buffers(&document, Some(base), blob)
+    let buffers = load_buffers(&document, base, blob)
         .map_err(|e| err(Location::None, format!("cannot load buffers: {e}")))?;
     let mut b = Builder {
         buffers: &buffers,
@@ -149,7 +149,7 @@ impl Builder<'_> {
                 continue;
             }
             let buffers = self.buffers;
-            let reader = prim.reader(|buf| buffers.get(buf.index()).map(|d| &d.0[..]));
+            let reader = prim.reader(|buf| buffers.get(buf.index()).map(|d| &d[..]));
             let Some(positions) = reader.read_positions() else {
                 return Err(err(at(), "no readable POSITION data"));
             };
@@ -237,4 +237,65 @@ impl Builder<'_> {
         }
         Ok(())
     }
+}
+
+/// The bytes of every buffer: the GLB binary chunk, a `data:` URI (base64), or a file next to
+/// the glTF. (gltf's own `import_buffers` would pull in an image decoder we do not need.)
+fn load_buffers(
+    document: &::gltf::Document,
+    base: &Path,
+    blob: Option<Vec<u8>>,
+) -> Result<Vec<Vec<u8>>, String> {
+    use base64::Engine as _;
+    let mut blob = blob;
+    let mut out = Vec::new();
+    for buffer in document.buffers() {
+        let mut data = match buffer.source() {
+            ::gltf::buffer::Source::Bin => blob.take().ok_or("the GLB has no binary chunk")?,
+            ::gltf::buffer::Source::Uri(uri) => {
+                if let Some(rest) = uri.strip_prefix("data:") {
+                    let (_, payload) = rest.split_once(";base64,").ok_or_else(|| {
+                        format!("unsupported data URI for buffer {}", buffer.index())
+                    })?;
+                    base64::engine::general_purpose::STANDARD
+                        .decode(payload)
+                        .map_err(|e| format!("buffer {}: bad base64: {e}", buffer.index()))?
+                } else {
+                    let path = base.join(percent_decode(uri));
+                    std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display()))?
+                }
+            }
+        };
+        if data.len() < buffer.length() {
+            return Err(format!(
+                "buffer {} holds {} bytes, the glTF says {}",
+                buffer.index(),
+                data.len(),
+                buffer.length()
+            ));
+        }
+        // GLB chunks are padded to 4 bytes.
+        data.truncate(buffer.length());
+        out.push(data);
+    }
+    Ok(out)
+}
+
+/// Decodes %XX escapes in a relative URI.
+fn percent_decode(uri: &str) -> String {
+    let bytes = uri.as_bytes();
+    let mut out = Vec::with_capacity(bytes.len());
+    let mut i = 0;
+    while i < bytes.len() {
+        if bytes[i] == b'%' && i + 2 < bytes.len() {
+            if let Ok(v) = u8::from_str_radix(&uri[i + 1..i + 3], 16) {
+                out.push(v);
+                i += 3;
+                continue;
+            }
+        }
+        out.push(bytes[i]);
+        i += 1;
+    }
+    String::from_utf8_lossy(&out).into_owned()
 }
