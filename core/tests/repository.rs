@@ -263,10 +263,7 @@ fn big_patch_uses_u32_indices() {
     assert_eq!(strip.len(), 70_006);
     assert_eq!(strip[70_000], u32::MAX);
     assert_eq!(view.strip_index(69_999), Some(69_999));
-    assert_eq!(
-        view.position(69_999),
-        [69_999, 69_999 * 7 + 9, 9]
-    );
+    assert_eq!(view.position(69_999), [69_999, 69_999 * 7 + 9, 9]);
     assert_eq!(
         view.triangles().count(),
         unstripify(&patches[9].strip).len()
