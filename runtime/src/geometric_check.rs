@@ -147,8 +147,9 @@ pub fn check_cuts(
             };
             for (i, d) in diamonds.iter().enumerate() {
                 for &p in &d.parents[..d.parent_count as usize] {
-                    // `!(>=)` also counts NaN as a violation.
-                    if !(rhos[p as usize] >= rhos[i]) {
+                    // Anything but "parent ≥ child" counts, NaN included.
+                    let ordered = rhos[p as usize].partial_cmp(&rhos[i]);
+                    if !matches!(ordered, Some(std::cmp::Ordering::Greater | std::cmp::Ordering::Equal)) {
                         r.monotonicity_violations += 1;
                     }
                 }

@@ -230,10 +230,8 @@ impl Simplex {
         let k = self.tag as usize;
         let x = &self.vertices;
         let mut others = [[0; 3]; 2];
-        let mut m = 0;
-        for i in (1..=self.dim as usize).filter(|&i| i != k) {
+        for (m, i) in (1..=self.dim as usize).filter(|&i| i != k).enumerate() {
             others[m] = x[i];
-            m += 1;
         }
         let side_x0 = if self.dim == 3 {
             orient3d_exact(z, others[0], others[1], x[0])
