@@ -15,7 +15,15 @@ fn main() {
             }
             if seen.insert(s.split_point()) {
                 let d = Diamond::find(dim, bits, s.split_point()).unwrap();
-                *hist.entry((d.level, d.is_interior(bits), d.simplices.len(), d.parents.len(), d.children.len())).or_default() += 1;
+                *hist
+                    .entry((
+                        d.level,
+                        d.is_interior(bits),
+                        d.simplices.len(),
+                        d.parents.len(),
+                        d.children.len(),
+                    ))
+                    .or_default() += 1;
             }
             stack.extend(s.children());
         }

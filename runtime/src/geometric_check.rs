@@ -149,7 +149,10 @@ pub fn check_cuts(
                 for &p in &d.parents[..d.parent_count as usize] {
                     // Anything but "parent ≥ child" counts, NaN included.
                     let ordered = rhos[p as usize].partial_cmp(&rhos[i]);
-                    if !matches!(ordered, Some(std::cmp::Ordering::Greater | std::cmp::Ordering::Equal)) {
+                    if !matches!(
+                        ordered,
+                        Some(std::cmp::Ordering::Greater | std::cmp::Ordering::Equal)
+                    ) {
                         r.monotonicity_violations += 1;
                     }
                 }
