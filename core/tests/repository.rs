@@ -5,12 +5,12 @@ use std::path::Path;
 
 use proptest::prelude::*;
 use tessera_core::repository::format::{
-    compute_checksum, oct_encode_normal, pack_position, DiamondRecord, Header, TetRecord, ATTR_ALL,
-    ATTR_COLORS, ATTR_NORMALS, ATTR_UVS, CHECKSUM_OFFSET, FORMAT_VERSION, HEADER_SIZE, NO_INDEX,
+    compute_checksum, oct_encode_normal, DiamondRecord, Header, TetRecord, ATTR_ALL, ATTR_COLORS,
+    ATTR_NORMALS, ATTR_UVS, CHECKSUM_OFFSET, FORMAT_VERSION, HEADER_SIZE, NO_INDEX, POSITION_MAX,
     TET_RECORD_SIZE,
 };
 use tessera_core::repository::patch::{
-    encode_patch, patch_bytes_bound, PatchData, StripIndices, STRIP_RESTART,
+    encode_patch, patch_bytes_bound, PatchData, PositionEncoding, StripIndices, STRIP_RESTART,
 };
 use tessera_core::repository::{
     write_repository, write_repository_file, Repository, RepositoryContents, RepositoryError,
@@ -38,8 +38,11 @@ fn unstripify(indices: &[u32]) -> Vec<[u32; 3]> {
     out
 }
 
-/// A patch of `n` vertices: one long strip, a restart, and a short strip.
+/// A patch of `n` vertices: one long strip, a restart, and a short strip. Positions fit u16
+/// offsets (y spans 7 (n − 1) grid steps) unless n > 9,363 or seed is 7 (y spans 100,000 steps
+/// per vertex): those patches store packed absolute positions.
 fn patch(n: u32, seed: u32, attributes: u32) -> PatchData {
+    let spread = if seed == 7 { 100_000 } else { 7 };
     let strip: Vec<u32> = if n < 3 {
         Vec::new()
     } else {
@@ -48,7 +51,7 @@ fn patch(n: u32, seed: u32, attributes: u32) -> PatchData {
     PatchData {
         global_ids: (0..n).map(|i| seed * 100_000 + i).collect(),
         positions: (0..n)
-            .map(|i| pack_position([i % 2_097_152, (i * 7 + seed) % 2_097_152, seed]))
+            .map(|i| [i % 2_097_152, (i * spread + seed) % 2_097_152, seed])
             .collect(),
         normals: (attributes & ATTR_NORMALS != 0).then(|| {
             (0..n)
@@ -121,7 +124,7 @@ fn contents(dimension: u32, attributes: u32, big: bool) -> (RepositoryContents, 
             first_child,
             level,
             patch_offset: offset,
-            patch_bytes: patch_bytes_bound(p.vertex_count(), p.strip.len(), attributes) as u32,
+            patch_bytes: p.encoded_bytes(attributes) as u32,
             vertex_count: n,
             strip_index_count: p.strip.len() as u32,
             triangle_count: p.triangle_count,
@@ -204,6 +207,11 @@ fn check_round_trip(dimension: u32, attributes: u32, big: bool, dir: &Path) {
     for (i, original) in patches.iter().enumerate() {
         let view = repo.patch(i).unwrap();
         assert_eq!(view.to_patch_data(), *original, "tet {i}");
+        assert_eq!(view.position_encoding(), original.position_encoding());
+        assert!(
+            view.bytes().len()
+                <= patch_bytes_bound(view.vertex_count(), original.strip.len(), attributes)
+        );
         let triangles: Vec<[u32; 3]> = view.triangles().collect();
         assert_eq!(triangles, unstripify(&original.strip), "tet {i}");
         assert_eq!(triangles.len() as u32, view.triangle_count());
@@ -264,6 +272,16 @@ fn big_patch_uses_u32_indices() {
     assert_eq!(strip[70_000], u32::MAX);
     assert_eq!(view.strip_index(69_999), Some(69_999));
     assert_eq!(view.position(69_999), [69_999, 69_999 * 7 + 9, 9]);
+    // y spans 7 × 69,999 grid steps: too far for u16 offsets.
+    assert_eq!(view.position_encoding(), PositionEncoding::PackedAbsolute);
+    assert_eq!(
+        repo.patch(8).unwrap().position_encoding(),
+        PositionEncoding::Offsets16
+    );
+    assert_eq!(
+        repo.patch(7).unwrap().position_encoding(),
+        PositionEncoding::PackedAbsolute
+    );
     assert_eq!(
         view.triangles().count(),
         unstripify(&patches[9].strip).len()
@@ -308,6 +326,24 @@ fn edit_diamond(bytes: &mut [u8], i: usize, f: impl FnOnce(&mut DiamondRecord)) 
     let mut d: DiamondRecord = bytemuck::pod_read_unaligned(&bytes[at..at + size]);
     f(&mut d);
     bytes[at..at + size].copy_from_slice(bytemuck::bytes_of(&d));
+}
+
+/// Absolute byte offset of tet `i`'s patch in the image, and the tet.
+fn patch_of(bytes: &[u8], i: usize) -> (usize, TetRecord) {
+    let h = header_of(bytes);
+    let at = h.tet_table_offset as usize + i * TET_RECORD_SIZE;
+    let tet: TetRecord = bytemuck::pod_read_unaligned(&bytes[at..at + TET_RECORD_SIZE]);
+    (
+        h.patch_blob_offset as usize + tet.patch_offset as usize,
+        tet,
+    )
+}
+
+/// Overwrites u32 word `k` of tet `i`'s position header (0..3 base, 3 position_encoding).
+fn edit_position_header(bytes: &mut [u8], i: usize, k: usize, value: u32) {
+    let (start, tet) = patch_of(bytes, i);
+    let at = start + 4 * tet.vertex_count as usize + 4 * k;
+    bytes[at..at + 4].copy_from_slice(&value.to_le_bytes());
 }
 
 /// Applies `corrupt` to a valid image, reseals the checksum, and expects an error whose message
@@ -502,11 +538,11 @@ fn structural_corruption_is_caught_behind_a_valid_checksum() {
     );
     // A strip index past the vertex count: `open` accepts the tables, the patch parse catches it.
     let strip_index = |b: &mut Vec<u8>, value: u16| {
-        let h = header_of(b);
-        let at = h.tet_table_offset as usize + 3 * TET_RECORD_SIZE;
-        let tet: TetRecord = bytemuck::pod_read_unaligned(&b[at..at + TET_RECORD_SIZE]);
+        // Tet 3: 9 vertices, u16 offsets (54 bytes + 2 of padding); ATTR_ALL adds 16 bytes per
+        // vertex.
+        let (start, tet) = patch_of(b, 3);
         let n = tet.vertex_count as usize;
-        let strip = h.patch_blob_offset as usize + tet.patch_offset as usize + n * 28;
+        let strip = start + n * 4 + 16 + 56 + n * 16;
         b[strip + 2..strip + 4].copy_from_slice(&value.to_le_bytes());
     };
     check(
@@ -531,6 +567,159 @@ fn structural_corruption_is_caught_behind_a_valid_checksum() {
 }
 
 #[test]
+fn position_header_corruption_is_caught_behind_a_valid_checksum() {
+    // Tet 3 stores u16 offsets, tet 7 packed absolute positions.
+    for word in [2u32, 3, 0x100, 0x8000_0000, u32::MAX] {
+        check(
+            |b| edit_position_header(b, 3, 3, word),
+            "tet 3: position encoding word",
+        );
+        check(
+            |b| edit_position_header(b, 7, 3, word),
+            "tet 7: position encoding word",
+        );
+    }
+    // Flipping the encoding changes the size the patch should have.
+    check(|b| edit_position_header(b, 3, 3, 1), "tet 3: patch is");
+    check(|b| edit_position_header(b, 7, 3, 0), "tet 7: patch is");
+    // The empty patch has a position header too; both encodings take 16 bytes there.
+    let mut bytes = image(3, ATTR_ALL);
+    edit_position_header(&mut bytes, 0, 3, 1);
+    seal(&mut bytes);
+    open_all(bytes).unwrap();
+    check(
+        |b| edit_position_header(b, 0, 3, 4),
+        "tet 0: position encoding word",
+    );
+    for i in [3, 7] {
+        check(
+            |b| edit_position_header(b, i, 1, POSITION_MAX + 1),
+            "position base",
+        );
+    }
+    // Tet 3's y offsets reach 56: a base near the top of the grid overflows it (found when the
+    // patch is parsed); the packed absolute encoding ignores the base.
+    check(
+        |b| edit_position_header(b, 3, 1, POSITION_MAX - 50),
+        "tet 3: position 8: base",
+    );
+    let mut bytes = image(3, ATTR_ALL);
+    edit_position_header(&mut bytes, 7, 1, POSITION_MAX - 50);
+    seal(&mut bytes);
+    open_all(bytes).unwrap();
+    // A vertex count whose ids and position header overrun the patch.
+    check(
+        |b| edit_tet(b, 5, |t| t.vertex_count = 1 << 20),
+        "tet 5: patch is",
+    );
+    // Non-zero padding after an odd number of u16 offsets (tet 3: 9 vertices).
+    check(
+        |b| {
+            let (start, tet) = patch_of(b, 3);
+            let at = start + 4 * tet.vertex_count as usize + 16 + 54;
+            b[at] = 1;
+        },
+        "tet 3: patch padding is not zero",
+    );
+}
+
+/// Crack-freeness needs a vertex shared by patches to decode to the same quantised position in
+/// each, whatever their bases and encodings.
+#[test]
+fn a_shared_vertex_decodes_identically_in_every_patch() {
+    let shared = [
+        [1_000_000, 2_000_000, 5],
+        [0, POSITION_MAX, 65_535],
+        [POSITION_MAX; 3],
+    ];
+    // Each patch: the shared vertices (global ids 0..3) plus its own, which set its base and
+    // whether u16 offsets fit.
+    let own: [&[[u32; 3]]; 5] = [
+        &[[1_000_000, 2_000_000 - 1, 0]],
+        &[[1_000_000 - 3, 1_999_990, 1]], // x spans 1M + 3, absolute
+        &[],
+        &[[0, 0, 0]],
+        &[[12, 2_097_000, 70_000]],
+    ];
+    let mut blob = Vec::new();
+    let mut tets = Vec::new();
+    for (k, extra) in own.iter().enumerate() {
+        // Patch k holds shared vertex k % 3 (alone or with others), in a rotated order.
+        let mut positions: Vec<[u32; 3]> = Vec::new();
+        let mut global_ids = Vec::new();
+        for s in 0..3 {
+            let s = (s + k) % 3;
+            if k < 3 && s != k {
+                continue;
+            }
+            positions.push(shared[s]);
+            global_ids.push(s as u32);
+        }
+        for (e, &q) in extra.iter().enumerate() {
+            positions.push(q);
+            global_ids.push(100 + 10 * k as u32 + e as u32);
+        }
+        let n = positions.len() as u32;
+        let p = PatchData {
+            global_ids,
+            positions,
+            strip: (0..n).collect(),
+            triangle_count: n.saturating_sub(2),
+            ..PatchData::default()
+        };
+        let offset = encode_patch(&p, 0, &mut blob);
+        tets.push(TetRecord {
+            cone_cos: -1.0,
+            diamond: NO_INDEX,
+            parent_diamond: NO_INDEX,
+            first_child: NO_INDEX,
+            patch_offset: offset,
+            patch_bytes: p.encoded_bytes(0) as u32,
+            vertex_count: n,
+            strip_index_count: n,
+            triangle_count: p.triangle_count,
+            ..bytemuck::Zeroable::zeroed()
+        });
+    }
+    let header = Header {
+        root_tet_count: tets.len() as u64,
+        position_step: [1.0; 3],
+        bbox_max: [POSITION_MAX as f64; 3],
+        lattice_unit: 1.0,
+        lattice_bits: 21,
+        ..Header::new(3, 0)
+    };
+    let contents = RepositoryContents {
+        header,
+        diamonds: Vec::new(),
+        tets,
+        patch_blob: blob,
+    };
+    let mut bytes = Vec::new();
+    write_repository(&mut bytes, &contents).unwrap();
+    let repo = Repository::from_bytes(bytes).unwrap();
+    let mut encodings = Vec::new();
+    let mut seen = 0;
+    for i in 0..repo.tets().len() {
+        let view = repo.patch(i).unwrap();
+        encodings.push(view.position_encoding());
+        for (local, &g) in view.global_ids().iter().enumerate() {
+            if g < 3 {
+                assert_eq!(
+                    view.position(local),
+                    shared[g as usize],
+                    "tet {i} vertex {g}"
+                );
+                seen += 1;
+            }
+        }
+    }
+    assert_eq!(seen, 3 + 3 + 3);
+    use PositionEncoding::{Offsets16 as O, PackedAbsolute as A};
+    assert_eq!(encodings, [O, A, O, A, A]);
+}
+
+#[test]
 fn wrong_magic_and_version_are_typed() {
     let mut bytes = image(2, 0);
     bytes[0] = b'X';
@@ -539,14 +728,14 @@ fn wrong_magic_and_version_are_typed() {
     );
 
     let mut bytes = image(2, 0);
-    edit_header(&mut bytes, |h| h.version = 2);
+    edit_header(&mut bytes, |h| h.version = 1);
     let err = Repository::from_bytes(bytes.clone()).unwrap_err();
     assert!(
         matches!(
             err,
             RepositoryError::WrongVersion {
-                found: 2,
-                expected: 1
+                found: 1,
+                expected: 2
             }
         ),
         "{err:?}"

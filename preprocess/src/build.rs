@@ -19,7 +19,7 @@ use crate::frame::LatticeFrame;
 use crate::hierarchy::{build_hierarchy, Construction, Hierarchy};
 use crate::mesh::InputMesh;
 use crate::saturate::saturate;
-use crate::simplify::simplify_hierarchy;
+use crate::simplify::{simplify_hierarchy, CurrentMesh};
 use crate::strips::build_patch;
 
 /// Default maximum triangles per leaf; chosen by the sweep in ARCHITECTURE.md.
@@ -181,14 +181,18 @@ fn build_in_pool(
             frame.to_lattice([0, 1, 2].map(|i| (p[0][i] + p[1][i] + p[2][i]) / 3.0))
         })
         .collect();
-    let hierarchy = build_hierarchy(frame, &barycenters, config.construction);
+    // The simplifier's sharing counts are independent of the hierarchy: build both at once.
+    let (hierarchy, current) = rayon::join(
+        || build_hierarchy(frame, &barycenters, config.construction),
+        || CurrentMesh::new(mesh),
+    );
     drop(barycenters);
     stage("hierarchy", t);
 
     // 2. Simplification, diamond by diamond, finest first, borders locked.
     on_stage("simplify");
     let t = Instant::now();
-    let simplified = simplify_hierarchy(mesh, &hierarchy, origin);
+    let simplified = simplify_hierarchy(mesh, &hierarchy, origin, current);
     stage("simplify", t);
 
     // 3. Table order: breadth-first from the roots, so roots come first and siblings are

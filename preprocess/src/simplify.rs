@@ -56,11 +56,13 @@ struct Context<'a> {
 
 /// Simplifies every split diamond of `hierarchy`, finest level first.
 /// Positions go to meshopt relative to `local_origin` in f32; normals (if any) are
-/// simplification attributes.
+/// simplification attributes. `current` is `CurrentMesh::new(mesh)` (built by the caller so
+/// that it can overlap with the hierarchy's construction).
 pub fn simplify_hierarchy(
     mesh: &InputMesh,
     hierarchy: &Hierarchy,
     local_origin: [f64; 3],
+    mut current: CurrentMesh,
 ) -> Simplified {
     let ctx = Context {
         mesh,
@@ -81,7 +83,6 @@ pub fn simplify_hierarchy(
             )
         })
         .collect();
-    let mut current = CurrentMesh::new(mesh);
     let mut own_error = vec![0.0f32; hierarchy.diamonds.len()];
     let mut locked_vertices = 0;
     let mut by_level: Vec<usize> = (0..hierarchy.diamonds.len()).collect();
@@ -141,9 +142,12 @@ const MAX_RESIMPLIFY: usize = 4;
 
 /// The current mesh (DESIGN.md): the input with every processed diamond merged, as sharing
 /// counts per vertex and use counts per edge.
-struct CurrentMesh {
+pub struct CurrentMesh {
     use_count: Vec<u32>,
     edges: HashMap<u64, u32>,
+    /// Whether the input has an edge with more than two triangles (the build never adds one,
+    /// so without any there is nothing to protect).
+    had_nonmanifold: bool,
 }
 
 fn edge_key(a: u32, b: u32) -> u64 {
@@ -159,7 +163,7 @@ fn triangle_edges(t: &[u32; 3]) -> [u64; 3] {
 }
 
 impl CurrentMesh {
-    fn new(mesh: &InputMesh) -> Self {
+    pub fn new(mesh: &InputMesh) -> Self {
         let mut use_count = vec![0u32; mesh.positions.len()];
         let mut edges =
             HashMap::with_capacity_and_hasher(mesh.triangles.len() * 3 / 2, Default::default());
@@ -171,7 +175,12 @@ impl CurrentMesh {
                 *edges.entry(e).or_default() += 1;
             }
         }
-        CurrentMesh { use_count, edges }
+        let had_nonmanifold = edges.values().any(|&n| n > 2);
+        CurrentMesh {
+            use_count,
+            edges,
+            had_nonmanifold,
+        }
     }
 
     /// Edges that the change would leave with more than two triangles, and more than before.
@@ -286,13 +295,15 @@ fn simplify_diamond(
     // Keep the triangles around non-manifold edges exactly: with only the edge's endpoints
     // locked, meshopt may fold two of the sheets onto each other and drop them both, leaving
     // the edge with one triangle where the input has three.
-    for (t, tri) in indices.chunks_exact(3).zip(&gathered) {
-        if triangle_edges(tri)
-            .iter()
-            .any(|e| current.edges.get(e).is_some_and(|&n| n > 2))
-        {
-            for &l in t {
-                lock[l as usize] = true;
+    if current.had_nonmanifold {
+        for (t, tri) in indices.chunks_exact(3).zip(&gathered) {
+            if triangle_edges(tri)
+                .iter()
+                .any(|e| current.edges.get(e).is_some_and(|&n| n > 2))
+            {
+                for &l in t {
+                    lock[l as usize] = true;
+                }
             }
         }
     }

@@ -1,10 +1,11 @@
 //! Patch encoding: vertex-cache-optimised triangle strips with primitive restart, vertices in
 //! first-use order, positions quantised on the one global grid (so a vertex shared by patches
-//! is bit-identical in all of them), and the attributes the input has.
+//! is bit-identical in all of them; the encoder stores them as u16 offsets from a per-patch base
+//! when they fit), and the attributes the input has.
 
 use rustc_hash::FxHashMap as HashMap;
 
-use tessera_core::repository::format::{oct_encode_normal, pack_position, quantize_position};
+use tessera_core::repository::format::{oct_encode_normal, quantize_position};
 use tessera_core::repository::patch::PatchData;
 
 use crate::mesh::InputMesh;
@@ -57,13 +58,7 @@ pub fn build_patch(
     PatchData {
         positions: order
             .iter()
-            .map(|&g| {
-                pack_position(quantize_position(
-                    mesh.positions[g as usize],
-                    bbox_min,
-                    step,
-                ))
-            })
+            .map(|&g| quantize_position(mesh.positions[g as usize], bbox_min, step))
             .collect(),
         normals: mesh.normals.as_ref().map(|n| {
             order

@@ -14,7 +14,9 @@
 //! The checksum (CRC-32, `crc32fast`) covers the whole file with the checksum field read as 0.
 //!
 //! Positions are quantised on one global grid of 2^21 steps per axis over the bounding box, so a
-//! vertex shared by several patches decodes to bit-identical coordinates in each of them.
+//! vertex shared by several patches decodes to bit-identical coordinates in each of them. A
+//! patch stores them as u16 offsets from a per-patch base on that grid, or packed absolute
+//! (`patch.rs`); decoding is integer arithmetic either way.
 
 use bytemuck::{Pod, Zeroable};
 
@@ -28,7 +30,7 @@ pub const MAGIC: [u8; 8] = *b"TESSERA\0";
 
 /// Version written by this build and the only one it reads (`RepositoryError::WrongVersion`
 /// otherwise). Bump on any change to the layout or meaning of a field.
-pub const FORMAT_VERSION: u32 = 1;
+pub const FORMAT_VERSION: u32 = 2;
 
 /// "No such record": unused diamond parent slots, leaf tets' `diamond` and `first_child`, root
 /// tets' `parent_diamond`.
@@ -178,7 +180,8 @@ pub struct TetRecord {
     /// u64, byte offset of the patch from the start of the patch blob; multiple of 8.
     pub patch_offset: u64,
     /// u32, size of the encoded patch in bytes, exactly
-    /// `patch_bytes_bound(vertex_count, strip_index_count, attributes)`.
+    /// `patch_bytes(vertex_count, strip_index_count, attributes, encoding)` with the position
+    /// encoding read from the patch's own position header.
     pub patch_bytes: u32,
     /// u32, vertices in the patch; ≤ 65,535 means u16 strip indices, more means u32.
     pub vertex_count: u32,

@@ -16,7 +16,7 @@ use super::format::{
     compute_checksum, DiamondRecord, Header, TetRecord, ATTR_ALL, DIAMOND_RECORD_SIZE,
     FORMAT_VERSION, HEADER_SIZE, MAGIC, NO_INDEX, TABLE_ALIGN, TET_RECORD_SIZE,
 };
-use super::patch::{patch_bytes_checked, PatchView};
+use super::patch::{patch_bytes_checked, read_position_header, PatchView};
 
 /// Why a repository cannot be read or written.
 #[derive(Debug, thiserror::Error)]
@@ -129,7 +129,12 @@ impl Repository {
             .map_err(|e| corrupt(format!("diamond table cannot be borrowed in place: {e:?}")))?;
         let tets: &[TetRecord] = bytemuck::try_cast_slice(&bytes[layout.tets.clone()])
             .map_err(|e| corrupt(format!("tet table cannot be borrowed in place: {e:?}")))?;
-        check_tables(&layout.header, diamonds, tets)?;
+        check_tables(
+            &layout.header,
+            diamonds,
+            tets,
+            &bytes[layout.patch_blob.clone()],
+        )?;
         Ok(Repository {
             header: layout.header,
             diamonds: layout.diamonds,
@@ -347,16 +352,22 @@ pub(crate) fn check_header_fields(h: &Header) -> Result<(), RepositoryError> {
     Ok(())
 }
 
-/// Checks every record against the header and the other records. `h` must have passed
-/// `check_header_fields`, and its counts must match the slices.
+/// Checks every record against the header and the other records, and each patch's size against
+/// the position encoding in its header (read from `patch_blob`). `h` must have passed
+/// `check_header_fields`, and its counts must match the slices and the blob.
 pub(crate) fn check_tables(
     h: &Header,
     diamonds: &[DiamondRecord],
     tets: &[TetRecord],
+    patch_blob: &[u8],
 ) -> Result<(), RepositoryError> {
     debug_assert_eq!(
-        (h.diamond_count, h.tet_count),
-        (diamonds.len() as u64, tets.len() as u64)
+        (h.diamond_count, h.tet_count, h.patch_blob_bytes),
+        (
+            diamonds.len() as u64,
+            tets.len() as u64,
+            patch_blob.len() as u64
+        )
     );
     let side = 1i64 << h.lattice_bits;
     for (i, d) in diamonds.iter().enumerate() {
@@ -468,20 +479,28 @@ pub(crate) fn check_tables(
             ));
         }
         let end = t.patch_offset as u128 + t.patch_bytes as u128;
-        if end > h.patch_blob_bytes as u128 {
+        if end > patch_blob.len() as u128 {
             return fail(format!(
                 "patch range {}..{end} exceeds patch blob of {} bytes",
-                t.patch_offset, h.patch_blob_bytes
+                t.patch_offset,
+                patch_blob.len()
             ));
         }
+        // Both fit: end ≤ patch_blob.len().
+        let patch = &patch_blob[t.patch_offset as usize..end as usize];
+        let (_, encoding) = match read_position_header(patch, t.vertex_count as u64) {
+            Ok(header) => header,
+            Err(message) => return fail(message),
+        };
         let expected = patch_bytes_checked(
             t.vertex_count as u64,
             t.strip_index_count as u64,
             h.attributes,
+            encoding,
         );
         if expected != Some(t.patch_bytes as u64) {
             return fail(format!(
-                "patch is {} bytes but {} vertices and {} strip indices take {expected:?}",
+                "patch is {} bytes but {} vertices and {} strip indices with position encoding {encoding:?} take {expected:?}",
                 t.patch_bytes, t.vertex_count, t.strip_index_count
             ));
         }

@@ -49,7 +49,7 @@ fn lay_out(contents: &RepositoryContents) -> Result<Header, RepositoryError> {
         .ok_or_else(overflow)?;
     h.checksum = 0;
     check_header_fields(&h)?;
-    check_tables(&h, &contents.diamonds, &contents.tets)?;
+    check_tables(&h, &contents.diamonds, &contents.tets, &contents.patch_blob)?;
     Ok(h)
 }
 
