@@ -11,7 +11,7 @@ use tessera_core::leb::{DiamondId, Simplex};
 use tessera_core::repository::format::{
     DiamondRecord, Header, TetRecord, ATTR_COLORS, ATTR_NORMALS, ATTR_UVS, NO_INDEX, POSITION_BITS,
 };
-use tessera_core::repository::patch::{encode_patch, patch_bytes_bound};
+use tessera_core::repository::patch::{encode_patch, patch_bytes};
 use tessera_core::repository::writer::{write_repository_file, RepositoryContents};
 use tessera_core::repository::RepositoryError;
 
@@ -256,17 +256,18 @@ fn build_in_pool(
     let attributes = (mesh.normals.is_some() as u32 * ATTR_NORMALS)
         | (mesh.colors.is_some() as u32 * ATTR_COLORS)
         | (mesh.uvs.is_some() as u32 * ATTR_UVS);
-    let encoded: Vec<(Vec<u8>, TetRecord)> = simplices
+    let encoded: Vec<(Vec<u8>, Vec<u8>, TetRecord)> = simplices
         .par_iter()
         .map(|entry| {
             let tris = &simplified.patches[&entry.simplex.key];
             let patch = build_patch(tris, mesh, bbox_min, step);
-            let mut bytes = Vec::with_capacity(patch_bytes_bound(
+            let mut bytes = Vec::with_capacity(patch_bytes(
                 patch.global_ids.len(),
                 patch.strip.len(),
                 attributes,
             ));
-            encode_patch(&patch, attributes, &mut bytes);
+            let mut ids = Vec::with_capacity(2 * patch.global_ids.len());
+            let placement = encode_patch(&patch, attributes, &mut bytes, &mut ids);
             let (center, radius) = patch_sphere(entry.simplex.key).to_f32();
             let cone = NormalCone::around_normals(tris.iter().map(|t| triangle_normal(t, mesh)));
             let diamond = table_index
@@ -286,20 +287,26 @@ fn build_in_pool(
                 parent_diamond: entry.parent_diamond.map_or(NO_INDEX, |p| table_index[&p]),
                 first_child: entry.first_child,
                 level: entry.simplex.level() as u32,
-                patch_offset: 0,
-                patch_bytes: bytes.len() as u32,
+                patch_offset: 0, // placed below
+                patch_bytes: placement.patch_bytes,
                 vertex_count: patch.global_ids.len() as u32,
                 strip_index_count: patch.strip.len() as u32,
                 triangle_count: patch.triangle_count,
+                id_offset: 0, // placed below
+                id_bytes: placement.id_bytes,
+                reserved: 0,
             };
-            (bytes, record)
+            (bytes, ids, record)
         })
         .collect();
-    let mut patch_blob = Vec::with_capacity(encoded.iter().map(|(b, _)| b.len()).sum());
+    let mut patch_blob = Vec::with_capacity(encoded.iter().map(|(b, _, _)| b.len()).sum());
+    let mut id_blob = Vec::with_capacity(encoded.iter().map(|(_, i, _)| i.len()).sum());
     let mut tets = Vec::with_capacity(encoded.len());
-    for (bytes, mut record) in encoded {
+    for (bytes, ids, mut record) in encoded {
         record.patch_offset = patch_blob.len() as u64;
+        record.id_offset = id_blob.len() as u64;
         patch_blob.extend_from_slice(&bytes);
+        id_blob.extend_from_slice(&ids);
         tets.push(record);
     }
     stage("strips", t);
@@ -339,6 +346,7 @@ fn build_in_pool(
             diamonds,
             tets,
             patch_blob,
+            id_blob,
         },
         summary,
     ))

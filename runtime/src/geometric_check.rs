@@ -63,7 +63,7 @@ pub fn decode_all_patches(repo: &Repository) -> Result<Vec<Vec<[u32; 3]>>, Repos
         .into_par_iter()
         .map(|i| {
             let patch = repo.patch(i)?;
-            let ids = patch.global_ids();
+            let ids: Vec<u32> = patch.global_ids().collect();
             Ok(patch
                 .triangles()
                 .map(|t| t.map(|l| ids[l as usize]))

@@ -35,7 +35,7 @@ fn attributes_survive_into_every_patch() {
             patch.colors().unwrap(),
             patch.uvs().unwrap(),
         );
-        for (local, &g) in patch.global_ids().iter().enumerate() {
+        for (local, g) in patch.global_ids().enumerate() {
             let g = g as usize;
             assert_eq!(pc[local], colors[g]);
             assert_eq!(pu[local], uvs[g]);

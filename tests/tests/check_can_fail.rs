@@ -3,6 +3,7 @@
 use tessera_core::cut::{diamond_rhos, select_stateless};
 use tessera_core::metric::{eye_local, ScreenSpaceMetric};
 use tessera_core::repository::format::NO_INDEX;
+use tessera_core::repository::global_ids::encode_global_ids;
 use tessera_core::repository::reader::Repository;
 use tessera_core::repository::writer::{write_repository_file, RepositoryContents};
 use tessera_preprocess::import::load_mesh;
@@ -67,7 +68,7 @@ fn a_vertex_swapped_in_one_coarse_patch_is_a_crack() {
     // Point one of its border vertices at another vertex of the same patch's neighbourhood:
     // the triangles stay valid, the shared edges no longer match.
     let patch = repo.patch(victim).unwrap();
-    let ids = patch.global_ids().to_vec();
+    let ids: Vec<u32> = patch.global_ids().collect();
     let mut local_edges = std::collections::HashMap::new();
     for t in patch.triangles() {
         for k in 0..3 {
@@ -80,10 +81,18 @@ fn a_vertex_swapped_in_one_coarse_patch_is_a_crack() {
         .find(|(_, &n)| n == 1)
         .map(|((a, _), _)| *a as usize)
         .expect("a patch of a closed model has a border inside the cut");
-    drop(repo);
-    let offset = contents.tets[victim].patch_offset as usize + 4 * border_vertex;
+    // Re-encode every patch's ids with the victim's border vertex renamed.
     let replacement = (0..u32::MAX).find(|g| !ids.contains(g)).unwrap();
-    contents.patch_blob[offset..offset + 4].copy_from_slice(&replacement.to_le_bytes());
+    let mut all_ids: Vec<Vec<u32>> = (0..repo.tets().len())
+        .map(|i| repo.patch(i).unwrap().global_ids().collect())
+        .collect();
+    drop(repo);
+    all_ids[victim][border_vertex] = replacement;
+    contents.id_blob.clear();
+    for (tet, ids) in contents.tets.iter_mut().zip(&all_ids) {
+        tet.id_offset = contents.id_blob.len() as u64;
+        tet.id_bytes = encode_global_ids(ids, &mut contents.id_blob) as u32;
+    }
     let report = check(&contents, &config);
     assert!(report.cracks > 0, "{report:?}");
     assert!(!report.is_clean());

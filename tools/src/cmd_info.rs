@@ -44,6 +44,8 @@ pub fn run(args: InfoArgs) -> anyhow::Result<Outcome> {
         "bbox_min": h.bbox_min,
         "bbox_max": h.bbox_max,
         "repository_bytes": repo.file_bytes(),
+        "patch_blob_bytes": h.patch_blob_bytes,
+        "id_blob_bytes": h.id_blob_bytes,
     });
     if args.json {
         println!("{value}");
@@ -62,7 +64,12 @@ pub fn run(args: InfoArgs) -> anyhow::Result<Outcome> {
             "  patches: {patch_triangles} triangles over all levels; root error {root_error:.3e}"
         );
         println!("  bbox: {:?} .. {:?}", h.bbox_min, h.bbox_max);
-        println!("  {} bytes", repo.file_bytes());
+        println!(
+            "  {} bytes: patches {} (GPU), global ids {} (CPU checks)",
+            repo.file_bytes(),
+            h.patch_blob_bytes,
+            h.id_blob_bytes
+        );
     }
     Ok(Outcome::Ok)
 }

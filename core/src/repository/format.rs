@@ -1,12 +1,16 @@
 //! The on-disk layout of a repository: header, diamond table, tet table, patch blob.
 //!
 //! ```text
-//! offset 0                     Header (232 bytes)
+//! offset 0                     Header (248 bytes)
 //! diamond_table_offset (8-al.) DiamondRecord × diamond_count   (56 bytes each)
-//! tet_table_offset     (8-al.) TetRecord × tet_count           (72 bytes each)
+//! tet_table_offset     (8-al.) TetRecord × tet_count           (88 bytes each)
 //! patch_blob_offset    (8-al.) patch blob, patch_blob_bytes    (see `patch.rs`)
-//! end of file                = patch_blob_offset + patch_blob_bytes
+//! id_blob_offset       (8-al.) id blob, id_blob_bytes          (see `global_ids.rs`)
+//! end of file                = id_blob_offset + id_blob_bytes
 //! ```
+//!
+//! The patch blob is what a renderer uploads (positions, attributes, strips); the id blob holds
+//! each patch's global vertex ids, which only the CPU needs (crack checks).
 //!
 //! Everything is little-endian and read zero-copy (bytemuck casts from the memory map), so the
 //! records are `#[repr(C)]` with no implicit padding. Gaps between tables are zero bytes written
@@ -14,9 +18,8 @@
 //! The checksum (CRC-32, `crc32fast`) covers the whole file with the checksum field read as 0.
 //!
 //! Positions are quantised on one global grid of 2^21 steps per axis over the bounding box, so a
-//! vertex shared by several patches decodes to bit-identical coordinates in each of them. A
-//! patch stores them as u16 offsets from a per-patch base on that grid, or packed absolute
-//! (`patch.rs`); decoding is integer arithmetic either way.
+//! vertex shared by several patches decodes to bit-identical coordinates in each of them
+//! (`pack_position`: 63 bits in two u32 words, decoded with integer arithmetic).
 
 use bytemuck::{Pod, Zeroable};
 
@@ -30,7 +33,7 @@ pub const MAGIC: [u8; 8] = *b"TESSERA\0";
 
 /// Version written by this build and the only one it reads (`RepositoryError::WrongVersion`
 /// otherwise). Bump on any change to the layout or meaning of a field.
-pub const FORMAT_VERSION: u32 = 2;
+pub const FORMAT_VERSION: u32 = 3;
 
 /// "No such record": unused diamond parent slots, leaf tets' `diamond` and `first_child`, root
 /// tets' `parent_diamond`.
@@ -64,8 +67,8 @@ pub const TABLE_ALIGN: u64 = 8;
 
 /// Fixed-size file header. Little-endian on disk, at offset 0.
 ///
-/// The writer fills `magic`, `version`, the counts, the offsets, `patch_blob_bytes` and
-/// `checksum`; the caller fills the rest.
+/// The writer fills `magic`, `version`, the counts, the offsets, `patch_blob_bytes`,
+/// `id_blob_bytes` and `checksum`; the caller fills the rest.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct Header {
@@ -96,8 +99,12 @@ pub struct Header {
     pub tet_table_offset: u64,
     /// u64, byte offset of the patch blob; multiple of 8, after the tet table.
     pub patch_blob_offset: u64,
-    /// u64, size of the patch blob; the file ends exactly at its end.
+    /// u64, size of the patch blob.
     pub patch_blob_bytes: u64,
+    /// u64, byte offset of the id blob; multiple of 8, after the patch blob.
+    pub id_blob_offset: u64,
+    /// u64, size of the id blob; the file ends exactly at its end.
+    pub id_blob_bytes: u64,
     /// 3 × f64, model-space point that every f32 centre in the tables is relative to.
     pub origin: [f64; 3],
     /// 3 × f64, model-space bounding box minimum (finite); quantised position 0.
@@ -180,8 +187,7 @@ pub struct TetRecord {
     /// u64, byte offset of the patch from the start of the patch blob; multiple of 8.
     pub patch_offset: u64,
     /// u32, size of the encoded patch in bytes, exactly
-    /// `patch_bytes(vertex_count, strip_index_count, attributes, encoding)` with the position
-    /// encoding read from the patch's own position header.
+    /// `patch_bytes(vertex_count, strip_index_count, attributes)`.
     pub patch_bytes: u32,
     /// u32, vertices in the patch; ≤ 65,535 means u16 strip indices, more means u32.
     pub vertex_count: u32,
@@ -190,12 +196,18 @@ pub struct TetRecord {
     /// u32, triangles the builder put in the patch (statistics; at most
     /// `strip_index_count − 2`). `PatchView::triangles` yields the non-degenerate ones.
     pub triangle_count: u32,
+    /// u64, byte offset of the patch's global vertex ids from the start of the id blob.
+    pub id_offset: u64,
+    /// u32, size of the id stream: exactly `vertex_count` canonical varints (`global_ids.rs`).
+    pub id_bytes: u32,
+    /// u32, must be 0.
+    pub reserved: u32,
 }
 
-const _: () = assert!(HEADER_SIZE == 232 && HEADER_SIZE & 7 == 0);
+const _: () = assert!(HEADER_SIZE == 248 && HEADER_SIZE & 7 == 0);
 const _: () = assert!(DIAMOND_RECORD_SIZE == 56);
-const _: () = assert!(TET_RECORD_SIZE == 72);
-const _: () = assert!(CHECKSUM_OFFSET == 228);
+const _: () = assert!(TET_RECORD_SIZE == 88);
+const _: () = assert!(CHECKSUM_OFFSET == 244);
 
 impl Header {
     /// A header with `magic` and `version` set and every other field zero.

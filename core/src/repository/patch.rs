@@ -5,10 +5,7 @@
 //! `vertex_count`, m = `strip_index_count`):
 //!
 //! ```text
-//! global vertex ids    u32 × n
-//! position header      PositionHeader (16 bytes): base [u32; 3], position_encoding u32
-//! positions            [u16; 3] × n, zero-padded to a multiple of 4   if position_encoding 0
-//!                      [u32; 2] × n  (format::pack_position)          if position_encoding 1
+//! packed positions     [u32; 2] × n          (format::pack_position)
 //! normals              [i16; 2] × n          if ATTR_NORMALS (format::oct_encode_normal)
 //! colours              [u8; 4] × n           if ATTR_COLORS  (RGBA8)
 //! texture coordinates  [f32; 2] × n          if ATTR_UVS
@@ -17,26 +14,20 @@
 //! zero padding         to a multiple of 8
 //! ```
 //!
-//! Positions are quantised on the one global grid (`format::quantize_position`). The encoder
-//! stores them as u16 offsets from `base`, the per-axis minimum over the patch, when every
-//! offset fits in 16 bits, and as packed absolute 21-bit triples otherwise. Decoding is integer
-//! arithmetic (q = base + offset), so a vertex shared by several patches decodes to the same
-//! quantised position in each of them whatever their bases and encodings: crack-freeness
-//! depends on it.
-//!
-//! Every array starts 4-aligned, so a view borrows them straight from the memory map.
+//! Every array starts 4-aligned, so a view borrows them straight from the memory map, and a
+//! renderer can upload the patch blob as it is. The patch's global vertex ids live in the id
+//! blob (`global_ids.rs`): only the CPU needs them.
 //! The strip convention is meshoptimizer's (`meshopt_stripify` / `meshopt_unstripify`): the k-th
 //! triangle since the last restart is (s[k], s[k+1], s[k+2]), with the first two swapped when k
 //! is odd; triangles with two equal indices are degenerate (strip joints) and not drawn.
 
 use std::ops::Range;
 
-use bytemuck::{Pod, Zeroable};
-
 use super::format::{
     align8, pack_position, unpack_position, TetRecord, ATTR_ALL, ATTR_COLORS, ATTR_NORMALS,
     ATTR_UVS, POSITION_MAX, TABLE_ALIGN,
 };
+use super::global_ids::{check_global_ids, encode_global_ids, GlobalIds};
 use super::reader::RepositoryError;
 
 /// Restart marker in `PatchData::strip` (narrowed to `RESTART_U16` in u16 patches).
@@ -47,116 +38,6 @@ pub const RESTART_U16: u16 = u16::MAX;
 pub const RESTART_U32: u32 = u32::MAX;
 /// Largest vertex count whose strip is stored as u16 indices.
 pub const MAX_U16_PATCH_VERTICES: usize = 65_535;
-/// Size of the position header on disk, in bytes.
-pub const POSITION_HEADER_SIZE: usize = std::mem::size_of::<PositionHeader>();
-
-/// How a patch stores its positions: the `PositionHeader::position_encoding` word.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-#[repr(u32)]
-pub enum PositionEncoding {
-    /// Word 0: `[u16; 3]` per vertex, the offset q − base on each axis; the array is
-    /// zero-padded to a multiple of 4 bytes (2 bytes when n is odd).
-    Offsets16 = 0,
-    /// Word 1: `[u32; 2]` per vertex, the absolute q packed by `format::pack_position`.
-    PackedAbsolute = 1,
-}
-
-impl PositionEncoding {
-    /// The encoding a `position_encoding` word names: bit 0 selects it, bits 1..32 are reserved
-    /// and must be 0 (`None` otherwise).
-    pub fn from_word(word: u32) -> Option<PositionEncoding> {
-        match word {
-            0 => Some(PositionEncoding::Offsets16),
-            1 => Some(PositionEncoding::PackedAbsolute),
-            _ => None,
-        }
-    }
-
-    /// Bytes the position array of `vertex_count` vertices takes, padding included (`None` on
-    /// overflow).
-    fn array_bytes(self, vertex_count: u64) -> Option<u64> {
-        match self {
-            PositionEncoding::Offsets16 => {
-                vertex_count.checked_mul(6)?.checked_add(3).map(|b| b & !3)
-            }
-            PositionEncoding::PackedAbsolute => vertex_count.checked_mul(8),
-        }
-    }
-
-    /// The header the encoder writes for `positions` (each coordinate ≤ `POSITION_MAX`): base =
-    /// per-axis minimum (0 for an empty patch), u16 offsets when every q − base fits in 16 bits,
-    /// packed absolute positions otherwise.
-    pub fn choose(positions: &[[u32; 3]]) -> PositionHeader {
-        let mut lo = [u32::MAX; 3];
-        let mut hi = [0u32; 3];
-        for q in positions {
-            for a in 0..3 {
-                lo[a] = lo[a].min(q[a]);
-                hi[a] = hi[a].max(q[a]);
-            }
-        }
-        if positions.is_empty() {
-            lo = [0; 3];
-        }
-        let fits = (0..3).all(|a| hi[a].saturating_sub(lo[a]) <= u16::MAX as u32);
-        PositionHeader {
-            base: lo,
-            position_encoding: if fits {
-                PositionEncoding::Offsets16
-            } else {
-                PositionEncoding::PackedAbsolute
-            } as u32,
-        }
-    }
-}
-
-/// The 16 bytes after a patch's global ids.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Pod, Zeroable)]
-pub struct PositionHeader {
-    /// 3 × u32, the per-axis minimum quantised position over the patch's vertices (each
-    /// ≤ `POSITION_MAX`; 0 for an empty patch). Offsets16 positions are relative to it; the
-    /// encoder writes it for both encodings.
-    pub base: [u32; 3],
-    /// u32, `PositionEncoding`: bit 0 = 0 for u16 offsets from `base`, 1 for packed absolute
-    /// u32 pairs; bits 1..32 reserved, must be 0.
-    pub position_encoding: u32,
-}
-
-/// Reads the position header of the patch `bytes` (the patch's own range) with `vertex_count`
-/// vertices, checking that it lies inside the patch and that the encoding is known. The error
-/// is a message without the tet's name.
-pub(crate) fn read_position_header(
-    bytes: &[u8],
-    vertex_count: u64,
-) -> Result<(PositionHeader, PositionEncoding), String> {
-    let start = vertex_count.checked_mul(4);
-    let end = start.and_then(|s| s.checked_add(POSITION_HEADER_SIZE as u64));
-    let (Some(start), Some(end)) = (start, end) else {
-        return Err(format!("a patch of {vertex_count} vertices overflows"));
-    };
-    if end > bytes.len() as u64 {
-        return Err(format!(
-            "patch is {} bytes but {vertex_count} global ids and the position header take {end}",
-            bytes.len()
-        ));
-    }
-    // end ≤ bytes.len(), so both fit in usize.
-    let header: PositionHeader = bytemuck::pod_read_unaligned(&bytes[start as usize..end as usize]);
-    let encoding = PositionEncoding::from_word(header.position_encoding).ok_or_else(|| {
-        format!(
-            "position encoding word {:#x} is not 0 (u16 offsets) or 1 (packed absolute)",
-            header.position_encoding
-        )
-    })?;
-    if let Some(a) = (0..3).find(|&a| header.base[a] > POSITION_MAX) {
-        return Err(format!(
-            "position base {:?} exceeds {POSITION_MAX} on axis {a}",
-            header.base
-        ));
-    }
-    Ok((header, encoding))
-}
 
 /// One patch before encoding (or after `PatchView::to_patch_data`).
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -164,7 +45,7 @@ pub struct PatchData {
     /// Global id of each local vertex (what crack checks compare across patches).
     pub global_ids: Vec<u32>,
     /// Quantised positions on the global grid (`format::quantize_position`, each coordinate
-    /// ≤ `POSITION_MAX`), one per vertex; `encode_patch` chooses how to store them.
+    /// ≤ `POSITION_MAX`), one per vertex; stored packed (`format::pack_position`).
     pub positions: Vec<[u32; 3]>,
     /// Octahedral normals, one per vertex; `Some` iff the attribute mask has `ATTR_NORMALS`.
     pub normals: Option<Vec<[i16; 2]>>,
@@ -189,31 +70,12 @@ impl PatchData {
     pub fn triangles(&self) -> impl Iterator<Item = [u32; 3]> + '_ {
         StripTriangles::new(StripIndices::U32(&self.strip))
     }
-
-    /// The position encoding `encode_patch` uses for this patch.
-    pub fn position_encoding(&self) -> PositionEncoding {
-        let word = PositionEncoding::choose(&self.positions).position_encoding;
-        PositionEncoding::from_word(word).expect("choose returns a known encoding")
-    }
-
-    /// Exact size of `encode_patch(self, attributes, ..)`'s output, in bytes.
-    pub fn encoded_bytes(&self, attributes: u32) -> usize {
-        patch_bytes(
-            self.vertex_count(),
-            self.strip.len(),
-            attributes,
-            self.position_encoding(),
-        )
-    }
 }
 
 /// Byte ranges of each array inside one patch.
 #[derive(Clone, Debug)]
 struct PatchLayout {
-    global_ids: Range<usize>,
     positions: Range<usize>,
-    /// Zero padding after u16 positions (empty otherwise).
-    position_padding: Range<usize>,
     normals: Option<Range<usize>>,
     colors: Option<Range<usize>>,
     uvs: Option<Range<usize>>,
@@ -227,7 +89,6 @@ fn locate_arrays(
     vertex_count: u64,
     strip_index_count: u64,
     attributes: u32,
-    encoding: PositionEncoding,
 ) -> Option<PatchLayout> {
     let wide = vertex_count > MAX_U16_PATCH_VERTICES as u64;
     let mut at = 0u64;
@@ -237,20 +98,7 @@ fn locate_arrays(
         at = at.checked_add(bytes_per.checked_mul(count)?)?;
         Some(usize::try_from(start).ok()?..usize::try_from(at).ok()?)
     };
-    let global_ids = take(4, vertex_count)?;
-    take(POSITION_HEADER_SIZE as u64, 1)?;
-    let (positions, position_padding) = match encoding {
-        PositionEncoding::Offsets16 => {
-            let positions = take(6, vertex_count)?;
-            let padded = encoding.array_bytes(vertex_count)?;
-            let padding = take(1, padded - 6 * vertex_count)?;
-            (positions, padding)
-        }
-        PositionEncoding::PackedAbsolute => {
-            let positions = take(8, vertex_count)?;
-            (positions.clone(), positions.end..positions.end)
-        }
-    };
+    let positions = take(8, vertex_count)?;
     let mut optional = |bit: u32, bytes_per: u64| match attributes & bit {
         0 => Some(None),
         _ => take(bytes_per, vertex_count).map(Some),
@@ -262,9 +110,7 @@ fn locate_arrays(
     let total = align8(at)?;
     usize::try_from(total).ok()?;
     Some(PatchLayout {
-        global_ids,
         positions,
-        position_padding,
         normals,
         colors,
         uvs,
@@ -274,39 +120,15 @@ fn locate_arrays(
     })
 }
 
-/// Exact encoded size of a patch with `vertex_count` vertices, `strip_index_count` strip indices,
-/// the `attributes` mask (unknown bits ignored) and position `encoding`: a multiple of 8.
+/// Exact encoded size of a patch with `vertex_count` vertices, `strip_index_count` strip indices
+/// and the `attributes` mask (unknown bits ignored): a multiple of 8.
 ///
-/// 16 bytes of position header; per vertex: 4 bytes (global id) + 6 (u16 offsets, the array
-/// padded to a multiple of 4) or 8 (packed absolute) + 4 (normals) + 4 (colours) + 8 (uvs); per
-/// strip index: 2 bytes when `vertex_count` ≤ 65,535, else 4. Panics if the size overflows
-/// `usize`.
-pub fn patch_bytes(
-    vertex_count: usize,
-    strip_index_count: usize,
-    attributes: u32,
-    encoding: PositionEncoding,
-) -> usize {
-    patch_bytes_checked(
-        vertex_count as u64,
-        strip_index_count as u64,
-        attributes,
-        encoding,
-    )
-    .and_then(|b| usize::try_from(b).ok())
-    .expect("patch size overflows usize")
-}
-
-/// An upper bound on the encoded size of any patch with these counts, whatever its positions:
-/// `patch_bytes` with the larger, packed absolute encoding (for reserving buffers). Panics if
-/// the size overflows `usize`.
-pub fn patch_bytes_bound(vertex_count: usize, strip_index_count: usize, attributes: u32) -> usize {
-    patch_bytes(
-        vertex_count,
-        strip_index_count,
-        attributes,
-        PositionEncoding::PackedAbsolute,
-    )
+/// Per vertex: 8 bytes + 4 (normals) + 4 (colours) + 8 (uvs); per strip index: 2 bytes when
+/// `vertex_count` ≤ 65,535, else 4. Panics if the size overflows `usize`.
+pub fn patch_bytes(vertex_count: usize, strip_index_count: usize, attributes: u32) -> usize {
+    patch_bytes_checked(vertex_count as u64, strip_index_count as u64, attributes)
+        .and_then(|b| usize::try_from(b).ok())
+        .expect("patch size overflows usize")
 }
 
 /// `patch_bytes` for untrusted counts: `None` on overflow.
@@ -314,23 +136,41 @@ pub fn patch_bytes_checked(
     vertex_count: u64,
     strip_index_count: u64,
     attributes: u32,
-    encoding: PositionEncoding,
 ) -> Option<u64> {
-    locate_arrays(vertex_count, strip_index_count, attributes, encoding).map(|l| l.total)
+    locate_arrays(vertex_count, strip_index_count, attributes).map(|l| l.total)
 }
 
-/// Appends the encoding of `patch` to `out` and returns the offset it starts at.
+/// Where `encode_patch` put a patch: the fields of its `TetRecord` that locate it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PatchPlacement {
+    /// Offset of the patch in the patch blob (8-aligned).
+    pub patch_offset: u64,
+    /// Its size, `patch_bytes(..)`.
+    pub patch_bytes: u32,
+    /// Offset of its id stream in the id blob.
+    pub id_offset: u64,
+    /// Size of the id stream.
+    pub id_bytes: u32,
+}
+
+/// Appends the encoding of `patch` to `patch_blob` and its global ids to `id_blob`, and says
+/// where they went.
 ///
-/// `out` is the patch blob being built (or an empty buffer): its length must be a multiple of
-/// 8, and grows by exactly `patch.encoded_bytes(attributes)` (≤ `patch_bytes_bound(..)`). The
-/// position encoding is `PositionEncoding::choose(&patch.positions)`. Asserts that the patch is
-/// consistent:
+/// `patch_blob` is the patch blob being built (or an empty buffer): its length must be a
+/// multiple of 8, and grows by exactly `patch_bytes(..)`; `id_blob` grows by at most
+/// `vertex_count × global_ids::MAX_VARINT_BYTES`. Asserts that the patch is consistent:
 /// - `attributes` has only `ATTR_*` bits, and each optional array is `Some` iff its bit is set;
 /// - every per-vertex array has `global_ids.len()` entries, at most 2^32 − 2;
 /// - every position coordinate is ≤ `POSITION_MAX`;
 /// - every strip index is < vertex count or `STRIP_RESTART`; at most 2^32 − 1 of them;
 /// - `triangle_count` ≤ `strip.len() − 2`.
-pub fn encode_patch(patch: &PatchData, attributes: u32, out: &mut Vec<u8>) -> u64 {
+pub fn encode_patch(
+    patch: &PatchData,
+    attributes: u32,
+    patch_blob: &mut Vec<u8>,
+    id_blob: &mut Vec<u8>,
+) -> PatchPlacement {
+    let out = patch_blob;
     let n = patch.vertex_count();
     assert!(
         attributes & !ATTR_ALL == 0,
@@ -395,39 +235,16 @@ pub fn encode_patch(patch: &PatchData, attributes: u32, out: &mut Vec<u8>) -> u6
         patch.strip.len()
     );
 
-    let header = PositionEncoding::choose(&patch.positions);
-    let encoding = PositionEncoding::from_word(header.position_encoding).expect("a known encoding");
     let start = out.len();
-    let size = patch_bytes(n, patch.strip.len(), attributes, encoding);
+    let size = patch_bytes(n, patch.strip.len(), attributes);
     out.reserve(size);
-    out.extend_from_slice(bytemuck::cast_slice(&patch.global_ids));
-    out.extend_from_slice(bytemuck::bytes_of(&header));
-    match encoding {
-        PositionEncoding::Offsets16 => {
-            let base = header.base;
-            out.extend(
-                patch
-                    .positions
-                    .iter()
-                    .flat_map(|q| {
-                        // Fits: choose checked every q − base ≤ u16::MAX.
-                        [0, 1, 2].map(|a| ((q[a] - base[a]) as u16).to_le_bytes())
-                    })
-                    .flatten(),
-            );
-            if n % 2 == 1 {
-                out.extend_from_slice(&[0; 2]);
-            }
-        }
-        PositionEncoding::PackedAbsolute => {
-            out.extend(
-                patch
-                    .positions
-                    .iter()
-                    .flat_map(|&q| bytemuck::cast::<[u32; 2], [u8; 8]>(pack_position(q))),
-            );
-        }
-    }
+    out.extend(
+        patch
+            .positions
+            .iter()
+            .flat_map(|&q| pack_position(q))
+            .flat_map(u32::to_le_bytes),
+    );
     if let Some(v) = &patch.normals {
         out.extend_from_slice(bytemuck::cast_slice(v));
     }
@@ -449,64 +266,16 @@ pub fn encode_patch(patch: &PatchData, attributes: u32, out: &mut Vec<u8>) -> u6
         "encoded {written} bytes vs patch_bytes {size}"
     );
     out.resize(start + size, 0);
-    start as u64
-}
-
-/// The positions of a patch, as stored.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Positions<'a> {
-    /// q = base + offset on each axis (`PositionEncoding::Offsets16`).
-    Offsets16 {
-        /// The patch's `PositionHeader::base`.
-        base: [u32; 3],
-        /// One offset triple per vertex.
-        offsets: &'a [[u16; 3]],
-    },
-    /// `format::pack_position` of q (`PositionEncoding::PackedAbsolute`).
-    PackedAbsolute(&'a [[u32; 2]]),
-}
-
-impl Positions<'_> {
-    /// Number of vertices.
-    pub fn len(&self) -> usize {
-        match self {
-            Positions::Offsets16 { offsets, .. } => offsets.len(),
-            Positions::PackedAbsolute(p) => p.len(),
-        }
-    }
-
-    /// True when there are no vertices.
-    pub fn is_empty(&self) -> bool {
-        self.len() == 0
-    }
-
-    /// Quantised position of vertex `i`. Panics if `i ≥ len()`.
-    pub fn get(&self, i: usize) -> [u32; 3] {
-        match self {
-            Positions::Offsets16 { base, offsets } => {
-                let o = offsets[i];
-                [0, 1, 2].map(|a| base[a] + o[a] as u32)
-            }
-            Positions::PackedAbsolute(p) => unpack_position(p[i]),
-        }
-    }
-
-    /// The encoding.
-    pub fn encoding(&self) -> PositionEncoding {
-        match self {
-            Positions::Offsets16 { .. } => PositionEncoding::Offsets16,
-            Positions::PackedAbsolute(_) => PositionEncoding::PackedAbsolute,
-        }
-    }
-
-    /// The raw little-endian bytes of the array, without padding (for a vertex buffer upload).
-    pub fn as_bytes(&self) -> &[u8] {
-        match self {
-            Positions::Offsets16 { offsets, .. } => bytemuck::cast_slice(offsets),
-            Positions::PackedAbsolute(p) => bytemuck::cast_slice(p),
-        }
+    let id_offset = id_blob.len() as u64;
+    let id_bytes = encode_global_ids(&patch.global_ids, id_blob);
+    PatchPlacement {
+        patch_offset: start as u64,
+        patch_bytes: u32::try_from(size).expect("a patch over 4 GiB"),
+        id_offset,
+        id_bytes: u32::try_from(id_bytes).expect("an id stream over 4 GiB"),
     }
 }
+
 /// The strip indices of a patch, as stored.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum StripIndices<'a> {
@@ -593,13 +362,25 @@ impl Iterator for StripTriangles<'_> {
     }
 }
 
+/// Where patches live and what validating one needs from the header.
+#[derive(Clone, Copy, Debug)]
+pub struct PatchSource<'a> {
+    /// The whole patch blob (every `TetRecord::patch_offset` is relative to its start).
+    pub patch_blob: &'a [u8],
+    /// The whole id blob (every `TetRecord::id_offset` is relative to its start).
+    pub id_blob: &'a [u8],
+    /// `Header::attributes`.
+    pub attributes: u32,
+    /// `Header::input_vertex_count`: every global id is below it.
+    pub input_vertex_count: u64,
+}
+
 /// A validated, zero-copy view of one encoded patch.
 #[derive(Clone, Copy, Debug)]
 pub struct PatchView<'a> {
     bytes: &'a [u8],
-    global_ids: &'a [u32],
-    position_header: PositionHeader,
-    positions: Positions<'a>,
+    ids: &'a [u8],
+    positions: &'a [[u32; 2]],
     normals: Option<&'a [[i16; 2]]>,
     colors: Option<&'a [[u8; 4]]>,
     uvs: Option<&'a [[f32; 2]]>,
@@ -633,24 +414,34 @@ fn cast_optional<'a, T: bytemuck::Pod>(
 }
 
 impl<'a> PatchView<'a> {
-    /// Validates and borrows the patch of `tet` inside `blob` (the whole patch blob).
+    /// Validates and borrows the patch of `tet` and its global ids.
     ///
     /// Checks, without panicking on any input: the attribute mask, `patch_offset` 8-aligned,
-    /// the range inside `blob`, the position header inside the patch with a known encoding
-    /// word (reserved bits 0) and a base ≤ `POSITION_MAX`, `patch_bytes` equal to
-    /// `patch_bytes(.., encoding)`, memory alignment of `blob` (an error, not a copy), zero
-    /// padding, every decoded position ≤ `POSITION_MAX`, every strip index < `vertex_count` or
-    /// restart, `triangle_count` ≤ `strip_index_count − 2`. Cost: one pass over the strip (and
-    /// over the u16 offsets of a patch whose base lies within 65,535 of `POSITION_MAX`).
+    /// the range inside the patch blob, `patch_bytes` equal to `patch_bytes(..)`, memory
+    /// alignment of the blob (an error, not a copy), zero padding, every strip index
+    /// < `vertex_count` or restart, `triangle_count` ≤ `strip_index_count − 2`, the id range
+    /// inside the id blob holding exactly `vertex_count` ids below `input_vertex_count`.
+    /// Cost: one pass over the strip and one over the id stream.
     pub fn parse(
-        blob: &'a [u8],
+        source: &PatchSource<'a>,
         tet: &TetRecord,
-        attributes: u32,
     ) -> Result<PatchView<'a>, RepositoryError> {
+        let (blob, attributes) = (source.patch_blob, source.attributes);
         if attributes & !ATTR_ALL != 0 {
             return Err(corrupt(format!("unknown attribute bits {attributes:#x}")));
         }
         let (n, m) = (tet.vertex_count, tet.strip_index_count);
+        let layout = locate_arrays(n as u64, m as u64, attributes).ok_or_else(|| {
+            corrupt(format!(
+                "a patch of {n} vertices and {m} strip indices overflows"
+            ))
+        })?;
+        if layout.total != tet.patch_bytes as u64 {
+            return Err(corrupt(format!(
+                "patch is {} bytes but {n} vertices and {m} strip indices with attributes {attributes:#x} take {}",
+                tet.patch_bytes, layout.total
+            )));
+        }
         let start = tet.patch_offset;
         if start & (TABLE_ALIGN - 1) != 0 {
             return Err(corrupt(format!(
@@ -669,49 +460,8 @@ impl<'a> PatchView<'a> {
             })?;
         // Both fit: end ≤ blob.len().
         let bytes = &blob[start as usize..end as usize];
-        let (position_header, encoding) = read_position_header(bytes, n as u64).map_err(corrupt)?;
-        let layout = locate_arrays(n as u64, m as u64, attributes, encoding).ok_or_else(|| {
-            corrupt(format!(
-                "a patch of {n} vertices and {m} strip indices overflows"
-            ))
-        })?;
-        if layout.total != tet.patch_bytes as u64 {
-            return Err(corrupt(format!(
-                "patch is {} bytes but {n} vertices and {m} strip indices with attributes {attributes:#x} and position encoding {encoding:?} take {}",
-                tet.patch_bytes, layout.total
-            )));
-        }
-        if bytes[layout.strip.end..].iter().any(|&b| b != 0)
-            || bytes[layout.position_padding.clone()]
-                .iter()
-                .any(|&b| b != 0)
-        {
+        if bytes[layout.strip.end..].iter().any(|&b| b != 0) {
             return Err(corrupt("patch padding is not zero".to_string()));
-        }
-        let positions = match encoding {
-            PositionEncoding::Offsets16 => Positions::Offsets16 {
-                base: position_header.base,
-                offsets: cast(bytes, layout.positions.clone(), "positions")?,
-            },
-            PositionEncoding::PackedAbsolute => {
-                Positions::PackedAbsolute(cast(bytes, layout.positions.clone(), "positions")?)
-            }
-        };
-        if let Positions::Offsets16 { base, offsets } = positions {
-            // base ≤ POSITION_MAX was checked, so only an axis within 65,535 of the top can
-            // overflow: scan the offsets only then.
-            let room = base.map(|b| POSITION_MAX - b);
-            if room.iter().any(|&r| r < u16::MAX as u32) {
-                if let Some(i) = offsets
-                    .iter()
-                    .position(|o| (0..3).any(|a| o[a] as u32 > room[a]))
-                {
-                    return Err(corrupt(format!(
-                        "position {i}: base {base:?} + offset {:?} exceeds {POSITION_MAX}",
-                        offsets[i]
-                    )));
-                }
-            }
         }
         let strip = if layout.wide {
             StripIndices::U32(cast(bytes, layout.strip.clone(), "strip")?)
@@ -730,11 +480,25 @@ impl<'a> PatchView<'a> {
                 tet.triangle_count
             )));
         }
+        let ids = tet
+            .id_offset
+            .checked_add(tet.id_bytes as u64)
+            .filter(|&e| e <= source.id_blob.len() as u64)
+            // Both fit: end ≤ id_blob.len().
+            .map(|end| &source.id_blob[tet.id_offset as usize..end as usize])
+            .ok_or_else(|| {
+                corrupt(format!(
+                    "id range {}..{} exceeds id blob of {} bytes",
+                    tet.id_offset,
+                    tet.id_offset as u128 + tet.id_bytes as u128,
+                    source.id_blob.len()
+                ))
+            })?;
+        check_global_ids(ids, n as u64, source.input_vertex_count).map_err(corrupt)?;
         Ok(PatchView {
             bytes,
-            global_ids: cast(bytes, layout.global_ids.clone(), "global ids")?,
-            position_header,
-            positions,
+            ids,
+            positions: cast(bytes, layout.positions.clone(), "positions")?,
             normals: cast_optional(bytes, layout.normals.clone(), "normals")?,
             colors: cast_optional(bytes, layout.colors.clone(), "colors")?,
             uvs: cast_optional(bytes, layout.uvs.clone(), "uvs")?,
@@ -743,40 +507,35 @@ impl<'a> PatchView<'a> {
         })
     }
 
-    /// The encoded patch, padding included.
+    /// The encoded patch, padding included (what a renderer uploads).
     pub fn bytes(&self) -> &'a [u8] {
         self.bytes
     }
 
     /// Number of local vertices.
     pub fn vertex_count(&self) -> usize {
-        self.global_ids.len()
+        self.positions.len()
     }
 
-    /// Global id of each local vertex.
-    pub fn global_ids(&self) -> &'a [u32] {
-        self.global_ids
+    /// Global id of each local vertex, decoded from the id stream.
+    pub fn global_ids(&self) -> GlobalIds<'a> {
+        GlobalIds::new(self.ids, self.positions.len())
     }
 
-    /// The position header (base and encoding word).
-    pub fn position_header(&self) -> PositionHeader {
-        self.position_header
+    /// The encoded id stream (`global_ids.rs`).
+    pub fn id_stream(&self) -> &'a [u8] {
+        self.ids
     }
 
-    /// How the positions are stored.
-    pub fn position_encoding(&self) -> PositionEncoding {
-        self.positions.encoding()
-    }
-
-    /// The positions as stored (u16 offsets from the base, or packed absolute).
-    pub fn positions(&self) -> Positions<'a> {
+    /// Packed quantised positions (`format::unpack_position`).
+    pub fn packed_positions(&self) -> &'a [[u32; 2]] {
         self.positions
     }
 
-    /// Quantised position of local vertex `i` on the global grid (each coordinate
-    /// ≤ `POSITION_MAX`), the same for either encoding. Panics if `i ≥ vertex_count()`.
+    /// Quantised position of local vertex `i` (each coordinate ≤ `POSITION_MAX`). Panics if
+    /// `i ≥ vertex_count()`.
     pub fn position(&self, i: usize) -> [u32; 3] {
-        self.positions.get(i)
+        unpack_position(self.positions[i])
     }
 
     /// Octahedral normals, if the repository has them.
@@ -821,13 +580,11 @@ impl<'a> PatchView<'a> {
         StripTriangles::new(self.strip)
     }
 
-    /// Copies the patch out (positions decoded, restarts widened to `STRIP_RESTART`).
+    /// Copies the patch out (restarts widened to `STRIP_RESTART`).
     pub fn to_patch_data(&self) -> PatchData {
         PatchData {
-            global_ids: self.global_ids.to_vec(),
-            positions: (0..self.positions.len())
-                .map(|i| self.positions.get(i))
-                .collect(),
+            global_ids: self.global_ids().collect(),
+            positions: self.positions.iter().map(|&p| unpack_position(p)).collect(),
             normals: self.normals.map(<[_]>::to_vec),
             colors: self.colors.map(<[_]>::to_vec),
             uvs: self.uvs.map(<[_]>::to_vec),
@@ -908,10 +665,12 @@ mod tests {
         }
     }
 
-    fn record(patch: &PatchData, attributes: u32, offset: u64) -> TetRecord {
+    fn record(patch: &PatchData, placement: PatchPlacement) -> TetRecord {
         TetRecord {
-            patch_offset: offset,
-            patch_bytes: patch.encoded_bytes(attributes) as u32,
+            patch_offset: placement.patch_offset,
+            patch_bytes: placement.patch_bytes,
+            id_offset: placement.id_offset,
+            id_bytes: placement.id_bytes,
             vertex_count: patch.vertex_count() as u32,
             strip_index_count: patch.strip.len() as u32,
             triangle_count: patch.triangle_count,
@@ -926,32 +685,36 @@ mod tests {
         words
     }
 
+    fn source<'a>(patch_blob: &'a [u8], id_blob: &'a [u8], attributes: u32) -> PatchSource<'a> {
+        PatchSource {
+            patch_blob,
+            id_blob,
+            attributes,
+            input_vertex_count: 1 << 20,
+        }
+    }
+
     #[test]
     fn encode_parse_round_trip() {
         for attributes in 0..=ATTR_ALL {
-            for n in [0, 1, 3, 5, 65_535, 65_536, 70_000] {
+            for n in [0, 1, 3, 5, 65_535, 65_536] {
                 let patch = sample(n, attributes);
                 let mut blob = vec![0u8; 8];
-                let offset = encode_patch(&patch, attributes, &mut blob);
-                assert_eq!(offset, 8);
-                let tet = record(&patch, attributes, offset);
+                let mut ids = vec![9u8; 3];
+                let placement = encode_patch(&patch, attributes, &mut blob, &mut ids);
+                assert_eq!((placement.patch_offset, placement.id_offset), (8, 3));
+                assert_eq!(ids.len(), 3 + placement.id_bytes as usize);
+                let tet = record(&patch, placement);
                 assert_eq!(blob.len() as u64, 8 + tet.patch_bytes as u64);
+                assert_eq!(
+                    tet.patch_bytes as usize,
+                    patch_bytes(n, patch.strip.len(), attributes)
+                );
                 let words = aligned(&blob);
                 let bytes = &bytemuck::cast_slice::<u64, u8>(&words)[..blob.len()];
-                let view = PatchView::parse(bytes, &tet, attributes).unwrap();
+                let view = PatchView::parse(&source(bytes, &ids, attributes), &tet).unwrap();
                 assert_eq!(view.to_patch_data(), patch);
                 assert_eq!(matches!(view.strip(), StripIndices::U32(_)), n > 65_535);
-                // x spans n − 1 grid steps: u16 offsets up to 65,536 vertices.
-                let encoding = if n <= 65_536 {
-                    PositionEncoding::Offsets16
-                } else {
-                    PositionEncoding::PackedAbsolute
-                };
-                assert_eq!(view.position_encoding(), encoding, "n = {n}");
-                assert_eq!(patch.position_encoding(), encoding);
-                assert!(
-                    tet.patch_bytes as usize <= patch_bytes_bound(n, patch.strip.len(), attributes)
-                );
                 assert_eq!(
                     view.triangles().collect::<Vec<_>>(),
                     patch.triangles().collect::<Vec<_>>()
@@ -961,6 +724,11 @@ mod tests {
                         view.position(n - 1),
                         [(n as u32 - 1) % 2_000_000, 3, (n as u32 - 1) % 5]
                     );
+                    // The positions are the first array: a renderer reads them from the blob.
+                    assert_eq!(
+                        view.packed_positions()[n - 1],
+                        pack_position(view.position(n - 1))
+                    );
                 }
             }
         }
@@ -968,149 +736,38 @@ mod tests {
 
     #[test]
     fn sizes_are_exact() {
-        use PositionEncoding::{Offsets16 as O, PackedAbsolute as A};
-        // An empty patch is its position header.
-        assert_eq!(patch_bytes(0, 0, 0, O), 16);
-        assert_eq!(patch_bytes(0, 0, ATTR_ALL, A), 16);
-        assert_eq!(patch_bytes(1, 1, 0, O), 32); // 4 + 16 + 6 (+ 2 pad) + 2 = 30 → 32
-        assert_eq!(patch_bytes(1, 1, 0, A), 32); // 4 + 16 + 8 + 2 = 30 → 32
-        assert_eq!(patch_bytes(2, 1, 0, O), 40); // 8 + 16 + 12 + 2 = 38 → 40
-        assert_eq!(patch_bytes(2, 1, 0, A), 48); // 8 + 16 + 16 + 2 = 42 → 48
-        assert_eq!(patch_bytes(3, 4, ATTR_ALL, O), 104); // 12 + 16 + 20 + 48 + 8
-        assert_eq!(patch_bytes(3, 4, ATTR_ALL, A), 112); // 12 + 16 + 24 + 48 + 8 = 108 → 112
-        assert_eq!(patch_bytes_bound(3, 4, ATTR_ALL), 112);
-        assert_eq!(patch_bytes(65_536, 3, 0, O), 65_536 * 10 + 32);
-        assert_eq!(patch_bytes(65_536, 3, 0, A), 65_536 * 12 + 32);
-        let big = u32::MAX as u64;
+        assert_eq!(patch_bytes(0, 0, 0), 0);
+        assert_eq!(patch_bytes(1, 1, 0), 16); // 8 + 2 → 16
+        assert_eq!(patch_bytes(3, 4, ATTR_ALL), 80); // 3 × 24 + 4 × 2 = 80
+        assert_eq!(patch_bytes(3, 5, ATTR_ALL), 88); // 82 → 88
+        assert_eq!(patch_bytes(65_536, 3, 0), 65_536 * 8 + 16);
         assert_eq!(
-            patch_bytes_checked(big, big, ATTR_ALL, A),
-            Some(8 * ((big * 32 + 16).div_ceil(8)))
+            patch_bytes_checked(u32::MAX as u64, u32::MAX as u64, ATTR_ALL),
+            Some(8 * ((u32::MAX as u64 * 28).div_ceil(8)))
         );
-        assert_eq!(
-            patch_bytes_checked(big, big, ATTR_ALL, O),
-            Some(8 * ((big * 24 + 16 + (6 * big).next_multiple_of(4)).div_ceil(8)))
-        );
-        for encoding in [O, A] {
-            assert_eq!(patch_bytes_checked(u64::MAX, 1, 0, encoding), None);
-            assert_eq!(patch_bytes_checked(u64::MAX / 6, 1, 0, encoding), None);
-        }
-        for n in 0..9 {
-            for attributes in 0..=ATTR_ALL {
-                let o = patch_bytes(n, 5, attributes, O);
-                assert!(o.is_multiple_of(8) && o <= patch_bytes(n, 5, attributes, A));
-            }
-        }
-    }
-
-    #[test]
-    fn encoding_is_chosen_by_the_offset_range() {
-        let header = |positions: &[[u32; 3]]| PositionEncoding::choose(positions);
-        assert_eq!(
-            header(&[]),
-            PositionHeader {
-                base: [0; 3],
-                position_encoding: 0
-            }
-        );
-        let near = [[100, 200_000, 7], [100 + 65_535, 200_001, 7]];
-        assert_eq!(
-            header(&near),
-            PositionHeader {
-                base: [100, 200_000, 7],
-                position_encoding: 0
-            }
-        );
-        let far = [[100, 200_000, 7], [100 + 65_536, 200_001, 7]];
-        assert_eq!(
-            header(&far),
-            PositionHeader {
-                base: [100, 200_000, 7],
-                position_encoding: 1
-            }
-        );
-        let top = [[POSITION_MAX; 3], [POSITION_MAX - 65_535, POSITION_MAX, 0]];
-        assert_eq!(header(&top).position_encoding, 1);
-        assert_eq!(
-            PositionEncoding::from_word(0),
-            Some(PositionEncoding::Offsets16)
-        );
-        assert_eq!(
-            PositionEncoding::from_word(1),
-            Some(PositionEncoding::PackedAbsolute)
-        );
-        for word in [2, 3, 0x100, 0x8000_0000, u32::MAX] {
-            assert_eq!(PositionEncoding::from_word(word), None);
-        }
-    }
-
-    /// Both encodings decode every position exactly, at the corners of the grid too.
-    #[test]
-    fn positions_decode_exactly_in_both_encodings() {
-        let cases: [&[[u32; 3]]; 4] = [
-            &[[0, 0, 0], [65_535, 65_535, 65_535], [1, 2, 3]],
-            &[
-                [POSITION_MAX; 3],
-                [POSITION_MAX - 65_535, POSITION_MAX - 1, POSITION_MAX],
-                [POSITION_MAX - 7, POSITION_MAX - 65_535, POSITION_MAX - 2],
-            ],
-            &[[0, 0, 0], [POSITION_MAX; 3]],
-            &[[12_345, 0, POSITION_MAX], [12_345 + 65_536, 3, 4]],
-        ];
-        for (k, positions) in cases.into_iter().enumerate() {
-            let n = positions.len();
-            let patch = PatchData {
-                global_ids: (0..n as u32).collect(),
-                positions: positions.to_vec(),
-                strip: (0..n as u32).collect(),
-                triangle_count: n.saturating_sub(2) as u32,
-                ..PatchData::default()
-            };
-            let mut blob = Vec::new();
-            encode_patch(&patch, 0, &mut blob);
-            let tet = record(&patch, 0, 0);
-            assert_eq!(blob.len(), tet.patch_bytes as usize);
-            let words = aligned(&blob);
-            let bytes = &bytemuck::cast_slice::<u64, u8>(&words)[..blob.len()];
-            let view = PatchView::parse(bytes, &tet, 0).unwrap();
-            let expected = if k < 2 {
-                PositionEncoding::Offsets16
-            } else {
-                PositionEncoding::PackedAbsolute
-            };
-            assert_eq!(view.position_encoding(), expected, "case {k}");
-            assert_eq!(view.positions().len(), n);
-            for (i, &q) in positions.iter().enumerate() {
-                assert_eq!(view.position(i), q, "case {k} vertex {i}");
-            }
-            assert_eq!(view.to_patch_data(), patch);
-        }
-    }
-
-    #[test]
-    #[should_panic(expected = "exceeds 2097151")]
-    fn encode_asserts_position_range() {
-        let mut patch = sample(3, 0);
-        patch.positions[1][2] = POSITION_MAX + 1;
-        encode_patch(&patch, 0, &mut Vec::new());
+        assert_eq!(patch_bytes_checked(u64::MAX, 1, 0), None);
     }
 
     #[test]
     fn parse_rejects_bad_patches_without_panicking() {
         let attributes = ATTR_NORMALS;
         let patch = sample(5, attributes);
-        let mut blob = Vec::new();
-        encode_patch(&patch, attributes, &mut blob);
-        let good = record(&patch, attributes, 0);
+        let (mut blob, mut ids) = (Vec::new(), Vec::new());
+        let good = record(
+            &patch,
+            encode_patch(&patch, attributes, &mut blob, &mut ids),
+        );
         let words = aligned(&blob);
         let bytes = &bytemuck::cast_slice::<u64, u8>(&words)[..blob.len()];
-        let check = |tet: TetRecord, bytes: &[u8], attributes: u32, expected: &str| {
-            let err = PatchView::parse(bytes, &tet, attributes)
-                .unwrap_err()
-                .to_string();
+        let check_with = |tet: TetRecord, source: PatchSource, expected: &str| {
+            let err = PatchView::parse(&source, &tet).unwrap_err().to_string();
             assert!(
                 err.contains(expected),
                 "{err:?} should mention {expected:?}"
             );
+        };
+        let check = |tet: TetRecord, bytes: &[u8], attributes: u32, expected: &str| {
+            check_with(tet, source(bytes, &ids, attributes), expected)
         };
         check(
             TetRecord {
@@ -1139,14 +796,12 @@ mod tests {
             attributes,
             "not a multiple of 8",
         );
-        let longer: Vec<u8> = bytes.iter().copied().chain([0; 8]).collect();
-        let longer_words = aligned(&longer);
         check(
             TetRecord {
                 patch_bytes: good.patch_bytes + 8,
                 ..good
             },
-            &bytemuck::cast_slice::<u64, u8>(&longer_words)[..longer.len()],
+            bytes,
             attributes,
             "take",
         );
@@ -1170,42 +825,73 @@ mod tests {
             attributes,
             "cannot fit",
         );
-        // Byte edits of the good patch: 5 ids (20 bytes), position header at 20..36, u16
-        // offsets at 36..66, 2 bytes of padding, normals at 68..88, 9 strip indices at 88..106.
-        assert_eq!(good.patch_bytes, 112);
-        let edited = |at: usize, value: &[u8], expected: &str| {
-            let mut bad = bytes.to_vec();
-            bad[at..at + value.len()].copy_from_slice(value);
-            let words = aligned(&bad);
-            check(
-                good,
-                &bytemuck::cast_slice::<u64, u8>(&words)[..bad.len()],
-                attributes,
-                expected,
-            );
-        };
-        // Strip index 5 of a 5-vertex patch.
-        edited(88, &5u16.to_le_bytes(), "strip index 0 is 5");
-        // The position header: unknown encodings and reserved bits, a size that does not
-        // match the encoding, a base off the grid, offsets that overflow it.
-        for word in [2u32, 3, 0x100, 0x8000_0000, u32::MAX] {
-            edited(32, &word.to_le_bytes(), "position encoding word");
-        }
-        edited(32, &1u32.to_le_bytes(), "take");
-        edited(24, &(POSITION_MAX + 1).to_le_bytes(), "position base");
-        // x offsets are 0..=4: base 2^21 − 4 puts vertex 4 at 2^21.
-        edited(20, &(POSITION_MAX - 3).to_le_bytes(), "position 4: base");
-        let mut top = bytes.to_vec();
-        top[20..24].copy_from_slice(&(POSITION_MAX - 4).to_le_bytes());
-        let words = aligned(&top);
-        let view = PatchView::parse(
-            &bytemuck::cast_slice::<u64, u8>(&words)[..top.len()],
-            &good,
+        // The id stream: out of the blob, too short, too long, an id past the input.
+        check(
+            TetRecord {
+                id_offset: 1,
+                ..good
+            },
+            bytes,
             attributes,
-        )
-        .unwrap();
-        assert_eq!(view.position(4), [POSITION_MAX, 3, 4]);
-        edited(66, &[0, 1], "padding is not zero");
+            "exceeds id blob",
+        );
+        check(
+            TetRecord {
+                id_offset: u64::MAX,
+                ..good
+            },
+            bytes,
+            attributes,
+            "exceeds id blob",
+        );
+        check(
+            TetRecord {
+                id_bytes: good.id_bytes - 1,
+                ..good
+            },
+            bytes,
+            attributes,
+            "id stream",
+        );
+        let mut longer = ids.clone();
+        longer.push(0);
+        check_with(
+            TetRecord {
+                id_bytes: good.id_bytes + 1,
+                ..good
+            },
+            source(bytes, &longer, attributes),
+            "but its 5 ids take 5",
+        );
+        check_with(
+            good,
+            PatchSource {
+                input_vertex_count: 29, // the last id is 29
+                ..source(bytes, &ids, attributes)
+            },
+            "global id 4 is 29, not a vertex of the 29-vertex input",
+        );
+        // Strip index 5 of a 5-vertex patch.
+        let mut bad = bytes.to_vec();
+        let strip_at = 5 * 12;
+        bad[strip_at..strip_at + 2].copy_from_slice(&5u16.to_le_bytes());
+        let words = aligned(&bad);
+        check(
+            good,
+            &bytemuck::cast_slice::<u64, u8>(&words)[..bad.len()],
+            attributes,
+            "strip index 0 is 5",
+        );
+        // Non-zero padding (5 × 12 + 9 × 2 = 78 bytes, padded to 80).
+        let mut bad = bytes.to_vec();
+        bad[79] = 1;
+        let words = aligned(&bad);
+        check(
+            good,
+            &bytemuck::cast_slice::<u64, u8>(&words)[..bad.len()],
+            attributes,
+            "padding is not zero",
+        );
         // Misaligned memory is an error, not a panic.
         let shifted: Vec<u8> = [0u8].iter().chain(bytes).copied().collect();
         let words = aligned(&shifted);
@@ -1218,12 +904,25 @@ mod tests {
     fn encode_asserts_strip_range() {
         let mut patch = sample(3, 0);
         patch.strip[1] = 9;
-        encode_patch(&patch, 0, &mut Vec::new());
+        encode_patch(&patch, 0, &mut Vec::new(), &mut Vec::new());
     }
 
     #[test]
     #[should_panic(expected = "normals are missing")]
     fn encode_asserts_attributes() {
-        encode_patch(&sample(3, 0), ATTR_NORMALS, &mut Vec::new());
+        encode_patch(
+            &sample(3, 0),
+            ATTR_NORMALS,
+            &mut Vec::new(),
+            &mut Vec::new(),
+        );
+    }
+
+    #[test]
+    #[should_panic(expected = "exceeds 2097151")]
+    fn encode_asserts_position_range() {
+        let mut patch = sample(3, 0);
+        patch.positions[1][2] = POSITION_MAX + 1;
+        encode_patch(&patch, 0, &mut Vec::new(), &mut Vec::new());
     }
 }

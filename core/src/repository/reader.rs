@@ -16,7 +16,7 @@ use super::format::{
     compute_checksum, DiamondRecord, Header, TetRecord, ATTR_ALL, DIAMOND_RECORD_SIZE,
     FORMAT_VERSION, HEADER_SIZE, MAGIC, NO_INDEX, TABLE_ALIGN, TET_RECORD_SIZE,
 };
-use super::patch::{patch_bytes_checked, read_position_header, PatchView};
+use super::patch::{patch_bytes_checked, PatchSource, PatchView};
 
 /// Why a repository cannot be read or written.
 #[derive(Debug, thiserror::Error)]
@@ -78,6 +78,7 @@ pub struct Repository {
     diamonds: Range<usize>,
     tets: Range<usize>,
     patch_blob: Range<usize>,
+    id_blob: Range<usize>,
 }
 
 impl std::fmt::Debug for Repository {
@@ -129,17 +130,13 @@ impl Repository {
             .map_err(|e| corrupt(format!("diamond table cannot be borrowed in place: {e:?}")))?;
         let tets: &[TetRecord] = bytemuck::try_cast_slice(&bytes[layout.tets.clone()])
             .map_err(|e| corrupt(format!("tet table cannot be borrowed in place: {e:?}")))?;
-        check_tables(
-            &layout.header,
-            diamonds,
-            tets,
-            &bytes[layout.patch_blob.clone()],
-        )?;
+        check_tables(&layout.header, diamonds, tets)?;
         Ok(Repository {
             header: layout.header,
             diamonds: layout.diamonds,
             tets: layout.tets,
             patch_blob: layout.patch_blob,
+            id_blob: layout.id_blob,
             storage,
         })
     }
@@ -165,20 +162,32 @@ impl Repository {
         &self.storage.bytes()[self.patch_blob.clone()]
     }
 
-    /// Parses and validates the patch of tet `tet_index` (one pass over its strip).
+    /// The whole id blob (every `TetRecord::id_offset` is relative to its start).
+    pub fn id_blob(&self) -> &[u8] {
+        &self.storage.bytes()[self.id_blob.clone()]
+    }
+
+    /// Parses and validates the patch of tet `tet_index` (one pass over its strip and one over
+    /// its id stream).
     pub fn patch(&self, tet_index: usize) -> Result<PatchView<'_>, RepositoryError> {
         let tets = self.tets();
         let tet = tets.get(tet_index).ok_or(RepositoryError::NoSuchTet {
             index: tet_index,
             count: tets.len(),
         })?;
-        PatchView::parse(self.patch_blob(), tet, self.header.attributes).map_err(|e| match e {
+        let source = PatchSource {
+            patch_blob: self.patch_blob(),
+            id_blob: self.id_blob(),
+            attributes: self.header.attributes,
+            input_vertex_count: self.header.input_vertex_count,
+        };
+        PatchView::parse(&source, tet).map_err(|e| match e {
             RepositoryError::Corrupt(message) => corrupt(format!("tet {tet_index}: {message}")),
             other => other,
         })
     }
 
-    /// Parses every patch: after this, `patch` cannot fail. Cost: one pass over the blob.
+    /// Parses every patch: after this, `patch` cannot fail. Cost: one pass over both blobs.
     pub fn validate_patches(&self) -> Result<(), RepositoryError> {
         (0..self.tets().len()).try_for_each(|i| self.patch(i).map(drop))
     }
@@ -195,6 +204,7 @@ struct Layout {
     diamonds: Range<usize>,
     tets: Range<usize>,
     patch_blob: Range<usize>,
+    id_blob: Range<usize>,
 }
 
 /// Checks the header and the table ranges of `bytes`, then the checksum.
@@ -240,10 +250,18 @@ fn check_layout(bytes: &[u8]) -> Result<Layout, RepositoryError> {
         tets.end as u64,
         len,
     )?;
-    if patch_blob.end as u64 != len {
+    let id_blob = table_range(
+        "id blob",
+        header.id_blob_offset,
+        header.id_blob_bytes,
+        1,
+        patch_blob.end as u64,
+        len,
+    )?;
+    if id_blob.end as u64 != len {
         return Err(corrupt(format!(
             "file is {len} bytes but its tables end at {}",
-            patch_blob.end
+            id_blob.end
         )));
     }
     let computed = compute_checksum(bytes);
@@ -258,6 +276,7 @@ fn check_layout(bytes: &[u8]) -> Result<Layout, RepositoryError> {
         diamonds,
         tets,
         patch_blob,
+        id_blob,
     })
 }
 
@@ -352,22 +371,17 @@ pub(crate) fn check_header_fields(h: &Header) -> Result<(), RepositoryError> {
     Ok(())
 }
 
-/// Checks every record against the header and the other records, and each patch's size against
-/// the position encoding in its header (read from `patch_blob`). `h` must have passed
-/// `check_header_fields`, and its counts must match the slices and the blob.
+/// Checks every record against the header and the other records (patch and id ranges inside
+/// their blobs; the patches' contents are checked by `PatchView::parse`). `h` must have passed
+/// `check_header_fields`, and its counts must match the slices.
 pub(crate) fn check_tables(
     h: &Header,
     diamonds: &[DiamondRecord],
     tets: &[TetRecord],
-    patch_blob: &[u8],
 ) -> Result<(), RepositoryError> {
     debug_assert_eq!(
-        (h.diamond_count, h.tet_count, h.patch_blob_bytes),
-        (
-            diamonds.len() as u64,
-            tets.len() as u64,
-            patch_blob.len() as u64
-        )
+        (h.diamond_count, h.tet_count),
+        (diamonds.len() as u64, tets.len() as u64)
     );
     let side = 1i64 << h.lattice_bits;
     for (i, d) in diamonds.iter().enumerate() {
@@ -479,30 +493,39 @@ pub(crate) fn check_tables(
             ));
         }
         let end = t.patch_offset as u128 + t.patch_bytes as u128;
-        if end > patch_blob.len() as u128 {
+        if end > h.patch_blob_bytes as u128 {
             return fail(format!(
                 "patch range {}..{end} exceeds patch blob of {} bytes",
-                t.patch_offset,
-                patch_blob.len()
+                t.patch_offset, h.patch_blob_bytes
             ));
         }
-        // Both fit: end ≤ patch_blob.len().
-        let patch = &patch_blob[t.patch_offset as usize..end as usize];
-        let (_, encoding) = match read_position_header(patch, t.vertex_count as u64) {
-            Ok(header) => header,
-            Err(message) => return fail(message),
-        };
         let expected = patch_bytes_checked(
             t.vertex_count as u64,
             t.strip_index_count as u64,
             h.attributes,
-            encoding,
         );
         if expected != Some(t.patch_bytes as u64) {
             return fail(format!(
-                "patch is {} bytes but {} vertices and {} strip indices with position encoding {encoding:?} take {expected:?}",
+                "patch is {} bytes but {} vertices and {} strip indices take {expected:?}",
                 t.patch_bytes, t.vertex_count, t.strip_index_count
             ));
+        }
+        let id_end = t.id_offset as u128 + t.id_bytes as u128;
+        if id_end > h.id_blob_bytes as u128 {
+            return fail(format!(
+                "id range {}..{id_end} exceeds id blob of {} bytes",
+                t.id_offset, h.id_blob_bytes
+            ));
+        }
+        // Every id takes at least one byte: a cheap bound before the stream is decoded.
+        if (t.id_bytes as u64) < t.vertex_count as u64 {
+            return fail(format!(
+                "{} ids cannot fit in an id stream of {} bytes",
+                t.vertex_count, t.id_bytes
+            ));
+        }
+        if t.reserved != 0 {
+            return fail(format!("reserved field is {}, not 0", t.reserved));
         }
         if t.triangle_count > t.strip_index_count.saturating_sub(2) {
             return fail(format!(

@@ -1,5 +1,5 @@
-//! The writer: lays out header, diamond table, tet table and patch blob (in that order, each
-//! 8-aligned), fills the header's bookkeeping fields and checksum, and writes the file through
+//! The writer: lays out header, diamond table, tet table, patch blob and id blob (in that
+//! order, each 8-aligned), fills the header's bookkeeping fields and checksum, and writes the file through
 //! a temporary file and a rename. Mirrors `reader.rs`: whatever it writes, `Repository` opens.
 
 use std::ffi::OsString;
@@ -18,7 +18,7 @@ use super::reader::{check_header_fields, check_tables, RepositoryError};
 pub struct RepositoryContents {
     /// The caller fills dimension, attributes, root_tet_count, input counts, origin, bbox,
     /// position step and lattice; the writer fills magic, version, diamond/tet counts, offsets,
-    /// patch_blob_bytes and checksum (whatever they held is ignored).
+    /// blob sizes and checksum (whatever they held is ignored).
     pub header: Header,
     /// The diamond table (`Header::diamond_count` = its length).
     pub diamonds: Vec<DiamondRecord>,
@@ -26,6 +26,8 @@ pub struct RepositoryContents {
     pub tets: Vec<TetRecord>,
     /// The patches, each at its tet's `patch_offset` (see `patch::encode_patch`).
     pub patch_blob: Vec<u8>,
+    /// The global id streams, each at its tet's `id_offset` (see `patch::encode_patch`).
+    pub id_blob: Vec<u8>,
 }
 
 /// Fills the writer's header fields (checksum 0) and validates the contents as the reader
@@ -38,28 +40,35 @@ fn lay_out(contents: &RepositoryContents) -> Result<Header, RepositoryError> {
     h.diamond_count = contents.diamonds.len() as u64;
     h.tet_count = contents.tets.len() as u64;
     h.patch_blob_bytes = contents.patch_blob.len() as u64;
+    h.id_blob_bytes = contents.id_blob.len() as u64;
     h.diamond_table_offset = align8(HEADER_SIZE as u64).ok_or_else(overflow)?;
     h.tet_table_offset =
         align8(h.diamond_table_offset + h.diamond_count * DIAMOND_RECORD_SIZE as u64)
             .ok_or_else(overflow)?;
     h.patch_blob_offset =
         align8(h.tet_table_offset + h.tet_count * TET_RECORD_SIZE as u64).ok_or_else(overflow)?;
-    h.patch_blob_offset
+    h.id_blob_offset = h
+        .patch_blob_offset
         .checked_add(h.patch_blob_bytes)
+        .and_then(align8)
+        .ok_or_else(overflow)?;
+    h.id_blob_offset
+        .checked_add(h.id_blob_bytes)
         .ok_or_else(overflow)?;
     h.checksum = 0;
     check_header_fields(&h)?;
-    check_tables(&h, &contents.diamonds, &contents.tets, &contents.patch_blob)?;
+    check_tables(&h, &contents.diamonds, &contents.tets)?;
     Ok(h)
 }
 
 /// The file, in order, as byte slices (zero padding between tables).
-fn sections<'a>(header: &'a Header, contents: &'a RepositoryContents) -> [&'a [u8]; 7] {
+fn sections<'a>(header: &'a Header, contents: &'a RepositoryContents) -> [&'a [u8]; 9] {
     const ZEROS: [u8; 8] = [0; 8];
     let pad = |from: u64, to: u64| &ZEROS[..(to - from) as usize];
     let diamonds_end =
         header.diamond_table_offset + header.diamond_count * DIAMOND_RECORD_SIZE as u64;
     let tets_end = header.tet_table_offset + header.tet_count * TET_RECORD_SIZE as u64;
+    let patches_end = header.patch_blob_offset + header.patch_blob_bytes;
     [
         bytemuck::bytes_of(header),
         pad(HEADER_SIZE as u64, header.diamond_table_offset),
@@ -68,6 +77,8 @@ fn sections<'a>(header: &'a Header, contents: &'a RepositoryContents) -> [&'a [u
         bytemuck::cast_slice(&contents.tets),
         pad(tets_end, header.patch_blob_offset),
         &contents.patch_blob,
+        pad(patches_end, header.id_blob_offset),
+        &contents.id_blob,
     ]
 }
 
@@ -93,17 +104,17 @@ fn write_laid_out<W: Write>(
         total += s.len() as u64;
     }
     w.flush()?;
-    debug_assert_eq!(total, header.patch_blob_offset + header.patch_blob_bytes);
+    debug_assert_eq!(total, header.id_blob_offset + header.id_blob_bytes);
     Ok(total)
 }
 
 /// Writes a repository to `w` and returns the number of bytes written.
 ///
-/// Fills magic, version, counts, offsets, `patch_blob_bytes` and the checksum, and first runs
-/// the reader's header and record checks on the contents: invalid contents (an index out of
-/// range, a patch outside the blob, a NaN radius, …) fail with `ErrorKind::InvalidInput`
-/// wrapping the `RepositoryError`, before anything is written. Patch strips are not
-/// re-checked (`encode_patch` asserts them).
+/// Fills magic, version, counts, offsets, blob sizes and the checksum, and first runs the
+/// reader's header and record checks on the contents: invalid contents (an index out of range,
+/// a patch outside the blob, a NaN radius, …) fail with `ErrorKind::InvalidInput` wrapping the
+/// `RepositoryError`, before anything is written. Patch strips and id streams are not
+/// re-checked (`encode_patch` writes them correctly by construction).
 pub fn write_repository<W: Write>(w: W, contents: &RepositoryContents) -> io::Result<u64> {
     let header = lay_out(contents).map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e))?;
     write_laid_out(w, header, contents)
