@@ -7,6 +7,7 @@
 //! rule, one invocation per simplex. `select_top_down` reaches the same set by descending from
 //! the roots and visiting only what the cut needs.
 
+use crate::cull::CullTests;
 use crate::metric::{center_minus_eye, ScreenSpaceMetric};
 use crate::repository::format::{DiamondRecord, TetRecord, NO_INDEX};
 
@@ -52,6 +53,23 @@ pub fn is_drawn(tet: &TetRecord, rhos: &[f32], tau: f32) -> bool {
 pub fn select_stateless(tets: &[TetRecord], rhos: &[f32], tau: f32) -> Vec<u32> {
     (0..tets.len() as u32)
         .filter(|&i| is_drawn(&tets[i as usize], rhos, tau))
+        .collect()
+}
+
+/// What the GPU traversal draws: the rule's selection, minus the simplices `tests` cull for an
+/// eye at `eye_local` (the same f32 operations as `shaders/traverse.wgsl`).
+pub fn select_visible(
+    tets: &[TetRecord],
+    rhos: &[f32],
+    tau: f32,
+    eye_local: [f32; 3],
+    tests: &CullTests,
+) -> Vec<u32> {
+    (0..tets.len() as u32)
+        .filter(|&i| {
+            let t = &tets[i as usize];
+            is_drawn(t, rhos, tau) && tests.keeps(t, eye_local)
+        })
         .collect()
 }
 

@@ -4,6 +4,7 @@
 //! Architecture invariant: this crate knows no GPU, no threads (no rayon) and no importer.
 
 pub mod bounds;
+pub mod cull;
 pub mod cut;
 pub mod leb;
 pub mod metric;

@@ -6,7 +6,10 @@
 //!   have as such;
 //! - monotonicity violation: a diamond DAG edge with ρ(parent) < ρ(child) in f32, as the GPU
 //!   computes it;
-//! - traversal mismatch: the stateless scan and the top-down descent select different sets.
+//! - traversal mismatch: the stateless scan and the top-down descent select different sets;
+//! - position mismatch: a global id whose quantised position differs between two patches (a
+//!   shared vertex must be bit-identical wherever it is stored, or the picture cracks even
+//!   though the ids match).
 
 use std::collections::HashSet;
 
@@ -51,6 +54,8 @@ pub struct CheckReport {
     pub nonmanifold_introduced: usize,
     pub monotonicity_violations: usize,
     pub traversal_mismatches: usize,
+    /// Global ids stored with two different positions (counted once per id).
+    pub position_mismatches: usize,
     pub min_triangles: usize,
     pub max_triangles: usize,
     /// (view, τ, cracks) of the cut with the most cracks, if any has one.
@@ -70,6 +75,27 @@ pub fn decode_all_patches(repo: &Repository) -> Result<Vec<Vec<[u32; 3]>>, Repos
                 .collect())
         })
         .collect()
+}
+
+/// Global ids whose quantised position is not the same in every patch that stores them.
+pub fn position_mismatches(repo: &Repository) -> Result<usize, RepositoryError> {
+    const UNSEEN: [u32; 3] = [u32::MAX; 3];
+    let mut position = vec![UNSEEN; repo.header().input_vertex_count as usize];
+    let mut mismatched = vec![false; position.len()];
+    for i in 0..repo.tets().len() {
+        let patch = repo.patch(i)?;
+        for (local, id) in patch.global_ids().enumerate() {
+            // Ids were checked against the input's vertex count when the patch was parsed.
+            let q = patch.position(local);
+            let stored = &mut position[id as usize];
+            if *stored == UNSEEN {
+                *stored = q;
+            } else if *stored != q {
+                mismatched[id as usize] = true;
+            }
+        }
+    }
+    Ok(mismatched.iter().filter(|&&m| m).count())
 }
 
 /// Undirected edge key.
@@ -202,6 +228,8 @@ pub fn check_cuts(
     if total.cuts_checked == 0 {
         total.min_triangles = 0;
     }
+    // Patches were parsed by `decode_all_patches`, so this cannot fail on a valid repository.
+    total.position_mismatches = position_mismatches(repo).unwrap_or(usize::MAX);
     total
 }
 
@@ -212,5 +240,6 @@ impl CheckReport {
             && self.nonmanifold_introduced == 0
             && self.monotonicity_violations == 0
             && self.traversal_mismatches == 0
+            && self.position_mismatches == 0
     }
 }

@@ -32,3 +32,11 @@ pub fn build(mesh: &InputMesh, config: &BuildConfig) -> Built {
     let repo = Repository::open(&path).expect("the reader accepts what the writer wrote");
     Built { dir, repo, summary }
 }
+
+/// The GPU device for tests: lavapipe in CI (`mesa-vulkan-drivers`), or whatever
+/// `TESSERA_ADAPTER` names. Panics with the fix when no adapter exists.
+pub fn gpu() -> tessera_runtime::gpu::GpuContext {
+    tessera_runtime::gpu::GpuContext::new(None).unwrap_or_else(|e| {
+        panic!("{e}\n(the GPU tests need a Vulkan adapter; .ci/run installs lavapipe)")
+    })
+}

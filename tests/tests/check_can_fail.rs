@@ -2,15 +2,19 @@
 
 use tessera_core::cut::{diamond_rhos, select_stateless};
 use tessera_core::metric::{eye_local, ScreenSpaceMetric};
-use tessera_core::repository::format::NO_INDEX;
+use tessera_core::repository::format::{
+    dequantize_position, pack_position, quantize_position, NO_INDEX,
+};
 use tessera_core::repository::global_ids::encode_global_ids;
 use tessera_core::repository::reader::Repository;
 use tessera_core::repository::writer::{write_repository_file, RepositoryContents};
 use tessera_preprocess::import::load_mesh;
 use tessera_preprocess::{build_contents, BuildConfig};
 use tessera_runtime::geometric_check::{check_cuts, decode_all_patches, CheckConfig, CheckReport};
+use tessera_runtime::gpu::{Renderer, RendererOptions};
+use tessera_runtime::pixel_check::{check_pixels, PixelCheckConfig};
 use tessera_runtime::views::check_views;
-use tessera_tests::testdata;
+use tessera_tests::{gpu, testdata};
 
 fn bunny_contents() -> RepositoryContents {
     let input = load_mesh(&testdata("mesh/bunny00.off")).unwrap().mesh;
@@ -117,4 +121,74 @@ fn to_bytes(contents: &RepositoryContents) -> Vec<u8> {
     let mut bytes = Vec::new();
     tessera_core::repository::writer::write_repository(&mut bytes, contents).unwrap();
     bytes
+}
+
+/// A border vertex of one coarse patch moved inwards by a tenth of the model's radius, in that
+/// patch only (its neighbours keep it where it was): the ids still match, so the edge check
+/// sees nothing, but the position check does, and the GPU sees the gap as flag pixels.
+#[test]
+fn a_border_vertex_nudged_in_one_patch_is_caught_by_both_checks() {
+    let mut contents = bunny_contents();
+    let repo = Repository::from_bytes(to_bytes(&contents)).unwrap();
+    let h = *repo.header();
+    // The patches of a coarse cut, largest first: each is drawn by many views at τ = 8 px.
+    let mut coarse: Vec<usize> = (0..repo.tets().len())
+        .filter(|&i| repo.tets()[i].level <= 4 && repo.tets()[i].vertex_count > 20)
+        .collect();
+    coarse.sort_by_key(|&i| std::cmp::Reverse(repo.tets()[i].triangle_count));
+    let victim = coarse[0];
+    let patch = repo.patch(victim).unwrap();
+    let mut local_edges = std::collections::HashMap::new();
+    for t in patch.triangles() {
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            *local_edges.entry((a.min(b), a.max(b))).or_insert(0) += 1;
+        }
+    }
+    let border: std::collections::BTreeSet<u32> = local_edges
+        .iter()
+        .filter(|(_, &n)| n == 1)
+        .flat_map(|((a, b), _)| [*a, *b])
+        .collect();
+    assert!(
+        border.len() > 3,
+        "a coarse patch of a closed model has a border"
+    );
+    // Every border vertex of the patch moves a tenth of the radius towards the centre.
+    let radius = 0.5
+        * (0..3)
+            .map(|i| (h.bbox_max[i] - h.bbox_min[i]).powi(2))
+            .sum::<f64>()
+            .sqrt();
+    let centre = [0, 1, 2].map(|i| 0.5 * (h.bbox_min[i] + h.bbox_max[i]));
+    for &local in &border {
+        let q = patch.position(local as usize);
+        let p = dequantize_position(q, h.bbox_min, h.position_step);
+        let d = (0..3)
+            .map(|i| (p[i] - centre[i]).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        let moved = [0, 1, 2].map(|i| p[i] + (centre[i] - p[i]) / d * 0.1 * radius);
+        let packed = pack_position(quantize_position(moved, h.bbox_min, h.position_step));
+        let at = contents.tets[victim].patch_offset as usize + 8 * local as usize;
+        contents.patch_blob[at..at + 8].copy_from_slice(bytemuck::cast_slice(&packed));
+    }
+    drop(repo);
+
+    let config = CheckConfig {
+        views: 8,
+        ..Default::default()
+    };
+    let report = check(&contents, &config);
+    assert_eq!(report.cracks, 0, "the ids still match: {report:?}");
+    assert_eq!(report.position_mismatches, border.len(), "{report:?}");
+    assert!(!report.is_clean());
+
+    let broken = Repository::from_bytes(to_bytes(&contents)).unwrap();
+    let ctx = gpu();
+    let mut renderer = Renderer::new(&ctx, &broken, RendererOptions::default()).unwrap();
+    let pixels = check_pixels(&ctx, &mut renderer, &broken, &PixelCheckConfig::default());
+    assert!(pixels.flag_pixels > 0, "{pixels:?}");
+    assert!(!pixels.is_clean());
+    assert_eq!(pixels.selection_mismatches, 0, "only positions changed");
 }

@@ -1,4 +1,7 @@
-//! `tessera check REPO [--views N] [--tolerances a,b,...] [--json]`
+//! `tessera check REPO [--views N] [--tolerances a,b,...] [--gpu] [--json]`
+//!
+//! Always the geometric check (edges by global id); with `--gpu`, also the pixel check on the
+//! GPU (flag colour on back faces, views from outside) and GPU-vs-CPU selection.
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -7,6 +10,8 @@ use clap::Args;
 use serde_json::json;
 use tessera_core::repository::reader::Repository;
 use tessera_runtime::geometric_check::{check_cuts, decode_all_patches, CheckConfig, CheckReport};
+use tessera_runtime::gpu::{GpuContext, Renderer, RendererOptions};
+use tessera_runtime::pixel_check::{check_pixels, PixelCheckConfig, PixelCheckReport};
 
 use crate::Outcome;
 
@@ -20,6 +25,22 @@ pub struct CheckArgs {
     /// Pixel tolerances, at 1920×1080 with a 60° vertical field of view.
     #[arg(long, value_delimiter = ',', default_value = "0.5,1,2,4,8")]
     pub tolerances: Vec<f32>,
+    /// Also render every (view, tolerance) on the GPU and count back-face flag pixels (a
+    /// closed model seen from outside shows none; views are outside its bounding sphere).
+    #[arg(long)]
+    pub gpu: bool,
+    /// Image size of the GPU check, WIDTHxHEIGHT (tolerances are pixels at this height).
+    #[arg(long, default_value = "1920x1080", value_parser = crate::cmd_render::parse_size)]
+    pub size: (u32, u32),
+    /// Up direction of the GPU check's cameras (default: y for meshes, z for terrains).
+    #[arg(long, value_parser = crate::cmd_render::parse_vec3)]
+    pub up: Option<[f64; 3]>,
+    /// Adapter name substring (default: $TESSERA_ADAPTER, else the best present).
+    #[arg(long)]
+    pub adapter: Option<String>,
+    /// GPU memory budget for the resident model, MiB.
+    #[arg(long, default_value_t = 2048)]
+    pub gpu_budget: u64,
     /// Print one JSON object on stdout.
     #[arg(long)]
     pub json: bool,
@@ -39,16 +60,94 @@ pub fn run(args: CheckArgs) -> anyhow::Result<Outcome> {
     let patches = decode_all_patches(&repo)?;
     let report = check_cuts(&repo, &patches, &config);
     let seconds = start.elapsed().as_secs_f64();
+    let gpu = if args.gpu {
+        let start = Instant::now();
+        let ctx = GpuContext::new(args.adapter.as_deref())?;
+        let mut renderer = Renderer::new(
+            &ctx,
+            &repo,
+            RendererOptions {
+                width: args.size.0,
+                height: args.size.1,
+                budget_bytes: args.gpu_budget << 20,
+            },
+        )?;
+        let pixels = check_pixels(
+            &ctx,
+            &mut renderer,
+            &repo,
+            &PixelCheckConfig {
+                views: args.views,
+                tolerances: args.tolerances.clone(),
+                up: args
+                    .up
+                    .unwrap_or(crate::cmd_render::default_up(repo.header().dimension)),
+                ..Default::default()
+            },
+        );
+        Some((
+            pixels,
+            start.elapsed().as_secs_f64(),
+            ctx.adapter_description(),
+        ))
+    } else {
+        None
+    };
     if args.json {
-        println!("{}", report_json(&report, seconds));
+        let mut value = report_json(&report, seconds);
+        if let Some((pixels, seconds, adapter)) = &gpu {
+            value["gpu"] = pixel_report_json(pixels, *seconds, adapter);
+            value["flag_pixels"] = pixels.flag_pixels.into();
+        }
+        println!("{value}");
     } else {
         print_report(&report, seconds);
+        if let Some((pixels, seconds, adapter)) = &gpu {
+            print_pixel_report(pixels, *seconds, adapter);
+        }
     }
-    Ok(if report.is_clean() {
+    let clean = report.is_clean() && gpu.as_ref().is_none_or(|(p, _, _)| p.is_clean());
+    Ok(if clean {
         Outcome::Ok
     } else {
         Outcome::CheckFailed
     })
+}
+
+pub fn pixel_report_json(r: &PixelCheckReport, seconds: f64, adapter: &str) -> serde_json::Value {
+    json!({
+        "frames": r.frames,
+        "flag_pixels": r.flag_pixels,
+        "frames_with_flags": r.frames_with_flags,
+        "selection_mismatches": r.selection_mismatches,
+        "covered_pixels": r.covered_pixels,
+        "worst": r.worst.as_ref().map(|w| json!({
+            "view": w.view, "tolerance": w.tolerance, "flag_pixels": w.flag_pixels, "eye": w.eye,
+        })),
+        "adapter": adapter,
+        "seconds": seconds,
+    })
+}
+
+pub fn print_pixel_report(r: &PixelCheckReport, seconds: f64, adapter: &str) {
+    println!(
+        "GPU ({adapter}): {} frames in {seconds:.2} s: {} flag pixels in {} frames, {} selection mismatches (GPU vs CPU), {} pixels covered",
+        r.frames, r.flag_pixels, r.frames_with_flags, r.selection_mismatches, r.covered_pixels
+    );
+    if let Some(w) = &r.worst {
+        println!(
+            "worst frame: view {} at τ = {} px with {} flag pixels (eye {:?})",
+            w.view, w.tolerance, w.flag_pixels, w.eye
+        );
+    }
+    println!(
+        "{}",
+        if r.is_clean() {
+            "GPU CLEAN"
+        } else {
+            "GPU FAILED"
+        }
+    );
 }
 
 pub fn report_json(r: &CheckReport, seconds: f64) -> serde_json::Value {
@@ -58,6 +157,7 @@ pub fn report_json(r: &CheckReport, seconds: f64) -> serde_json::Value {
         "nonmanifold_introduced": r.nonmanifold_introduced,
         "monotonicity_violations": r.monotonicity_violations,
         "traversal_mismatches": r.traversal_mismatches,
+        "position_mismatches": r.position_mismatches,
         "min_triangles": r.min_triangles,
         "max_triangles": r.max_triangles,
         "worst": r.worst.as_ref().map(|(view, tau, cracks)| json!({"view": view, "tolerance": tau, "cracks": cracks})),
@@ -67,8 +167,8 @@ pub fn report_json(r: &CheckReport, seconds: f64) -> serde_json::Value {
 
 pub fn print_report(r: &CheckReport, seconds: f64) {
     println!(
-        "{} cuts checked in {:.2} s: {} cracks, {} non-manifold edges introduced, {} monotonicity violations, {} traversal mismatches",
-        r.cuts_checked, seconds, r.cracks, r.nonmanifold_introduced, r.monotonicity_violations, r.traversal_mismatches
+        "{} cuts checked in {:.2} s: {} cracks, {} non-manifold edges introduced, {} monotonicity violations, {} traversal mismatches, {} shared vertices stored at two positions",
+        r.cuts_checked, seconds, r.cracks, r.nonmanifold_introduced, r.monotonicity_violations, r.traversal_mismatches, r.position_mismatches
     );
     println!(
         "triangles per cut: {} .. {}",

@@ -9,6 +9,7 @@ mod cmd_build;
 mod cmd_check;
 mod cmd_demo;
 mod cmd_info;
+mod cmd_render;
 mod progress;
 
 use std::process::ExitCode;
@@ -32,6 +33,8 @@ enum Command {
     Build(cmd_build::BuildArgs),
     /// Describe a repository.
     Info(cmd_info::InfoArgs),
+    /// Render a view of a repository to PNG on the GPU (lavapipe works).
+    Render(cmd_render::RenderArgs),
     /// Check the cuts of a repository for cracks, non-manifold edges and monotonicity.
     Check(cmd_check::CheckArgs),
     /// Benchmarks with their peers measured in the same run.
@@ -51,6 +54,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Build(args) => cmd_build::run(args),
         Command::Info(args) => cmd_info::run(args),
+        Command::Render(args) => cmd_render::run(args),
         Command::Check(args) => cmd_check::run(args),
         Command::Demo(args) => cmd_demo::run(args),
         Command::Bench(args) => cmd_bench::run(args),

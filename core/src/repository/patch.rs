@@ -131,6 +131,15 @@ pub fn patch_bytes(vertex_count: usize, strip_index_count: usize, attributes: u3
         .expect("patch size overflows usize")
 }
 
+/// Byte offset of the strip from the start of a patch with `vertex_count` vertices and the
+/// `attributes` mask: where a renderer points its index buffer. Panics on overflow.
+pub fn strip_byte_offset(vertex_count: usize, attributes: u32) -> usize {
+    locate_arrays(vertex_count as u64, 0, attributes)
+        .expect("patch size overflows usize")
+        .strip
+        .start
+}
+
 /// `patch_bytes` for untrusted counts: `None` on overflow.
 pub fn patch_bytes_checked(
     vertex_count: u64,
@@ -736,6 +745,9 @@ mod tests {
 
     #[test]
     fn sizes_are_exact() {
+        assert_eq!(strip_byte_offset(3, ATTR_ALL), 72);
+        assert_eq!(strip_byte_offset(3, ATTR_NORMALS), 36);
+        assert_eq!(strip_byte_offset(0, ATTR_ALL), 0);
         assert_eq!(patch_bytes(0, 0, 0), 0);
         assert_eq!(patch_bytes(1, 1, 0), 16); // 8 + 2 → 16
         assert_eq!(patch_bytes(3, 4, ATTR_ALL), 80); // 3 × 24 + 4 × 2 = 80

@@ -1,0 +1,100 @@
+//! The per-frame uniforms (`Frame` in `shaders/records.wgsl`): everything a frame needs, made
+//! on the CPU in O(1) from the camera, τ and the repository header.
+
+use bytemuck::{Pod, Zeroable};
+use tessera_core::cull::CullTests;
+use tessera_core::repository::format::Header;
+
+use crate::camera::Camera;
+
+/// How fragments are coloured.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ShadingMode {
+    /// Lit by a light over the viewer's shoulder: stored normals, else the face normal.
+    Lit,
+    /// One colour per simplex.
+    Patches,
+    /// One colour per LEB level.
+    Levels,
+    /// Front faces grey, back faces `FLAG_COLOUR` (the pixel crack check).
+    Check,
+}
+
+impl ShadingMode {
+    fn code(self) -> u32 {
+        match self {
+            ShadingMode::Lit => 0,
+            ShadingMode::Patches => 1,
+            ShadingMode::Levels => 2,
+            ShadingMode::Check => 3,
+        }
+    }
+}
+
+/// The colour the check mode gives back faces (RGBA8), counted by the pixel check.
+pub const FLAG_COLOUR: [u8; 4] = [255, 0, 255, 255];
+
+const CULL_FRUSTUM: u32 = 1;
+const CULL_CONES: u32 = 2;
+
+/// Mirrors `Frame` in `shaders/records.wgsl` (uniform layout: 16-byte rows).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct FrameUniforms {
+    pub view_proj: [[f32; 4]; 4],
+    pub eye_tau: [f32; 4],
+    pub planes: [[f32; 4]; 4],
+    pub forward_near: [f32; 4],
+    pub metric: [f32; 4],
+    pub base: [f32; 4],
+    pub step: [f32; 4],
+    pub light: [f32; 4],
+    pub counts: [u32; 4],
+    pub dispatch: [u32; 4],
+}
+
+impl FrameUniforms {
+    /// The uniforms of one frame. `cull` must be what the CPU reference is given to compare
+    /// selections (its frustum is the camera's view volume when present).
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        camera: &Camera,
+        header: &Header,
+        tau: f32,
+        cull: &CullTests,
+        mode: ShadingMode,
+        tet_count: u32,
+        dispatch_row: u32,
+    ) -> FrameUniforms {
+        let eye = camera.eye_local(header.origin);
+        let volume = cull.frustum.unwrap_or_else(|| camera.view_volume());
+        let metric = camera.metric();
+        let b = camera.basis();
+        let light = normalize([0, 1, 2].map(|i| -b.forward[i] + 0.6 * b.up[i] - 0.4 * b.right[i]));
+        let flags =
+            (cull.frustum.is_some() as u32 * CULL_FRUSTUM) | (cull.cones as u32 * CULL_CONES);
+        let v4 = |v: [f32; 3], w: f32| [v[0], v[1], v[2], w];
+        FrameUniforms {
+            view_proj: camera.view_projection(),
+            eye_tau: v4(eye, tau),
+            planes: volume.side_planes.map(|n| v4(n, 0.0)),
+            forward_near: v4(volume.forward, volume.near),
+            metric: [metric.k, metric.near, volume.far, 0.0],
+            base: v4(
+                [0, 1, 2].map(|i| (header.bbox_min[i] - header.origin[i]) as f32),
+                0.0,
+            ),
+            step: v4(header.position_step.map(|s| s as f32), 0.0),
+            light: v4(light.map(|x| x as f32), 0.0),
+            counts: [tet_count, flags, mode.code(), header.attributes],
+            dispatch: [dispatch_row, 0, 0, 0],
+        }
+    }
+}
+
+fn normalize(v: [f64; 3]) -> [f64; 3] {
+    let l = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+    v.map(|x| x / l)
+}
+
+const _: () = assert!(std::mem::size_of::<FrameUniforms>() == 64 + 16 * 4 + 16 * 8);

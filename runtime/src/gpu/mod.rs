@@ -1,0 +1,22 @@
+//! The GPU side (wgpu 30): device, resident model, per-frame uniforms, shaders, headless
+//! target and the renderer that ties them together.
+//!
+//! - `device`: adapter choice and the features used;
+//! - `resident`: tables and patch pages in GPU memory, within a byte budget;
+//! - `frame`: the per-frame uniforms and shading modes;
+//! - `probe`: driver behaviour checked by drawing (restart in count draws);
+//! - `shaders`: the WGSL passes of `shaders/`;
+//! - `target`: offscreen colour/depth and read-back;
+//! - `renderer`: traversal + draws, one submit per frame.
+
+pub mod device;
+pub mod frame;
+pub mod probe;
+pub mod renderer;
+pub mod resident;
+pub mod shaders;
+pub mod target;
+
+pub use device::{DeviceError, GpuContext};
+pub use frame::{ShadingMode, FLAG_COLOUR};
+pub use renderer::{FrameRequest, Readback, RenderError, Renderer, RendererOptions};

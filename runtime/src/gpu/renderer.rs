@@ -1,0 +1,620 @@
+//! The renderer: `new` makes every resource (resident model, pipelines, draw buffers, target),
+//! `render` records one frame — traversal compute pass, then one multi-draw per draw list —
+//! and submits it; the `read_*` calls fetch what a frame left behind (image, selection, GPU
+//! time). Per-frame CPU work is O(1) in the model: one uniform write and a fixed number of
+//! commands per resident page.
+
+use std::time::Instant;
+
+use tessera_core::cull::CullTests;
+use tessera_core::repository::format::Header;
+use tessera_core::repository::reader::Repository;
+
+use super::device::GpuContext;
+use super::frame::{FrameUniforms, ShadingMode};
+use super::resident::{ResidentError, ResidentModel, DRAW_ARGS_BYTES};
+use super::shaders::{draw_source, traverse_source, TRAVERSE_WORKGROUP};
+use super::target::{read_buffer, RenderTarget, COLOR_FORMAT, DEPTH_FORMAT};
+use crate::camera::Camera;
+
+/// Default GPU memory budget of the resident pool.
+pub const DEFAULT_BUDGET_BYTES: u64 = 2 << 30;
+
+/// What `Renderer::new` needs besides the repository.
+#[derive(Clone, Copy, Debug)]
+pub struct RendererOptions {
+    /// Target size in pixels.
+    pub width: u32,
+    pub height: u32,
+    /// Bytes the resident model may take on the GPU.
+    pub budget_bytes: u64,
+}
+
+impl Default for RendererOptions {
+    fn default() -> Self {
+        RendererOptions {
+            width: 1920,
+            height: 1080,
+            budget_bytes: DEFAULT_BUDGET_BYTES,
+        }
+    }
+}
+
+/// One frame to draw.
+#[derive(Clone, Copy, Debug)]
+pub struct FrameRequest {
+    pub camera: Camera,
+    /// Pixel tolerance τ.
+    pub tau: f32,
+    /// Culling besides the cut rule (frustum from `camera.view_volume()` when on).
+    pub cull: CullTests,
+    pub mode: ShadingMode,
+    /// Overlay the triangle edges (ignored where the adapter has no line mode).
+    pub wireframe: bool,
+}
+
+impl FrameRequest {
+    /// Lit, frustum and back-face culling on, no wireframe.
+    pub fn new(camera: Camera, tau: f32) -> FrameRequest {
+        FrameRequest {
+            camera,
+            tau,
+            cull: CullTests {
+                frustum: Some(camera.view_volume()),
+                cones: true,
+            },
+            mode: ShadingMode::Lit,
+            wireframe: false,
+        }
+    }
+}
+
+/// What to copy out of a frame for the `read_*` calls.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Readback {
+    pub image: bool,
+    pub selection: bool,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum RenderError {
+    #[error(transparent)]
+    Resident(#[from] ResidentError),
+    #[error("the target size {width}×{height} is not within 1..={max} pixels per side")]
+    BadSize { width: u32, height: u32, max: u32 },
+}
+
+/// Timestamp queries around a frame (where the adapter has them).
+struct Timestamps {
+    set: wgpu::QuerySet,
+    resolve: wgpu::Buffer,
+    read: wgpu::Buffer,
+    period_ns: f32,
+}
+
+/// Draw pipelines for one index width.
+struct DrawPipelines {
+    fill: wgpu::RenderPipeline,
+    check_front: wgpu::RenderPipeline,
+    check_back: wgpu::RenderPipeline,
+    wire: Option<wgpu::RenderPipeline>,
+}
+
+/// Which draw pipeline.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Pass {
+    /// Every face, shaded by the frame's mode.
+    Fill,
+    /// The check's first pass: front faces only, grey.
+    CheckFront,
+    /// The check's second pass: back faces only, flag colour where no front face is.
+    CheckBack,
+    /// Triangle edges over the fill.
+    Wire,
+}
+
+impl DrawPipelines {
+    fn get(&self, pass: Pass) -> Option<&wgpu::RenderPipeline> {
+        match pass {
+            Pass::Fill => Some(&self.fill),
+            Pass::CheckFront => Some(&self.check_front),
+            Pass::CheckBack => Some(&self.check_back),
+            Pass::Wire => self.wire.as_ref(),
+        }
+    }
+}
+
+pub struct Renderer {
+    header: Header,
+    model: ResidentModel,
+    target: RenderTarget,
+    uniforms: wgpu::Buffer,
+    draws: wgpu::Buffer,
+    counts: wgpu::Buffer,
+    draws_read: wgpu::Buffer,
+    counts_read: wgpu::Buffer,
+    traverse: wgpu::ComputePipeline,
+    traverse_group: wgpu::BindGroup,
+    draw_group: wgpu::BindGroup,
+    page_groups: Vec<wgpu::BindGroup>,
+    narrow: DrawPipelines,
+    wide: DrawPipelines,
+    timestamps: Option<Timestamps>,
+    draw_indirect_count: bool,
+    workgroups: (u32, u32),
+}
+
+fn storage_entry(
+    binding: u32,
+    read_only: bool,
+    visibility: wgpu::ShaderStages,
+) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
+fn uniform_entry(visibility: wgpu::ShaderStages) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding: 0,
+        visibility,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Uniform,
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
+fn bind_group(
+    device: &wgpu::Device,
+    label: &str,
+    layout: &wgpu::BindGroupLayout,
+    buffers: &[&wgpu::Buffer],
+) -> wgpu::BindGroup {
+    let entries: Vec<wgpu::BindGroupEntry> = buffers
+        .iter()
+        .enumerate()
+        .map(|(i, b)| wgpu::BindGroupEntry {
+            binding: i as u32,
+            resource: b.as_entire_binding(),
+        })
+        .collect();
+    device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some(label),
+        layout,
+        entries: &entries,
+    })
+}
+
+impl Renderer {
+    /// Uploads `repo` (within `options.budget_bytes`) and makes every pipeline and buffer.
+    pub fn new(
+        ctx: &GpuContext,
+        repo: &Repository,
+        options: RendererOptions,
+    ) -> Result<Renderer, RenderError> {
+        let max = ctx.limits.max_texture_dimension_2d;
+        if !(1..=max).contains(&options.width) || !(1..=max).contains(&options.height) {
+            return Err(RenderError::BadSize {
+                width: options.width,
+                height: options.height,
+                max,
+            });
+        }
+        let device = &ctx.device;
+        let model = ResidentModel::upload(ctx, repo, options.budget_bytes)?;
+        let buffer = |label: &str, size: u64, usage: wgpu::BufferUsages| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: size.max(4).next_multiple_of(4),
+                usage,
+                mapped_at_creation: false,
+            })
+        };
+        use wgpu::BufferUsages as U;
+        let uniforms = buffer(
+            "frame uniforms",
+            std::mem::size_of::<FrameUniforms>() as u64,
+            U::UNIFORM | U::COPY_DST,
+        );
+        let draws_bytes = model.slot_count.max(1) as u64 * DRAW_ARGS_BYTES;
+        let counts_bytes = model.lists.len() as u64 * 4;
+        let draws = buffer(
+            "draw list",
+            draws_bytes,
+            U::STORAGE | U::INDIRECT | U::COPY_SRC | U::COPY_DST,
+        );
+        let counts = buffer(
+            "draw counts",
+            counts_bytes,
+            U::STORAGE | U::INDIRECT | U::COPY_SRC | U::COPY_DST,
+        );
+        let draws_read = buffer(
+            "draw list read-back",
+            draws_bytes,
+            U::MAP_READ | U::COPY_DST,
+        );
+        let counts_read = buffer(
+            "draw counts read-back",
+            counts_bytes,
+            U::MAP_READ | U::COPY_DST,
+        );
+
+        // Traversal.
+        let compute = wgpu::ShaderStages::COMPUTE;
+        let traverse_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("traverse"),
+            entries: &[
+                uniform_entry(compute),
+                storage_entry(1, true, compute),
+                storage_entry(2, true, compute),
+                storage_entry(3, true, compute),
+                storage_entry(4, false, compute),
+                storage_entry(5, false, compute),
+            ],
+        });
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("traverse.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(traverse_source().into()),
+        });
+        let traverse = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("traverse"),
+            layout: Some(
+                &device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                    label: Some("traverse"),
+                    bind_group_layouts: &[Some(&traverse_layout)],
+                    immediate_size: 0,
+                }),
+            ),
+            module: &module,
+            entry_point: Some("traverse"),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        let traverse_group = bind_group(
+            device,
+            "traverse",
+            &traverse_layout,
+            &[
+                &uniforms,
+                &model.diamonds,
+                &model.tets,
+                &model.locations,
+                &draws,
+                &counts,
+            ],
+        );
+
+        // Drawing.
+        let both = wgpu::ShaderStages::VERTEX_FRAGMENT;
+        let draw_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("draw"),
+            entries: &[
+                uniform_entry(both),
+                storage_entry(1, true, both),
+                storage_entry(2, true, both),
+            ],
+        });
+        let page_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("page"),
+            entries: &[storage_entry(0, true, wgpu::ShaderStages::VERTEX)],
+        });
+        let draw_group = bind_group(
+            device,
+            "draw",
+            &draw_layout,
+            &[&uniforms, &model.tets, &model.locations],
+        );
+        let page_groups = model
+            .pages
+            .iter()
+            .map(|p| bind_group(device, "page", &page_layout, &[&p.buffer]))
+            .collect();
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("draw.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(draw_source().into()),
+        });
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("draw"),
+            bind_group_layouts: &[Some(&draw_layout), Some(&page_layout)],
+            immediate_size: 0,
+        });
+        let pipeline = |format: wgpu::IndexFormat, pass: Pass| {
+            let (entry_point, cull_mode, depth_write, depth_compare) = match pass {
+                // Back faces are drawn: the lit mode shades them too.
+                Pass::Fill => ("fs_main", None, true, wgpu::CompareFunction::GreaterEqual),
+                Pass::CheckFront => (
+                    "fs_check_front",
+                    Some(wgpu::Face::Back),
+                    true,
+                    wgpu::CompareFunction::GreaterEqual,
+                ),
+                // Depth 0 "equal" the cleared depth: only where no front face was drawn.
+                Pass::CheckBack => (
+                    "fs_check_back",
+                    Some(wgpu::Face::Front),
+                    false,
+                    wgpu::CompareFunction::Equal,
+                ),
+                Pass::Wire => ("fs_wire", None, false, wgpu::CompareFunction::GreaterEqual),
+            };
+            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some(entry_point),
+                layout: Some(&layout),
+                vertex: wgpu::VertexState {
+                    module: &module,
+                    entry_point: Some("vs_main"),
+                    compilation_options: Default::default(),
+                    buffers: &[],
+                },
+                primitive: wgpu::PrimitiveState {
+                    topology: wgpu::PrimitiveTopology::TriangleStrip,
+                    strip_index_format: Some(format),
+                    front_face: wgpu::FrontFace::Ccw,
+                    cull_mode,
+                    unclipped_depth: false,
+                    polygon_mode: if pass == Pass::Wire {
+                        wgpu::PolygonMode::Line
+                    } else {
+                        wgpu::PolygonMode::Fill
+                    },
+                    conservative: false,
+                },
+                depth_stencil: Some(wgpu::DepthStencilState {
+                    format: DEPTH_FORMAT,
+                    depth_write_enabled: Some(depth_write),
+                    depth_compare: Some(depth_compare),
+                    stencil: Default::default(),
+                    // Reverse Z: a positive bias pulls the lines towards the eye.
+                    bias: if pass == Pass::Wire {
+                        wgpu::DepthBiasState {
+                            constant: 2,
+                            slope_scale: 1.0,
+                            clamp: 0.0,
+                        }
+                    } else {
+                        Default::default()
+                    },
+                }),
+                multisample: Default::default(),
+                fragment: Some(wgpu::FragmentState {
+                    module: &module,
+                    entry_point: Some(entry_point),
+                    compilation_options: Default::default(),
+                    targets: &[Some(COLOR_FORMAT.into())],
+                }),
+                multiview_mask: None,
+                cache: None,
+            })
+        };
+        let pipelines = |format| DrawPipelines {
+            fill: pipeline(format, Pass::Fill),
+            check_front: pipeline(format, Pass::CheckFront),
+            check_back: pipeline(format, Pass::CheckBack),
+            wire: ctx
+                .capabilities
+                .wireframe
+                .then(|| pipeline(format, Pass::Wire)),
+        };
+        let narrow = pipelines(wgpu::IndexFormat::Uint16);
+        let wide = pipelines(wgpu::IndexFormat::Uint32);
+
+        let timestamps = ctx.capabilities.timestamps.then(|| Timestamps {
+            set: device.create_query_set(&wgpu::QuerySetDescriptor {
+                label: Some("frame timestamps"),
+                ty: wgpu::QueryType::Timestamp,
+                count: 2,
+            }),
+            resolve: buffer("timestamps", 16, U::QUERY_RESOLVE | U::COPY_SRC),
+            read: buffer("timestamps read-back", 16, U::MAP_READ | U::COPY_DST),
+            period_ns: ctx.queue.get_timestamp_period(),
+        });
+        let groups = model.tet_count.div_ceil(TRAVERSE_WORKGROUP).max(1);
+        let workgroups = (groups.min(65_535), groups.div_ceil(65_535));
+        Ok(Renderer {
+            header: *repo.header(),
+            target: RenderTarget::new(ctx, options.width, options.height),
+            model,
+            uniforms,
+            draws,
+            counts,
+            draws_read,
+            counts_read,
+            traverse,
+            traverse_group,
+            draw_group,
+            page_groups,
+            narrow,
+            wide,
+            timestamps,
+            draw_indirect_count: ctx.capabilities.draw_indirect_count,
+            workgroups,
+        })
+    }
+
+    /// The resident model (sizes, pages, lists).
+    pub fn model(&self) -> &ResidentModel {
+        &self.model
+    }
+
+    /// Target size.
+    pub fn size(&self) -> (u32, u32) {
+        (self.target.width, self.target.height)
+    }
+
+    /// Replaces the target with one of another size.
+    pub fn resize(&mut self, ctx: &GpuContext, width: u32, height: u32) {
+        self.target = RenderTarget::new(ctx, width, height);
+    }
+
+    /// Records and submits one frame; returns the CPU milliseconds spent (uniforms, commands,
+    /// submit — not waiting for the GPU). The camera's viewport should match the target.
+    pub fn render(&mut self, ctx: &GpuContext, request: &FrameRequest, readback: Readback) -> f64 {
+        let start = Instant::now();
+        let uniforms = FrameUniforms::new(
+            &request.camera,
+            &self.header,
+            request.tau,
+            &request.cull,
+            request.mode,
+            self.model.tet_count,
+            self.workgroups.0 * TRAVERSE_WORKGROUP,
+        );
+        ctx.queue
+            .write_buffer(&self.uniforms, 0, bytemuck::bytes_of(&uniforms));
+        let mut encoder = ctx
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("frame"),
+            });
+        encoder.clear_buffer(&self.counts, 0, None);
+        if !self.draw_indirect_count {
+            // Every slot is issued: the ones the traversal leaves alone must draw nothing.
+            encoder.clear_buffer(&self.draws, 0, None);
+        }
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("traverse"),
+                timestamp_writes: self.timestamps.as_ref().map(|t| {
+                    wgpu::ComputePassTimestampWrites {
+                        query_set: &t.set,
+                        beginning_of_pass_write_index: Some(0),
+                        end_of_pass_write_index: None,
+                    }
+                }),
+            });
+            pass.set_pipeline(&self.traverse);
+            pass.set_bind_group(0, &self.traverse_group, &[]);
+            pass.dispatch_workgroups(self.workgroups.0, self.workgroups.1, 1);
+        }
+        {
+            let background = if request.mode == ShadingMode::Check {
+                wgpu::Color::BLACK
+            } else {
+                wgpu::Color {
+                    r: 0.11,
+                    g: 0.12,
+                    b: 0.15,
+                    a: 1.0,
+                }
+            };
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("draw"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &self.target.color_view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(background),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: &self.target.depth_view,
+                    depth_ops: Some(wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(0.0),
+                        store: wgpu::StoreOp::Discard,
+                    }),
+                    stencil_ops: None,
+                }),
+                timestamp_writes: self.timestamps.as_ref().map(|t| {
+                    wgpu::RenderPassTimestampWrites {
+                        query_set: &t.set,
+                        beginning_of_pass_write_index: None,
+                        end_of_pass_write_index: Some(1),
+                    }
+                }),
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_bind_group(0, &self.draw_group, &[]);
+            let passes: &[Pass] = match (request.mode, request.wireframe) {
+                (ShadingMode::Check, _) => &[Pass::CheckFront, Pass::CheckBack],
+                (_, true) => &[Pass::Fill, Pass::Wire],
+                (_, false) => &[Pass::Fill],
+            };
+            for &which in passes {
+                for (l, list) in self.model.lists.iter().enumerate() {
+                    if list.capacity == 0 {
+                        continue;
+                    }
+                    let (pipelines, format) = if list.wide {
+                        (&self.wide, wgpu::IndexFormat::Uint32)
+                    } else {
+                        (&self.narrow, wgpu::IndexFormat::Uint16)
+                    };
+                    let Some(pipeline) = pipelines.get(which) else {
+                        continue;
+                    };
+                    pass.set_pipeline(pipeline);
+                    pass.set_bind_group(1, &self.page_groups[list.page], &[]);
+                    pass.set_index_buffer(self.model.pages[list.page].buffer.slice(..), format);
+                    let offset = list.first_slot as u64 * DRAW_ARGS_BYTES;
+                    if self.draw_indirect_count {
+                        pass.multi_draw_indexed_indirect_count(
+                            &self.draws,
+                            offset,
+                            &self.counts,
+                            l as u64 * 4,
+                            list.capacity,
+                        );
+                    } else {
+                        pass.multi_draw_indexed_indirect(&self.draws, offset, list.capacity);
+                    }
+                }
+            }
+        }
+        if let Some(t) = &self.timestamps {
+            encoder.resolve_query_set(&t.set, 0..2, &t.resolve, 0);
+            encoder.copy_buffer_to_buffer(&t.resolve, 0, &t.read, 0, 16);
+        }
+        if readback.selection {
+            encoder.copy_buffer_to_buffer(&self.counts, 0, &self.counts_read, 0, None);
+            encoder.copy_buffer_to_buffer(&self.draws, 0, &self.draws_read, 0, None);
+        }
+        if readback.image {
+            self.target.copy_out(&mut encoder);
+        }
+        ctx.queue.submit([encoder.finish()]);
+        start.elapsed().as_secs_f64() * 1e3
+    }
+
+    /// The image of the last frame rendered with `Readback::image`.
+    pub fn read_image(&self, ctx: &GpuContext) -> image::RgbaImage {
+        self.target.read(ctx)
+    }
+
+    /// The simplices drawn by the last frame rendered with `Readback::selection`, ascending.
+    pub fn read_selection(&self, ctx: &GpuContext) -> Vec<u32> {
+        let counts: Vec<u32> = bytemuck::pod_collect_to_vec(&read_buffer(ctx, &self.counts_read));
+        let draws: Vec<u32> = bytemuck::pod_collect_to_vec(&read_buffer(ctx, &self.draws_read));
+        let mut selected = Vec::new();
+        for (list, &count) in self.model.lists.iter().zip(&counts) {
+            let count = count.min(list.capacity);
+            for slot in list.first_slot..list.first_slot + count {
+                // DrawIndexedIndirectArgs: the fifth word is first_instance = the simplex.
+                selected.push(draws[slot as usize * 5 + 4]);
+            }
+        }
+        selected.sort_unstable();
+        selected
+    }
+
+    /// GPU milliseconds from the start of the traversal to the end of the draws of the last
+    /// frame, where the adapter has timestamps (blocks until that frame is done).
+    pub fn read_gpu_ms(&self, ctx: &GpuContext) -> Option<f64> {
+        let t = self.timestamps.as_ref()?;
+        let ticks: Vec<u64> = bytemuck::pod_collect_to_vec(&read_buffer(ctx, &t.read));
+        let elapsed = ticks[1].checked_sub(ticks[0])?;
+        Some(elapsed as f64 * t.period_ns as f64 * 1e-6)
+    }
+}

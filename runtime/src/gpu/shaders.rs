@@ -1,0 +1,41 @@
+//! The WGSL sources (one file per pass in `shaders/`, each prefixed by the shared records).
+
+/// Records and uniforms shared by every pass.
+const RECORDS: &str = include_str!("../../../shaders/records.wgsl");
+
+/// The traversal compute pass (`traverse`).
+pub fn traverse_source() -> String {
+    format!(
+        "{RECORDS}\n{}",
+        include_str!("../../../shaders/traverse.wgsl")
+    )
+}
+
+/// The draw pass (`vs_main`, `fs_main`, `fs_wire`).
+pub fn draw_source() -> String {
+    format!("{RECORDS}\n{}", include_str!("../../../shaders/draw.wgsl"))
+}
+
+/// Threads per traversal workgroup: `@workgroup_size(64)` in traverse.wgsl.
+pub const TRAVERSE_WORKGROUP: u32 = 64;
+
+#[cfg(test)]
+mod tests {
+    /// Both passes parse and validate with naga, the front end wgpu uses (no GPU needed).
+    #[test]
+    fn shaders_validate() {
+        for (name, source) in [
+            ("traverse", super::traverse_source()),
+            ("draw", super::draw_source()),
+        ] {
+            let module = naga::front::wgsl::parse_str(&source)
+                .unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(&source)));
+            naga::valid::Validator::new(
+                naga::valid::ValidationFlags::all(),
+                naga::valid::Capabilities::all(),
+            )
+            .validate(&module)
+            .unwrap_or_else(|e| panic!("{name}: {e:?}"));
+        }
+    }
+}

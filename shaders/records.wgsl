@@ -1,0 +1,74 @@
+// Shared by every pass: the repository records as stored in the file (uploaded as they are),
+// the per-simplex draw location the runtime derives at load, and the per-frame uniforms.
+// Rust mirrors: tessera_core::repository::format::{DiamondRecord, TetRecord},
+// tessera_runtime::gpu::resident::PatchLocation, tessera_runtime::gpu::frame::FrameUniforms.
+// Scalars only (no vec3 members), so the WGSL layout is the file's packed layout.
+
+const NO_INDEX: u32 = 0xffffffffu;
+
+// One diamond the hierarchy splits: 56 bytes, one per diamond.
+struct DiamondRecord {
+    cx: f32, cy: f32, cz: f32,      // saturated bounding sphere centre, relative to the origin
+    radius: f32,
+    error: f32,                     // saturated object-space error, model units
+    parents: array<u32, 4>,
+    packed_counts: u32,             // parent_count, tet_count, phase, pad (u8 each)
+    level: u32,
+    id_x: i32, id_y: i32, id_z: i32,
+}
+
+// One simplex with its patch: 88 bytes, one per simplex.
+// Drawn iff rho(diamond) <= tau < rho(parent_diamond); rho = 0 for a leaf, infinity for a root.
+struct TetRecord {
+    cx: f32, cy: f32, cz: f32,      // bounding sphere of the patch, relative to the origin
+    radius: f32,
+    ax: f32, ay: f32, az: f32,      // normal cone axis
+    cone_cos: f32,                  // -1: no back-face culling possible
+    diamond: u32,                   // NO_INDEX for a leaf
+    parent_diamond: u32,            // NO_INDEX for a root
+    first_child: u32,
+    level: u32,
+    patch_offset_lo: u32, patch_offset_hi: u32,
+    patch_bytes: u32,
+    vertex_count: u32,
+    strip_index_count: u32,
+    triangle_count: u32,
+    id_offset_lo: u32, id_offset_hi: u32,
+    id_bytes: u32,
+    reserved: u32,
+}
+
+// Where a simplex's patch is resident and how to draw it: 16 bytes, one per simplex.
+struct PatchLocation {
+    list: u32,          // draw list: 2 * page + (1 if u32 strip indices else 0); NO_INDEX if empty
+    first_slot: u32,    // first slot of that list in the draw array
+    first_index: u32,   // strip start in the page, in indices
+    base_vertex: i32,   // first position in the page, in 8-byte slots
+}
+
+// wgpu::util::DrawIndexedIndirectArgs.
+struct DrawIndexedIndirect {
+    index_count: u32,
+    instance_count: u32,
+    first_index: u32,
+    base_vertex: i32,
+    first_instance: u32, // the simplex, read back by the vertex shader as instance_index
+}
+
+struct Frame {
+    view_proj: mat4x4<f32>,     // eye-relative position -> clip (reverse Z, infinite far plane)
+    eye_tau: vec4<f32>,         // xyz: eye - origin (rounded from f64); w: tau in pixels
+    planes: array<vec4<f32>, 4>,// inward normals of the left, right, bottom, top planes
+    forward_near: vec4<f32>,    // xyz: view direction; w: near cull distance
+    metric: vec4<f32>,          // x: K (pixels per unit at distance 1); y: metric near; z: far
+    base: vec4<f32>,            // xyz: bbox_min - origin; position = base + q * step
+    step: vec4<f32>,            // xyz: model units per quantisation step
+    light: vec4<f32>,           // xyz: unit direction towards the light, eye-relative
+    counts: vec4<u32>,          // x: simplices; y: cull flags; z: shading mode; w: attributes
+    dispatch: vec4<u32>,        // x: simplices per dispatch row (workgroups_x * 64)
+}
+
+const CULL_FRUSTUM: u32 = 1u;
+const CULL_CONES: u32 = 2u;
+const ATTR_NORMALS: u32 = 1u;
+const ATTR_COLORS: u32 = 2u;

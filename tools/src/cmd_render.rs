@@ -1,0 +1,257 @@
+//! `tessera render REPO -o frame.png [--tolerance PX] [--size WxH] [--fov DEG]
+//! [--eye x,y,z --target x,y,z | --orbit AZ,EL,DIST] [--mode lit|patches|levels] [--json]`
+
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
+use clap::{Args, ValueEnum};
+use serde_json::json;
+use tessera_core::repository::reader::Repository;
+use tessera_runtime::camera::{bounding_radius, Camera, Y_UP, Z_UP};
+use tessera_runtime::gpu::{
+    FrameRequest, GpuContext, Readback, Renderer, RendererOptions, ShadingMode,
+};
+
+use crate::Outcome;
+
+#[derive(Args)]
+pub struct RenderArgs {
+    /// Repository file.
+    pub repository: PathBuf,
+    /// Output image (PNG).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Pixel tolerance τ: the largest screen-space error allowed, in pixels.
+    #[arg(long, default_value_t = 1.0)]
+    pub tolerance: f32,
+    /// Image size, WIDTHxHEIGHT.
+    #[arg(long, default_value = "1920x1080", value_parser = parse_size)]
+    pub size: (u32, u32),
+    /// Vertical field of view, degrees.
+    #[arg(long, default_value_t = 60.0)]
+    pub fov: f64,
+    /// Eye position, model units (with --target).
+    #[arg(long, value_parser = parse_vec3, requires = "target", conflicts_with = "orbit")]
+    pub eye: Option<[f64; 3]>,
+    /// Point looked at, model units (with --eye).
+    #[arg(long, value_parser = parse_vec3, requires = "eye")]
+    pub target: Option<[f64; 3]>,
+    /// Azimuth and elevation in degrees around the up axis, and distance in bounding radii from
+    /// the centre of the model (default 30,20,2.5).
+    #[arg(long, value_parser = parse_vec3)]
+    pub orbit: Option<[f64; 3]>,
+    /// Up direction (default 0,1,0 for meshes, as scans and glTF have it; 0,0,1 for terrains).
+    #[arg(long, value_parser = parse_vec3)]
+    pub up: Option<[f64; 3]>,
+    /// Near plane, model units (default 1e-5 of the model's bounding radius).
+    #[arg(long)]
+    pub near: Option<f64>,
+    /// Shading.
+    #[arg(long, value_enum, default_value_t = Mode::Lit)]
+    pub mode: Mode,
+    /// Overlay the triangle edges (where the adapter has line mode).
+    #[arg(long)]
+    pub wireframe: bool,
+    /// Adapter name substring (default: $TESSERA_ADAPTER, else the best present).
+    #[arg(long)]
+    pub adapter: Option<String>,
+    /// GPU memory budget for the resident model, MiB.
+    #[arg(long, default_value_t = 2048)]
+    pub gpu_budget: u64,
+    /// Print one JSON object on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Mode {
+    Lit,
+    Patches,
+    Levels,
+    /// Front faces grey, back faces magenta (what `check --gpu` counts).
+    Check,
+}
+
+impl From<Mode> for ShadingMode {
+    fn from(m: Mode) -> ShadingMode {
+        match m {
+            Mode::Lit => ShadingMode::Lit,
+            Mode::Patches => ShadingMode::Patches,
+            Mode::Levels => ShadingMode::Levels,
+            Mode::Check => ShadingMode::Check,
+        }
+    }
+}
+
+pub fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("{s:?} is not WIDTHxHEIGHT"))?;
+    let parse = |v: &str| {
+        v.trim()
+            .parse::<u32>()
+            .ok()
+            .filter(|&n| n > 0)
+            .ok_or_else(|| format!("{v:?} in {s:?} is not a positive pixel count"))
+    };
+    Ok((parse(w)?, parse(h)?))
+}
+
+pub fn parse_vec3(s: &str) -> Result<[f64; 3], String> {
+    let parts: Vec<&str> = s.split(',').collect();
+    if parts.len() != 3 {
+        return Err(format!("{s:?} is not three comma-separated numbers"));
+    }
+    let mut v = [0.0; 3];
+    for (x, p) in v.iter_mut().zip(&parts) {
+        *x = p
+            .trim()
+            .parse::<f64>()
+            .ok()
+            .filter(|x| x.is_finite())
+            .ok_or_else(|| format!("{p:?} in {s:?} is not a finite number"))?;
+    }
+    Ok(v)
+}
+
+/// The default up axis of a repository: z for height fields (2D hierarchies), else y.
+pub fn default_up(dimension: u32) -> [f64; 3] {
+    if dimension == 2 {
+        Z_UP
+    } else {
+        Y_UP
+    }
+}
+
+/// The camera the flags describe for a repository with this bounding box.
+pub fn camera_from_args(
+    args: &RenderArgs,
+    lo: [f64; 3],
+    hi: [f64; 3],
+    dimension: u32,
+) -> anyhow::Result<Camera> {
+    let up = args.up.unwrap_or(default_up(dimension));
+    if up == [0.0; 3] {
+        anyhow::bail!("--up must not be the zero vector");
+    }
+    let mut camera = match (args.eye, args.target) {
+        (Some(eye), Some(target)) => {
+            if eye == target {
+                anyhow::bail!("--eye and --target are the same point");
+            }
+            Camera {
+                up,
+                ..Camera::looking_at(eye, target, bounding_radius(lo, hi))
+            }
+        }
+        _ => {
+            let [az, el, dist] = args.orbit.unwrap_or([30.0, 20.0, 2.5]);
+            if dist <= 0.0 {
+                anyhow::bail!("--orbit distance {dist} must be positive");
+            }
+            Camera::orbit(lo, hi, up, az, el, dist)
+        }
+    };
+    if !(args.fov > 0.0 && args.fov < 180.0) {
+        anyhow::bail!("--fov {} must be between 0 and 180 degrees", args.fov);
+    }
+    camera.fov_y_degrees = args.fov;
+    (camera.width, camera.height) = args.size;
+    if let Some(near) = args.near {
+        if !(near > 0.0 && near.is_finite()) {
+            anyhow::bail!("--near {near} must be a positive number");
+        }
+        camera.near = near;
+    }
+    Ok(camera)
+}
+
+pub fn run(args: RenderArgs) -> anyhow::Result<Outcome> {
+    if !(args.tolerance >= 0.0 && args.tolerance.is_finite()) {
+        anyhow::bail!("--tolerance {} must be a finite number ≥ 0", args.tolerance);
+    }
+    let repo = Repository::open(&args.repository)?;
+    let h = *repo.header();
+    let camera = camera_from_args(&args, h.bbox_min, h.bbox_max, h.dimension)?;
+    let ctx = GpuContext::new(args.adapter.as_deref())?;
+    let mut renderer = Renderer::new(
+        &ctx,
+        &repo,
+        RendererOptions {
+            width: camera.width,
+            height: camera.height,
+            budget_bytes: args.gpu_budget << 20,
+        },
+    )?;
+    let request = FrameRequest {
+        mode: args.mode.into(),
+        wireframe: args.wireframe,
+        ..FrameRequest::new(camera, args.tolerance)
+    };
+    let cpu_ms = renderer.render(
+        &ctx,
+        &request,
+        Readback {
+            image: true,
+            selection: true,
+        },
+    );
+    let image = renderer.read_image(&ctx);
+    let gpu_ms = renderer.read_gpu_ms(&ctx);
+    let selection = renderer.read_selection(&ctx);
+    let triangles: u64 = selection
+        .iter()
+        .map(|&i| repo.tets()[i as usize].triangle_count as u64)
+        .sum();
+    save_png(&image, &args.output)?;
+    if args.json {
+        println!(
+            "{}",
+            json!({
+                "output": args.output.display().to_string(),
+                "patches": selection.len(),
+                "triangles": triangles,
+                "gpu_ms": gpu_ms,
+                "cpu_ms": cpu_ms,
+                "adapter": ctx.adapter_description(),
+                "draw_indirect_count": ctx.capabilities.draw_indirect_count,
+                "tolerance": args.tolerance,
+                "width": camera.width,
+                "height": camera.height,
+                "eye": camera.eye,
+                "target": camera.target,
+            })
+        );
+    } else {
+        println!(
+            "{}: {} patches, {} triangles at τ = {} px; GPU {} ms, CPU {:.3} ms on {}",
+            args.output.display(),
+            selection.len(),
+            triangles,
+            args.tolerance,
+            gpu_ms.map_or("n/a".to_string(), |g| format!("{g:.2}")),
+            cpu_ms,
+            ctx.adapter_description()
+        );
+    }
+    Ok(Outcome::Ok)
+}
+
+/// Writes a PNG through a temporary file and a rename, so a failed write leaves nothing.
+pub fn save_png(image: &image::RgbaImage, path: &Path) -> anyhow::Result<()> {
+    let dir = path
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let tmp = tempfile::Builder::new()
+        .prefix(".tessera-render")
+        .suffix(".png")
+        .tempfile_in(dir)
+        .with_context(|| format!("cannot write into {}", dir.display()))?;
+    image
+        .save_with_format(tmp.path(), image::ImageFormat::Png)
+        .with_context(|| format!("writing {}", path.display()))?;
+    tmp.persist(path)
+        .with_context(|| format!("writing {}", path.display()))?;
+    Ok(())
+}
