@@ -31,6 +31,8 @@ pub struct BenchArgs {
 pub enum BenchWhat {
     /// Build throughput against meshopt's clod_build, repository size, peak memory.
     Build(BuildBenchArgs),
+    /// Frame times (GPU, wall, CPU) per tolerance against the full mesh in one draw call.
+    Render(crate::cmd_bench_render::RenderBenchArgs),
 }
 
 #[derive(Args)]
@@ -54,6 +56,7 @@ pub struct BuildBenchArgs {
 pub fn run(args: BenchArgs) -> anyhow::Result<Outcome> {
     match args.what {
         BenchWhat::Build(a) => bench_build(a),
+        BenchWhat::Render(a) => crate::cmd_bench_render::run(a),
     }
 }
 

@@ -1,18 +1,46 @@
 //! `tessera demo`: the main job on a built-in default. Generates a procedural closed mesh with
-//! detail at every scale (1.3 M triangles), builds its repository, checks every cut, and
-//! prints a summary. No input file, no download.
+//! detail at every scale (1.3 M triangles), builds its repository, checks every cut, renders a
+//! few frames of it to PNG, and prints a summary. No input file, no download.
+//!
+//! Rendering needs a GPU adapter (lavapipe works). Without one — or when the model does not fit
+//! the GPU budget — the demo still builds and checks, says that rendering was skipped and why,
+//! and the geometric check alone decides the exit code (0 clean, 1 cracks): the frames are a
+//! picture of the result, not part of the verdict.
 
-use std::path::PathBuf;
+use std::io::Write;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+use anyhow::Context;
 use clap::Args;
 use tessera_core::repository::reader::Repository;
 use tessera_preprocess::procedural::{demo_mesh, DEMO_SUBDIVISIONS};
-use tessera_preprocess::{build_repository, BuildConfig};
+use tessera_preprocess::{build_repository, BuildConfig, InputMesh};
+use tessera_runtime::camera::Camera;
 use tessera_runtime::geometric_check::{check_cuts, decode_all_patches, CheckConfig};
+use tessera_runtime::gpu::{
+    FrameRequest, GpuContext, Readback, RenderError, Renderer, RendererOptions, ShadingMode,
+};
 
+use crate::cmd_render::{default_up, parse_size, save_png};
 use crate::progress::Stages;
 use crate::Outcome;
+
+/// Where the frames go unless `--frames-dir` says otherwise (relative to the current directory).
+pub const DEFAULT_FRAMES_DIR: &str = "tessera-demo-frames";
+
+/// The frames rendered: shading, τ in pixels, file name.
+const FRAMES: [(ShadingMode, f32, &str); 4] = [
+    (ShadingMode::Lit, 1.0, "lit-tau-1.png"),
+    (ShadingMode::Lit, 4.0, "lit-tau-4.png"),
+    (ShadingMode::Lit, 16.0, "lit-tau-16.png"),
+    (ShadingMode::Patches, 1.0, "patches-tau-1.png"),
+];
+
+/// Orbit of the demo camera: azimuth, elevation (degrees), distance (bounding radii of the
+/// box; closer than `tessera render`'s 2.5 so the model fills the frame):
+/// `tessera render REPO --orbit 30,20,1.5` shows the same view.
+const ORBIT: [f64; 3] = [30.0, 20.0, 1.5];
 
 #[derive(Args)]
 pub struct DemoArgs {
@@ -25,6 +53,26 @@ pub struct DemoArgs {
     /// Camera positions for the check.
     #[arg(long, default_value_t = 32)]
     pub views: usize,
+    /// Directory for the rendered frames, relative to the current directory unless absolute
+    /// (lit at τ = 1, 4, 16 px and patches at τ = 1 px: lit-tau-1.png, lit-tau-4.png,
+    /// lit-tau-16.png, patches-tau-1.png), created if missing; files of those names are
+    /// replaced. Without a GPU adapter nothing is written and the demo says why; the geometric
+    /// check still decides the exit code (0 clean, 1 cracks).
+    #[arg(long, default_value = DEFAULT_FRAMES_DIR)]
+    pub frames_dir: PathBuf,
+    /// Do not render frames (build and check only).
+    #[arg(long, conflicts_with = "frames_dir")]
+    pub no_frames: bool,
+    /// Frame size, WIDTHxHEIGHT (τ is in pixels of this height).
+    #[arg(long, default_value = "1920x1080", value_parser = parse_size)]
+    pub frame_size: (u32, u32),
+    /// Adapter name substring (default: $TESSERA_ADAPTER, else the best present).
+    #[arg(long)]
+    pub adapter: Option<String>,
+    /// Also write the generated mesh (positions and triangles) as a binary PLY, e.g. the
+    /// `--source` of `tessera bench render`.
+    #[arg(long)]
+    pub save_mesh: Option<PathBuf>,
 }
 
 pub fn run(args: DemoArgs) -> anyhow::Result<Outcome> {
@@ -35,17 +83,28 @@ pub fn run(args: DemoArgs) -> anyhow::Result<Outcome> {
             20u64 << (2 * args.subdivisions)
         );
     }
+    // Where the frames go, before the long part: a bad directory fails fast (exit 2).
+    let frames_dir = (!args.no_frames).then_some(args.frames_dir.as_path());
+    if let Some(dir) = frames_dir {
+        std::fs::create_dir_all(dir)
+            .with_context(|| format!("cannot create --frames-dir {}", dir.display()))?;
+    }
     let stages = Stages::new("demo");
     stages.stage("generate");
     let t = Instant::now();
     let mesh = demo_mesh(args.subdivisions);
     let generate_seconds = t.elapsed().as_secs_f64();
+    if let Some(path) = &args.save_mesh {
+        stages.stage("save mesh");
+        write_binary_ply(&mesh, path).with_context(|| format!("writing {}", path.display()))?;
+    }
     let temp = tempfile::tempdir()?;
     let path = args
         .output
         .clone()
         .unwrap_or_else(|| temp.path().join("demo.tsr"));
     let summary = build_repository(&mesh, &BuildConfig::default(), &path, &|s| stages.stage(s))?;
+    drop(mesh);
     stages.stage("check");
     let t = Instant::now();
     let repo = Repository::open(&path)?;
@@ -55,11 +114,27 @@ pub fn run(args: DemoArgs) -> anyhow::Result<Outcome> {
         ..Default::default()
     };
     let report = check_cuts(&repo, &patches, &config);
+    drop(patches);
     let check_seconds = t.elapsed().as_secs_f64();
+    let frames = match frames_dir {
+        Some(dir) => {
+            stages.stage("render");
+            Some(render_frames(&args, &repo, dir)?)
+        }
+        None => None,
+    };
     stages.finish();
     println!("tessera demo: procedural displaced icosphere, {} subdivisions (generated in {generate_seconds:.2} s)", args.subdivisions);
     crate::cmd_build::print_summary(&summary, summary.seconds, 0.0);
     crate::cmd_check::print_report(&report, check_seconds);
+    match frames {
+        Some(Ok(lines)) => lines.iter().for_each(|l| println!("{l}")),
+        Some(Err(why)) => println!("rendering skipped: {why}"),
+        None => println!("rendering skipped: --no-frames"),
+    }
+    if let Some(p) = &args.save_mesh {
+        println!("mesh written to {}", p.display());
+    }
     match &args.output {
         Some(p) => println!("repository kept at {}", p.display()),
         None => println!("(repository removed; pass -o FILE to keep it)"),
@@ -69,4 +144,128 @@ pub fn run(args: DemoArgs) -> anyhow::Result<Outcome> {
     } else {
         Outcome::CheckFailed
     })
+}
+
+/// Renders `FRAMES` into `dir`. The outer error is a file that could not be written (bad
+/// input: exit 2); the inner one says why there is no GPU rendering (no adapter, model over
+/// the GPU budget), which only skips the frames. Ok lines are the report, one per frame.
+fn render_frames(
+    args: &DemoArgs,
+    repo: &Repository,
+    dir: &Path,
+) -> anyhow::Result<Result<Vec<String>, String>> {
+    let ctx = match GpuContext::new(args.adapter.as_deref()) {
+        Ok(ctx) => ctx,
+        Err(e) => return Ok(Err(e.to_string().trim_end().to_string())),
+    };
+    let (width, height) = args.frame_size;
+    let mut renderer = match Renderer::new(
+        &ctx,
+        repo,
+        RendererOptions {
+            width,
+            height,
+            ..Default::default()
+        },
+    ) {
+        Ok(r) => r,
+        // A size the adapter cannot draw is bad usage, not a missing GPU.
+        Err(e @ RenderError::BadSize { .. }) => return Err(e).context("--frame-size"),
+        Err(e) => return Ok(Err(format!("{e} (on {})", ctx.adapter_description()))),
+    };
+    let h = repo.header();
+    let camera = Camera {
+        width,
+        height,
+        ..Camera::orbit(
+            h.bbox_min,
+            h.bbox_max,
+            default_up(h.dimension),
+            ORBIT[0],
+            ORBIT[1],
+            ORBIT[2],
+        )
+    };
+    let mut lines = vec![format!(
+        "frames ({width}x{height}, camera as `tessera render --orbit {},{},{}`) on {}:",
+        ORBIT[0],
+        ORBIT[1],
+        ORBIT[2],
+        ctx.adapter_description()
+    )];
+    for (mode, tau, name) in FRAMES {
+        let request = FrameRequest {
+            mode,
+            ..FrameRequest::new(camera, tau)
+        };
+        // A first, untimed frame, waited for: the second's GPU time is the steady one, and its
+        // CPU time does not include waiting for the first.
+        renderer.render(&ctx, &request, Readback::default());
+        ctx.wait_idle();
+        let cpu_ms = renderer.render(
+            &ctx,
+            &request,
+            Readback {
+                image: true,
+                selection: true,
+            },
+        );
+        let image = renderer.read_image(&ctx);
+        let gpu_ms = renderer.read_gpu_ms(&ctx);
+        let selection = renderer.read_selection(&ctx);
+        let triangles: u64 = selection
+            .iter()
+            .map(|&i| repo.tets()[i as usize].triangle_count as u64)
+            .sum();
+        let path = dir.join(name);
+        save_png(&image, &path)?;
+        lines.push(format!(
+            "  {}: {:?} at τ = {tau} px: {} patches, {triangles} triangles, GPU {} ms, CPU {cpu_ms:.3} ms",
+            path.display(),
+            mode,
+            selection.len(),
+            gpu_ms.map_or("n/a".to_string(), |g| format!("{g:.2}")),
+        ));
+    }
+    Ok(Ok(lines))
+}
+
+/// Writes positions (f32) and triangles as a binary little-endian PLY, through a temporary
+/// file and a rename so a failed write leaves nothing.
+fn write_binary_ply(mesh: &InputMesh, path: &Path) -> anyhow::Result<()> {
+    let dir = path
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let tmp = tempfile::Builder::new()
+        .prefix(".tessera-mesh")
+        .suffix(".ply")
+        .tempfile_in(dir)
+        .with_context(|| format!("cannot write into {}", dir.display()))?;
+    let mut w = std::io::BufWriter::new(tmp.as_file());
+    write!(
+        w,
+        "ply\nformat binary_little_endian 1.0\ncomment tessera demo mesh\nelement vertex {}\n\
+         property float x\nproperty float y\nproperty float z\nelement face {}\n\
+         property list uchar uint vertex_indices\nend_header\n",
+        mesh.positions.len(),
+        mesh.triangles.len()
+    )?;
+    for p in &mesh.positions {
+        for x in p {
+            w.write_all(&(*x as f32).to_le_bytes())?;
+        }
+    }
+    let mut face = [0u8; 13];
+    face[0] = 3;
+    for t in &mesh.triangles {
+        for (k, v) in t.iter().enumerate() {
+            face[1 + 4 * k..5 + 4 * k].copy_from_slice(&v.to_le_bytes());
+        }
+        w.write_all(&face)?;
+    }
+    w.flush()?;
+    drop(w);
+    tmp.persist(path)?;
+    Ok(())
 }

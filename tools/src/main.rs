@@ -5,6 +5,7 @@
 //! on stderr, no output file left behind).
 
 mod cmd_bench;
+mod cmd_bench_render;
 mod cmd_build;
 mod cmd_check;
 mod cmd_demo;
@@ -39,7 +40,9 @@ enum Command {
     Check(cmd_check::CheckArgs),
     /// Benchmarks with their peers measured in the same run.
     Bench(cmd_bench::BenchArgs),
-    /// Generate a procedural 1.3 M-triangle mesh, build it, check it, print a summary.
+    /// Generate a procedural 1.3 M-triangle mesh, build it, check it, render a few frames to
+    /// PNG, print a summary. Without a GPU adapter the frames are skipped (the reason is
+    /// printed); the check alone decides the exit code.
     Demo(cmd_demo::DemoArgs),
 }
 

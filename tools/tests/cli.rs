@@ -239,3 +239,292 @@ fn corrupt_repositories_are_rejected_with_exit_two() {
         }
     }
 }
+
+/// `testdata/mesh/bunny00.off` (75 K triangles), fetched by `tools/fetch-testdata.sh`.
+fn bunny() -> std::path::PathBuf {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../testdata/mesh/bunny00.off");
+    assert!(
+        path.exists(),
+        "{} is missing: run tools/fetch-testdata.sh first (README.md, 'Tests')",
+        path.display()
+    );
+    path
+}
+
+/// Builds the bunny into `dir` and returns the repository's path.
+fn build_bunny(dir: &Path) -> std::path::PathBuf {
+    let repo = dir.join("bunny.tsr");
+    let out = tessera(&[
+        "build",
+        bunny().to_str().unwrap(),
+        "-o",
+        repo.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    repo
+}
+
+/// Runs tessera and checks exit code 2 with a message containing every needle, no panic.
+fn check_bad_usage(args: &[&str], needles: &[&str]) {
+    let out = tessera(args);
+    let stderr = String::from_utf8_lossy(&out.stderr).to_lowercase();
+    assert_eq!(out.status.code(), Some(2), "{args:?}: {stderr}");
+    assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+    for needle in needles {
+        assert!(
+            stderr.contains(&needle.to_lowercase()),
+            "{args:?}: message does not say '{needle}': {stderr}"
+        );
+    }
+    assert!(out.stdout.is_empty(), "{args:?}: printed a report anyway");
+}
+
+#[test]
+fn bench_render_refuses_bad_input_with_exit_two() {
+    let dir = tempfile::tempdir().unwrap();
+    let repo = build_bunny(dir.path());
+    let repo = repo.to_str().unwrap();
+    let octa = dir.path().join("octa.off");
+    write_octahedron_off(&octa);
+    let missing = dir.path().join("nope.tsr");
+    let cases: &[(&[&str], &[&str])] = &[
+        // A repository that is not there.
+        (
+            &["bench", "render", missing.to_str().unwrap()],
+            &["nope.tsr"],
+        ),
+        // A source that is not there, and one that is not the repository's.
+        (
+            &["bench", "render", repo, "--source", "/nonexistent/mesh.ply"],
+            &["mesh.ply"],
+        ),
+        (
+            &["bench", "render", repo, "--source", octa.to_str().unwrap()],
+            &["octa.off", "not its source"],
+        ),
+        // Bad numbers.
+        (
+            &["bench", "render", repo, "--size", "0x240"],
+            &["size", "positive"],
+        ),
+        (
+            &["bench", "render", repo, "--size", "big"],
+            &["size", "widthxheight"],
+        ),
+        (&["bench", "render", repo, "--frames", "0"], &["--frames"]),
+        (
+            &["bench", "render", repo, "--tolerances", "1,-2"],
+            &["tolerance -2"],
+        ),
+        (
+            &["bench", "render", repo, "--orbit", "30,20,0"],
+            &["--orbit"],
+        ),
+        // No adapter of that name.
+        (
+            &["bench", "render", repo, "--adapter", "no-such-gpu"],
+            &["no adapter", "no-such-gpu"],
+        ),
+    ];
+    for (args, needles) in cases {
+        check_bad_usage(args, needles);
+    }
+}
+
+#[test]
+fn bench_render_measures_ours_and_the_full_resolution_peer() {
+    let dir = tempfile::tempdir().unwrap();
+    let repo = build_bunny(dir.path());
+    let frames = dir.path().join("frames");
+    let out = tessera(&[
+        "bench",
+        "render",
+        repo.to_str().unwrap(),
+        "--source",
+        bunny().to_str().unwrap(),
+        "--tolerances",
+        "0,4",
+        "--frames",
+        "2",
+        "--size",
+        "320x240",
+        "--save-frames",
+        frames.to_str().unwrap(),
+        "--json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v = json(&out);
+    for key in ["adapter", "size", "camera", "full_resolution", "rows"] {
+        assert!(v.get(key).is_some(), "bench render --json lacks {key}: {v}");
+    }
+    assert_eq!(v["size"]["width"], 320);
+    assert_eq!(v["size"]["height"], 240);
+    let full = &v["full_resolution"];
+    assert_eq!(full["triangles"], v["model_triangles"], "{v}");
+    for key in [
+        "gpu_ms_median",
+        "gpu_ms_p90",
+        "wall_ms_median",
+        "cpu_ms_median",
+    ] {
+        assert!(full.get(key).is_some(), "full_resolution lacks {key}: {v}");
+    }
+    assert!(full["wall_ms_median"].as_f64().unwrap() > 0.0);
+    let rows = v["rows"].as_array().unwrap();
+    assert_eq!(rows.len(), 2);
+    let model_triangles = v["model_triangles"].as_u64().unwrap();
+    for (row, tau) in rows.iter().zip([0.0, 4.0]) {
+        assert_eq!(row["tolerance"], tau);
+        for key in [
+            "patches",
+            "triangles",
+            "gpu_ms_median",
+            "gpu_ms_p90",
+            "wall_ms_median",
+            "cpu_ms_median",
+            "speedup_vs_full",
+        ] {
+            assert!(row.get(key).is_some(), "row lacks {key}: {row}");
+        }
+        assert!(row["patches"].as_u64().unwrap() > 0, "{row}");
+        let triangles = row["triangles"].as_u64().unwrap();
+        assert!(triangles > 0 && triangles <= 2 * model_triangles, "{row}");
+        // GPU timings and the speed-up exist exactly where the adapter has timestamps.
+        assert_eq!(
+            row["gpu_ms_median"].is_null(),
+            row["speedup_vs_full"].is_null(),
+            "{row}"
+        );
+        if let Some(s) = row["speedup_vs_full"].as_f64() {
+            assert!(s.is_finite() && s > 0.0, "{row}");
+        }
+    }
+    // The coarser cut draws no more than the finer one.
+    assert!(rows[1]["triangles"].as_u64() <= rows[0]["triangles"].as_u64());
+    // Same camera, same shading: at τ = 0 our cut is the input mesh (positions quantised on
+    // the 2^21 grid), so the peer's picture and ours agree but for a few edge pixels.
+    let full = image::open(frames.join("full.png")).unwrap().to_rgba8();
+    let ours = image::open(frames.join("tau-0.png")).unwrap().to_rgba8();
+    let background = full.get_pixel(0, 0).0;
+    let covered = full.pixels().filter(|p| p.0 != background).count();
+    let differing = full
+        .pixels()
+        .zip(ours.pixels())
+        .filter(|(a, b)| (0..3).any(|c| a.0[c].abs_diff(b.0[c]) > 8))
+        .count();
+    assert!(covered > 1000, "the bunny covers {covered} pixels");
+    assert!(
+        differing * 50 < covered,
+        "{differing} of {covered} pixels differ between the peer and τ = 0"
+    );
+    assert!(frames.join("tau-4.png").exists());
+
+    // Without --source: our rows only, no peer, no speed-up.
+    let out = tessera(&[
+        "bench",
+        "render",
+        repo.to_str().unwrap(),
+        "--tolerances",
+        "2",
+        "--frames",
+        "1",
+        "--size",
+        "160x120",
+        "--json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v = json(&out);
+    assert!(v["full_resolution"].is_null(), "{v}");
+    assert_eq!(v["rows"].as_array().unwrap().len(), 1);
+    assert!(v["rows"][0]["speedup_vs_full"].is_null());
+    assert!(v["rows"][0]["patches"].as_u64().unwrap() > 0);
+}
+
+#[test]
+fn demo_renders_frames_or_says_why_not() {
+    let dir = tempfile::tempdir().unwrap();
+    let frames = dir.path().join("frames");
+    let out = tessera(&[
+        "demo",
+        "--subdivisions",
+        "5",
+        "--views",
+        "2",
+        "--frame-size",
+        "320x240",
+        "--frames-dir",
+        frames.to_str().unwrap(),
+    ]);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.contains("CLEAN"), "{stdout}");
+    for name in [
+        "lit-tau-1.png",
+        "lit-tau-4.png",
+        "lit-tau-16.png",
+        "patches-tau-1.png",
+    ] {
+        let path = frames.join(name);
+        assert!(path.exists(), "{name} not written: {stdout}");
+        assert!(stdout.contains(name), "{name} not reported: {stdout}");
+    }
+    assert!(
+        stdout.contains("patches,") && stdout.contains("GPU"),
+        "{stdout}"
+    );
+
+    // No usable adapter: the build and the check still run and decide the exit code.
+    let skipped = dir.path().join("skipped");
+    let out = Command::new(env!("CARGO_BIN_EXE_tessera"))
+        .args([
+            "demo",
+            "--subdivisions",
+            "4",
+            "--views",
+            "2",
+            "--frames-dir",
+            skipped.to_str().unwrap(),
+        ])
+        .env("TESSERA_ADAPTER", "no-such-gpu")
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(out.status.code(), Some(0), "{stdout}");
+    assert!(stdout.contains("CLEAN"), "{stdout}");
+    assert!(
+        stdout.contains("rendering skipped") && stdout.contains("no-such-gpu"),
+        "{stdout}"
+    );
+    assert_eq!(std::fs::read_dir(&skipped).unwrap().count(), 0);
+
+    // A frames directory that cannot be made is bad input, found before the build.
+    let file = dir.path().join("a-file");
+    std::fs::write(&file, b"").unwrap();
+    let inside = file.join("frames");
+    check_bad_usage(
+        &[
+            "demo",
+            "--subdivisions",
+            "3",
+            "--frames-dir",
+            inside.to_str().unwrap(),
+        ],
+        &["--frames-dir"],
+    );
+}

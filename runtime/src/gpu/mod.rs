@@ -4,6 +4,7 @@
 //! - `device`: adapter choice and the features used;
 //! - `resident`: tables and patch pages in GPU memory, within a byte budget;
 //! - `frame`: the per-frame uniforms and shading modes;
+//! - `full_mesh`: the full-resolution peer (the whole mesh in one indexed draw);
 //! - `probe`: driver behaviour checked by drawing (restart in count draws);
 //! - `shaders`: the WGSL passes of `shaders/`;
 //! - `target`: offscreen colour/depth and read-back;
@@ -11,6 +12,7 @@
 
 pub mod device;
 pub mod frame;
+pub mod full_mesh;
 pub mod probe;
 pub mod renderer;
 pub mod resident;
