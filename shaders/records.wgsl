@@ -65,7 +65,7 @@ struct Frame {
     step: vec4<f32>,            // xyz: model units per quantisation step
     light: vec4<f32>,           // xyz: unit direction towards the light, eye-relative
     counts: vec4<u32>,          // x: simplices; y: cull flags; z: shading mode; w: attributes
-    dispatch: vec4<u32>,        // x: simplices per dispatch row (workgroups_x * 64)
+    reserved: vec4<u32>,
 }
 
 const CULL_FRUSTUM: u32 = 1u;

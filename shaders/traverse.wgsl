@@ -1,6 +1,10 @@
-// The stateless traversal: one invocation per simplex decides alone whether its patch is drawn
-// (seed 001, the per-simplex rule; CPU reference: tessera_core::cut::select_visible with the
-// same f32 operations in the same order) and appends an indexed indirect draw for it.
+// The traversal: stateless and top-down (seed 001). Dispatch k visits the simplices of depth k
+// that the descent reaches; each decides alone with the rule rho(own diamond) <= tau (a leaf
+// always stops) and either draws its patch — after the frustum and normal-cone tests — or
+// queues its two children for dispatch k + 1. Reaching a simplex means its parent refined,
+// i.e. tau < rho(parent diamond): the same rule as the flat CPU reference
+// tessera_core::cut::select_visible, with the same f32 operations in the same order, and work
+// proportional to the cut rather than to the model.
 // Prepended by records.wgsl.
 
 @group(0) @binding(0) var<uniform> frame: Frame;
@@ -9,6 +13,23 @@
 @group(0) @binding(3) var<storage, read> locations: array<PatchLocation>;    // one per simplex
 @group(0) @binding(4) var<storage, read_write> draws: array<DrawIndexedIndirect>;
 @group(0) @binding(5) var<storage, read_write> counts: array<atomic<u32>>;   // one per draw list
+@group(0) @binding(6) var<storage, read_write> queued: array<atomic<u32>>;   // one per depth
+
+struct Step {
+    depth: u32,
+    root_count: u32,
+}
+
+@group(1) @binding(0) var<uniform> step: Step;                                // one per depth
+@group(1) @binding(1) var<storage, read> queue_in: array<u32>;               // this depth's simplices
+@group(1) @binding(2) var<storage, read_write> queue_out: array<u32>;        // the next depth's
+// The next depth's indirect dispatch arguments: (x, y, z) per depth of the other parity, x
+// growing as children are queued. (A dispatch cannot write the buffer it is dispatched from:
+// even depths are dispatched from one buffer, odd depths from the other.)
+@group(1) @binding(3) var<storage, read_write> next_dispatches: array<atomic<u32>>;
+
+const WORKGROUP: u32 = 64u;
+const MAX_WORKGROUPS: u32 = 65535u;
 
 // Screen-space error of a diamond: error * K / max(|centre - eye| - radius, near).
 fn rho(d: DiamondRecord) -> f32 {
@@ -53,21 +74,8 @@ fn cone_backfacing(axis: vec3<f32>, cone_cos: f32, c: vec3<f32>, radius: f32) ->
     return dot3(axis, c) > (sin_sum + 1e-4) * distance;
 }
 
-@compute @workgroup_size(64) // one simplex per thread
-fn traverse(@builtin(global_invocation_id) id: vec3<u32>) {
-    let i = id.x + id.y * frame.dispatch.x;
-    if i >= frame.counts.x {
-        return;
-    }
-    let t = tets[i];
-    let tau = frame.eye_tau.w;
-    // The rule: rho(own diamond) <= tau < rho(parent diamond).
-    if t.diamond != NO_INDEX && !(rho(diamonds[t.diamond]) <= tau) {
-        return;
-    }
-    if t.parent_diamond != NO_INDEX && !(tau < rho(diamonds[t.parent_diamond])) {
-        return;
-    }
+// Draws simplex i's patch if it survives the culling tests.
+fn draw(i: u32, t: TetRecord) {
     let location = locations[i];
     if location.list == NO_INDEX {
         return; // an empty patch: selected, nothing to draw
@@ -83,4 +91,31 @@ fn traverse(@builtin(global_invocation_id) id: vec3<u32>) {
     let slot = atomicAdd(&counts[location.list], 1u);
     draws[location.first_slot + slot] = DrawIndexedIndirect(
         t.strip_index_count, 1u, location.first_index, location.base_vertex, i);
+}
+
+@compute @workgroup_size(64) // one simplex per thread (threads stride over big depths)
+fn traverse(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let depth = step.depth;
+    var count = step.root_count;
+    if depth > 0u {
+        count = atomicLoad(&queued[depth]);
+    }
+    let tau = frame.eye_tau.w;
+    for (var k = id.x; k < count; k += groups.x * WORKGROUP) {
+        var i = k; // depth 0: the roots are simplices 0..root_count
+        if depth > 0u {
+            i = queue_in[k];
+        }
+        let t = tets[i];
+        if t.diamond == NO_INDEX || rho(diamonds[t.diamond]) <= tau {
+            draw(i, t);
+        } else {
+            // Refine: the children (first_child, first_child + 1) are visited at depth + 1.
+            let slot = atomicAdd(&queued[depth + 1u], 2u);
+            queue_out[slot] = t.first_child;
+            queue_out[slot + 1u] = t.first_child + 1u;
+            let needed = min((slot + 2u + WORKGROUP - 1u) / WORKGROUP, MAX_WORKGROUPS);
+            atomicMax(&next_dispatches[3u * ((depth + 1u) / 2u)], needed);
+        }
+    }
 }

@@ -200,9 +200,10 @@ fn usable(adapter: &wgpu::Adapter) -> Result<(), String> {
 fn instance_descriptor(indirect_validation: bool) -> wgpu::InstanceDescriptor {
     let mut descriptor = wgpu::InstanceDescriptor::new_without_display_handle();
     descriptor.flags = wgpu::InstanceFlags::from_build_config();
-    descriptor
-        .flags
-        .set(wgpu::InstanceFlags::VALIDATION_INDIRECT_CALL, indirect_validation);
+    descriptor.flags.set(
+        wgpu::InstanceFlags::VALIDATION_INDIRECT_CALL,
+        indirect_validation,
+    );
     descriptor.with_env()
 }
 

@@ -50,7 +50,7 @@ pub struct FrameUniforms {
     pub step: [f32; 4],
     pub light: [f32; 4],
     pub counts: [u32; 4],
-    pub dispatch: [u32; 4],
+    pub reserved: [u32; 4],
 }
 
 impl FrameUniforms {
@@ -64,7 +64,6 @@ impl FrameUniforms {
         cull: &CullTests,
         mode: ShadingMode,
         tet_count: u32,
-        dispatch_row: u32,
     ) -> FrameUniforms {
         let eye = camera.eye_local(header.origin);
         let volume = cull.frustum.unwrap_or_else(|| camera.view_volume());
@@ -87,7 +86,7 @@ impl FrameUniforms {
             step: v4(header.position_step.map(|s| s as f32), 0.0),
             light: v4(light.map(|x| x as f32), 0.0),
             counts: [tet_count, flags, mode.code(), header.attributes],
-            dispatch: [dispatch_row, 0, 0, 0],
+            reserved: [0; 4],
         }
     }
 }

@@ -8,6 +8,7 @@
 //! - `probe`: driver behaviour checked by drawing (restart in count draws);
 //! - `shaders`: the WGSL passes of `shaders/`;
 //! - `target`: offscreen colour/depth and read-back;
+//! - `traversal`: the top-down stateless traversal, one indirect dispatch per depth;
 //! - `renderer`: traversal + draws, one submit per frame.
 
 pub mod device;
@@ -18,6 +19,7 @@ pub mod renderer;
 pub mod resident;
 pub mod shaders;
 pub mod target;
+pub mod traversal;
 
 pub use device::{DeviceError, GpuContext};
 pub use frame::{ShadingMode, FLAG_COLOUR};

@@ -13,8 +13,9 @@ use tessera_core::repository::reader::Repository;
 use super::device::GpuContext;
 use super::frame::{FrameUniforms, ShadingMode};
 use super::resident::{ResidentError, ResidentModel, DRAW_ARGS_BYTES};
-use super::shaders::{draw_source, traverse_source, TRAVERSE_WORKGROUP};
+use super::shaders::draw_source;
 use super::target::{read_buffer, RenderTarget, COLOR_FORMAT, DEPTH_FORMAT};
+use super::traversal::Traversal;
 use crate::camera::Camera;
 
 /// Default GPU memory budget of the resident pool.
@@ -133,15 +134,13 @@ pub struct Renderer {
     counts: wgpu::Buffer,
     draws_read: wgpu::Buffer,
     counts_read: wgpu::Buffer,
-    traverse: wgpu::ComputePipeline,
-    traverse_group: wgpu::BindGroup,
+    traversal: Traversal,
     draw_group: wgpu::BindGroup,
     page_groups: Vec<wgpu::BindGroup>,
     narrow: DrawPipelines,
     wide: DrawPipelines,
     timestamps: Option<Timestamps>,
     draw_indirect_count: bool,
-    workgroups: (u32, u32),
 }
 
 fn storage_entry(
@@ -249,50 +248,7 @@ impl Renderer {
             U::MAP_READ | U::COPY_DST,
         );
 
-        // Traversal.
-        let compute = wgpu::ShaderStages::COMPUTE;
-        let traverse_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("traverse"),
-            entries: &[
-                uniform_entry(compute),
-                storage_entry(1, true, compute),
-                storage_entry(2, true, compute),
-                storage_entry(3, true, compute),
-                storage_entry(4, false, compute),
-                storage_entry(5, false, compute),
-            ],
-        });
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("traverse.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(traverse_source().into()),
-        });
-        let traverse = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("traverse"),
-            layout: Some(
-                &device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                    label: Some("traverse"),
-                    bind_group_layouts: &[Some(&traverse_layout)],
-                    immediate_size: 0,
-                }),
-            ),
-            module: &module,
-            entry_point: Some("traverse"),
-            compilation_options: Default::default(),
-            cache: None,
-        });
-        let traverse_group = bind_group(
-            device,
-            "traverse",
-            &traverse_layout,
-            &[
-                &uniforms,
-                &model.diamonds,
-                &model.tets,
-                &model.locations,
-                &draws,
-                &counts,
-            ],
-        );
+        let traversal = Traversal::new(ctx, &model, &uniforms, &draws, &counts);
 
         // Drawing.
         let both = wgpu::ShaderStages::VERTEX_FRAGMENT;
@@ -418,8 +374,6 @@ impl Renderer {
             read: buffer("timestamps read-back", 16, U::MAP_READ | U::COPY_DST),
             period_ns: ctx.queue.get_timestamp_period(),
         });
-        let groups = model.tet_count.div_ceil(TRAVERSE_WORKGROUP).max(1);
-        let workgroups = (groups.min(65_535), groups.div_ceil(65_535));
         Ok(Renderer {
             header: *repo.header(),
             target: RenderTarget::new(ctx, options.width, options.height),
@@ -429,15 +383,13 @@ impl Renderer {
             counts,
             draws_read,
             counts_read,
-            traverse,
-            traverse_group,
+            traversal,
             draw_group,
             page_groups,
             narrow,
             wide,
             timestamps,
             draw_indirect_count: ctx.capabilities.draw_indirect_count,
-            workgroups,
         })
     }
 
@@ -467,7 +419,6 @@ impl Renderer {
             &request.cull,
             request.mode,
             self.model.tet_count,
-            self.workgroups.0 * TRAVERSE_WORKGROUP,
         );
         ctx.queue
             .write_buffer(&self.uniforms, 0, bytemuck::bytes_of(&uniforms));
@@ -481,21 +432,16 @@ impl Renderer {
             // Every slot is issued: the ones the traversal leaves alone must draw nothing.
             encoder.clear_buffer(&self.draws, 0, None);
         }
-        {
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("traverse"),
-                timestamp_writes: self.timestamps.as_ref().map(|t| {
-                    wgpu::ComputePassTimestampWrites {
-                        query_set: &t.set,
-                        beginning_of_pass_write_index: Some(0),
-                        end_of_pass_write_index: None,
-                    }
+        self.traversal.record(
+            &mut encoder,
+            self.timestamps
+                .as_ref()
+                .map(|t| wgpu::ComputePassTimestampWrites {
+                    query_set: &t.set,
+                    beginning_of_pass_write_index: Some(0),
+                    end_of_pass_write_index: None,
                 }),
-            });
-            pass.set_pipeline(&self.traverse);
-            pass.set_bind_group(0, &self.traverse_group, &[]);
-            pass.dispatch_workgroups(self.workgroups.0, self.workgroups.1, 1);
-        }
+        );
         {
             let background = if request.mode == ShadingMode::Check {
                 wgpu::Color::BLACK

@@ -11,6 +11,7 @@
 //! by the cut is the next step; pages are the unit it will swap).
 
 use bytemuck::{Pod, Zeroable};
+use tessera_core::repository::format::NO_INDEX;
 use tessera_core::repository::patch::{strip_byte_offset, MAX_U16_PATCH_VERTICES};
 use tessera_core::repository::reader::{Repository, RepositoryError};
 use wgpu::util::DeviceExt;
@@ -59,7 +60,8 @@ pub struct Page {
 #[derive(Debug, thiserror::Error)]
 pub enum ResidentError {
     #[error(
-        "the model needs {needed_mib:.1} MiB of GPU memory ({tables_mib:.1} MiB of tables, \
+        "the model needs {needed_mib:.1} MiB of GPU memory ({tables_mib:.1} MiB of tables and \
+         working buffers, \
          {patches_mib:.1} MiB of patches) but the budget is {budget_mib:.1} MiB; raise it \
          (--gpu-budget) or build with fewer levels: streaming patches in and out is not \
          implemented yet"
@@ -95,13 +97,20 @@ pub struct ResidentModel {
     /// Slots of all lists together (draw array length).
     pub slot_count: u32,
     pub tet_count: u32,
+    /// Roots are simplices `0..root_count`.
+    pub root_count: u32,
+    /// Depths of the simplex tree (longest root-to-leaf chain + 1): the traversal's dispatches.
+    pub depth_count: u32,
     /// Bytes this model holds on the GPU (tables, locations, pages).
     pub resident_bytes: u64,
 }
 
 /// Largest page: one storage binding, and one buffer, of the device.
 pub fn page_limit(limits: &wgpu::Limits) -> u64 {
-    limits.max_storage_buffer_binding_size.min(limits.max_buffer_size) & !7
+    limits
+        .max_storage_buffer_binding_size
+        .min(limits.max_buffer_size)
+        & !7
 }
 
 impl ResidentModel {
@@ -134,13 +143,14 @@ impl ResidentModel {
         let location_bytes: &[u8] = bytemuck::cast_slice(&layout.locations);
         let tables = (diamond_bytes.len() + tet_bytes.len() + location_bytes.len()) as u64;
         let patches: u64 = layout.pages.iter().map(|r| r.end - r.start).sum();
-        let draws = layout.slot_count as u64 * DRAW_ARGS_BYTES;
-        let needed = tables + patches + draws;
+        // Per-frame working buffers: the draw list and the traversal's two queues.
+        let working = layout.slot_count as u64 * DRAW_ARGS_BYTES + 2 * 4 * tets.len() as u64;
+        let needed = tables + patches + working;
         if needed > budget_bytes {
             let mib = |b: u64| b as f64 / (1u64 << 20) as f64;
             return Err(ResidentError::OverBudget {
                 needed_mib: mib(needed),
-                tables_mib: mib(tables + draws),
+                tables_mib: mib(tables + working),
                 patches_mib: mib(patches),
                 budget_mib: mib(budget_bytes),
             });
@@ -180,9 +190,28 @@ impl ResidentModel {
             lists: layout.lists,
             slot_count: layout.slot_count,
             tet_count: tets.len() as u32,
-            resident_bytes: needed - draws,
+            root_count: repo.header().root_tet_count as u32,
+            depth_count: tree_depths(repo),
+            resident_bytes: needed - working,
         })
     }
+}
+
+/// Depths of the simplex tree: the reader checked that children come after their parents, so
+/// one pass in table order sees every parent before its children.
+fn tree_depths(repo: &Repository) -> u32 {
+    let tets = repo.tets();
+    let mut depth = vec![0u32; tets.len()];
+    let mut deepest = 0;
+    for (i, t) in tets.iter().enumerate() {
+        if t.first_child != NO_INDEX {
+            let c = t.first_child as usize;
+            depth[c] = depth[i] + 1;
+            depth[c + 1] = depth[i] + 1;
+            deepest = deepest.max(depth[i] + 1);
+        }
+    }
+    deepest + 1
 }
 
 /// The page layout, before upload.
