@@ -20,10 +20,12 @@ impl Sphere {
 
     /// A sphere around `points`: centred on their bounding box, radius to the farthest point.
     /// Within 1.8× of the minimal sphere, exact to compute, never misses a point.
-    pub fn around_points(points: impl Iterator<Item = [f64; 3]> + Clone) -> Sphere {
+    pub fn around_points(points: impl Iterator<Item = [f64; 3]>) -> Sphere {
+        // Collected once: a caller's iterator may be costly to run twice.
+        let points: Vec<[f64; 3]> = points.collect();
         let mut lo = [f64::INFINITY; 3];
         let mut hi = [f64::NEG_INFINITY; 3];
-        for p in points.clone() {
+        for p in &points {
             for i in 0..3 {
                 lo[i] = lo[i].min(p[i]);
                 hi[i] = hi[i].max(p[i]);
@@ -33,7 +35,10 @@ impl Sphere {
             return Sphere::EMPTY;
         }
         let center = [0, 1, 2].map(|i| 0.5 * (lo[i] + hi[i]));
-        let radius = points.map(|p| distance(p, center)).fold(0.0, f64::max);
+        let radius = points
+            .iter()
+            .map(|&p| distance(p, center))
+            .fold(0.0, f64::max);
         Sphere { center, radius }
     }
 
@@ -111,13 +116,15 @@ impl NormalCone {
     };
 
     /// Cone of the given (not necessarily unit) triangle normals; zero normals are ignored.
-    pub fn around_normals(normals: impl Iterator<Item = [f64; 3]> + Clone) -> NormalCone {
-        let unit = normals.filter_map(|n| {
-            let l = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
-            (l > 0.0 && l.is_finite()).then(|| n.map(|x| x / l))
-        });
+    pub fn around_normals(normals: impl Iterator<Item = [f64; 3]>) -> NormalCone {
+        let unit: Vec<[f64; 3]> = normals
+            .filter_map(|n| {
+                let l = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+                (l > 0.0 && l.is_finite()).then(|| n.map(|x| x / l))
+            })
+            .collect();
         let mut sum = [0.0; 3];
-        for n in unit.clone() {
+        for n in &unit {
             for i in 0..3 {
                 sum[i] += n[i];
             }
@@ -128,6 +135,7 @@ impl NormalCone {
         }
         let axis = sum.map(|x| x / l);
         let min_dot = unit
+            .iter()
             .map(|n| n[0] * axis[0] + n[1] * axis[1] + n[2] * axis[2])
             .fold(1.0f64, f64::min);
         // Keep a small slack for the f32 axis; below 0.1 the cone is too wide to be useful.

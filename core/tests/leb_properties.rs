@@ -3,7 +3,10 @@
 use std::collections::HashMap;
 
 use proptest::prelude::*;
-use tessera_core::leb::{ConformingMesh, Diamond, LatticePoint, Simplex};
+use tessera_core::leb::predicates::{
+    orient2d_exact, orient2d_point, orient3d_exact, orient3d_point,
+};
+use tessera_core::leb::{ConformingMesh, Diamond, LatticePlane, LatticePoint, Simplex};
 
 const BITS: u32 = 5;
 
@@ -45,6 +48,166 @@ fn centroid(s: &Simplex) -> [f64; 3] {
         }
     }
     q
+}
+
+/// A simplex of the hierarchy over `[0, 2^bits]^dim`, `level` steps down `path`.
+fn descend_bits(dim: u8, bits: u32, root: usize, path: u128, level: u16) -> Simplex {
+    let roots = Simplex::roots(dim, bits);
+    let mut s = roots[root % roots.len()];
+    for i in 0..level % (dim as u16 * bits as u16) {
+        s = s.children()[((path >> (i % 128)) & 1) as usize];
+    }
+    s
+}
+
+/// The next f64 above (`up`) or below `x` (finite x).
+fn ulp_step(x: f64, up: bool) -> f64 {
+    if up {
+        x.next_up()
+    } else {
+        x.next_down()
+    }
+}
+
+/// Query points around the plane through `a, b, c` (2D: the line through `a, b`): exactly on it
+/// (a dyadic combination of the points, exact in f64), within rounding of it (a real
+/// combination rounded to f64), those two moved by one ulp in some coordinates, `a` itself and
+/// an arbitrary point.
+fn points_around(
+    dim: u8,
+    [a, b, c]: [LatticePoint; 3],
+    (s, t): (f64, f64),
+    ulps: u8,
+    real: [f64; 3],
+) -> Vec<[f64; 3]> {
+    let f = |p: LatticePoint, i: usize| p[i] as f64;
+    let t = if dim == 3 { t } else { 0.0 };
+    let combination = |s: f64, t: f64| {
+        [0, 1, 2].map(|i| f(a, i) + (f(b, i) - f(a, i)) * s + (f(c, i) - f(a, i)) * t)
+    };
+    let dyadic = |x: f64| (x * 64.0).round() / 64.0;
+    let on = combination(dyadic(s), dyadic(t));
+    let near = combination(s, t);
+    let nudged = |p: [f64; 3], pattern: u8| {
+        let mut p = p;
+        for (i, x) in p.iter_mut().enumerate().take(dim as usize) {
+            if pattern >> (2 * i) & 1 == 1 {
+                *x = ulp_step(*x, pattern >> (2 * i + 1) & 1 == 1);
+            }
+        }
+        p
+    };
+    let mut points = vec![on, near, [0, 1, 2].map(|i| f(a, i)), real];
+    for r in 0..8 {
+        let pattern = ulps.rotate_left(r);
+        points.push(nudged(on, pattern));
+        points.push(nudged(near, pattern));
+        points.push(nudged(nudged(near, pattern), pattern));
+    }
+    points
+}
+
+proptest! {
+    // Cheap cases, and a point within rounding of a plane defeats plain f64 evaluation only a
+    // few times in a thousand: many cases.
+    #![proptest_config(ProptestConfig::with_cases(4000))]
+
+    #[test]
+    fn filtered_plane_side_is_the_exact_side(
+        dim in 2u8..=3, bits in prop::sample::select(vec![5u32, 20, 30]), root in 0usize..6,
+        path: u128, level: u16, st in (-3.0f64..3.0, -3.0f64..3.0), ulps: u8,
+        real in (0.0f64..1.0, 0.0f64..1.0, 0.0f64..1.0),
+        arbitrary: [u32; 9],
+    ) {
+        let s = descend_bits(dim, bits, root, path, level);
+        let side = (1u64 << bits) as f64;
+        let real = [real.0 * side, real.1 * side, if dim == 3 { real.2 * side } else { 0.0 }];
+        let n = dim as usize + 1;
+        // Any lattice plane: normals with many significant bits, where plain f64 evaluation
+        // gets signs wrong near the plane.
+        let lattice = |i: usize| {
+            let p = [0, 1, 2].map(|k| (arbitrary[3 * i + k] % ((1 << bits) + 1)) as i32);
+            if dim == 3 { p } else { [p[0], p[1], 0] }
+        };
+        let mut planes = vec![[lattice(0), lattice(1), lattice(2)]];
+        // Every facet plane and the bisecting plane of the simplex.
+        planes.extend((0..n).map(|skip| {
+            let face: Vec<LatticePoint> =
+                (0..n).filter(|&i| i != skip).map(|i| s.vertices[i]).collect();
+            [face[0], face[1], face[face.len() - 1]]
+        }));
+        if s.can_split() {
+            let k = s.tag as usize;
+            let others: Vec<LatticePoint> =
+                (1..n).filter(|&i| i != k).map(|i| s.vertices[i]).collect();
+            planes.push([s.split_point(), others[0], others[others.len() - 1]]);
+        }
+        for points in planes {
+            let plane = LatticePlane::through(dim, points[0], points[1], points[2]);
+            let exact = |q: [f64; 3]| {
+                if dim == 3 {
+                    -orient3d_point(points[0], points[1], points[2], q)
+                } else {
+                    orient2d_point(points[0], points[1], q)
+                }
+            };
+            for q in points_around(dim, points, st, ulps, real) {
+                prop_assert_eq!(plane.side_of_point(q), exact(q), "{:?} {:?}", points, q);
+                prop_assert_eq!(plane.side_of_point_exact(q), exact(q));
+            }
+            for v in &s.vertices[..n] {
+                let exact = if dim == 3 {
+                    -orient3d_exact(points[0], points[1], points[2], *v)
+                } else {
+                    orient2d_exact(points[0], points[1], *v)
+                };
+                prop_assert_eq!(plane.side_of_lattice_point(*v), exact);
+            }
+        }
+    }
+
+    #[test]
+    fn prepared_tests_match_the_exact_predicates(
+        dim in 2u8..=3, bits in prop::sample::select(vec![5u32, 20, 30]), root in 0usize..6,
+        path: u128, level: u16, st in (-3.0f64..3.0, -3.0f64..3.0), ulps: u8,
+        real in (0.0f64..1.0, 0.0f64..1.0, 0.0f64..1.0),
+    ) {
+        let s = descend_bits(dim, bits, root, path, level);
+        prop_assume!(s.can_split());
+        let side = (1u64 << bits) as f64;
+        let real = [real.0 * side, real.1 * side, if dim == 3 { real.2 * side } else { 0.0 }];
+        let n = dim as usize + 1;
+        let orient = |face: &[LatticePoint], q: [f64; 3]| {
+            if dim == 3 { orient3d_point(face[0], face[1], face[2], q) } else { orient2d_point(face[0], face[1], q) }
+        };
+        let orient_lattice = |face: &[LatticePoint], p: LatticePoint| {
+            if dim == 3 { orient3d_exact(face[0], face[1], face[2], p) } else { orient2d_exact(face[0], face[1], p) }
+        };
+        // The reference: the predicates applied directly, as point location always did.
+        let reference = |q: [f64; 3], strict: bool| {
+            (0..n).all(|skip| {
+                let face: Vec<LatticePoint> =
+                    (0..n).filter(|&i| i != skip).map(|i| s.vertices[i]).collect();
+                let (s_q, s_o) = (orient(&face, q), orient_lattice(&face, s.vertices[skip]));
+                s_q == s_o || (!strict && s_q == 0)
+            })
+        };
+        let k = s.tag as usize;
+        let others: Vec<LatticePoint> = (1..n).filter(|&i| i != k).map(|i| s.vertices[i]).collect();
+        let z = s.split_point();
+        let bisector = s.bisector();
+        let prepared = s.prepared();
+        let mut queries = points_around(dim, [z, others[0], others[others.len() - 1]], st, ulps, real);
+        queries.extend(points_around(dim, [s.vertices[0], s.vertices[1], s.vertices[n - 1]], st, ulps, real));
+        for q in queries {
+            let side = orient(&[z, others[0], others[others.len() - 1]], q);
+            let side_x0 = orient_lattice(&[z, others[0], others[others.len() - 1]], s.vertices[0]);
+            let child = if side == 0 || side == side_x0 { 0 } else { 1 };
+            prop_assert_eq!(bisector.child_index_of(q), child, "{:?}", q);
+            prop_assert_eq!(prepared.contains_point(q), reference(q, false), "{:?}", q);
+            prop_assert_eq!(prepared.strictly_contains_point(q), reference(q, true), "{:?}", q);
+        }
+    }
 }
 
 proptest! {

@@ -7,7 +7,7 @@
 
 use rustc_hash::FxHashMap as HashMap;
 
-use tessera_core::leb::{ConformingMesh, Diamond, Simplex, SimplexKey};
+use tessera_core::leb::{Bisector, ConformingMesh, Diamond, Simplex, SimplexKey};
 
 use crate::frame::LatticeFrame;
 
@@ -44,12 +44,17 @@ pub fn build_hierarchy(
     construction: Construction,
 ) -> Hierarchy {
     let mut mesh = ConformingMesh::new(3, frame.bits);
-    let mut leaf_triangles: HashMap<SimplexKey, Vec<u32>> =
+    // Each leaf's triangles, in input order, with their barycentres beside them: partitioning
+    // then streams through memory instead of gathering barycentres from all over the input.
+    let mut leaf_triangles: HashMap<SimplexKey, Vec<Located>> =
         mesh.roots().iter().map(|r| (r.key, Vec::new())).collect();
     let roots: Vec<Simplex> = mesh.roots().to_vec();
     for (t, b) in barycenters.iter().enumerate() {
         let root = roots[Simplex::root_index_of(3, *b) as usize];
-        leaf_triangles.get_mut(&root.key).unwrap().push(t as u32);
+        leaf_triangles.get_mut(&root.key).unwrap().push(Located {
+            barycenter: *b,
+            triangle: t as u32,
+        });
     }
     let needs_split = |s: &Simplex, count: usize| match construction {
         Construction::LeafTriangles(max) => count > max,
@@ -69,11 +74,7 @@ pub fn build_hierarchy(
             for t in &d.simplices {
                 let triangles = leaf_triangles.remove(&t.key).unwrap_or_default();
                 let children = t.children();
-                let mut parts = [Vec::new(), Vec::new()];
-                let bisector = t.bisector();
-                for tri in triangles {
-                    parts[bisector.child_index_of(barycenters[tri as usize])].push(tri);
-                }
+                let parts = partition(triangles, &t.bisector());
                 for (c, part) in children.iter().zip(parts) {
                     if needs_split(c, part.len()) && c.can_split() {
                         queue.push(*c);
@@ -88,6 +89,34 @@ pub fn build_hierarchy(
         frame,
         mesh,
         diamonds,
-        leaf_triangles,
+        leaf_triangles: leaf_triangles
+            .into_iter()
+            .map(|(key, list)| (key, list.iter().map(|l| l.triangle).collect()))
+            .collect(),
     }
+}
+
+/// A triangle in a leaf under construction.
+#[derive(Clone, Copy)]
+struct Located {
+    barycenter: [f64; 3],
+    triangle: u32,
+}
+
+/// Splits a leaf's triangles between its children (`bisector`'s tie rule), keeping their order
+/// (and allocating each child's list at its size).
+fn partition(triangles: Vec<Located>, bisector: &Bisector) -> [Vec<Located>; 2] {
+    let sides: Vec<u8> = triangles
+        .iter()
+        .map(|l| bisector.child_index_of(l.barycenter) as u8)
+        .collect();
+    let ones = sides.iter().map(|&s| s as usize).sum::<usize>();
+    let mut parts = [
+        Vec::with_capacity(triangles.len() - ones),
+        Vec::with_capacity(ones),
+    ];
+    for (l, side) in triangles.into_iter().zip(sides) {
+        parts[side as usize].push(l);
+    }
+    parts
 }

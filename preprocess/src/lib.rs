@@ -8,6 +8,7 @@ pub mod build;
 pub mod frame;
 pub mod hierarchy;
 pub mod import;
+mod local_mesh;
 pub mod mesh;
 pub mod procedural;
 pub mod saturate;

@@ -12,16 +12,38 @@
 //! merged; a vertex used both inside and outside D's gathered set there is used by a triangle
 //! the merge does not touch, so it must survive. Since simplification only removes vertices,
 //! any patch of any cut outside D uses a subset of what the current mesh uses outside D.
+//!
+//! Merging a level: meshopt ignores the link condition at times, and two diamonds can both
+//! close a fin onto the same locked vertices, so a merge could give an edge more than two
+//! triangles. The build never lets one do that to an edge that had at most two. The diamonds
+//! of a level are simplified in parallel against the same current mesh, each checking its own
+//! output against it; a batch is then merged at once, holding back every diamond that conflicts
+//! alone or would over-fill an edge together with diamonds before it in level order
+//! (`split_batch`). The held-back ones are simplified again against the mesh with the batch
+//! merged, with the vertices around the blocking edges locked (finally all of their vertices,
+//! which changes nothing), and merged in a later batch. A vertex with all its triangles in D's
+//! gathered set (an *interior* vertex) has its edges' counts known locally, and no other
+//! diamond of the level can touch those edges, so only edges between two shared vertices need
+//! the global counts. Merging a batch is a sum of count changes (`CurrentMesh::merge`), so the
+//! result depends neither on the order within a batch nor on the number of threads.
+
+mod current_mesh;
+mod local_edges;
 
 use rustc_hash::{FxHashMap as HashMap, FxHashSet as HashSet};
 
 use meshopt::{SimplifyOptions, VertexDataAdapter};
 use rayon::prelude::*;
-use tessera_core::leb::{Diamond, Simplex, SimplexKey};
+use tessera_core::leb::{Diamond, PreparedSimplex, Simplex, SimplexKey};
 
 use crate::frame::LatticeFrame;
 use crate::hierarchy::Hierarchy;
+use crate::local_mesh::{local_mesh, LocalMesh};
 use crate::mesh::InputMesh;
+use current_mesh::{edge_key, triangle_edges, CountChanges};
+use local_edges::LocalEdges;
+
+pub use current_mesh::CurrentMesh;
 
 /// Patches of every simplex and the simplifier's own error of every split diamond.
 pub struct Simplified {
@@ -42,8 +64,26 @@ struct DiamondResult {
     locked: usize,
     /// The children's triangles it replaces.
     gathered: Vec<[u32; 3]>,
-    /// How the swap changes edge use counts.
-    edge_delta: Vec<(u64, i32)>,
+    effect: MergeEffect,
+}
+
+/// What merging a diamond would do to the current mesh it was simplified against.
+struct MergeEffect {
+    /// The count changes.
+    changes: CountChanges,
+    /// Edges the merge would give more than two triangles, and more than they have.
+    conflicts: Vec<u64>,
+    /// (edge, growth) of the edges whose use count the merge raises and whose endpoints are
+    /// both shared with the rest of the current mesh: the only edges another diamond of the
+    /// level can also change.
+    shared_growth: Vec<(u64, i32)>,
+}
+
+/// A diamond not merged yet, with the locks its earlier conflicts added.
+struct Pending {
+    result: DiamondResult,
+    extra_locks: HashSet<u32>,
+    attempts: usize,
 }
 
 /// Everything a diamond's simplification reads (shared by the parallel workers).
@@ -58,6 +98,11 @@ struct Context<'a> {
 /// Positions go to meshopt relative to `local_origin` in f32; normals (if any) are
 /// simplification attributes. `current` is `CurrentMesh::new(mesh)` (built by the caller so
 /// that it can overlap with the hierarchy's construction).
+///
+/// Guarantee: after each diamond's merge (in the order of the batches, any order within a
+/// batch), no edge of the current mesh has more than two triangles unless it had that many
+/// before (the input's own non-manifold edges). The output is the same for any number of
+/// threads.
 pub fn simplify_hierarchy(
     mesh: &InputMesh,
     hierarchy: &Hierarchy,
@@ -69,7 +114,7 @@ pub fn simplify_hierarchy(
         frame: &hierarchy.frame,
         positions: mesh
             .positions
-            .iter()
+            .par_iter()
             .map(|p| [0, 1, 2].map(|i| (p[i] - local_origin[i]) as f32))
             .collect(),
     };
@@ -91,42 +136,55 @@ pub fn simplify_hierarchy(
         by_level.chunk_by(|&a, &b| hierarchy.diamonds[a].level == hierarchy.diamonds[b].level)
     {
         let no_extra = HashSet::default();
-        let results: Vec<DiamondResult> = level_group
+        let mut pending: Vec<Pending> = level_group
             .par_iter()
-            .map(|&d| {
-                simplify_diamond(
+            .map(|&d| Pending {
+                result: simplify_diamond(
                     &ctx,
                     d,
                     &hierarchy.diamonds[d],
                     &patches,
                     &current,
                     &no_extra,
-                )
+                ),
+                extra_locks: HashSet::default(),
+                attempts: 0,
             })
             .collect();
-        // Apply in a fixed order. A diamond whose output would give an edge of the current
-        // mesh more than two triangles (meshopt ignores the link condition at times, and two
-        // diamonds can both close a fin onto the same locked vertices) is simplified again with
-        // the vertices around those edges locked, until it introduces none.
-        for mut r in results {
-            let diamond = &hierarchy.diamonds[r.diamond];
-            let mut extra: HashSet<u32> = HashSet::default();
-            for attempt in 0.. {
-                let conflicts = current.nonmanifold_introduced(&r.edge_delta);
-                if conflicts.is_empty() {
-                    break;
-                }
-                if attempt >= MAX_RESIMPLIFY {
-                    extra.extend(r.gathered.iter().flatten().copied());
-                } else {
-                    extra.extend(one_ring(&r.gathered, &conflicts));
-                }
-                r = simplify_diamond(&ctx, r.diamond, diamond, &patches, &current, &extra);
+        while !pending.is_empty() {
+            let (clean, dirty) = split_batch(pending, &current);
+            current.merge(clean.iter().map(|p| &p.result.effect.changes));
+            debug_assert!(
+                clean
+                    .iter()
+                    .flat_map(|p| &p.result.effect.changes.edges)
+                    .all(|&(e, d)| d <= 0 || current.edge_count(e) <= 2),
+                "a merge raised an edge above two triangles"
+            );
+            for p in clean {
+                let r = p.result;
+                own_error[r.diamond] = r.error;
+                locked_vertices += r.locked;
+                patches.extend(r.patches);
             }
-            current.apply(&r);
-            own_error[r.diamond] = r.error;
-            locked_vertices += r.locked;
-            patches.extend(r.patches);
+            // Simplify the others again against the mesh with the batch merged, with more
+            // locks.
+            pending = dirty
+                .into_par_iter()
+                .map(|(mut p, blocked)| {
+                    p.lock_more(&blocked);
+                    let d = p.result.diamond;
+                    p.result = simplify_diamond(
+                        &ctx,
+                        d,
+                        &hierarchy.diamonds[d],
+                        &patches,
+                        &current,
+                        &p.extra_locks,
+                    );
+                    p
+                })
+                .collect();
         }
     }
     Simplified {
@@ -137,102 +195,66 @@ pub fn simplify_hierarchy(
 }
 
 /// Re-simplifications with a growing lock set before locking the whole diamond (which keeps
-/// its gathered triangles as they are and so changes no edge).
+/// its gathered triangles as they are and so raises no edge's count).
 const MAX_RESIMPLIFY: usize = 4;
 
-/// The current mesh (DESIGN.md): the input with every processed diamond merged, as sharing
-/// counts per vertex and use counts per edge.
-pub struct CurrentMesh {
-    use_count: Vec<u32>,
-    edges: HashMap<u64, u32>,
-    /// Whether the input has an edge with more than two triangles (the build never adds one,
-    /// so without any there is nothing to protect).
-    had_nonmanifold: bool,
-}
+/// A pending diamond kept out of a batch, and the edges that kept it out.
+type HeldBack = (Pending, Vec<u64>);
 
-fn edge_key(a: u32, b: u32) -> u64 {
-    ((a.min(b) as u64) << 32) | a.max(b) as u64
-}
-
-fn triangle_edges(t: &[u32; 3]) -> [u64; 3] {
-    [
-        edge_key(t[0], t[1]),
-        edge_key(t[1], t[2]),
-        edge_key(t[2], t[0]),
-    ]
-}
-
-impl CurrentMesh {
-    pub fn new(mesh: &InputMesh) -> Self {
-        let mut use_count = vec![0u32; mesh.positions.len()];
-        let mut edges =
-            HashMap::with_capacity_and_hasher(mesh.triangles.len() * 3 / 2, Default::default());
-        for tri in &mesh.triangles {
-            for &v in tri {
-                use_count[v as usize] += 1;
-            }
-            for e in triangle_edges(tri) {
-                *edges.entry(e).or_default() += 1;
-            }
+impl Pending {
+    /// Adds locks for another attempt: around the edges that blocked its merge, or, after
+    /// `MAX_RESIMPLIFY` attempts, every vertex.
+    fn lock_more(&mut self, blocked: &[u64]) {
+        let gathered = &self.result.gathered;
+        if self.attempts >= MAX_RESIMPLIFY {
+            self.extra_locks.extend(gathered.iter().flatten().copied());
+        } else {
+            self.extra_locks.extend(one_ring(gathered, blocked));
         }
-        let had_nonmanifold = edges.values().any(|&n| n > 2);
-        CurrentMesh {
-            use_count,
-            edges,
-            had_nonmanifold,
-        }
-    }
-
-    /// Edges that the change would leave with more than two triangles, and more than before.
-    fn nonmanifold_introduced(&self, delta: &[(u64, i32)]) -> Vec<u64> {
-        delta
-            .iter()
-            .filter(|(e, d)| {
-                let before = self.edges.get(e).copied().unwrap_or(0) as i64;
-                *d > 0 && before + *d as i64 > 2
-            })
-            .map(|(e, _)| *e)
-            .collect()
-    }
-
-    /// Merges a diamond: its gathered triangles leave, its output enters.
-    fn apply(&mut self, r: &DiamondResult) {
-        for t in &r.gathered {
-            for &v in t {
-                self.use_count[v as usize] -= 1;
-            }
-        }
-        for t in r.patches.iter().flat_map(|(_, t)| t.iter()) {
-            for &v in t {
-                self.use_count[v as usize] += 1;
-            }
-        }
-        for &(e, d) in &r.edge_delta {
-            let n = self.edges.entry(e).or_default();
-            *n = (*n as i64 + d as i64) as u32;
-            if *n == 0 {
-                self.edges.remove(&e);
-            }
-        }
+        self.attempts += 1;
     }
 }
 
-/// Net change of each edge's use count when `gathered` is replaced by `output` (non-zero only).
-fn edge_delta<'a>(
-    gathered: &[[u32; 3]],
-    output: impl Iterator<Item = &'a [u32; 3]>,
-) -> Vec<(u64, i32)> {
-    let mut changes: Vec<(u64, i32)> = gathered
+/// Splits the pending diamonds of a level into a batch that can be merged at once and the
+/// others, each with the edges that block it: its own conflicts, and the shared edges that
+/// diamonds before it (in level order) already raise to two triangles. Only shared edges can
+/// be raised by two diamonds (see the module comment). A diamond counted here may still be
+/// held back for another edge; counting it anyway only holds back more, never too few.
+fn split_batch(pending: Vec<Pending>, current: &CurrentMesh) -> (Vec<Pending>, Vec<HeldBack>) {
+    let mut growth: Vec<(u64, usize, i32)> = pending
         .iter()
-        .flat_map(|t| triangle_edges(t).map(|e| (e, -1)))
-        .chain(output.flat_map(|t| triangle_edges(t).map(|e| (e, 1))))
+        .enumerate()
+        .flat_map(|(i, p)| {
+            p.result
+                .effect
+                .shared_growth
+                .iter()
+                .map(move |&(e, d)| (e, i, d))
+        })
         .collect();
-    changes.sort_unstable_by_key(|&(e, _)| e);
-    changes
+    growth.sort_unstable();
+    let mut blocked: Vec<Vec<u64>> = pending
+        .iter()
+        .map(|p| p.result.effect.conflicts.clone())
+        .collect();
+    for run in growth
         .chunk_by(|a, b| a.0 == b.0)
-        .map(|run| (run[0].0, run.iter().map(|&(_, d)| d).sum::<i32>()))
-        .filter(|&(_, d)| d != 0)
-        .collect()
+        .filter(|run| run.len() > 1)
+    {
+        let mut count = current.edge_count(run[0].0) as i64;
+        for &(e, i, d) in run {
+            if count + d as i64 > 2 {
+                blocked[i].push(e);
+            } else {
+                count += d as i64;
+            }
+        }
+    }
+    let (clean, dirty): (Vec<_>, Vec<_>) = pending
+        .into_iter()
+        .zip(blocked)
+        .partition(|(_, blocked)| blocked.is_empty());
+    (clean.into_iter().map(|(p, _)| p).collect(), dirty)
 }
 
 /// Vertices of `gathered` sharing a triangle with an endpoint of any of `edges`.
@@ -257,49 +279,31 @@ fn simplify_diamond(
     current: &CurrentMesh,
     extra_locks: &HashSet<u32>,
 ) -> DiamondResult {
-    let (mesh, frame) = (ctx.mesh, ctx.frame);
-    // Gather the children's patches into one local mesh.
-    let gathered: Vec<[u32; 3]> = diamond
-        .simplices
+    let mesh = ctx.mesh;
+    let (gathered, source) = gather(diamond, patches);
+    let local = local_mesh(&gathered, mesh.positions.len());
+    // Interior vertices: every triangle using them is in the gathered set.
+    let interior: Vec<bool> = local
+        .global_of
         .iter()
-        .flat_map(|s| s.children())
-        .flat_map(|c| {
-            patches
-                .get(&c.key)
-                .map(Vec::as_slice)
-                .unwrap_or(&[])
-                .iter()
-                .copied()
-        })
+        .zip(&local.uses)
+        .map(|(&g, &n)| n == current.use_count(g))
         .collect();
-    let mut local_of: HashMap<u32, u32> =
-        HashMap::with_capacity_and_hasher(gathered.len(), Default::default());
-    let mut global_of: Vec<u32> = Vec::new();
-    let mut local_count: Vec<u32> = Vec::new();
-    let mut indices: Vec<u32> = Vec::with_capacity(gathered.len() * 3);
-    for tri in &gathered {
-        for &g in tri {
-            let l = *local_of.entry(g).or_insert_with(|| {
-                global_of.push(g);
-                local_count.push(0);
-                (global_of.len() - 1) as u32
-            });
-            local_count[l as usize] += 1;
-            indices.push(l);
+    let gathered_edges = LocalEdges::count(interior.len(), &local.indices);
+    let mut lock = lock_vertices(&gathered_edges, &interior);
+    if !extra_locks.is_empty() {
+        for (l, g) in lock.iter_mut().zip(&local.global_of) {
+            *l |= extra_locks.contains(g);
         }
-    }
-    let mut lock = lock_vertices(&indices, &global_of, &local_count, &current.use_count);
-    for (l, g) in lock.iter_mut().zip(&global_of) {
-        *l |= extra_locks.contains(g);
     }
     // Keep the triangles around non-manifold edges exactly: with only the edge's endpoints
     // locked, meshopt may fold two of the sheets onto each other and drop them both, leaving
     // the edge with one triangle where the input has three.
-    if current.had_nonmanifold {
-        for (t, tri) in indices.chunks_exact(3).zip(&gathered) {
+    if current.may_have_nonmanifold() {
+        for (t, tri) in local.indices.chunks_exact(3).zip(&gathered) {
             if triangle_edges(tri)
                 .iter()
-                .any(|e| current.edges.get(e).is_some_and(|&n| n > 2))
+                .any(|&(a, b)| current.is_nonmanifold(edge_key(a, b)))
             {
                 for &l in t {
                     lock[l as usize] = true;
@@ -308,73 +312,165 @@ fn simplify_diamond(
         }
     }
     let locked = lock.iter().filter(|&&l| l).count();
-    let (mut simplified, error) =
-        simplify_locked(&indices, &global_of, &lock, &ctx.positions, mesh);
-    cancel_coincident_pairs(&mut simplified);
-    // Distribute the output triangles among the simplices of D by barycentre.
-    let mut out: Vec<(SimplexKey, Vec<[u32; 3]>)> = diamond
-        .simplices
-        .iter()
-        .map(|s| (s.key, Vec::new()))
-        .collect();
-    // A triangle the simplifier kept stays with the simplex it came from (its barycentre is
-    // in that simplex's child); only new triangles need a point location.
-    let mut came_from: HashMap<[u32; 3], usize> =
-        HashMap::with_capacity_and_hasher(gathered.len(), Default::default());
-    for (slot, s) in diamond.simplices.iter().enumerate() {
-        for c in s.children() {
-            for t in patches.get(&c.key).map(Vec::as_slice).unwrap_or(&[]) {
-                came_from.insert(*t, slot);
-            }
-        }
-    }
-    for t in simplified.chunks_exact(3) {
-        let tri = [
-            global_of[t[0] as usize],
-            global_of[t[1] as usize],
-            global_of[t[2] as usize],
-        ];
-        let slot = came_from
-            .get(&tri)
-            .copied()
-            .unwrap_or_else(|| holder(&diamond.simplices, barycenter_lattice(&tri, mesh, frame)));
-        out[slot].1.push(tri);
-    }
-    let edge_delta = edge_delta(&gathered, out.iter().flat_map(|(_, t)| t.iter()));
+    let (mut simplified, error) = simplify_locked(
+        &local.indices,
+        &local.global_of,
+        &lock,
+        &ctx.positions,
+        mesh,
+    );
+    cancel_coincident_pairs(&mut simplified, interior.len());
+    let patches = distribute(ctx, diamond, &local, &source, &simplified);
+    let effect = merge_effect(&local, &interior, &gathered_edges, &simplified, current);
     DiamondResult {
         diamond: index,
-        patches: out,
+        patches,
         error,
         locked,
         gathered,
-        edge_delta,
+        effect,
     }
 }
 
-/// Locks a vertex when the rest of the current mesh also uses it, or when it lies on an edge
-/// of the gathered set that is not used by exactly two of its triangles (holes of the scan,
-/// non-manifold edges): both keep every conforming cut's borders where the input has them.
-fn lock_vertices(
-    indices: &[u32],
-    global_of: &[u32],
-    local_count: &[u32],
-    use_count: &[u32],
-) -> Vec<bool> {
-    let mut lock: Vec<bool> = global_of
+/// The triangles of the patches of the children of D's simplices, and for each the index of
+/// the simplex of D it came from.
+fn gather(
+    diamond: &Diamond,
+    patches: &HashMap<SimplexKey, Vec<[u32; 3]>>,
+) -> (Vec<[u32; 3]>, Vec<u8>) {
+    let mut gathered: Vec<[u32; 3]> = Vec::new();
+    let mut source: Vec<u8> = Vec::new();
+    for (slot, s) in diamond.simplices.iter().enumerate() {
+        for c in s.children() {
+            let tris = patches.get(&c.key).map(Vec::as_slice).unwrap_or(&[]);
+            gathered.extend_from_slice(tris);
+            source.resize(gathered.len(), slot as u8);
+        }
+    }
+    (gathered, source)
+}
+
+/// Hands the simplified triangles (`simplified`, local ids) to the simplices of D: a triangle
+/// the simplifier kept stays with the simplex it came from (`source`; its barycentre is in
+/// that simplex's child), a new one goes to the simplex holding its barycentre.
+fn distribute(
+    ctx: &Context,
+    diamond: &Diamond,
+    local: &LocalMesh,
+    source: &[u8],
+    simplified: &[u32],
+) -> Vec<(SimplexKey, Vec<[u32; 3]>)> {
+    let mut out: Vec<(SimplexKey, Vec<[u32; 3]>)> = diamond
+        .simplices
         .iter()
-        .zip(local_count)
-        .map(|(&g, &n)| n < use_count[g as usize])
+        .map(|s| {
+            let share = simplified.len() / 3 / diamond.simplices.len();
+            (s.key, Vec::with_capacity(share + 8))
+        })
         .collect();
-    // Count edges by sorting their keys (several times faster than hashing here).
-    let mut edges: Vec<u64> = indices
+    // Keys are local ids in the triangle's own rotation; a repeated triangle keeps its last
+    // source.
+    let key = |t: &[u32]| ((t[0] as u128) << 64) | ((t[1] as u128) << 32) | t[2] as u128;
+    let came_from: HashMap<u128, u8> = local
+        .indices
         .chunks_exact(3)
-        .flat_map(|t| triangle_edges(&[t[0], t[1], t[2]]))
+        .zip(source)
+        .map(|(t, &slot)| (key(t), slot))
         .collect();
-    edges.sort_unstable();
-    for run in edges.chunk_by(|a, b| a == b) {
-        if run.len() != 2 {
-            lock[(run[0] >> 32) as usize] = true;
-            lock[run[0] as u32 as usize] = true;
+    let prepared: Vec<PreparedSimplex> = diamond.simplices.iter().map(Simplex::prepared).collect();
+    for t in simplified.chunks_exact(3) {
+        let tri = [0, 1, 2].map(|k| local.global_of[t[k] as usize]);
+        let slot = match came_from.get(&key(t)) {
+            Some(&slot) => slot as usize,
+            None => holder(
+                &diamond.simplices,
+                &prepared,
+                barycenter_lattice(&tri, ctx.mesh, ctx.frame),
+            ),
+        };
+        out[slot].1.push(tri);
+    }
+    out
+}
+
+/// What merging D (its gathered triangles `local` replaced by `simplified`) does to the
+/// current mesh: the count changes, and the edges it could over-fill.
+fn merge_effect(
+    local: &LocalMesh,
+    interior: &[bool],
+    gathered_edges: &LocalEdges,
+    simplified: &[u32],
+    current: &CurrentMesh,
+) -> MergeEffect {
+    let global_of = &local.global_of;
+    let mut effect = MergeEffect {
+        changes: CountChanges {
+            vertices: Vec::new(),
+            edges: Vec::new(),
+        },
+        conflicts: Vec::new(),
+        shared_growth: Vec::new(),
+    };
+    let output_edges = LocalEdges::count(interior.len(), simplified);
+    let mut kept = vec![false; gathered_edges.len()];
+    for (_, a, b, after) in output_edges.iter() {
+        let before = match gathered_edges.find(a, b) {
+            Some(i) => {
+                kept[i] = true;
+                gathered_edges.uses(i)
+            }
+            None => 0,
+        };
+        if before == after {
+            continue;
+        }
+        let growth = after as i32 - before as i32;
+        let key = edge_key(global_of[a as usize], global_of[b as usize]);
+        effect.changes.edges.push((key, growth));
+        if growth > 0 {
+            // An edge with an interior endpoint has all its triangles here.
+            let shared = !interior[a as usize] && !interior[b as usize];
+            let before = if shared {
+                current.edge_count(key)
+            } else {
+                before
+            };
+            if before as i64 + growth as i64 > 2 {
+                effect.conflicts.push(key);
+            }
+            if shared {
+                effect.shared_growth.push((key, growth));
+            }
+        }
+    }
+    for (i, a, b, before) in gathered_edges.iter() {
+        if !kept[i] {
+            let key = edge_key(global_of[a as usize], global_of[b as usize]);
+            effect.changes.edges.push((key, -(before as i32)));
+        }
+    }
+    let mut out_uses = vec![0u32; global_of.len()];
+    for &l in simplified {
+        out_uses[l as usize] += 1;
+    }
+    effect.changes.vertices = (0..global_of.len())
+        .filter(|&l| out_uses[l] != local.uses[l])
+        .map(|l| (global_of[l], out_uses[l] as i32 - local.uses[l] as i32))
+        .collect();
+    effect.changes.sort_by_shard();
+    effect
+}
+
+/// Locks a vertex when the rest of the current mesh also uses it (it is not interior), or when
+/// it lies on an edge of the gathered set that is not used by exactly two of its triangles
+/// (holes of the scan, non-manifold edges): both keep every conforming cut's borders where the
+/// input has them.
+fn lock_vertices(gathered_edges: &LocalEdges, interior: &[bool]) -> Vec<bool> {
+    let mut lock: Vec<bool> = interior.iter().map(|&i| !i).collect();
+    for (_, a, b, uses) in gathered_edges.iter() {
+        if uses != 2 {
+            lock[a as usize] = true;
+            lock[b as usize] = true;
         }
     }
     lock
@@ -383,29 +479,57 @@ fn lock_vertices(
 /// Removes triangles that come in pairs on the same three vertices. meshopt's collapses can
 /// fold a valence-3 fan into two back-to-back copies of one triangle: a zero-volume flap that
 /// makes its edges non-manifold. Dropping copies two at a time keeps every edge's use count
-/// parity, so borders (odd counts) are untouched.
-fn cancel_coincident_pairs(indices: &mut Vec<u32>) {
-    let mut keys: Vec<[u32; 3]> = indices
-        .chunks_exact(3)
-        .map(|t| sorted(&[t[0], t[1], t[2]]))
-        .collect();
-    keys.sort_unstable();
-    if keys.windows(2).all(|w| w[0] != w[1]) {
+/// parity, so borders (odd counts) are untouched. Keeps the first copy of a triangle repeated
+/// an odd number of times, none of one repeated an even number of times.
+fn cancel_coincident_pairs(indices: &mut Vec<u32>, vertex_count: usize) {
+    // Copies share their smallest vertex: bucket the triangles by it (counting sort), then
+    // look for equal vertex sets inside each (small) bucket.
+    let triangles = indices.len() / 3;
+    let mut start = vec![0u32; vertex_count + 1];
+    let sorted_of = |t: usize| sorted(&[indices[3 * t], indices[3 * t + 1], indices[3 * t + 2]]);
+    for t in 0..triangles {
+        start[sorted_of(t)[0] as usize + 1] += 1;
+    }
+    for i in 0..vertex_count {
+        start[i + 1] += start[i];
+    }
+    let mut fill = start.clone();
+    let mut bucketed = vec![0u32; triangles];
+    for t in 0..triangles {
+        let lo = sorted_of(t)[0] as usize;
+        bucketed[fill[lo] as usize] = t as u32;
+        fill[lo] += 1;
+    }
+    let mut drop: Vec<u32> = Vec::new();
+    let mut bucket: Vec<([u32; 3], u32)> = Vec::new();
+    for lo in 0..vertex_count {
+        let range = start[lo] as usize..start[lo + 1] as usize;
+        if range.len() < 2 {
+            continue;
+        }
+        bucket.clear();
+        bucket.extend(bucketed[range].iter().map(|&t| (sorted_of(t as usize), t)));
+        bucket.sort_unstable();
+        for run in bucket
+            .chunk_by(|a, b| a.0 == b.0)
+            .filter(|run| run.len() > 1)
+        {
+            // The run is in triangle order: keep its first when the count is odd.
+            let keep_first = run.len() % 2 == 1;
+            drop.extend(run.iter().skip(keep_first as usize).map(|&(_, t)| t));
+        }
+    }
+    if drop.is_empty() {
         return; // the common case: no repeated triangle
     }
-    let mut copies: HashMap<[u32; 3], u32> = HashMap::default();
-    for k in keys {
-        *copies.entry(k).or_default() += 1;
-    }
-    // Keep one copy of each odd-count triangle (the first), none of an even-count one.
+    drop.sort_unstable();
     let mut kept = Vec::with_capacity(indices.len());
-    for t in indices.chunks_exact(3) {
-        let mut key = [t[0], t[1], t[2]];
-        key.sort_unstable();
-        let n = copies.get_mut(&key).expect("counted above");
-        if *n % 2 == 1 {
-            kept.extend_from_slice(t);
-            *n = 0;
+    let mut next_drop = drop.iter().peekable();
+    for (t, tri) in indices.chunks_exact(3).enumerate() {
+        if next_drop.peek() == Some(&&(t as u32)) {
+            next_drop.next();
+        } else {
+            kept.extend_from_slice(tri);
         }
     }
     *indices = kept;
@@ -470,10 +594,11 @@ fn barycenter_lattice(tri: &[u32; 3], mesh: &InputMesh, frame: &LatticeFrame) ->
     frame.to_lattice([0, 1, 2].map(|i| (p[0][i] + p[1][i] + p[2][i]) / 3.0))
 }
 
-/// The simplex of the diamond that holds `b`; when simplification moved a triangle's
-/// barycentre outside the diamond, the simplex with the nearest centroid.
-fn holder(simplices: &[Simplex], b: [f64; 3]) -> usize {
-    if let Some(i) = simplices.iter().position(|s| s.contains_point(b)) {
+/// The simplex of the diamond that holds `b` (`prepared` are the simplices' facet planes);
+/// when simplification moved a triangle's barycentre outside the diamond, the simplex with the
+/// nearest centroid.
+fn holder(simplices: &[Simplex], prepared: &[PreparedSimplex], b: [f64; 3]) -> usize {
+    if let Some(i) = prepared.iter().position(|s| s.contains_point(b)) {
         return i;
     }
     let centroid = |s: &Simplex| {

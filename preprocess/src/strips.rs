@@ -1,13 +1,11 @@
 //! Patch encoding: vertex-cache-optimised triangle strips with primitive restart, vertices in
 //! first-use order, positions quantised on the one global grid (so a vertex shared by patches
-//! is bit-identical in all of them; the encoder stores them as u16 offsets from a per-patch base
-//! when they fit), and the attributes the input has.
-
-use rustc_hash::FxHashMap as HashMap;
+//! is bit-identical in all of them), and the attributes the input has.
 
 use tessera_core::repository::format::{oct_encode_normal, quantize_position};
 use tessera_core::repository::patch::PatchData;
 
+use crate::local_mesh::local_mesh;
 use crate::mesh::InputMesh;
 
 /// Restart marker in `PatchData::strip` (the encoder narrows it to 0xFFFF for u16 patches).
@@ -21,19 +19,8 @@ pub fn build_patch(
     step: [f64; 3],
 ) -> PatchData {
     // Local indices in first-appearance order.
-    let mut local_of: HashMap<u32, u32> =
-        HashMap::with_capacity_and_hasher(triangles.len(), Default::default());
-    let mut globals: Vec<u32> = Vec::new();
-    let indices: Vec<u32> = triangles
-        .iter()
-        .flatten()
-        .map(|&g| {
-            *local_of.entry(g).or_insert_with(|| {
-                globals.push(g);
-                (globals.len() - 1) as u32
-            })
-        })
-        .collect();
+    let local = local_mesh(triangles, mesh.positions.len());
+    let (indices, globals) = (local.indices, local.global_of);
     let vertex_count = globals.len();
     let optimized = meshopt::optimize_vertex_cache_strip(&indices, vertex_count);
     // Renumber vertices by first use in the optimised order (vertex fetch locality).

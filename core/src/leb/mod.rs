@@ -3,10 +3,12 @@
 
 pub mod conforming;
 pub mod diamond;
+pub mod plane;
 pub mod predicates;
 pub mod simplex;
 
 pub use conforming::ConformingMesh;
 pub use diamond::{Diamond, DiamondId};
+pub use plane::LatticePlane;
 pub use predicates::LatticePoint;
-pub use simplex::{Bisector, Simplex, SimplexKey};
+pub use simplex::{Bisector, PreparedSimplex, Simplex, SimplexKey};

@@ -16,16 +16,14 @@
 //! The lattice side is a power of two, so every midpoint down to level `d·bits` is an integer:
 //! diamonds are identified by that integer midpoint, with no float ties.
 
-use super::predicates::{
-    orient2d_exact, orient2d_point, orient3d_exact, orient3d_point, LatticePoint,
-};
+use super::plane::LatticePlane;
+use super::predicates::{orient2d_exact, orient3d_exact, LatticePoint};
 
-/// The plane that splits a simplex into its two children.
+/// The plane that splits a simplex into its two children, prepared for classifying many points.
 #[derive(Clone, Copy, Debug)]
 pub struct Bisector {
-    dim: u8,
-    z: LatticePoint,
-    others: [LatticePoint; 2],
+    /// Through z and every vertex but x0 and xk.
+    plane: LatticePlane,
     /// Side of x0 (child 0's own vertex).
     side_x0: i32,
 }
@@ -34,16 +32,45 @@ impl Bisector {
     /// 0 or 1: the child holding `q`, exactly; points on the plane go to child 0.
     #[inline]
     pub fn child_index_of(&self, q: [f64; 3]) -> usize {
-        let side = if self.dim == 3 {
-            orient3d_point(self.z, self.others[0], self.others[1], q)
-        } else {
-            orient2d_point(self.z, self.others[0], q)
-        };
+        let side = self.plane.side_of_point(q);
         if side == 0 || side == self.side_x0 {
             0
         } else {
             1
         }
+    }
+}
+
+/// A simplex's facet planes, prepared for many containment tests.
+#[derive(Clone, Copy, Debug)]
+pub struct PreparedSimplex {
+    facets: [Facet; 4],
+    count: u8,
+}
+
+/// A facet's plane and the side its opposite vertex lies on.
+#[derive(Clone, Copy, Debug)]
+struct Facet {
+    plane: LatticePlane,
+    inner_side: i32,
+}
+
+impl PreparedSimplex {
+    /// Closed containment of an f64 point in lattice coordinates (boundary included), exact.
+    #[inline]
+    pub fn contains_point(&self, q: [f64; 3]) -> bool {
+        self.facets[..self.count as usize].iter().all(|f| {
+            let s = f.plane.side_of_point(q);
+            s == 0 || s == f.inner_side
+        })
+    }
+
+    /// Open (strict interior) containment of an f64 point, exact.
+    #[inline]
+    pub fn strictly_contains_point(&self, q: [f64; 3]) -> bool {
+        self.facets[..self.count as usize]
+            .iter()
+            .all(|f| f.plane.side_of_point(q) == f.inner_side)
     }
 }
 
@@ -233,42 +260,52 @@ impl Simplex {
         for (m, i) in (1..=self.dim as usize).filter(|&i| i != k).enumerate() {
             others[m] = x[i];
         }
-        let side_x0 = if self.dim == 3 {
-            orient3d_exact(z, others[0], others[1], x[0])
-        } else {
-            orient2d_exact(z, others[0], x[0])
-        };
+        let plane = LatticePlane::through(self.dim, z, others[0], others[1]);
         Bisector {
-            dim: self.dim,
-            z,
-            others,
-            side_x0,
+            plane,
+            side_x0: plane.side_of_lattice_point(x[0]),
+        }
+    }
+
+    /// The facet planes, prepared for testing many points.
+    pub fn prepared(&self) -> PreparedSimplex {
+        let n = self.dim as usize + 1;
+        let mut facets = [Facet {
+            plane: LatticePlane::through(self.dim, [0; 3], [0; 3], [0; 3]),
+            inner_side: 0,
+        }; 4];
+        self.all_facets(|skip, face, opposite| {
+            let plane = LatticePlane::through(self.dim, face[0], face[1], face[face.len() - 1]);
+            facets[skip] = Facet {
+                plane,
+                inner_side: plane.side_of_lattice_point(opposite),
+            };
+            true
+        });
+        PreparedSimplex {
+            facets,
+            count: n as u8,
         }
     }
 
     /// Closed containment of a lattice point (boundary included), exact.
     pub fn contains_lattice_point(&self, p: LatticePoint) -> bool {
-        self.contains_by(|face, opposite| {
+        self.all_facets(|_, face, opposite| {
             let s_p = self.orient_exact(face, p);
             let s_o = self.orient_exact(face, opposite);
             s_p == 0 || s_p == s_o
         })
     }
 
-    /// Closed containment of an f64 point in lattice coordinates, exact.
+    /// Closed containment of an f64 point in lattice coordinates, exact. To test many points,
+    /// use `prepared()` once.
     pub fn contains_point(&self, q: [f64; 3]) -> bool {
-        self.contains_by(|face, opposite| {
-            let s_q = self.orient_point(face, q);
-            let s_o = self.orient_exact(face, opposite);
-            s_q == 0 || s_q == s_o
-        })
+        self.prepared().contains_point(q)
     }
 
     /// Open (strict interior) containment of an f64 point.
     pub fn strictly_contains_point(&self, q: [f64; 3]) -> bool {
-        self.contains_by(|face, opposite| {
-            self.orient_point(face, q) == self.orient_exact(face, opposite)
-        })
+        self.prepared().strictly_contains_point(q)
     }
 
     /// Twice (2D) or six times (3D) the volume, exact.
@@ -290,8 +327,12 @@ impl Simplex {
         self.vertices[..=self.dim as usize].contains(&p)
     }
 
-    /// Calls `test(face, opposite_vertex)` for each facet; true iff all return true.
-    fn contains_by(&self, mut test: impl FnMut(&[LatticePoint], LatticePoint) -> bool) -> bool {
+    /// Calls `test(skipped index, face, opposite vertex)` for each facet in vertex order, until
+    /// one returns false; true iff all return true.
+    fn all_facets(
+        &self,
+        mut test: impl FnMut(usize, &[LatticePoint], LatticePoint) -> bool,
+    ) -> bool {
         let n = self.dim as usize + 1;
         let mut face = [[0; 3]; 3];
         for skip in 0..n {
@@ -300,7 +341,7 @@ impl Simplex {
                 face[m] = self.vertices[i];
                 m += 1;
             }
-            if !test(&face[..m], self.vertices[skip]) {
+            if !test(skip, &face[..m], self.vertices[skip]) {
                 return false;
             }
         }
@@ -312,14 +353,6 @@ impl Simplex {
             orient3d_exact(face[0], face[1], face[2], p)
         } else {
             orient2d_exact(face[0], face[1], p)
-        }
-    }
-
-    fn orient_point(&self, face: &[LatticePoint], q: [f64; 3]) -> i32 {
-        if self.dim == 3 {
-            orient3d_point(face[0], face[1], face[2], q)
-        } else {
-            orient2d_point(face[0], face[1], q)
         }
     }
 }
