@@ -162,9 +162,10 @@ fn build_in_pool(
     let mut stages = Vec::new();
     let mut stage = |name: &'static str, t: Instant| stages.push((name, t.elapsed().as_secs_f64()));
 
-    // Where everything sits: bounding box, repository origin (its centre), lattice cube.
+    // Where everything sits: bounding box, repository origin (its minimum corner: every build
+    // computation is relative to it, see frame.rs), lattice cube.
     let (bbox_min, bbox_max) = bounding_box(&mesh.positions);
-    let origin = [0, 1, 2].map(|i| 0.5 * (bbox_min[i] + bbox_max[i]));
+    let origin = bbox_min;
     let frame = LatticeFrame::around_box(bbox_min, bbox_max, config.lattice_bits);
     let levels = (1u64 << POSITION_BITS) as f64 - 1.0;
     let step = [0, 1, 2].map(|i| (bbox_max[i] - bbox_min[i]) / levels);
@@ -176,10 +177,7 @@ fn build_in_pool(
     let barycenters: Vec<[f64; 3]> = mesh
         .triangles
         .par_iter()
-        .map(|tri| {
-            let p = tri.map(|v| mesh.positions[v as usize]);
-            frame.to_lattice([0, 1, 2].map(|i| (p[0][i] + p[1][i] + p[2][i]) / 3.0))
-        })
+        .map(|tri| frame.barycentre(tri.map(|v| mesh.positions[v as usize])))
         .collect();
     // The simplifier's sharing counts are independent of the hierarchy: build both at once.
     let (hierarchy, current) = rayon::join(
@@ -192,7 +190,7 @@ fn build_in_pool(
     // 2. Simplification, diamond by diamond, finest first, borders locked.
     on_stage("simplify");
     let t = Instant::now();
-    let simplified = simplify_hierarchy(mesh, &hierarchy, origin, current);
+    let simplified = simplify_hierarchy(mesh, &hierarchy, current);
     stage("simplify", t);
 
     // 3. Table order: breadth-first from the roots, so roots come first and siblings are
@@ -321,7 +319,7 @@ fn build_in_pool(
         bbox_min,
         bbox_max,
         position_step: step,
-        lattice_origin: frame.origin,
+        lattice_origin: [0, 1, 2].map(|i| frame.model_origin[i] + frame.origin[i]),
         lattice_unit: frame.unit,
         lattice_bits: frame.bits,
         ..bytemuck::Zeroable::zeroed()
@@ -373,7 +371,9 @@ fn breadth_first(hierarchy: &Hierarchy) -> Vec<TableEntry> {
     let mut i = 0;
     while i < table.len() {
         let s = table[i].simplex;
-        if hierarchy.mesh.is_split(s.split_point()) {
+        // A simplex at the lattice resolution has no integer midpoint: its truncated
+        // `split_point` may be another diamond's id, but it is never split.
+        if s.can_split() && hierarchy.mesh.is_split(s.split_point()) {
             table[i].first_child = table.len() as u32;
             for c in s.children() {
                 table.push(TableEntry {

@@ -1,13 +1,22 @@
-//! The lattice frame: where the LEB cube sits in model space.
+//! The build's frames: where the model sits and where the lattice cube sits.
 //!
-//! The cube is a little larger than the mesh's bounding box (so no vertex lies on the cube's
+//! Everything the build computes — barycentres, point location, simplification, spheres,
+//! errors — is computed relative to the *model origin* (the bounding box's minimum corner, also
+//! the repository's origin), and the simplifier sees positions divided by the model's size. So a
+//! model translated exactly (by a representable offset) builds the same repository apart from
+//! the header's placement, and a scaled one the same up to the rounding of the scale: the cut
+//! at a given view and τ does not depend on where the model is or on its units.
+//!
+//! The cube is a little larger than the bounding box (so no vertex lies on the cube's
 //! boundary) and is divided into `2^bits` lattice units per side; every LEB vertex is an
 //! integer lattice point. Triangles are located by their barycentre in lattice coordinates.
 
 /// Maps model space to lattice coordinates of the cube `[0, 2^bits]^3`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LatticeFrame {
-    /// Model-space position of lattice point 0.
+    /// Model-space point every build computation is relative to (the bounding box minimum).
+    pub model_origin: [f64; 3],
+    /// Position of lattice point 0 relative to `model_origin`.
     pub origin: [f64; 3],
     /// Model units per lattice unit.
     pub unit: f64,
@@ -19,31 +28,53 @@ pub struct LatticeFrame {
 const CUBE_MARGIN: f64 = 0.01;
 
 impl LatticeFrame {
-    /// A cube around `[lo, hi]`, centred on the box, side `max extent · (1 + 2·margin)`.
+    /// A cube around `[lo, hi]`, centred on the box, side `max extent · (1 + 2·margin)`, with
+    /// `lo` as the model origin.
     pub fn around_box(lo: [f64; 3], hi: [f64; 3], bits: u32) -> LatticeFrame {
-        let extent = (0..3).map(|i| hi[i] - lo[i]).fold(0.0, f64::max);
+        let extent = [0, 1, 2].map(|i| hi[i] - lo[i]);
+        let largest = extent.iter().copied().fold(0.0, f64::max);
         // A degenerate (point) mesh still gets a unit cube.
-        let side = if extent > 0.0 {
-            extent * (1.0 + 2.0 * CUBE_MARGIN)
+        let side = if largest > 0.0 {
+            largest * (1.0 + 2.0 * CUBE_MARGIN)
         } else {
             1.0
         };
-        let centre = [0, 1, 2].map(|i| 0.5 * (lo[i] + hi[i]));
         LatticeFrame {
-            origin: centre.map(|c| c - 0.5 * side),
+            model_origin: lo,
+            origin: extent.map(|e| 0.5 * e - 0.5 * side),
             unit: side / (1u64 << bits) as f64,
             bits,
         }
     }
 
-    /// Model → lattice coordinates (f64; exact containment tests happen on these values).
-    pub fn to_lattice(&self, p: [f64; 3]) -> [f64; 3] {
-        [0, 1, 2].map(|i| (p[i] - self.origin[i]) / self.unit)
+    /// A model-space point relative to the model origin.
+    #[inline]
+    pub fn relative(&self, p: [f64; 3]) -> [f64; 3] {
+        [0, 1, 2].map(|i| p[i] - self.model_origin[i])
+    }
+
+    /// Lattice coordinates of a point given relative to the model origin.
+    #[inline]
+    pub fn to_lattice(&self, r: [f64; 3]) -> [f64; 3] {
+        [0, 1, 2].map(|i| (r[i] - self.origin[i]) / self.unit)
+    }
+
+    /// Lattice coordinates of a triangle's barycentre (model-space corners): the corners are
+    /// made relative first, so the result does not depend on where the model sits.
+    #[inline]
+    pub fn barycentre(&self, corners: [[f64; 3]; 3]) -> [f64; 3] {
+        let [a, b, c] = corners.map(|p| self.relative(p));
+        self.to_lattice([0, 1, 2].map(|i| (a[i] + b[i] + c[i]) / 3.0))
     }
 
     /// Side of the cube in model units.
     pub fn side(&self) -> f64 {
         self.unit * (1u64 << self.bits) as f64
+    }
+
+    /// The model's size: its largest extent (1 for a point), the unit the simplifier works in.
+    pub fn model_size(&self) -> f64 {
+        self.side() / (1.0 + 2.0 * CUBE_MARGIN)
     }
 }
 

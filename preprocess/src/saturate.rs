@@ -59,10 +59,11 @@ pub fn saturate(
         }
         if s.is_empty() {
             // A diamond with no geometry at all below it: a point sphere at its split point.
-            let p = hierarchy.frame.origin;
-            let u = hierarchy.frame.unit;
+            let f = &hierarchy.frame;
             s = Sphere {
-                center: [0, 1, 2].map(|k| p[k] + d.id[k] as f64 * u - origin[k]),
+                center: [0, 1, 2].map(|k| {
+                    (f.origin[k] + d.id[k] as f64 * f.unit) + (f.model_origin[k] - origin[k])
+                }),
                 radius: 0.0,
             };
         }

@@ -90,13 +90,15 @@ struct Pending {
 struct Context<'a> {
     mesh: &'a InputMesh,
     frame: &'a LatticeFrame,
-    /// f32 positions relative to the local origin, as meshopt sees them.
+    /// f32 positions relative to the model origin, in model sizes: what meshopt sees.
     positions: Vec<[f32; 3]>,
+    /// Model units per unit of `positions` (meshopt's errors are multiplied by it).
+    size: f64,
 }
 
 /// Simplifies every split diamond of `hierarchy`, finest level first.
-/// Positions go to meshopt relative to `local_origin` in f32; normals (if any) are
-/// simplification attributes. `current` is `CurrentMesh::new(mesh)` (built by the caller so
+/// Positions go to meshopt relative to the model origin and in model sizes (`LatticeFrame`), in
+/// f32; normals (if any) are simplification attributes; errors come back in model units. `current` is `CurrentMesh::new(mesh)` (built by the caller so
 /// that it can overlap with the hierarchy's construction).
 ///
 /// Guarantee: after each diamond's merge (in the order of the batches, any order within a
@@ -106,17 +108,21 @@ struct Context<'a> {
 pub fn simplify_hierarchy(
     mesh: &InputMesh,
     hierarchy: &Hierarchy,
-    local_origin: [f64; 3],
     mut current: CurrentMesh,
 ) -> Simplified {
+    let frame = &hierarchy.frame;
+    let size = frame.model_size();
+    let mut positions: Vec<[f32; 3]> = mesh
+        .positions
+        .par_iter()
+        .map(|&p| frame.relative(p).map(|x| (x / size) as f32))
+        .collect();
+    separate_coincident(&mut positions);
     let ctx = Context {
         mesh,
-        frame: &hierarchy.frame,
-        positions: mesh
-            .positions
-            .par_iter()
-            .map(|p| [0, 1, 2].map(|i| (p[i] - local_origin[i]) as f32))
-            .collect(),
+        frame,
+        positions,
+        size,
     };
     let mut patches: HashMap<SimplexKey, Vec<[u32; 3]>> = hierarchy
         .leaf_triangles
@@ -319,6 +325,8 @@ fn simplify_diamond(
         &ctx.positions,
         mesh,
     );
+    // meshopt's absolute error is in model sizes.
+    let error = (error as f64 * ctx.size) as f32;
     cancel_coincident_pairs(&mut simplified, interior.len());
     let patches = distribute(ctx, diamond, &local, &source, &simplified);
     let effect = merge_effect(&local, &interior, &gathered_edges, &simplified, current);
@@ -585,13 +593,47 @@ fn simplify_locked(
     (out, error)
 }
 
-/// Weight of unit normals against positions in meshopt's attribute metric (meshopt's docs
-/// suggest ~0.5 for normals with an absolute error in mesh units this is a mild preference).
-const NORMAL_WEIGHT: f32 = 0.5;
+/// Weight of unit normals against positions (in model sizes) in meshopt's attribute metric:
+/// a normal turned by one radian weighs like a displacement of 5 % of the model — a mild
+/// preference for keeping shading, the same for every model whatever its units.
+const NORMAL_WEIGHT: f32 = 0.05;
 
 fn barycenter_lattice(tri: &[u32; 3], mesh: &InputMesh, frame: &LatticeFrame) -> [f64; 3] {
-    let p = tri.map(|v| mesh.positions[v as usize]);
-    frame.to_lattice([0, 1, 2].map(|i| (p[0][i] + p[1][i] + p[2][i]) / 3.0))
+    frame.barycentre(tri.map(|v| mesh.positions[v as usize]))
+}
+
+/// Moves apart, by a few f32 ulps, distinct vertices whose f32 positions coincide (detail
+/// below f32 resolution; the welded input has no two vertices at the same f64 position).
+///
+/// Why: meshopt identifies vertices by position (attribute "wedges") and drops every triangle
+/// with two corners at one position, even a triangle no collapse touched, so a closed surface
+/// of such detail would come out open — a crack by ids. With every position unique, meshopt
+/// sees only the topology we give it. The nudge (a relative 1e-7 of the model) changes the
+/// simplifier's decisions, not the stored positions, which come from the f64 input.
+fn separate_coincident(positions: &mut [[f32; 3]]) {
+    let key = |p: &[f32; 3]| p.map(f32::to_bits);
+    let mut order: Vec<u32> = (0..positions.len() as u32).collect();
+    order.par_sort_unstable_by_key(|&v| (key(&positions[v as usize]), v));
+    let duplicates: Vec<u32> = order
+        .chunk_by(|&a, &b| key(&positions[a as usize]) == key(&positions[b as usize]))
+        .flat_map(|run| run[1..].iter().copied())
+        .collect();
+    if duplicates.is_empty() {
+        return; // the common case
+    }
+    let mut taken: HashSet<[u32; 3]> = positions.iter().map(key).collect();
+    for v in duplicates {
+        // Step x, then y, then z up one ulp at a time until the position is free.
+        let mut p = positions[v as usize];
+        for k in 0.. {
+            let axis = k % 3;
+            p[axis] = p[axis].next_up();
+            if taken.insert(key(&p)) {
+                break;
+            }
+        }
+        positions[v as usize] = p;
+    }
 }
 
 /// The simplex of the diamond that holds `b` (`prepared` are the simplices' facet planes);
