@@ -67,6 +67,47 @@ pub fn demo_mesh(subdivisions: u32) -> InputMesh {
     }
 }
 
+/// The demo mesh at `subdivisions`, then every triangle split flat into 4 `refine` times
+/// (new vertices at edge midpoints, not displaced; normals averaged): 4^refine times the
+/// triangles of `demo_mesh(subdivisions)` on exactly the same surface. Scaling benchmarks use
+/// it: the model grows, the detail a view can see does not.
+pub fn demo_mesh_refined(subdivisions: u32, refine: u32) -> InputMesh {
+    assert!(
+        subdivisions + refine <= 12,
+        "demo_mesh_refined: {subdivisions} + {refine} subdivisions would overflow u32 ids"
+    );
+    let mut mesh = demo_mesh(subdivisions);
+    let mut normals = mesh.normals.take().expect("the demo mesh has normals");
+    for _ in 0..refine {
+        let mut midpoints: EdgeMap = HashMap::with_capacity_and_hasher(
+            mesh.triangles.len() * 3 / 2,
+            BuildHasherDefault::default(),
+        );
+        let mut next = Vec::with_capacity(mesh.triangles.len() * 4);
+        let positions = &mut mesh.positions;
+        let mut midpoint = |a: u32, b: u32| -> u32 {
+            let key = (u64::from(a.min(b)) << 32) | u64::from(a.max(b));
+            *midpoints.entry(key).or_insert_with(|| {
+                let (pa, pb) = (positions[a as usize], positions[b as usize]);
+                let (na, nb) = (normals[a as usize], normals[b as usize]);
+                positions.push([0, 1, 2].map(|i| 0.5 * (pa[i] + pb[i])));
+                let n = [0, 1, 2].map(|i| f64::from(na[i] + nb[i]));
+                normals.push(normalize(n).map(|x| x as f32));
+                (positions.len() - 1) as u32
+            })
+        };
+        for &[a, b, c] in &mesh.triangles {
+            let ab = midpoint(a, b);
+            let bc = midpoint(b, c);
+            let ca = midpoint(c, a);
+            next.extend([[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]]);
+        }
+        mesh.triangles = next;
+    }
+    mesh.normals = Some(normals);
+    mesh
+}
+
 /// Radius of the demo surface in the direction `dir` (a unit vector), in
 /// [`DEMO_MIN_RADIUS`, `DEMO_MAX_RADIUS`].
 pub fn demo_radius(dir: [f64; 3]) -> f64 {

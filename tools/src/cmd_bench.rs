@@ -6,7 +6,6 @@
 //! binary PLY of the same mesh, and triangles per patch. `--sweep` repeats our build over leaf
 //! sizes and adds what each costs at run time: the mean cut size at τ = 1 px over the check views.
 
-use std::io::Write;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -19,6 +18,7 @@ use tessera_preprocess::import::load_mesh;
 use tessera_preprocess::{build_repository, BuildConfig, Construction, InputMesh};
 use tessera_runtime::views::check_views;
 
+use crate::output::write_binary_ply;
 use crate::Outcome;
 
 #[derive(Args)]
@@ -252,31 +252,6 @@ fn clod_build_count(mesh: &InputMesh) -> (usize, usize) {
         groups as i32
     });
     (clusters, groups)
-}
-
-/// Writes the mesh as a binary little-endian PLY (float xyz, uchar/int faces) and returns its size.
-fn write_binary_ply(mesh: &InputMesh, path: &std::path::Path) -> anyhow::Result<u64> {
-    let mut w = std::io::BufWriter::new(std::fs::File::create(path)?);
-    write!(
-        w,
-        "ply\nformat binary_little_endian 1.0\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\nelement face {}\nproperty list uchar int vertex_indices\nend_header\n",
-        mesh.positions.len(),
-        mesh.triangles.len()
-    )?;
-    for p in &mesh.positions {
-        for x in p {
-            w.write_all(&(*x as f32).to_le_bytes())?;
-        }
-    }
-    for t in &mesh.triangles {
-        w.write_all(&[3u8])?;
-        for v in t {
-            w.write_all(&(*v as i32).to_le_bytes())?;
-        }
-    }
-    w.flush()?;
-    drop(w);
-    Ok(std::fs::metadata(path)?.len())
 }
 
 /// Peak resident set size of this process so far (Linux; 0 elsewhere).

@@ -30,7 +30,8 @@ use tessera_runtime::camera::{bounding_radius, Camera};
 use tessera_runtime::gpu::full_mesh::{relative_positions, FullMeshRenderer};
 use tessera_runtime::gpu::{FrameRequest, GpuContext, Readback, Renderer, RendererOptions};
 
-use crate::cmd_render::{default_up, parse_size, parse_vec3, save_png};
+use crate::cmd_render::{default_up, parse_size, parse_vec3};
+use crate::output::save_png;
 use crate::Outcome;
 
 /// Untimed frames each subject draws before the timed ones (pipelines, caches, lazy driver

@@ -7,22 +7,22 @@
 //! and the geometric check alone decides the exit code (0 clean, 1 cracks): the frames are a
 //! picture of the result, not part of the verdict.
 
-use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::Context;
 use clap::Args;
 use tessera_core::repository::reader::Repository;
-use tessera_preprocess::procedural::{demo_mesh, DEMO_SUBDIVISIONS};
-use tessera_preprocess::{build_repository, BuildConfig, InputMesh};
+use tessera_preprocess::procedural::{demo_mesh, demo_mesh_refined, DEMO_SUBDIVISIONS};
+use tessera_preprocess::{build_repository, BuildConfig};
 use tessera_runtime::camera::Camera;
 use tessera_runtime::geometric_check::{check_cuts, decode_all_patches, CheckConfig};
 use tessera_runtime::gpu::{
     FrameRequest, GpuContext, Readback, RenderError, Renderer, RendererOptions, ShadingMode,
 };
 
-use crate::cmd_render::{default_up, parse_size, save_png};
+use crate::cmd_render::{default_up, parse_size};
+use crate::output::{save_png, write_binary_ply};
 use crate::progress::Stages;
 use crate::Outcome;
 
@@ -50,6 +50,10 @@ pub struct DemoArgs {
     /// Icosphere subdivisions: 20·4^s triangles (default 8: 1,310,720).
     #[arg(long, default_value_t = DEMO_SUBDIVISIONS)]
     pub subdivisions: u32,
+    /// Then split every triangle flat into 4, this many times: 4^N times the triangles on the
+    /// same surface (scaling benchmarks: the model grows, the visible detail does not).
+    #[arg(long, default_value_t = 0)]
+    pub refine: u32,
     /// Camera positions for the check.
     #[arg(long, default_value_t = 32)]
     pub views: usize,
@@ -76,11 +80,13 @@ pub struct DemoArgs {
 }
 
 pub fn run(args: DemoArgs) -> anyhow::Result<Outcome> {
-    if args.subdivisions > 10 {
+    let levels = args.subdivisions + args.refine;
+    if levels > 10 {
         anyhow::bail!(
-            "--subdivisions {} would make {} triangles; at most 10",
+            "--subdivisions {} with --refine {} would make {} triangles; at most 10 levels in all",
             args.subdivisions,
-            20u64 << (2 * args.subdivisions)
+            args.refine,
+            20u64 << (2 * levels)
         );
     }
     // Where the frames go, before the long part: a bad directory fails fast (exit 2).
@@ -92,11 +98,15 @@ pub fn run(args: DemoArgs) -> anyhow::Result<Outcome> {
     let stages = Stages::new("demo");
     stages.stage("generate");
     let t = Instant::now();
-    let mesh = demo_mesh(args.subdivisions);
+    let mesh = if args.refine == 0 {
+        demo_mesh(args.subdivisions)
+    } else {
+        demo_mesh_refined(args.subdivisions, args.refine)
+    };
     let generate_seconds = t.elapsed().as_secs_f64();
     if let Some(path) = &args.save_mesh {
         stages.stage("save mesh");
-        write_binary_ply(&mesh, path).with_context(|| format!("writing {}", path.display()))?;
+        write_binary_ply(&mesh, path)?;
     }
     let temp = tempfile::tempdir()?;
     let path = args
@@ -228,44 +238,4 @@ fn render_frames(
         ));
     }
     Ok(Ok(lines))
-}
-
-/// Writes positions (f32) and triangles as a binary little-endian PLY, through a temporary
-/// file and a rename so a failed write leaves nothing.
-fn write_binary_ply(mesh: &InputMesh, path: &Path) -> anyhow::Result<()> {
-    let dir = path
-        .parent()
-        .filter(|d| !d.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    let tmp = tempfile::Builder::new()
-        .prefix(".tessera-mesh")
-        .suffix(".ply")
-        .tempfile_in(dir)
-        .with_context(|| format!("cannot write into {}", dir.display()))?;
-    let mut w = std::io::BufWriter::new(tmp.as_file());
-    write!(
-        w,
-        "ply\nformat binary_little_endian 1.0\ncomment tessera demo mesh\nelement vertex {}\n\
-         property float x\nproperty float y\nproperty float z\nelement face {}\n\
-         property list uchar uint vertex_indices\nend_header\n",
-        mesh.positions.len(),
-        mesh.triangles.len()
-    )?;
-    for p in &mesh.positions {
-        for x in p {
-            w.write_all(&(*x as f32).to_le_bytes())?;
-        }
-    }
-    let mut face = [0u8; 13];
-    face[0] = 3;
-    for t in &mesh.triangles {
-        for (k, v) in t.iter().enumerate() {
-            face[1 + 4 * k..5 + 4 * k].copy_from_slice(&v.to_le_bytes());
-        }
-        w.write_all(&face)?;
-    }
-    w.flush()?;
-    drop(w);
-    tmp.persist(path)?;
-    Ok(())
 }

@@ -1,9 +1,8 @@
 //! `tessera render REPO -o frame.png [--tolerance PX] [--size WxH] [--fov DEG]
 //! [--eye x,y,z --target x,y,z | --orbit AZ,EL,DIST] [--mode lit|patches|levels] [--json]`
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
-use anyhow::Context;
 use clap::{Args, ValueEnum};
 use serde_json::json;
 use tessera_core::repository::reader::Repository;
@@ -12,6 +11,7 @@ use tessera_runtime::gpu::{
     FrameRequest, GpuContext, Readback, Renderer, RendererOptions, ShadingMode,
 };
 
+use crate::output::save_png;
 use crate::Outcome;
 
 #[derive(Args)]
@@ -235,23 +235,4 @@ pub fn run(args: RenderArgs) -> anyhow::Result<Outcome> {
         );
     }
     Ok(Outcome::Ok)
-}
-
-/// Writes a PNG through a temporary file and a rename, so a failed write leaves nothing.
-pub fn save_png(image: &image::RgbaImage, path: &Path) -> anyhow::Result<()> {
-    let dir = path
-        .parent()
-        .filter(|d| !d.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    let tmp = tempfile::Builder::new()
-        .prefix(".tessera-render")
-        .suffix(".png")
-        .tempfile_in(dir)
-        .with_context(|| format!("cannot write into {}", dir.display()))?;
-    image
-        .save_with_format(tmp.path(), image::ImageFormat::Png)
-        .with_context(|| format!("writing {}", path.display()))?;
-    tmp.persist(path)
-        .with_context(|| format!("writing {}", path.display()))?;
-    Ok(())
 }

@@ -11,6 +11,7 @@ mod cmd_check;
 mod cmd_demo;
 mod cmd_info;
 mod cmd_render;
+mod output;
 mod progress;
 
 use std::process::ExitCode;
