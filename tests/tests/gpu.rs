@@ -313,3 +313,51 @@ fn a_model_over_the_budget_is_refused_with_the_numbers() {
         "{message}"
     );
 }
+
+/// Back-face culling by normal cone drops only patches whose every face points away: the
+/// lit picture is the same pixel for pixel with and without it, from every side.
+#[test]
+fn cone_culling_never_changes_the_picture() {
+    let built = build(&scan("mesh/armadillo.off"), &BuildConfig::default());
+    let h = *built.repo.header();
+    let ctx = gpu();
+    let options = RendererOptions {
+        width: 640,
+        height: 360,
+        ..Default::default()
+    };
+    let mut renderer = Renderer::new(&ctx, &built.repo, options).unwrap();
+    let mut culled_somewhere = false;
+    for az in [0.0, 60.0, 120.0, 180.0, 240.0, 300.0] {
+        let camera = Camera {
+            width: 640,
+            height: 360,
+            ..Camera::orbit(h.bbox_min, h.bbox_max, Y_UP, az, 25.0, 1.4)
+        };
+        let mut frames = Vec::new();
+        for cones in [false, true] {
+            let request = FrameRequest {
+                cull: CullTests {
+                    frustum: Some(camera.view_volume()),
+                    cones,
+                },
+                ..FrameRequest::new(camera, 1.0)
+            };
+            renderer.render(
+                &ctx,
+                &request,
+                Readback {
+                    image: true,
+                    selection: true,
+                },
+            );
+            frames.push((renderer.read_image(&ctx), renderer.read_selection(&ctx)));
+        }
+        assert_eq!(
+            frames[0].0, frames[1].0,
+            "az {az}: cone culling changed pixels"
+        );
+        culled_somewhere |= frames[1].1.len() < frames[0].1.len();
+    }
+    assert!(culled_somewhere, "the cones culled some patch");
+}
