@@ -12,6 +12,7 @@ use tessera_core::repository::reader::Repository;
 
 use crate::camera::{bounding_radius, Camera};
 use crate::gpu::{FrameRequest, GpuContext, Readback, Renderer, ShadingMode, FLAG_COLOUR};
+use crate::views::outside_views;
 
 /// What to check.
 #[derive(Clone, Debug)]
@@ -65,25 +66,6 @@ impl PixelCheckReport {
     pub fn is_clean(&self) -> bool {
         self.flag_pixels == 0 && self.selection_mismatches == 0
     }
-}
-
-/// Eyes outside the bounding sphere of a box: a Fibonacci sphere of directions at 1.3 to 4
-/// bounding radii from its centre.
-pub fn outside_views(lo: [f64; 3], hi: [f64; 3], count: usize) -> Vec<[f64; 3]> {
-    let centre = [0, 1, 2].map(|i| 0.5 * (lo[i] + hi[i]));
-    let radius = bounding_radius(lo, hi);
-    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
-    (0..count)
-        .map(|i| {
-            let t = (i as f64 + 0.5) / count as f64;
-            let z = 1.0 - 2.0 * t;
-            let r = (1.0 - z * z).sqrt();
-            let phi = golden * i as f64;
-            let distance = radius * (1.3 + 2.7 * (i as f64 * 0.618_033_988_75).fract());
-            let dir = [r * phi.cos(), r * phi.sin(), z];
-            [0, 1, 2].map(|k| centre[k] + dir[k] * distance)
-        })
-        .collect()
 }
 
 /// Renders every (view, τ) pair and counts flag pixels and selection mismatches. The renderer

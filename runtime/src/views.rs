@@ -1,22 +1,35 @@
-//! Deterministic camera positions for checks and benchmarks: around the model at several
-//! distances (a Fibonacci sphere, so directions are evenly spread) and inside its bounding box.
+//! Deterministic camera positions for checks and benchmarks: directions evenly spread on a
+//! Fibonacci sphere, at several distances around the model and inside its bounding box, or all
+//! outside its bounding sphere.
 
-/// `count` eyes in model space for a model with bounding box `[lo, hi]`. About one in eight is
-/// inside the box; the others orbit at 0.6 to 6 bounding radii from the centre.
-pub fn check_views(lo: [f64; 3], hi: [f64; 3], count: usize) -> Vec<[f64; 3]> {
+/// Direction `i` of `count` on a Fibonacci sphere (unit vector).
+fn fibonacci_direction(i: usize, count: usize) -> [f64; 3] {
+    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+    let t = (i as f64 + 0.5) / count as f64;
+    let z = 1.0 - 2.0 * t;
+    let r = (1.0 - z * z).sqrt();
+    let phi = golden * i as f64;
+    [r * phi.cos(), r * phi.sin(), z]
+}
+
+/// Centre and bounding radius (half the diagonal) of a box.
+fn centre_and_radius(lo: [f64; 3], hi: [f64; 3]) -> ([f64; 3], f64) {
     let centre = [0, 1, 2].map(|i| 0.5 * (lo[i] + hi[i]));
     let half = [0, 1, 2].map(|i| 0.5 * (hi[i] - lo[i]));
     let radius = (half[0] * half[0] + half[1] * half[1] + half[2] * half[2])
         .sqrt()
         .max(1e-30);
-    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+    (centre, radius)
+}
+
+/// `count` eyes in model space for a model with bounding box `[lo, hi]`. About one in eight is
+/// inside the box; the others orbit at 0.6 to 6 bounding radii from the centre.
+pub fn check_views(lo: [f64; 3], hi: [f64; 3], count: usize) -> Vec<[f64; 3]> {
+    let (centre, radius) = centre_and_radius(lo, hi);
+    let half = [0, 1, 2].map(|i| 0.5 * (hi[i] - lo[i]));
     (0..count)
         .map(|i| {
-            let t = (i as f64 + 0.5) / count as f64;
-            let z = 1.0 - 2.0 * t;
-            let r = (1.0 - z * z).sqrt();
-            let phi = golden * i as f64;
-            let dir = [r * phi.cos(), r * phi.sin(), z];
+            let dir = fibonacci_direction(i, count);
             if i % 8 == 7 {
                 // Inside the box, off-centre.
                 let s = 0.2 + 0.6 * ((i / 8) as f64 * 0.618_033_988_75).fract();
@@ -25,6 +38,19 @@ pub fn check_views(lo: [f64; 3], hi: [f64; 3], count: usize) -> Vec<[f64; 3]> {
                 let distance = radius * (0.6 + 5.4 * ((i as f64 * 0.754_877_666).fract()).powi(2));
                 [0, 1, 2].map(|k| centre[k] + dir[k] * distance)
             }
+        })
+        .collect()
+}
+
+/// `count` eyes outside the bounding sphere of a box, at 1.3 to 4 bounding radii from its
+/// centre (the pixel check: a closed model seen from outside shows no back face).
+pub fn outside_views(lo: [f64; 3], hi: [f64; 3], count: usize) -> Vec<[f64; 3]> {
+    let (centre, radius) = centre_and_radius(lo, hi);
+    (0..count)
+        .map(|i| {
+            let dir = fibonacci_direction(i, count);
+            let distance = radius * (1.3 + 2.7 * (i as f64 * 0.618_033_988_75).fract());
+            [0, 1, 2].map(|k| centre[k] + dir[k] * distance)
         })
         .collect()
 }

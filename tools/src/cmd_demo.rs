@@ -212,23 +212,15 @@ fn render_frames(
         // CPU time does not include waiting for the first.
         renderer.render(&ctx, &request, Readback::default());
         ctx.wait_idle();
-        let cpu_ms = renderer.render(
-            &ctx,
-            &request,
-            Readback {
-                image: true,
-                selection: true,
-            },
+        let frame = renderer.render_and_read(&ctx, &request);
+        let (selection, triangles, gpu_ms, cpu_ms) = (
+            &frame.selection,
+            frame.triangles,
+            frame.gpu_ms,
+            frame.cpu_ms,
         );
-        let image = renderer.read_image(&ctx);
-        let gpu_ms = renderer.read_gpu_ms(&ctx);
-        let selection = renderer.read_selection(&ctx);
-        let triangles: u64 = selection
-            .iter()
-            .map(|&i| repo.tets()[i as usize].triangle_count as u64)
-            .sum();
         let path = dir.join(name);
-        save_png(&image, &path)?;
+        save_png(&frame.image, &path)?;
         lines.push(format!(
             "  {}: {:?} at τ = {tau} px: {} patches, {triangles} triangles, GPU {} ms, CPU {cpu_ms:.3} ms",
             path.display(),

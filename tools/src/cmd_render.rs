@@ -7,9 +7,7 @@ use clap::{Args, ValueEnum};
 use serde_json::json;
 use tessera_core::repository::reader::Repository;
 use tessera_runtime::camera::{bounding_radius, Camera, Y_UP, Z_UP};
-use tessera_runtime::gpu::{
-    FrameRequest, GpuContext, Readback, Renderer, RendererOptions, ShadingMode,
-};
+use tessera_runtime::gpu::{FrameRequest, GpuContext, Renderer, RendererOptions, ShadingMode};
 
 use crate::output::save_png;
 use crate::Outcome;
@@ -188,22 +186,14 @@ pub fn run(args: RenderArgs) -> anyhow::Result<Outcome> {
         wireframe: args.wireframe,
         ..FrameRequest::new(camera, args.tolerance)
     };
-    let cpu_ms = renderer.render(
-        &ctx,
-        &request,
-        Readback {
-            image: true,
-            selection: true,
-        },
+    let frame = renderer.render_and_read(&ctx, &request);
+    let (selection, triangles, gpu_ms, cpu_ms) = (
+        &frame.selection,
+        frame.triangles,
+        frame.gpu_ms,
+        frame.cpu_ms,
     );
-    let image = renderer.read_image(&ctx);
-    let gpu_ms = renderer.read_gpu_ms(&ctx);
-    let selection = renderer.read_selection(&ctx);
-    let triangles: u64 = selection
-        .iter()
-        .map(|&i| repo.tets()[i as usize].triangle_count as u64)
-        .sum();
-    save_png(&image, &args.output)?;
+    save_png(&frame.image, &args.output)?;
     if args.json {
         println!(
             "{}",

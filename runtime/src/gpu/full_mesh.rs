@@ -23,7 +23,8 @@ use wgpu::util::DeviceExt;
 
 use super::device::GpuContext;
 use super::frame::{FrameUniforms, ShadingMode};
-use super::target::{read_buffer, RenderTarget, COLOR_FORMAT, DEPTH_FORMAT};
+use super::target::{RenderTarget, BACKGROUND, COLOR_FORMAT, DEPTH_FORMAT};
+use super::timing::FrameTimer;
 use crate::camera::Camera;
 
 /// The full-mesh pass (`vs_full_mesh`, `fs_full_mesh`), prefixed by the shared records.
@@ -67,14 +68,6 @@ pub enum FullMeshError {
     },
 }
 
-/// Timestamp queries around the render pass (where the adapter has them).
-struct Timestamps {
-    set: wgpu::QuerySet,
-    resolve: wgpu::Buffer,
-    read: wgpu::Buffer,
-    period_ns: f32,
-}
-
 /// A whole triangle mesh resident on the GPU, drawn in one call.
 pub struct FullMeshRenderer {
     origin: [f64; 3],
@@ -86,7 +79,7 @@ pub struct FullMeshRenderer {
     group: wgpu::BindGroup,
     pipeline: wgpu::RenderPipeline,
     target: RenderTarget,
-    timestamps: Option<Timestamps>,
+    timer: Option<FrameTimer>,
 }
 
 /// Model-space f64 positions → f32 relative to `origin` (the repository's `Header::origin`;
@@ -249,20 +242,6 @@ impl FullMeshRenderer {
             multiview_mask: None,
             cache: None,
         });
-        let timestamps = ctx.capabilities.timestamps.then(|| Timestamps {
-            set: device.create_query_set(&wgpu::QuerySetDescriptor {
-                label: Some("full mesh timestamps"),
-                ty: wgpu::QueryType::Timestamp,
-                count: 2,
-            }),
-            resolve: buffer("full mesh timestamps", 16, U::QUERY_RESOLVE | U::COPY_SRC),
-            read: buffer(
-                "full mesh timestamps read-back",
-                16,
-                U::MAP_READ | U::COPY_DST,
-            ),
-            period_ns: ctx.queue.get_timestamp_period(),
-        });
         Ok(FullMeshRenderer {
             origin,
             vertices,
@@ -273,7 +252,7 @@ impl FullMeshRenderer {
             group,
             pipeline,
             target: RenderTarget::new(ctx, width, height),
-            timestamps,
+            timer: FrameTimer::new(ctx, "full mesh timestamps"),
         })
     }
 
@@ -317,50 +296,20 @@ impl FullMeshRenderer {
                 label: Some("full mesh frame"),
             });
         {
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("full mesh"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: &self.target.color_view,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        // The renderer's background.
-                        load: wgpu::LoadOp::Clear(wgpu::Color {
-                            r: 0.11,
-                            g: 0.12,
-                            b: 0.15,
-                            a: 1.0,
-                        }),
-                        store: wgpu::StoreOp::Store,
-                    },
-                })],
-                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: &self.target.depth_view,
-                    depth_ops: Some(wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(0.0),
-                        store: wgpu::StoreOp::Discard,
-                    }),
-                    stencil_ops: None,
-                }),
-                timestamp_writes: self.timestamps.as_ref().map(|t| {
-                    wgpu::RenderPassTimestampWrites {
-                        query_set: &t.set,
-                        beginning_of_pass_write_index: Some(0),
-                        end_of_pass_write_index: Some(1),
-                    }
-                }),
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
+            let mut pass = self.target.begin_pass(
+                &mut encoder,
+                "full mesh",
+                BACKGROUND,
+                self.timer.as_ref().map(|t| t.render_end(true)),
+            );
             pass.set_pipeline(&self.pipeline);
             pass.set_bind_group(0, &self.group, &[]);
             pass.set_vertex_buffer(0, self.vertices.slice(..));
             pass.set_index_buffer(self.indices.slice(..), wgpu::IndexFormat::Uint32);
             pass.draw_indexed(0..self.index_count, 0, 0..1);
         }
-        if let Some(t) = &self.timestamps {
-            encoder.resolve_query_set(&t.set, 0..2, &t.resolve, 0);
-            encoder.copy_buffer_to_buffer(&t.resolve, 0, &t.read, 0, 16);
+        if let Some(t) = &self.timer {
+            t.resolve(&mut encoder);
         }
         if read_image {
             self.target.copy_out(&mut encoder);
@@ -377,10 +326,7 @@ impl FullMeshRenderer {
     /// GPU milliseconds from the start to the end of the last frame's render pass, where the
     /// adapter has timestamps (blocks until that frame is done).
     pub fn read_gpu_ms(&self, ctx: &GpuContext) -> Option<f64> {
-        let t = self.timestamps.as_ref()?;
-        let ticks: Vec<u64> = bytemuck::pod_collect_to_vec(&read_buffer(ctx, &t.read));
-        let elapsed = ticks[1].checked_sub(ticks[0])?;
-        Some(elapsed as f64 * t.period_ns as f64 * 1e-6)
+        self.timer.as_ref()?.read_ms(ctx)
     }
 }
 

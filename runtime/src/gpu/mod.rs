@@ -7,7 +7,7 @@
 //! - `full_mesh`: the full-resolution peer (the whole mesh in one indexed draw);
 //! - `probe`: driver behaviour checked by drawing (restart in count draws);
 //! - `shaders`: the WGSL passes of `shaders/`;
-//! - `target`: offscreen colour/depth and read-back;
+//! - `target`: offscreen colour/depth and read-back; `timing`: GPU timestamps of a frame;
 //! - `traversal`: the top-down stateless traversal, one indirect dispatch per depth;
 //! - `renderer`: traversal + draws, one submit per frame.
 
@@ -19,8 +19,9 @@ pub mod renderer;
 pub mod resident;
 pub mod shaders;
 pub mod target;
+pub mod timing;
 pub mod traversal;
 
 pub use device::{DeviceError, GpuContext};
 pub use frame::{ShadingMode, FLAG_COLOUR};
-pub use renderer::{FrameRequest, Readback, RenderError, Renderer, RendererOptions};
+pub use renderer::{Frame, FrameRequest, Readback, RenderError, Renderer, RendererOptions};

@@ -14,7 +14,8 @@ use super::device::GpuContext;
 use super::frame::{FrameUniforms, ShadingMode};
 use super::resident::{ResidentError, ResidentModel, DRAW_ARGS_BYTES};
 use super::shaders::draw_source;
-use super::target::{read_buffer, RenderTarget, COLOR_FORMAT, DEPTH_FORMAT};
+use super::target::{read_buffer, RenderTarget, BACKGROUND, COLOR_FORMAT, DEPTH_FORMAT};
+use super::timing::FrameTimer;
 use super::traversal::Traversal;
 use crate::camera::Camera;
 
@@ -70,6 +71,20 @@ impl FrameRequest {
     }
 }
 
+/// Everything one frame left behind (`Renderer::render_and_read`).
+#[derive(Clone, Debug)]
+pub struct Frame {
+    pub image: image::RgbaImage,
+    /// The simplices drawn, ascending.
+    pub selection: Vec<u32>,
+    /// Triangles of the drawn patches.
+    pub triangles: u64,
+    /// `Renderer::read_gpu_ms`.
+    pub gpu_ms: Option<f64>,
+    /// What `Renderer::render` returned.
+    pub cpu_ms: f64,
+}
+
 /// What to copy out of a frame for the `read_*` calls.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Readback {
@@ -83,14 +98,6 @@ pub enum RenderError {
     Resident(#[from] ResidentError),
     #[error("the target size {width}×{height} is not within 1..={max} pixels per side")]
     BadSize { width: u32, height: u32, max: u32 },
-}
-
-/// Timestamp queries around a frame (where the adapter has them).
-struct Timestamps {
-    set: wgpu::QuerySet,
-    resolve: wgpu::Buffer,
-    read: wgpu::Buffer,
-    period_ns: f32,
 }
 
 /// Draw pipelines for one index width.
@@ -127,6 +134,8 @@ impl DrawPipelines {
 
 pub struct Renderer {
     header: Header,
+    /// Triangles of each simplex's patch (for the statistics of a read-back selection).
+    triangle_counts: Vec<u32>,
     model: ResidentModel,
     target: RenderTarget,
     uniforms: wgpu::Buffer,
@@ -139,7 +148,7 @@ pub struct Renderer {
     page_groups: Vec<wgpu::BindGroup>,
     narrow: DrawPipelines,
     wide: DrawPipelines,
-    timestamps: Option<Timestamps>,
+    timer: Option<FrameTimer>,
     draw_indirect_count: bool,
 }
 
@@ -364,18 +373,9 @@ impl Renderer {
         let narrow = pipelines(wgpu::IndexFormat::Uint16);
         let wide = pipelines(wgpu::IndexFormat::Uint32);
 
-        let timestamps = ctx.capabilities.timestamps.then(|| Timestamps {
-            set: device.create_query_set(&wgpu::QuerySetDescriptor {
-                label: Some("frame timestamps"),
-                ty: wgpu::QueryType::Timestamp,
-                count: 2,
-            }),
-            resolve: buffer("timestamps", 16, U::QUERY_RESOLVE | U::COPY_SRC),
-            read: buffer("timestamps read-back", 16, U::MAP_READ | U::COPY_DST),
-            period_ns: ctx.queue.get_timestamp_period(),
-        });
         Ok(Renderer {
             header: *repo.header(),
+            triangle_counts: repo.tets().iter().map(|t| t.triangle_count).collect(),
             target: RenderTarget::new(ctx, options.width, options.height),
             model,
             uniforms,
@@ -388,7 +388,7 @@ impl Renderer {
             page_groups,
             narrow,
             wide,
-            timestamps,
+            timer: FrameTimer::new(ctx, "frame timestamps"),
             draw_indirect_count: ctx.capabilities.draw_indirect_count,
         })
     }
@@ -434,54 +434,20 @@ impl Renderer {
         }
         self.traversal.record(
             &mut encoder,
-            self.timestamps
-                .as_ref()
-                .map(|t| wgpu::ComputePassTimestampWrites {
-                    query_set: &t.set,
-                    beginning_of_pass_write_index: Some(0),
-                    end_of_pass_write_index: None,
-                }),
+            self.timer.as_ref().map(FrameTimer::compute_start),
         );
         {
             let background = if request.mode == ShadingMode::Check {
                 wgpu::Color::BLACK
             } else {
-                wgpu::Color {
-                    r: 0.11,
-                    g: 0.12,
-                    b: 0.15,
-                    a: 1.0,
-                }
+                BACKGROUND
             };
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("draw"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: &self.target.color_view,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(background),
-                        store: wgpu::StoreOp::Store,
-                    },
-                })],
-                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: &self.target.depth_view,
-                    depth_ops: Some(wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(0.0),
-                        store: wgpu::StoreOp::Discard,
-                    }),
-                    stencil_ops: None,
-                }),
-                timestamp_writes: self.timestamps.as_ref().map(|t| {
-                    wgpu::RenderPassTimestampWrites {
-                        query_set: &t.set,
-                        beginning_of_pass_write_index: None,
-                        end_of_pass_write_index: Some(1),
-                    }
-                }),
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
+            let mut pass = self.target.begin_pass(
+                &mut encoder,
+                "draw",
+                background,
+                self.timer.as_ref().map(|t| t.render_end(false)),
+            );
             pass.set_bind_group(0, &self.draw_group, &[]);
             let passes: &[Pass] = match (request.mode, request.wireframe) {
                 (ShadingMode::Check, _) => &[Pass::CheckFront, Pass::CheckBack],
@@ -519,9 +485,8 @@ impl Renderer {
                 }
             }
         }
-        if let Some(t) = &self.timestamps {
-            encoder.resolve_query_set(&t.set, 0..2, &t.resolve, 0);
-            encoder.copy_buffer_to_buffer(&t.resolve, 0, &t.read, 0, 16);
+        if let Some(t) = &self.timer {
+            t.resolve(&mut encoder);
         }
         if readback.selection {
             encoder.copy_buffer_to_buffer(&self.counts, 0, &self.counts_read, 0, None);
@@ -532,6 +497,35 @@ impl Renderer {
         }
         ctx.queue.submit([encoder.finish()]);
         start.elapsed().as_secs_f64() * 1e3
+    }
+
+    /// Renders `request` and reads everything back (blocks until the frame is done).
+    pub fn render_and_read(&mut self, ctx: &GpuContext, request: &FrameRequest) -> Frame {
+        let cpu_ms = self.render(
+            ctx,
+            request,
+            Readback {
+                image: true,
+                selection: true,
+            },
+        );
+        let image = self.read_image(ctx);
+        let selection = self.read_selection(ctx);
+        Frame {
+            triangles: self.triangles_of(&selection),
+            gpu_ms: self.read_gpu_ms(ctx),
+            image,
+            selection,
+            cpu_ms,
+        }
+    }
+
+    /// Triangles of the patches of `selection`.
+    pub fn triangles_of(&self, selection: &[u32]) -> u64 {
+        selection
+            .iter()
+            .map(|&i| self.triangle_counts[i as usize] as u64)
+            .sum()
     }
 
     /// The image of the last frame rendered with `Readback::image`.
@@ -558,9 +552,6 @@ impl Renderer {
     /// GPU milliseconds from the start of the traversal to the end of the draws of the last
     /// frame, where the adapter has timestamps (blocks until that frame is done).
     pub fn read_gpu_ms(&self, ctx: &GpuContext) -> Option<f64> {
-        let t = self.timestamps.as_ref()?;
-        let ticks: Vec<u64> = bytemuck::pod_collect_to_vec(&read_buffer(ctx, &t.read));
-        let elapsed = ticks[1].checked_sub(ticks[0])?;
-        Some(elapsed as f64 * t.period_ns as f64 * 1e-6)
+        self.timer.as_ref()?.read_ms(ctx)
     }
 }

@@ -8,6 +8,14 @@ pub const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
 /// Depth format: f32, cleared to 0 (infinitely far) and tested with `Greater` (reverse Z).
 pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 
+/// Background of the shaded modes (the check mode clears to black).
+pub const BACKGROUND: wgpu::Color = wgpu::Color {
+    r: 0.11,
+    g: 0.12,
+    b: 0.15,
+    a: 1.0,
+};
+
 /// An offscreen colour + depth target with its read-back buffer.
 pub struct RenderTarget {
     pub width: u32,
@@ -64,6 +72,40 @@ impl RenderTarget {
             readback,
             padded_row,
         }
+    }
+
+    /// Begins a render pass into the target: colour cleared to `clear`, depth to 0 (infinitely
+    /// far in reverse Z) and not stored.
+    pub fn begin_pass<'e>(
+        &self,
+        encoder: &'e mut wgpu::CommandEncoder,
+        label: &str,
+        clear: wgpu::Color,
+        timestamp_writes: Option<wgpu::RenderPassTimestampWrites<'_>>,
+    ) -> wgpu::RenderPass<'e> {
+        encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some(label),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: &self.color_view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(clear),
+                    store: wgpu::StoreOp::Store,
+                },
+            })],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: &self.depth_view,
+                depth_ops: Some(wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(0.0),
+                    store: wgpu::StoreOp::Discard,
+                }),
+                stencil_ops: None,
+            }),
+            timestamp_writes,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        })
     }
 
     /// Records the copy of the colour texture into the read-back buffer.
