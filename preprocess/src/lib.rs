@@ -5,6 +5,7 @@
 //! Architecture invariant: nothing here knows the GPU; the runtime never imports this crate.
 
 pub mod build;
+pub mod dem;
 pub mod frame;
 pub mod hierarchy;
 pub mod import;

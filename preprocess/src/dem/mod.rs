@@ -1,0 +1,333 @@
+//! Height fields (digital elevation models): readers for the formats DEMs come in, the grid they
+//! all produce, and the triangle mesh a grid becomes.
+//!
+//! | extension | format | reader |
+//! |---|---|---|
+//! | `.cdf`, `.nc` | netCDF-3 classic / 64-bit offset (ETOPO5, ETOPO20) | `netcdf.rs` |
+//! | `.npy`, `.npz` | NumPy arrays (npz: a zip of them) | `npy.rs` |
+//! | `.tif`, `.tiff` | GeoTIFF (pixel scale, tie point, model type, GDAL nodata) | `geotiff.rs` |
+//! | `.png`, `.pgm` | 8/16-bit greyscale images | `image_grid.rs` |
+//! | `.f32`, `.raw` | raw little-endian f32, dimensions given (`DemOptions::raw_size`) | `raw.rs` |
+//! | `.json` | `{"width", "height", "values"}` | `raw.rs` |
+//!
+//! Missing cells (a format's nodata or fill value, NaN) become holes: no triangle touches them,
+//! never a zero height. Every reader checks its counts against the file's size before it
+//! allocates, and a bad file is an error naming the file and the problem.
+
+mod error;
+mod geotiff;
+mod image_grid;
+mod netcdf;
+mod npy;
+mod raw;
+
+use std::path::Path;
+
+pub use error::{DemError, DemErrorKind};
+
+use crate::mesh::InputMesh;
+
+/// Metres per degree on the equator: geographic grids are drawn as plate carrée in metres, so
+/// heights in metres and horizontal positions share a unit.
+pub const METRES_PER_DEGREE: f64 = 111_319.490_793;
+
+/// A regular grid of heights, as a reader found it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct HeightGrid {
+    /// Samples per row.
+    pub columns: usize,
+    /// Rows.
+    pub rows: usize,
+    /// Heights row by row, row 0 first; NaN marks a missing cell.
+    pub heights: Vec<f32>,
+    /// Horizontal position of sample (row 0, column 0), in the grid's units.
+    pub origin: [f64; 2],
+    /// Step from one column to the next (x) and from one row to the next (y), in the grid's
+    /// units; either may be negative (rows running south, say).
+    pub spacing: [f64; 2],
+    /// x and y are longitude and latitude in degrees.
+    pub geographic: bool,
+}
+
+/// What a reader may need besides the file.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct DemOptions {
+    /// Columns and rows of a raw f32 file.
+    pub raw_size: Option<(usize, usize)>,
+    /// The variable (netCDF) or array (npz) to read; by default the only 2-D one, or the
+    /// largest.
+    pub variable: Option<String>,
+}
+
+/// The file formats [`load_dem`] reads.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DemFormat {
+    NetCdf,
+    Npy,
+    Npz,
+    GeoTiff,
+    Png,
+    Pgm,
+    RawF32,
+    JsonGrid,
+}
+
+/// Extensions recognised as height fields (for messages).
+pub const DEM_EXTENSIONS: &str =
+    ".cdf, .nc, .npy, .npz, .tif, .tiff, .png, .pgm, .f32, .raw, .json";
+
+impl DemFormat {
+    /// The format of `path` from its extension (case-insensitive).
+    pub fn from_path(path: &Path) -> Option<DemFormat> {
+        let ext = path.extension()?.to_str()?.to_ascii_lowercase();
+        Some(match ext.as_str() {
+            "cdf" | "nc" => DemFormat::NetCdf,
+            "npy" => DemFormat::Npy,
+            "npz" => DemFormat::Npz,
+            "tif" | "tiff" => DemFormat::GeoTiff,
+            "png" => DemFormat::Png,
+            "pgm" => DemFormat::Pgm,
+            "f32" | "raw" => DemFormat::RawF32,
+            "json" => DemFormat::JsonGrid,
+            _ => return None,
+        })
+    }
+}
+
+/// Reads the height field at `path`, its format chosen by the extension.
+pub fn load_dem(path: &Path, options: &DemOptions) -> Result<HeightGrid, DemError> {
+    let format = DemFormat::from_path(path).ok_or_else(|| {
+        DemError::new(
+            path,
+            DemErrorKind::Format(format!(
+                "not a height-field extension; supported: {DEM_EXTENSIONS}"
+            )),
+        )
+    })?;
+    let bytes = std::fs::read(path).map_err(|e| DemError::new(path, DemErrorKind::Io(e)))?;
+    let grid = match format {
+        DemFormat::NetCdf => netcdf::read(&bytes, options),
+        DemFormat::Npy => npy::read_npy(&bytes),
+        DemFormat::Npz => npy::read_npz(&bytes, options),
+        DemFormat::GeoTiff => geotiff::read(&bytes),
+        DemFormat::Png => image_grid::read_png(&bytes),
+        DemFormat::Pgm => image_grid::read_pgm(&bytes),
+        DemFormat::RawF32 => raw::read_f32(&bytes, options),
+        DemFormat::JsonGrid => raw::read_json(&bytes),
+    }
+    .map_err(|kind| DemError::new(path, kind))?;
+    grid.validate().map_err(|kind| DemError::new(path, kind))?;
+    Ok(grid)
+}
+
+/// How a grid becomes a mesh.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TerrainOptions {
+    /// Horizontal spacing in metres, replacing the grid's (for grids without georeferencing).
+    pub spacing: Option<f64>,
+    /// Heights are multiplied by this.
+    pub vertical_exaggeration: f64,
+}
+
+impl Default for TerrainOptions {
+    fn default() -> Self {
+        TerrainOptions {
+            spacing: None,
+            vertical_exaggeration: 1.0,
+        }
+    }
+}
+
+impl HeightGrid {
+    /// Checks the invariants every reader promises: a non-empty grid whose heights fill it,
+    /// finite spacing and origin, no infinite height.
+    pub fn validate(&self) -> Result<(), DemErrorKind> {
+        let cells = self.columns.checked_mul(self.rows);
+        if self.columns < 2 || self.rows < 2 || cells != Some(self.heights.len()) {
+            return Err(DemErrorKind::Format(format!(
+                "a {} × {} grid with {} heights: need at least 2 × 2 and one height per sample",
+                self.columns,
+                self.rows,
+                self.heights.len()
+            )));
+        }
+        let finite = |v: [f64; 2]| v.iter().all(|x| x.is_finite());
+        if !finite(self.origin) || !finite(self.spacing) || self.spacing.contains(&0.0) {
+            return Err(DemErrorKind::Format(format!(
+                "origin {:?} / spacing {:?} must be finite, spacing non-zero",
+                self.origin, self.spacing
+            )));
+        }
+        if let Some(i) = self.heights.iter().position(|h| h.is_infinite()) {
+            return Err(DemErrorKind::Format(format!(
+                "sample {i} (row {}, column {}) is infinite",
+                i / self.columns,
+                i % self.columns
+            )));
+        }
+        if self.heights.iter().all(|h| h.is_nan()) {
+            return Err(DemErrorKind::Format("every sample is missing".into()));
+        }
+        Ok(())
+    }
+
+    /// Samples that hold a height.
+    pub fn valid_samples(&self) -> usize {
+        self.heights.iter().filter(|h| !h.is_nan()).count()
+    }
+
+    /// The triangle mesh of the grid: one vertex per sample with a height, two triangles per
+    /// cell whose four corners have heights, one per cell with exactly three (missing samples
+    /// are holes). Triangles are counter-clockwise seen from above (+z). Geographic grids are
+    /// drawn as plate carrée in metres (`METRES_PER_DEGREE`).
+    pub fn to_mesh(&self, options: &TerrainOptions) -> InputMesh {
+        let (columns, rows) = (self.columns, self.rows);
+        let unit = if self.geographic && options.spacing.is_none() {
+            METRES_PER_DEGREE
+        } else {
+            1.0
+        };
+        let spacing = match options.spacing {
+            Some(s) => [s * self.spacing[0].signum(), s * self.spacing[1].signum()],
+            None => self.spacing.map(|s| s * unit),
+        };
+        let origin = match options.spacing {
+            Some(_) => [0.0, 0.0],
+            None => self.origin.map(|o| o * unit),
+        };
+        // Vertex ids in sample order, skipping missing samples.
+        let mut id = vec![u32::MAX; columns * rows];
+        let mut positions = Vec::with_capacity(self.valid_samples());
+        for (i, &h) in self.heights.iter().enumerate() {
+            if !h.is_nan() {
+                id[i] = positions.len() as u32;
+                let (r, c) = (i / columns, i % columns);
+                positions.push([
+                    origin[0] + c as f64 * spacing[0],
+                    origin[1] + r as f64 * spacing[1],
+                    h as f64 * options.vertical_exaggeration,
+                ]);
+            }
+        }
+        // Counter-clockwise from above when x grows with the column and y with the row;
+        // mirrored otherwise.
+        let flip = (spacing[0] < 0.0) != (spacing[1] < 0.0);
+        let mut triangles = Vec::with_capacity(2 * (columns - 1) * (rows - 1));
+        let mut push = |t: [u32; 3]| {
+            if t.iter().all(|&v| v != u32::MAX) {
+                triangles.push(if flip { [t[0], t[2], t[1]] } else { t });
+            }
+        };
+        for r in 0..rows - 1 {
+            for c in 0..columns - 1 {
+                let a = id[r * columns + c];
+                let b = id[r * columns + c + 1];
+                let d = id[(r + 1) * columns + c];
+                let e = id[(r + 1) * columns + c + 1];
+                let corners = [a, b, d, e].iter().filter(|&&v| v != u32::MAX).count();
+                if corners == 4 {
+                    push([a, b, e]);
+                    push([a, e, d]);
+                } else if corners == 3 {
+                    // The one triangle of the three present corners, same orientation.
+                    match [a, b, d, e].iter().position(|&v| v == u32::MAX) {
+                        Some(0) => push([b, e, d]),
+                        Some(1) => push([a, e, d]),
+                        Some(2) => push([a, b, e]),
+                        _ => push([a, b, d]),
+                    }
+                }
+            }
+        }
+        InputMesh {
+            positions,
+            triangles,
+            normals: None,
+            colors: None,
+            uvs: None,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn grid(columns: usize, rows: usize, heights: Vec<f32>) -> HeightGrid {
+        HeightGrid {
+            columns,
+            rows,
+            heights,
+            origin: [0.0, 0.0],
+            spacing: [1.0, 1.0],
+            geographic: false,
+        }
+    }
+
+    fn signed_area(mesh: &InputMesh, t: [u32; 3]) -> f64 {
+        let [a, b, c] = t.map(|v| mesh.positions[v as usize]);
+        (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+    }
+
+    #[test]
+    fn a_full_grid_has_two_triangles_per_cell_counter_clockwise() {
+        let mesh = grid(4, 3, (0..12).map(|i| i as f32).collect()).to_mesh(&Default::default());
+        assert_eq!(mesh.positions.len(), 12);
+        assert_eq!(mesh.triangles.len(), 2 * 3 * 2);
+        assert!(mesh.triangles.iter().all(|&t| signed_area(&mesh, t) > 0.0));
+        assert_eq!(mesh.positions[5], [1.0, 1.0, 5.0]);
+        // Rows running south (negative y step) keep the orientation.
+        let mut south = grid(4, 3, vec![0.0; 12]);
+        south.spacing = [1.0, -1.0];
+        let mesh = south.to_mesh(&Default::default());
+        assert!(mesh.triangles.iter().all(|&t| signed_area(&mesh, t) > 0.0));
+    }
+
+    #[test]
+    fn missing_samples_are_holes_not_zeros() {
+        let mut heights = vec![1.0; 16];
+        heights[5] = f32::NAN; // an interior sample of a 4 × 4 grid
+        let mesh = grid(4, 4, heights).to_mesh(&Default::default());
+        assert_eq!(mesh.positions.len(), 15);
+        assert!(mesh.positions.iter().all(|p| p[2] == 1.0));
+        // Each of the four cells around the sample keeps one triangle, of its 3 present
+        // corners: 18 − 4.
+        assert_eq!(mesh.triangles.len(), 18 - 4);
+        assert!(mesh.triangles.iter().all(|&t| signed_area(&mesh, t) > 0.0));
+    }
+
+    #[test]
+    fn geographic_grids_are_plate_carree_in_metres() {
+        let mut g = grid(2, 2, vec![0.0, 1.0, 2.0, 3.0]);
+        g.geographic = true;
+        g.origin = [10.0, -5.0];
+        g.spacing = [0.5, 0.25];
+        let mesh = g.to_mesh(&TerrainOptions {
+            vertical_exaggeration: 2.0,
+            ..Default::default()
+        });
+        assert_eq!(
+            mesh.positions[3],
+            [10.5 * METRES_PER_DEGREE, -4.75 * METRES_PER_DEGREE, 6.0]
+        );
+        let mesh = g.to_mesh(&TerrainOptions {
+            spacing: Some(30.0),
+            vertical_exaggeration: 1.0,
+        });
+        assert_eq!(mesh.positions[3], [30.0, 30.0, 3.0]);
+    }
+
+    #[test]
+    fn validation_refuses_what_cannot_be_a_terrain() {
+        assert!(grid(1, 5, vec![0.0; 5]).validate().is_err());
+        assert!(grid(2, 2, vec![0.0; 3]).validate().is_err());
+        assert!(grid(2, 2, vec![f32::NAN; 4]).validate().is_err());
+        assert!(grid(2, 2, vec![0.0, f32::INFINITY, 0.0, 0.0])
+            .validate()
+            .is_err());
+        let mut g = grid(2, 2, vec![0.0; 4]);
+        g.spacing = [0.0, 1.0];
+        assert!(g.validate().is_err());
+        assert!(grid(2, 2, vec![0.0; 4]).validate().is_ok());
+    }
+}

@@ -1,0 +1,319 @@
+//! NumPy arrays: `.npy` (one array) and `.npz` (a zip of `.npy` files, like the Jacksboro fault
+//! DEM of matplotlib's sample data).
+//!
+//! `.npy`: magic `\x93NUMPY`, version, header length (u16 for 1.x, u32 for 2.x/3.x), then a
+//! Python dict literal `{'descr': '<i2', 'fortran_order': False, 'shape': (344, 403), }` and the
+//! data. Integer, float and unsigned types of either byte order are read; Fortran order is
+//! transposed. In an `.npz`, the grid is the asked-for array or the largest 2-D one, and scalar
+//! arrays named `xmin`, `ymin`, `ymax`, `dx`, `dy` (the Jacksboro file's) place it.
+
+use std::io::Read;
+
+use super::error::{bad, check_fits, DemErrorKind};
+use super::{DemOptions, HeightGrid};
+
+/// An array read from `.npy` bytes, values widened to f64.
+#[derive(Clone, Debug, PartialEq)]
+struct Array {
+    shape: Vec<usize>,
+    values: Vec<f64>,
+}
+
+/// The value of `key` in the header dict (the text up to the next top-level comma or brace).
+fn dict_value<'a>(header: &'a str, key: &str) -> Option<&'a str> {
+    let start = header.find(&format!("'{key}'"))? + key.len() + 2;
+    let rest = header[start..].trim_start().strip_prefix(':')?.trim_start();
+    let mut depth = 0;
+    for (i, c) in rest.char_indices() {
+        match c {
+            '(' | '[' => depth += 1,
+            ')' | ']' => {
+                if depth == 0 {
+                    return Some(rest[..i].trim());
+                }
+                depth -= 1;
+                if depth == 0 {
+                    return Some(rest[..=i].trim());
+                }
+            }
+            ',' | '}' if depth == 0 => return Some(rest[..i].trim()),
+            _ => {}
+        }
+    }
+    None
+}
+
+fn parse_npy(bytes: &[u8]) -> Result<Array, DemErrorKind> {
+    if bytes.len() < 10 || &bytes[..6] != b"\x93NUMPY" {
+        return Err(bad("not a .npy array (no \\x93NUMPY magic)"));
+    }
+    let (header_len, header_start): (usize, usize) = match bytes[6] {
+        1 => (u16::from_le_bytes([bytes[8], bytes[9]]) as usize, 10),
+        2 | 3 if bytes.len() >= 12 => (
+            u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]) as usize,
+            12,
+        ),
+        v => return Err(bad(format!("unsupported .npy version {v}"))),
+    };
+    let data_start = header_start
+        .checked_add(header_len)
+        .filter(|&e| e <= bytes.len())
+        .ok_or_else(|| bad("the .npy header runs past the end of the file"))?;
+    let header = std::str::from_utf8(&bytes[header_start..data_start])
+        .map_err(|_| bad("the .npy header is not text"))?;
+    let descr = dict_value(header, "descr")
+        .map(|d| d.trim_matches(|c| c == '\'' || c == '"'))
+        .ok_or_else(|| bad(format!("no 'descr' in the .npy header {header:?}")))?;
+    let fortran = dict_value(header, "fortran_order") == Some("True");
+    let shape_text = dict_value(header, "shape")
+        .ok_or_else(|| bad(format!("no 'shape' in the .npy header {header:?}")))?;
+    let shape: Vec<usize> = shape_text
+        .trim_matches(|c| c == '(' || c == ')')
+        .split(',')
+        .map(str::trim)
+        .filter(|s| !s.is_empty())
+        .map(|s| {
+            s.parse::<usize>()
+                .map_err(|_| bad(format!("shape {shape_text} is not a tuple of sizes")))
+        })
+        .collect::<Result<_, _>>()?;
+    let (little, kind, size) = {
+        let mut chars = descr.chars();
+        let order = chars.next().ok_or_else(|| bad("empty descr"))?;
+        let kind = chars.next().ok_or_else(|| bad("empty descr"))?;
+        let size: usize = chars
+            .as_str()
+            .parse()
+            .map_err(|_| bad(format!("descr {descr:?}")))?;
+        (order != '>', kind, size)
+    };
+    let decode: fn(&[u8], bool) -> f64 = match (kind, size) {
+        ('i', 1) => |b, _| b[0] as i8 as f64,
+        ('u', 1) | ('b', 1) => |b, _| b[0] as f64,
+        ('i', 2) => |b, le| {
+            let a = [b[0], b[1]];
+            (if le {
+                i16::from_le_bytes(a)
+            } else {
+                i16::from_be_bytes(a)
+            }) as f64
+        },
+        ('u', 2) => |b, le| {
+            let a = [b[0], b[1]];
+            (if le {
+                u16::from_le_bytes(a)
+            } else {
+                u16::from_be_bytes(a)
+            }) as f64
+        },
+        ('i', 4) => |b, le| {
+            let a = [b[0], b[1], b[2], b[3]];
+            (if le {
+                i32::from_le_bytes(a)
+            } else {
+                i32::from_be_bytes(a)
+            }) as f64
+        },
+        ('u', 4) => |b, le| {
+            let a = [b[0], b[1], b[2], b[3]];
+            (if le {
+                u32::from_le_bytes(a)
+            } else {
+                u32::from_be_bytes(a)
+            }) as f64
+        },
+        ('f', 4) => |b, le| {
+            let a = [b[0], b[1], b[2], b[3]];
+            (if le {
+                f32::from_le_bytes(a)
+            } else {
+                f32::from_be_bytes(a)
+            }) as f64
+        },
+        ('f', 8) => |b, le| {
+            let a: [u8; 8] = b.try_into().expect("8 bytes");
+            if le {
+                f64::from_le_bytes(a)
+            } else {
+                f64::from_be_bytes(a)
+            }
+        },
+        _ => return Err(bad(format!("unsupported array type {descr:?}"))),
+    };
+    let count = shape
+        .iter()
+        .try_fold(1u64, |n, &d| n.checked_mul(d as u64))
+        .ok_or_else(|| DemErrorKind::TooLarge(format!("shape {shape:?}")))?;
+    let count = check_fits(
+        "array",
+        count,
+        size as u64,
+        (bytes.len() - data_start) as u64,
+    )?;
+    let mut values: Vec<f64> = bytes[data_start..data_start + count * size]
+        .chunks_exact(size)
+        .map(|c| decode(c, little))
+        .collect();
+    if fortran && shape.len() == 2 {
+        // Column-major on disk: transpose into rows.
+        let (rows, columns) = (shape[0], shape[1]);
+        values = (0..rows * columns)
+            .map(|i| values[(i % columns) * rows + i / columns])
+            .collect();
+    }
+    Ok(Array { shape, values })
+}
+
+fn to_grid(array: Array) -> Result<HeightGrid, DemErrorKind> {
+    if array.shape.len() != 2 {
+        return Err(DemErrorKind::NoGrid(format!(
+            "the array has shape {:?}, not 2-D",
+            array.shape
+        )));
+    }
+    Ok(HeightGrid {
+        rows: array.shape[0],
+        columns: array.shape[1],
+        heights: array.values.iter().map(|&v| v as f32).collect(),
+        origin: [0.0, 0.0],
+        spacing: [1.0, 1.0],
+        geographic: false,
+    })
+}
+
+/// A `.npy` holding one 2-D array (unit spacing).
+pub fn read_npy(bytes: &[u8]) -> Result<HeightGrid, DemErrorKind> {
+    to_grid(parse_npy(bytes)?)
+}
+
+/// An `.npz`: the asked-for array, or the largest 2-D one, placed by `xmin`, `ymin`, `ymax`,
+/// `dx`, `dy` scalars where present (geographic when they look like degrees).
+pub fn read_npz(bytes: &[u8], options: &DemOptions) -> Result<HeightGrid, DemErrorKind> {
+    let mut zip = zip::ZipArchive::new(std::io::Cursor::new(bytes))
+        .map_err(|e| bad(format!("not a valid .npz (zip) archive: {e}")))?;
+    let mut arrays: Vec<(String, Array)> = Vec::new();
+    for i in 0..zip.len() {
+        let mut file = zip
+            .by_index(i)
+            .map_err(|e| bad(format!("zip entry {i}: {e}")))?;
+        let name = file
+            .name()
+            .map_err(|e| bad(format!("zip entry {i}: {e}")))?
+            .trim_end_matches(".npy")
+            .to_string();
+        // The entry's declared size is not trusted: read at most what a compressed stream of
+        // this archive could hold (deflate expands at most ~1032:1).
+        let limit = (bytes.len() as u64).saturating_mul(1032).min(1 << 34);
+        let mut data = Vec::new();
+        (&mut file)
+            .take(limit)
+            .read_to_end(&mut data)
+            .map_err(|e| bad(format!("zip entry {name:?}: {e}")))?;
+        arrays.push((name, parse_npy(&data)?));
+    }
+    let scalar = |key: &str| {
+        arrays
+            .iter()
+            .find(|(n, a)| n == key && a.values.len() == 1)
+            .map(|(_, a)| a.values[0])
+    };
+    let chosen = match &options.variable {
+        Some(name) => arrays.iter().position(|(n, _)| n == name).ok_or_else(|| {
+            DemErrorKind::NoGrid(format!(
+                "no array {name:?}; arrays: {}",
+                arrays
+                    .iter()
+                    .map(|(n, _)| n.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ))
+        })?,
+        None => arrays
+            .iter()
+            .enumerate()
+            .filter(|(_, (_, a))| a.shape.len() == 2)
+            .max_by_key(|(_, (_, a))| a.values.len())
+            .map(|(i, _)| i)
+            .ok_or_else(|| DemErrorKind::NoGrid("no 2-D array in the archive".into()))?,
+    };
+    let (xmin, ymin, ymax, dx, dy) = (
+        scalar("xmin"),
+        scalar("ymin"),
+        scalar("ymax"),
+        scalar("dx"),
+        scalar("dy"),
+    );
+    let mut grid = to_grid(arrays.swap_remove(chosen).1)?;
+    if let (Some(x0), Some(a), Some(b), Some(dx), Some(dy)) = (xmin, ymin, ymax, dx, dy) {
+        // Row 0 is the northern edge (matplotlib draws the array with its origin at the top),
+        // whichever of the two keys holds it (the Jacksboro file's ymin is the larger).
+        grid.origin = [x0, a.max(b)];
+        grid.spacing = [dx.abs(), -dy.abs()];
+        grid.geographic = x0.abs() <= 360.0 && a.abs() <= 90.0 && b.abs() <= 90.0;
+    }
+    Ok(grid)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    pub fn npy(descr: &str, shape: &str, data: &[u8]) -> Vec<u8> {
+        let mut header =
+            format!("{{'descr': '{descr}', 'fortran_order': False, 'shape': {shape}, }}");
+        while (10 + header.len() + 1) % 64 != 0 {
+            header.push(' ');
+        }
+        header.push('\n');
+        let mut out = b"\x93NUMPY\x01\x00".to_vec();
+        out.extend_from_slice(&(header.len() as u16).to_le_bytes());
+        out.extend_from_slice(header.as_bytes());
+        out.extend_from_slice(data);
+        out
+    }
+
+    #[test]
+    fn reads_types_and_orders() {
+        let data: Vec<u8> = [1i16, -2, 3, 4, 5, 6]
+            .iter()
+            .flat_map(|v| v.to_le_bytes())
+            .collect();
+        let g = read_npy(&npy("<i2", "(2, 3)", &data)).unwrap();
+        assert_eq!((g.rows, g.columns), (2, 3));
+        assert_eq!(g.heights, [1.0, -2.0, 3.0, 4.0, 5.0, 6.0]);
+        let data: Vec<u8> = [1.5f32, 2.5, 3.5, 4.5]
+            .iter()
+            .flat_map(|v| v.to_be_bytes())
+            .collect();
+        let g = read_npy(&npy(">f4", "(2, 2)", &data)).unwrap();
+        assert_eq!(g.heights, [1.5, 2.5, 3.5, 4.5]);
+        let fortran = npy("<f8", "(2, 2)", &[0u8; 32])
+            .iter()
+            .copied()
+            .collect::<Vec<_>>();
+        let text = String::from_utf8_lossy(&fortran[10..]).replace("False", "True ");
+        let mut f = fortran[..10].to_vec();
+        f.extend_from_slice(text.as_bytes());
+        assert_eq!(read_npy(&f).unwrap().heights, [0.0; 4]);
+    }
+
+    #[test]
+    fn bad_arrays_are_errors() {
+        let good = npy("<i2", "(2, 3)", &[0; 12]);
+        assert!(read_npy(b"NUMPY").is_err());
+        assert!(read_npy(&good[..good.len() - 1])
+            .unwrap_err()
+            .to_string()
+            .contains("too large"));
+        assert!(read_npy(&npy("<c16", "(2, 2)", &[0; 64]))
+            .unwrap_err()
+            .to_string()
+            .contains("unsupported array type"));
+        assert!(read_npy(&npy("<i2", "(4,)", &[0; 8]))
+            .unwrap_err()
+            .to_string()
+            .contains("not 2-D"));
+        // An absurd shape is refused before anything is allocated.
+        assert!(read_npy(&npy("<i2", "(4000000000, 4000000000)", &[0; 8])).is_err());
+    }
+}
