@@ -6,6 +6,7 @@
 
 pub mod build;
 pub mod dem;
+pub mod diamond_square;
 pub mod frame;
 pub mod hierarchy;
 pub mod import;
