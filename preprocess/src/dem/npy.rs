@@ -287,10 +287,7 @@ mod tests {
             .collect();
         let g = read_npy(&npy(">f4", "(2, 2)", &data)).unwrap();
         assert_eq!(g.heights, [1.5, 2.5, 3.5, 4.5]);
-        let fortran = npy("<f8", "(2, 2)", &[0u8; 32])
-            .iter()
-            .copied()
-            .collect::<Vec<_>>();
+        let fortran = npy("<f8", "(2, 2)", &[0u8; 32]);
         let text = String::from_utf8_lossy(&fortran[10..]).replace("False", "True ");
         let mut f = fortran[..10].to_vec();
         f.extend_from_slice(text.as_bytes());
