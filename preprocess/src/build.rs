@@ -25,6 +25,9 @@ use crate::strips::build_patch;
 /// Default maximum triangles per leaf; chosen by the sweep in ARCHITECTURE.md.
 pub const DEFAULT_LEAF_TRIANGLES: usize = 1024;
 
+/// Largest extent of a model along any axis, in its units.
+pub const MAX_EXTENT: f64 = 1e30;
+
 /// Everything that controls a build.
 #[derive(Clone, Debug)]
 pub struct BuildConfig {
@@ -58,6 +61,16 @@ pub enum BuildError {
         vertex: u32,
         count: usize,
     },
+    #[error(
+        "triangle {index} uses vertex {vertex} twice: weld the mesh first \
+         (tessera_preprocess::import::weld drops such triangles)"
+    )]
+    RepeatedVertex { index: usize, vertex: u32 },
+    #[error(
+        "the model spans {extent:e} units along axis {axis}; at most {MAX_EXTENT:e} \
+         (bounds are stored in f32 relative to the model)"
+    )]
+    TooLarge { axis: usize, extent: f64 },
     #[error("invalid configuration: {0}")]
     Config(String),
     #[error(transparent)]
@@ -125,6 +138,15 @@ fn validate(mesh: &InputMesh, config: &BuildConfig) -> Result<(), BuildError> {
     {
         return Err(BuildError::NonFinite { index });
     }
+    // Spheres and errors are stored in f32 relative to the model: its extent must leave f32
+    // room (1e30 is far beyond any real model and far below f32::MAX ≈ 3.4e38).
+    let (lo, hi) = bounding_box(&mesh.positions);
+    if let Some(axis) = (0..3).find(|&i| !(hi[i] - lo[i] <= MAX_EXTENT)) {
+        return Err(BuildError::TooLarge {
+            axis,
+            extent: hi[axis] - lo[axis],
+        });
+    }
     for (index, t) in mesh.triangles.iter().enumerate() {
         if let Some(&vertex) = t.iter().find(|&&v| v as usize >= mesh.positions.len()) {
             return Err(BuildError::IndexOutOfRange {
@@ -132,6 +154,13 @@ fn validate(mesh: &InputMesh, config: &BuildConfig) -> Result<(), BuildError> {
                 vertex,
                 count: mesh.positions.len(),
             });
+        }
+        // Such a triangle has no edge of its own and no strip can hold it: the repository
+        // would silently lose it, and τ = 0 would not give back the input. (Triangles of zero
+        // area over three distinct vertices, duplicates and coincident vertices are kept.)
+        if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
+            let vertex = if t[1] == t[2] { t[1] } else { t[0] };
+            return Err(BuildError::RepeatedVertex { index, vertex });
         }
     }
     if !(4..=30).contains(&config.lattice_bits) {

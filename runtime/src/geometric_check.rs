@@ -125,11 +125,47 @@ fn edge_counts<'a>(triangles: impl Iterator<Item = &'a [u32; 3]>) -> Vec<(u64, u
     out
 }
 
-/// Runs the check; `patches` from `decode_all_patches`.
+/// One eye of the check and the projection its ρ is computed with.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CheckEye {
+    /// Model-space eye.
+    pub eye: [f64; 3],
+    /// K and the near distance of ρ (`Camera::metric` for a camera).
+    pub metric: ScreenSpaceMetric,
+}
+
+/// Runs the check; `patches` from `decode_all_patches`. The eyes are `check_views` (about one
+/// in eight inside the model's box), with the metric of `config` and a near distance of 1e-4 of
+/// the model's diagonal.
 pub fn check_cuts(
     repo: &Repository,
     patches: &[Vec<[u32; 3]>],
     config: &CheckConfig,
+) -> CheckReport {
+    let header = repo.header();
+    let size = (0..3)
+        .map(|i| (header.bbox_max[i] - header.bbox_min[i]).powi(2))
+        .sum::<f64>()
+        .sqrt();
+    let metric = ScreenSpaceMetric::new(
+        config.viewport_height,
+        config.fov_degrees,
+        (size * 1e-4).max(1e-30),
+    );
+    let eyes: Vec<CheckEye> = check_views(header.bbox_min, header.bbox_max, config.views)
+        .into_iter()
+        .map(|eye| CheckEye { eye, metric })
+        .collect();
+    check_cuts_at(repo, patches, &eyes, &config.tolerances)
+}
+
+/// The same check for the given eyes (any position, any metric: a camera's own near distance
+/// and field of view) at every tolerance of `tolerances`; `worst` names the index into `eyes`.
+pub fn check_cuts_at(
+    repo: &Repository,
+    patches: &[Vec<[u32; 3]>],
+    eyes: &[CheckEye],
+    tolerances: &[f32],
 ) -> CheckReport {
     let tets = repo.tets();
     let diamonds = repo.diamonds();
@@ -152,21 +188,11 @@ pub fn check_cuts(
         .collect();
     drop(reference);
 
-    let size = (0..3)
-        .map(|i| (header.bbox_max[i] - header.bbox_min[i]).powi(2))
-        .sum::<f64>()
-        .sqrt();
-    let metric = ScreenSpaceMetric::new(
-        config.viewport_height,
-        config.fov_degrees,
-        (size * 1e-4).max(1e-30),
-    );
-    let eyes = check_views(header.bbox_min, header.bbox_max, config.views);
     let per_view: Vec<CheckReport> = eyes
         .par_iter()
         .enumerate()
         .map(|(view, eye)| {
-            let rhos = diamond_rhos(diamonds, eye_local(*eye, header.origin), &metric);
+            let rhos = diamond_rhos(diamonds, eye_local(eye.eye, header.origin), &eye.metric);
             let mut r = CheckReport {
                 min_triangles: usize::MAX,
                 ..Default::default()
@@ -183,7 +209,7 @@ pub fn check_cuts(
                     }
                 }
             }
-            for &tau in &config.tolerances {
+            for &tau in tolerances {
                 let cut = select_stateless(tets, &rhos, tau);
                 if cut != select_top_down(tets, header.root_tet_count as usize, &rhos, tau) {
                     r.traversal_mismatches += 1;

@@ -80,25 +80,46 @@ pub fn check_pixels(
     let (width, height) = renderer.size();
     let radius = bounding_radius(h.bbox_min, h.bbox_max);
     let centre = [0, 1, 2].map(|i| 0.5 * (h.bbox_min[i] + h.bbox_max[i]));
-    let mut report = PixelCheckReport::default();
-    for (view, eye) in outside_views(h.bbox_min, h.bbox_max, config.views)
+    let cameras: Vec<Camera> = outside_views(h.bbox_min, h.bbox_max, config.views)
         .into_iter()
-        .enumerate()
-    {
-        let camera = Camera {
+        .map(|eye| Camera {
             up: config.up,
             fov_y_degrees: config.fov_degrees,
             width,
             height,
             ..Camera::looking_at(eye, centre, radius)
-        };
+        })
+        .collect();
+    check_pixels_at(ctx, renderer, repo, &cameras, &config.tolerances)
+}
+
+/// The same check from the given cameras (each must see the closed model from outside, and
+/// have the renderer's size), at every tolerance of `tolerances`; `WorstFrame::view` is the
+/// index into `cameras`.
+pub fn check_pixels_at(
+    ctx: &GpuContext,
+    renderer: &mut Renderer,
+    repo: &Repository,
+    cameras: &[Camera],
+    tolerances: &[f32],
+) -> PixelCheckReport {
+    assert!(
+        cameras
+            .iter()
+            .all(|c| (c.width, c.height) == renderer.size()),
+        "every camera has the renderer's size"
+    );
+    let h = repo.header();
+    let mut report = PixelCheckReport::default();
+    for (view, &camera) in cameras.iter().enumerate() {
+        let eye = camera.eye;
         let cull = CullTests {
             frustum: Some(camera.view_volume()),
             cones: false,
         };
         let eye_local = camera.eye_local(h.origin);
         let rhos = diamond_rhos(repo.diamonds(), eye_local, &camera.metric());
-        for &tau in &config.tolerances {
+        for &tau in tolerances {
             let request = FrameRequest {
                 camera,
                 tau,
