@@ -1,6 +1,7 @@
 //! tessera-runtime: everything that reads a repository to show it — the camera, the GPU
 //! renderer (device, resident model, stateless traversal, batched strip draws), and the crack
-//! checks (geometric by global ids, and by pixels on the GPU).
+//! checks (geometric by global ids, and by pixels on the GPU), and the measured error of what a
+//! frame drew (`measure`).
 //!
 //! Architecture invariant: the runtime reads repositories only through tessera-core; it never
 //! imports the preprocessor.
@@ -8,5 +9,6 @@
 pub mod camera;
 pub mod geometric_check;
 pub mod gpu;
+pub mod measure;
 pub mod pixel_check;
 pub mod views;

@@ -4,7 +4,9 @@
 //! meshoptimizer's `clod_build` (128-triangle clusters, the clusterlod DAG builder) on the same
 //! welded mesh, and reports throughput, their ratio, peak RSS, repository bytes against the
 //! binary PLY of the same mesh, and triangles per patch. `--sweep` repeats our build over leaf
-//! sizes and adds what each costs at run time: the mean cut size at τ = 1 px over the check views.
+//! sizes and adds what each costs at run time: the mean cut size at τ = 1 px over the check views,
+//! and the *measured* error of the τ = 1 px cut (p99 and max over `MEASURE_VIEWS` views outside
+//! the model, 1920×1080, `bench::cpu_cut`).
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -18,13 +20,25 @@ use tessera_preprocess::import::load_mesh;
 use tessera_preprocess::{build_repository, BuildConfig, Construction, InputMesh};
 use tessera_runtime::views::check_views;
 
+use tessera_runtime::measure::{ErrorSummary, ReferenceMesh, SamplingConfig};
+
+use crate::bench::{cpu_cut, outside_cameras, reference_mesh};
+use crate::cmd_render::default_up;
 use crate::output::write_binary_ply;
 use crate::Outcome;
 
+/// Views of the sweep's measured error (outside the bounding sphere, 1920×1080).
+pub const MEASURE_VIEWS: usize = 8;
+
+/// `tessera bench REPO --source INPUT ...` (the trade-off benchmark, `crate::bench`), or one of
+/// the subcommands `build` and `render`: a first argument named like a subcommand is one.
 #[derive(Args)]
+#[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
 pub struct BenchArgs {
     #[command(subcommand)]
-    pub what: BenchWhat,
+    pub what: Option<BenchWhat>,
+    #[command(flatten)]
+    pub trade: crate::bench::TradeArgs,
 }
 
 #[derive(Subcommand)]
@@ -55,8 +69,9 @@ pub struct BuildBenchArgs {
 
 pub fn run(args: BenchArgs) -> anyhow::Result<Outcome> {
     match args.what {
-        BenchWhat::Build(a) => bench_build(a),
-        BenchWhat::Render(a) => crate::cmd_bench_render::run(a),
+        Some(BenchWhat::Build(a)) => bench_build(a),
+        Some(BenchWhat::Render(a)) => crate::cmd_bench_render::run(a),
+        None => crate::bench::run(args.trade),
     }
 }
 
@@ -81,13 +96,20 @@ fn bench_build(args: BuildBenchArgs) -> anyhow::Result<Outcome> {
     let clod_seconds = t.elapsed().as_secs_f64();
 
     let mut sweep = Vec::new();
+    // The original, for the measured error: built once (every build of a mesh has one origin).
+    let mut reference: Option<([f64; 3], ReferenceMesh)> = None;
     for &n in &args.sweep {
-        let r = build_once(
-            &mesh,
-            n,
-            args.threads,
-            &dir.path().join(format!("sweep{n}.tsr")),
-        )?;
+        let path = dir.path().join(format!("sweep{n}.tsr"));
+        let mut r = build_once(&mesh, n, args.threads, &path)?;
+        let repo = Repository::open(&path)?;
+        let h = *repo.header();
+        if reference.as_ref().is_none_or(|(o, _)| *o != h.origin) {
+            reference = Some((h.origin, reference_mesh(&mesh, h.origin)?));
+        }
+        let reference = &reference.as_ref().expect("just made").1;
+        let cameras = outside_cameras(&h, MEASURE_VIEWS, (1920, 1080), default_up(h.dimension));
+        r.measured =
+            cpu_cut::cut_error(&repo, reference, &cameras, 1.0, &SamplingConfig::default())?;
         sweep.push(r);
     }
 
@@ -139,10 +161,11 @@ fn bench_build(args: BuildBenchArgs) -> anyhow::Result<Outcome> {
             ours.mean_triangles_per_patch
         );
         if !sweep.is_empty() {
-            println!("leaf  seconds  bytes/ply  tris/patch  depth  root_err   cut@1px tris  cut@1px patches");
+            println!("leaf  seconds  bytes/ply  tris/patch  depth  root_err   cut@1px tris  cut@1px patches  p99@1px  max@1px");
+            let px = |x: Option<f64>| x.map_or("n/a".to_string(), |x| format!("{x:.3}"));
             for r in &sweep {
                 println!(
-                    "{:5} {:8.2} {:10.3} {:11.1} {:6} {:9.2e} {:13.0} {:16.0}",
+                    "{:5} {:8.2} {:10.3} {:11.1} {:6} {:9.2e} {:13.0} {:16.0} {:>8} {:>8}",
                     r.leaf,
                     r.seconds,
                     r.repository_bytes as f64 / ply_bytes as f64,
@@ -150,9 +173,15 @@ fn bench_build(args: BuildBenchArgs) -> anyhow::Result<Outcome> {
                     r.depth,
                     r.root_error,
                     r.cut_triangles,
-                    r.cut_patches
+                    r.cut_patches,
+                    px(r.measured.map(|e| e.p99_px)),
+                    px(r.measured.map(|e| e.max_px)),
                 );
             }
+            println!(
+                "cut@1px: mean over 64 check views; p99/max@1px: measured error of the τ = 1 px \
+                 cut, pixels, over {MEASURE_VIEWS} views outside the model at 1920x1080"
+            );
         }
     }
     Ok(Outcome::Ok)
@@ -168,6 +197,8 @@ struct BuildRun {
     /// Mean over the check views of the τ = 1 px cut.
     cut_triangles: f64,
     cut_patches: f64,
+    /// Measured error of the τ = 1 px cut (sweep builds only).
+    measured: Option<ErrorSummary>,
 }
 
 impl BuildRun {
@@ -181,6 +212,9 @@ impl BuildRun {
             "root_error": self.root_error,
             "cut_1px_triangles": self.cut_triangles,
             "cut_1px_patches": self.cut_patches,
+            "measured_1px_error_p99_px": self.measured.map(|e| e.p99_px),
+            "measured_1px_error_max_px": self.measured.map(|e| e.max_px),
+            "measured_1px_error_mean_px": self.measured.map(|e| e.mean_px),
         })
     }
 }
@@ -229,6 +263,7 @@ fn build_once(
         root_error: s.root_error,
         cut_triangles: tris as f64 / views.len() as f64,
         cut_patches: patches as f64 / views.len() as f64,
+        measured: None,
     })
 }
 

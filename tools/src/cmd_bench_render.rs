@@ -26,6 +26,7 @@ use clap::Args;
 use serde_json::json;
 use tessera_core::repository::reader::Repository;
 use tessera_preprocess::import::load_mesh;
+use tessera_preprocess::InputMesh;
 use tessera_runtime::camera::{bounding_radius, Camera};
 use tessera_runtime::gpu::full_mesh::{relative_positions, FullMeshRenderer};
 use tessera_runtime::gpu::{FrameRequest, GpuContext, Readback, Renderer, RendererOptions};
@@ -341,6 +342,18 @@ pub fn run(args: RenderBenchArgs) -> anyhow::Result<Outcome> {
 /// Loads the source mesh and places it in the repository's frame; refuses a mesh that is
 /// visibly not the one the repository was built from (another triangle count or box).
 fn load_source(path: &Path, repo: &Repository) -> anyhow::Result<Source> {
+    let mesh = load_source_mesh(path, repo)?;
+    Ok(Source {
+        path: path.to_path_buf(),
+        positions: relative_positions(&mesh.positions, repo.header().origin),
+        triangles: mesh.triangles,
+    })
+}
+
+/// Loads (and welds) the mesh a repository was built from, refusing one that is visibly not
+/// it: another triangle count after welding, or another bounding box (beyond 1e-4 of the
+/// bounding radius).
+pub(crate) fn load_source_mesh(path: &Path, repo: &Repository) -> anyhow::Result<InputMesh> {
     let h = repo.header();
     let mesh = load_mesh(path)?.mesh;
     if mesh.triangles.len() as u64 != h.input_triangle_count {
@@ -376,11 +389,7 @@ fn load_source(path: &Path, repo: &Repository) -> anyhow::Result<Source> {
             h.bbox_max
         );
     }
-    Ok(Source {
-        path: path.to_path_buf(),
-        positions: relative_positions(&mesh.positions, h.origin),
-        triangles: mesh.triangles,
-    })
+    Ok(mesh)
 }
 
 fn save_frame(image: &image::RgbaImage, dir: Option<&Path>, name: &str) -> anyhow::Result<()> {

@@ -2,6 +2,10 @@
 //! detail at every scale (1.3 M triangles), builds its repository, checks every cut, renders a
 //! few frames of it to PNG, and prints a summary. No input file, no download.
 //!
+//! With the frames comes the trade-off table of the model: per τ, triangles drawn, the *measured*
+//! error (p99 and max pixels, against the generated mesh) and the frame time, over
+//! `TRADE_VIEWS` views outside the model (the measurement of `tessera bench`, ours only).
+//!
 //! Rendering needs a GPU adapter (lavapipe works). Without one — or when the model does not fit
 //! the GPU budget — the demo still builds and checks, says that rendering was skipped and why,
 //! and the geometric check alone decides the exit code (0 clean, 1 cracks): the frames are a
@@ -21,6 +25,12 @@ use tessera_runtime::gpu::{
     FrameRequest, GpuContext, Readback, RenderError, Renderer, RendererOptions, ShadingMode,
 };
 
+use tessera_preprocess::InputMesh;
+use tessera_runtime::measure::SamplingConfig;
+
+use crate::bench::ours::Ours;
+use crate::bench::trade_off::{measure, Settings};
+use crate::bench::{outside_cameras, reference_mesh};
 use crate::cmd_render::{default_up, parse_size};
 use crate::output::{save_png, write_binary_ply};
 use crate::progress::Stages;
@@ -36,6 +46,15 @@ const FRAMES: [(ShadingMode, f32, &str); 4] = [
     (ShadingMode::Lit, 16.0, "lit-tau-16.png"),
     (ShadingMode::Patches, 1.0, "patches-tau-1.png"),
 ];
+
+/// The trade-off table: tolerances, views outside the model, timed frames per view and τ,
+/// samples per view; and the largest model it is measured on (the reference BVH takes about
+/// 150 bytes a triangle).
+const TRADE_TOLERANCES: [f32; 6] = [0.5, 1.0, 2.0, 4.0, 8.0, 16.0];
+const TRADE_VIEWS: usize = 3;
+const TRADE_FRAMES: usize = 2;
+const TRADE_SAMPLES: usize = 5_000;
+const TRADE_MAX_TRIANGLES: usize = 8_000_000;
 
 /// Orbit of the demo camera: azimuth, elevation (degrees), distance (bounding radii of the
 /// box; closer than `tessera render`'s 2.5 so the model fills the frame):
@@ -114,7 +133,8 @@ pub fn run(args: DemoArgs) -> anyhow::Result<Outcome> {
         .clone()
         .unwrap_or_else(|| temp.path().join("demo.tsr"));
     let summary = build_repository(&mesh, &BuildConfig::default(), &path, &|s| stages.stage(s))?;
-    drop(mesh);
+    // The trade-off table measures against the mesh: kept only when frames are rendered.
+    let mesh = frames_dir.is_some().then_some(mesh);
     stages.stage("check");
     let t = Instant::now();
     let repo = Repository::open(&path)?;
@@ -129,7 +149,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<Outcome> {
     let frames = match frames_dir {
         Some(dir) => {
             stages.stage("render");
-            Some(render_frames(&args, &repo, dir)?)
+            Some(render_frames(&args, &repo, mesh.as_ref(), dir)?)
         }
         None => None,
     };
@@ -156,12 +176,15 @@ pub fn run(args: DemoArgs) -> anyhow::Result<Outcome> {
     })
 }
 
-/// Renders `FRAMES` into `dir`. The outer error is a file that could not be written (bad
-/// input: exit 2); the inner one says why there is no GPU rendering (no adapter, model over
-/// the GPU budget), which only skips the frames. Ok lines are the report, one per frame.
+/// Renders `FRAMES` into `dir`, then measures the trade-off table against `mesh` (the
+/// repository's source). The outer error is a file that could not be written (bad input:
+/// exit 2); the inner one says why there is no GPU rendering (no adapter, model over the GPU
+/// budget), which only skips the frames. Ok lines are the report, one per frame, then the
+/// table.
 fn render_frames(
     args: &DemoArgs,
     repo: &Repository,
+    mesh: Option<&InputMesh>,
     dir: &Path,
 ) -> anyhow::Result<Result<Vec<String>, String>> {
     let ctx = match GpuContext::new(args.adapter.as_deref()) {
@@ -229,5 +252,81 @@ fn render_frames(
             gpu_ms.map_or("n/a".to_string(), |g| format!("{g:.2}")),
         ));
     }
+    match mesh {
+        Some(mesh) if mesh.triangles.len() <= TRADE_MAX_TRIANGLES => {
+            lines.extend(trade_off_table(
+                &ctx,
+                renderer,
+                repo,
+                mesh,
+                (width, height),
+            )?);
+        }
+        Some(mesh) => lines.push(format!(
+            "trade-off table skipped: {} triangles is over its {TRADE_MAX_TRIANGLES} (the \
+             reference BVH would take ~{} MB)",
+            mesh.triangles.len(),
+            (mesh.triangles.len() * 150) >> 20
+        )),
+        None => {}
+    }
     Ok(Ok(lines))
+}
+
+/// Ours at `TRADE_TOLERANCES` over `TRADE_VIEWS` views outside the model: triangles, measured
+/// error against `mesh`, frame time (`bench::trade_off`, without peers).
+fn trade_off_table(
+    ctx: &GpuContext,
+    renderer: Renderer,
+    repo: &Repository,
+    mesh: &InputMesh,
+    size: (u32, u32),
+) -> anyhow::Result<Vec<String>> {
+    let h = *repo.header();
+    let reference = reference_mesh(mesh, h.origin)?;
+    let cameras = outside_cameras(&h, TRADE_VIEWS, size, default_up(h.dimension));
+    let settings = Settings {
+        tolerances: TRADE_TOLERANCES.to_vec(),
+        frames: TRADE_FRAMES,
+        sampling: SamplingConfig {
+            samples_per_view: TRADE_SAMPLES,
+            ..Default::default()
+        },
+        origin: h.origin,
+    };
+    let mut ours = Ours::new(repo, renderer);
+    let (rows, _) = measure(
+        ctx,
+        &cameras,
+        &mut [&mut ours],
+        None,
+        &reference,
+        &settings,
+        &|_| {},
+    )?;
+    let mut lines = vec![
+        format!(
+            "trade-off ({TRADE_VIEWS} views outside the model, {}x{}; error measured against \
+             the generated mesh, {TRADE_SAMPLES} samples a view):",
+            size.0, size.1
+        ),
+        format!(
+            "  {:>6} {:>10} {:>9} {:>9} {:>7} {:>9}",
+            "τ px", "triangles", "p99 px", "max px", "p99/τ", "wall ms"
+        ),
+    ];
+    let px =
+        |x: Option<f64>, digits: usize| x.map_or("n/a".to_string(), |x| format!("{x:.digits$}"));
+    for r in &rows[0].rows {
+        lines.push(format!(
+            "  {:>6} {:>10.0} {:>9} {:>9} {:>7} {:>9.2}",
+            r.tolerance,
+            r.triangles,
+            px(r.error.map(|e| e.p99_px), 3),
+            px(r.error.map(|e| e.max_px), 3),
+            px(r.error.map(|e| e.p99_px / r.tolerance as f64), 2),
+            r.wall_ms,
+        ));
+    }
+    Ok(lines)
 }

@@ -4,6 +4,7 @@
 //! Exit codes: 0 success; 1 a check found problems; 2 bad usage or bad input (a clear message
 //! on stderr, no output file left behind).
 
+mod bench;
 mod cmd_bench;
 mod cmd_bench_render;
 mod cmd_build;
@@ -39,7 +40,9 @@ enum Command {
     Render(cmd_render::RenderArgs),
     /// Check the cuts of a repository for cracks, non-manifold edges and monotonicity.
     Check(cmd_check::CheckArgs),
-    /// Benchmarks with their peers measured in the same run.
+    /// Benchmarks with their peers measured in the same run: `bench REPO --source INPUT` (the
+    /// trade-off: triangles, frame time and measured error per τ against discrete LODs, a
+    /// cluster DAG and the full resolution), `bench build INPUT`, `bench render REPO`.
     Bench(cmd_bench::BenchArgs),
     /// Generate a procedural 1.3 M-triangle mesh, build it, check it, render a few frames to
     /// PNG, print a summary. Without a GPU adapter the frames are skipped (the reason is

@@ -488,6 +488,11 @@ fn demo_renders_frames_or_says_why_not() {
         stdout.contains("patches,") && stdout.contains("GPU"),
         "{stdout}"
     );
+    // The trade-off table: a row per τ with triangles, measured error, frame time.
+    assert!(
+        stdout.contains("trade-off") && stdout.contains("p99 px") && stdout.contains("wall ms"),
+        "{stdout}"
+    );
 
     // No usable adapter: the build and the check still run and decide the exit code.
     let skipped = dir.path().join("skipped");
@@ -527,4 +532,189 @@ fn demo_renders_frames_or_says_why_not() {
         ],
         &["--frames-dir"],
     );
+}
+
+/// The row keys pipeline scripts parse from `tessera bench REPO --source INPUT --json`.
+const TRADE_ROW_KEYS: [&str; 10] = [
+    "tolerance",
+    "patches",
+    "triangles",
+    "cpu_ms",
+    "gpu_ms",
+    "error_max_px",
+    "error_p99_px",
+    "error_mean_px",
+    "pixels_differing",
+    "psnr",
+];
+
+#[test]
+fn bench_trade_off_measures_ours_and_the_peers() {
+    let dir = tempfile::tempdir().unwrap();
+    let repo = build_bunny(dir.path());
+    let plots = dir.path().join("plots");
+    let out = tessera(&[
+        "bench",
+        repo.to_str().unwrap(),
+        "--source",
+        bunny().to_str().unwrap(),
+        "--views",
+        "2",
+        "--tolerances",
+        "0.5,2,8",
+        "--size",
+        "320x240",
+        "--samples",
+        "2000",
+        "--frames",
+        "1",
+        "--plot",
+        plots.to_str().unwrap(),
+        "--json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v = json(&out);
+    let model_triangles = v["model_triangles"].as_f64().unwrap();
+    let check_rows = |name: &str, rows: &serde_json::Value| {
+        let rows = rows
+            .as_array()
+            .unwrap_or_else(|| panic!("{name}: no rows: {v}"));
+        assert_eq!(rows.len(), 3, "{name}");
+        for (row, tau) in rows.iter().zip([0.5, 2.0, 8.0]) {
+            for key in TRADE_ROW_KEYS {
+                assert!(row.get(key).is_some(), "{name} row lacks {key}: {row}");
+            }
+            assert_eq!(row["tolerance"], tau, "{name}");
+            let triangles = row["triangles"].as_f64().unwrap();
+            assert!(
+                triangles > 0.0 && triangles <= model_triangles,
+                "{name}: {row}"
+            );
+            let (max, p99, mean) = (
+                row["error_max_px"].as_f64().unwrap(),
+                row["error_p99_px"].as_f64().unwrap(),
+                row["error_mean_px"].as_f64().unwrap(),
+            );
+            assert!(
+                0.0 <= mean && mean <= p99 && p99 <= max && max.is_finite(),
+                "{name}: {row}"
+            );
+            let differing = row["pixels_differing"].as_f64().unwrap();
+            assert!((0.0..=1.0).contains(&differing), "{name}: {row}");
+            let psnr = row["psnr"].as_f64().unwrap();
+            assert!(psnr > 10.0 && psnr <= 99.0, "{name}: {row}");
+            assert!(row["cpu_ms"].as_f64().unwrap() >= 0.0, "{name}: {row}");
+            assert!(row["gpu_ms"].is_null() || row["gpu_ms"].as_f64().unwrap() >= 0.0);
+        }
+    };
+    check_rows("ours", &v["rows"]);
+    let peers = v["peers"].as_object().unwrap();
+    for name in ["full_resolution", "discrete_lod", "cluster_dag"] {
+        check_rows(name, &peers[name]);
+    }
+    // The full resolution: all of the mesh, error 0 by definition, its own picture.
+    for row in peers["full_resolution"].as_array().unwrap() {
+        assert_eq!(row["triangles"].as_f64(), Some(model_triangles), "{row}");
+        assert_eq!(row["error_max_px"].as_f64(), Some(0.0));
+        assert_eq!(row["pixels_differing"].as_f64(), Some(0.0));
+        assert_eq!(row["psnr"].as_f64(), Some(99.0));
+    }
+    // The coarser cut draws no more than the finer one, and ours measured something.
+    let ours = v["rows"].as_array().unwrap();
+    assert!(ours[2]["triangles"].as_f64() <= ours[0]["triangles"].as_f64());
+    assert!(ours[0]["error_p99_px"].as_f64().unwrap() > 0.0, "{v}");
+    assert_eq!(v["discrete_lod_levels"].as_array().unwrap().len(), 4);
+    assert!(v["cluster_dag"]["clusters"].as_u64().unwrap() > 0);
+    assert_eq!(v["verdict"].as_array().unwrap().len(), 3);
+    for name in [
+        "triangles_vs_tau.png",
+        "error_vs_tau.png",
+        "frame_time_vs_tau.png",
+    ] {
+        let png = image::open(plots.join(name)).unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert!(png.width() > 100 && png.height() > 100, "{name}");
+    }
+
+    // The other forms of `bench` still parse: `bench build` with its measured column.
+    let out = tessera(&[
+        "bench",
+        "build",
+        bunny().to_str().unwrap(),
+        "--sweep",
+        "1024",
+        "--json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let b = json(&out);
+    let p99 = b["sweep"][0]["measured_1px_error_p99_px"].as_f64().unwrap();
+    assert!(p99 > 0.0 && p99.is_finite(), "{b}");
+}
+
+#[test]
+fn bench_trade_off_refuses_bad_input_with_exit_two() {
+    let dir = tempfile::tempdir().unwrap();
+    let repo = build_bunny(dir.path());
+    let repo = repo.to_str().unwrap();
+    let source = bunny();
+    let source = source.to_str().unwrap();
+    let octa = dir.path().join("octa.off");
+    write_octahedron_off(&octa);
+    let missing = dir.path().join("nope.tsr");
+    let file = dir.path().join("a-file");
+    std::fs::write(&file, b"").unwrap();
+    let inside_file = file.join("plots");
+    let cases: &[(&[&str], &[&str])] = &[
+        // Missing arguments.
+        (&["bench", repo], &["--source"]),
+        (&["bench", "--source", source], &["repository"]),
+        // A repository that is not there; a source that is not its source.
+        (
+            &["bench", missing.to_str().unwrap(), "--source", source],
+            &["nope.tsr"],
+        ),
+        (
+            &["bench", repo, "--source", octa.to_str().unwrap()],
+            &["octa.off", "not its source"],
+        ),
+        // Bad numbers.
+        (
+            &["bench", repo, "--source", source, "--views", "0"],
+            &["--views"],
+        ),
+        (
+            &["bench", repo, "--source", source, "--samples", "0"],
+            &["--samples"],
+        ),
+        (
+            &["bench", repo, "--source", source, "--tolerances", "1,-2"],
+            &["tolerance -2"],
+        ),
+        (
+            &["bench", repo, "--source", source, "--size", "0x240"],
+            &["size", "positive"],
+        ),
+        // A plot directory that cannot be made.
+        (
+            &[
+                "bench",
+                repo,
+                "--source",
+                source,
+                "--plot",
+                inside_file.to_str().unwrap(),
+            ],
+            &["--plot"],
+        ),
+    ];
+    for (args, needles) in cases {
+        check_bad_usage(args, needles);
+    }
 }

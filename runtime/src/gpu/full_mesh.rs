@@ -14,6 +14,10 @@
 //!
 //! Cost: one upload of 12 bytes per vertex and 12 bytes per triangle; per frame O(1) CPU work
 //! (one uniform write, one draw) and GPU work linear in the whole mesh, whatever the view.
+//!
+//! `set_triangles` swaps the triangle list over the same vertices: the benchmarks' peers that
+//! choose their triangles per frame (a cluster-DAG cut) draw through it, uploading the list.
+//! Then the renderer draws whatever list it was last given.
 
 use std::time::Instant;
 
@@ -154,10 +158,11 @@ impl FullMeshRenderer {
             contents: bytemuck::cast_slice(positions),
             usage: U::VERTEX,
         });
+        // COPY_DST: `set_triangles` rewrites it.
         let indices = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("full mesh triangles"),
             contents: bytemuck::cast_slice(triangles),
-            usage: U::INDEX,
+            usage: U::INDEX | U::COPY_DST,
         });
         let buffer = |label: &str, size: u64, usage: wgpu::BufferUsages| {
             device.create_buffer(&wgpu::BufferDescriptor {
@@ -256,7 +261,55 @@ impl FullMeshRenderer {
         })
     }
 
-    /// Triangles drawn by every frame (the whole mesh).
+    /// Replaces the triangles that later frames draw, over the same vertices: a peer that
+    /// selects its triangles per frame (a cluster DAG cut) draws them with this renderer.
+    ///
+    /// - `triangles`: vertex indices, each `< vertex_count()` (checked: O(n) CPU work); may be
+    ///   empty (frames then draw nothing); at most `max_buffer_size / 12` and 1,431,655,765.
+    ///
+    /// Cost: one queue write of 12 bytes a triangle, staged for the next submit; a new index
+    /// buffer (twice the size needed) when the current one is too small.
+    pub fn set_triangles(
+        &mut self,
+        ctx: &GpuContext,
+        triangles: &[[u32; 3]],
+    ) -> Result<(), FullMeshError> {
+        let bytes = triangles.len() as u64 * FULL_MESH_TRIANGLE_BYTES;
+        let limit = ctx.limits.max_buffer_size.min((u32::MAX as u64 / 3) * 12);
+        if bytes > limit {
+            return Err(FullMeshError::TooLarge {
+                what: "index",
+                bytes,
+                limit,
+            });
+        }
+        let count = self.vertex_count as usize;
+        for (triangle, t) in triangles.iter().enumerate() {
+            if let Some(&vertex) = t.iter().find(|&&v| v as usize >= count) {
+                return Err(FullMeshError::IndexOutOfRange {
+                    triangle,
+                    vertex,
+                    count,
+                });
+            }
+        }
+        if bytes > self.indices.size() {
+            self.indices = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("full mesh triangles"),
+                size: (2 * bytes).min(limit).max(bytes),
+                usage: wgpu::BufferUsages::INDEX | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            });
+        }
+        if bytes > 0 {
+            ctx.queue
+                .write_buffer(&self.indices, 0, bytemuck::cast_slice(triangles));
+        }
+        self.index_count = triangles.len() as u32 * 3;
+        Ok(())
+    }
+
+    /// Triangles drawn by every frame (the whole mesh, or the last `set_triangles`).
     pub fn triangle_count(&self) -> u32 {
         self.index_count / 3
     }
@@ -305,8 +358,10 @@ impl FullMeshRenderer {
             pass.set_pipeline(&self.pipeline);
             pass.set_bind_group(0, &self.group, &[]);
             pass.set_vertex_buffer(0, self.vertices.slice(..));
-            pass.set_index_buffer(self.indices.slice(..), wgpu::IndexFormat::Uint32);
-            pass.draw_indexed(0..self.index_count, 0, 0..1);
+            if self.index_count > 0 {
+                pass.set_index_buffer(self.indices.slice(..), wgpu::IndexFormat::Uint32);
+                pass.draw_indexed(0..self.index_count, 0, 0..1);
+            }
         }
         if let Some(t) = &self.timer {
             t.resolve(&mut encoder);
@@ -392,6 +447,29 @@ mod tests {
         if ctx.capabilities.timestamps {
             assert!(r.read_gpu_ms(&ctx).is_some());
         }
+        // Another triangle list over the same vertices: one triangle leaves half empty,
+        // none draws nothing, more than the first upload grows the buffer.
+        r.set_triangles(&ctx, &[[0, 1, 2]]).unwrap();
+        assert_eq!(r.triangle_count(), 1);
+        r.render(&ctx, &camera, true);
+        let half = r.read_image(&ctx);
+        assert_ne!(
+            half.get_pixel(40, 18).0,
+            corner,
+            "triangle 0-1-2 covers x > y"
+        );
+        assert_eq!(half.get_pixel(24, 18).0, corner, "x < y is empty");
+        r.set_triangles(&ctx, &[]).unwrap();
+        r.render(&ctx, &camera, true);
+        assert_eq!(r.read_image(&ctx).get_pixel(32, 24).0, corner);
+        r.set_triangles(&ctx, &[[0, 1, 2], [0, 2, 3], [0, 1, 2]])
+            .unwrap();
+        r.render(&ctx, &camera, true);
+        assert_eq!(r.read_image(&ctx), image);
+        assert!(matches!(
+            r.set_triangles(&ctx, &[[0, 1, 4]]),
+            Err(FullMeshError::IndexOutOfRange { vertex: 4, .. })
+        ));
         for bad in [&[[0, 1, 4]][..], &[][..]] {
             assert!(FullMeshRenderer::new(&ctx, &positions, bad, origin, 64, 48).is_err());
         }

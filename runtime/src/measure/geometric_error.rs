@@ -1,0 +1,342 @@
+//! The measured geometric error of a frame, in pixels.
+//!
+//! 1. Sample: `SamplingConfig::samples_per_view` points on the drawn surface, area-weighted
+//!    (a triangle by its area in the CDF, a point in it by uniform barycentrics), from a fixed
+//!    seed: the same surface gives the same samples on every run and machine.
+//! 2. Project: each sample's depth along the view direction; samples behind the eye, nearer
+//!    than the near plane or outside the four side planes of the frustum are skipped (they
+//!    are not on screen).
+//! 3. Measure: the exact distance d to the original mesh (`ReferenceMesh`), in pixels at the
+//!    sample's depth: d · K / depth, K = height / (2·tan(fovy/2)) — the same K as ρ, so a
+//!    measured error is comparable with τ.
+//!
+//! The distance is one-sided (drawn → original): it says how far what is drawn strays, not
+//! whether some part of the original is missing (a hole would show in `image_diff`).
+
+use rayon::prelude::*;
+
+use super::nearest::ReferenceMesh;
+use crate::camera::Camera;
+
+/// A triangle soup to sample: positions in the reference mesh's frame (f64).
+#[derive(Clone, Copy, Debug)]
+pub struct Surface<'a> {
+    pub positions: &'a [[f64; 3]],
+    /// Indices into `positions` (each must be in range).
+    pub triangles: &'a [[u32; 3]],
+}
+
+/// How to sample a view.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SamplingConfig {
+    /// Points drawn on the surface per view, before the frustum test (off-screen samples are
+    /// skipped, so fewer are measured).
+    pub samples_per_view: usize,
+    /// Seed of the sample stream (SplitMix64).
+    pub seed: u64,
+}
+
+impl Default for SamplingConfig {
+    fn default() -> Self {
+        SamplingConfig {
+            samples_per_view: 20_000,
+            seed: 0x7e55_e7a0,
+        }
+    }
+}
+
+/// One view's measured samples.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ViewErrors {
+    /// Error of every on-screen sample, pixels, in sample order.
+    pub errors_px: Vec<f64>,
+    /// Samples skipped as off-screen (behind the eye, before the near plane, outside a side).
+    pub skipped: usize,
+}
+
+/// Max, 99th percentile (nearest rank) and mean of pooled pixel errors.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ErrorSummary {
+    pub samples: usize,
+    pub max_px: f64,
+    pub p99_px: f64,
+    pub mean_px: f64,
+}
+
+impl ErrorSummary {
+    /// The summary of `errors` (pixels); `None` when there are none.
+    pub fn of(errors: &[f64]) -> Option<ErrorSummary> {
+        if errors.is_empty() {
+            return None;
+        }
+        let mut sorted = errors.to_vec();
+        sorted.sort_by(f64::total_cmp);
+        let rank = ((0.99 * sorted.len() as f64).ceil() as usize).clamp(1, sorted.len());
+        Some(ErrorSummary {
+            samples: sorted.len(),
+            max_px: sorted[sorted.len() - 1],
+            p99_px: sorted[rank - 1],
+            mean_px: sorted.iter().sum::<f64>() / sorted.len() as f64,
+        })
+    }
+}
+
+/// SplitMix64: a small, fixed, portable generator (the samples must not depend on a crate's
+/// version).
+struct SplitMix64(u64);
+
+impl SplitMix64 {
+    fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        z ^ (z >> 31)
+    }
+
+    /// Uniform in [0, 1).
+    fn next_f64(&mut self) -> f64 {
+        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
+fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+/// `count` area-weighted points on `surface` (none when it has no area).
+fn sample_surface(surface: Surface<'_>, count: usize, seed: u64) -> Vec<[f64; 3]> {
+    let corners = |t: &[u32; 3]| t.map(|v| surface.positions[v as usize]);
+    // Cumulative areas (twice the area; the factor cancels).
+    let mut cumulative = Vec::with_capacity(surface.triangles.len());
+    let mut total = 0.0;
+    for t in surface.triangles {
+        let [a, b, c] = corners(t);
+        let n = cross(sub(b, a), sub(c, a));
+        total += dot(n, n).sqrt();
+        cumulative.push(total);
+    }
+    if !(total > 0.0 && total.is_finite()) {
+        return Vec::new();
+    }
+    let mut rng = SplitMix64(seed);
+    (0..count)
+        .map(|_| {
+            let target = rng.next_f64() * total;
+            let k = cumulative
+                .partition_point(|&c| c <= target)
+                .min(cumulative.len() - 1);
+            let [a, b, c] = corners(&surface.triangles[k]);
+            // Uniform on the triangle: (1 − √r1, √r1 (1 − r2), √r1 r2).
+            let (r1, r2) = (rng.next_f64().sqrt(), rng.next_f64());
+            let (wb, wc) = (r1 * (1.0 - r2), r1 * r2);
+            let wa = 1.0 - wb - wc;
+            [0, 1, 2].map(|i| wa * a[i] + wb * b[i] + wc * c[i])
+        })
+        .collect()
+}
+
+/// The measured error of one view: samples on `surface` (positions relative to `origin`, the
+/// reference mesh's frame), each one's distance to `reference` in pixels of `camera`.
+///
+/// - `surface`: every index in range (panics otherwise);
+/// - `camera`: its `height` and `fov_y_degrees` give K; `near` and the side planes the
+///   frustum test;
+/// - `origin`: the model-space point the surface and the reference are relative to.
+///
+/// Cost: `samples_per_view` BVH queries, spread over rayon's threads.
+pub fn pixel_errors(
+    reference: &ReferenceMesh,
+    surface: Surface<'_>,
+    camera: &Camera,
+    origin: [f64; 3],
+    config: &SamplingConfig,
+) -> ViewErrors {
+    let samples = sample_surface(surface, config.samples_per_view, config.seed);
+    let basis = camera.basis();
+    let eye = sub(camera.eye, origin);
+    let tan_y = (0.5 * camera.fov_y_degrees.to_radians()).tan();
+    let tan_x = tan_y * camera.aspect();
+    let k = camera.height as f64 / (2.0 * tan_y);
+    let errors: Vec<Option<f64>> = samples
+        .par_iter()
+        .map(|&p| {
+            let d = sub(p, eye);
+            let depth = dot(d, basis.forward);
+            let on_screen = depth > 0.0
+                && depth >= camera.near
+                && dot(d, basis.right).abs() <= depth * tan_x
+                && dot(d, basis.up).abs() <= depth * tan_y;
+            on_screen.then(|| reference.distance(p) * k / depth)
+        })
+        .collect();
+    let skipped = errors.iter().filter(|e| e.is_none()).count();
+    ViewErrors {
+        errors_px: errors.into_iter().flatten().collect(),
+        skipped,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A square of side 2·half in the plane z = `z`, split into 2·n² triangles.
+    fn square(half: f64, z: f64, n: u32) -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
+        let mut positions = Vec::new();
+        for j in 0..=n {
+            for i in 0..=n {
+                let (u, v) = (i as f64 / n as f64, j as f64 / n as f64);
+                positions.push([half * (2.0 * u - 1.0), half * (2.0 * v - 1.0), z]);
+            }
+        }
+        let mut triangles = Vec::new();
+        for j in 0..n {
+            for i in 0..n {
+                let a = j * (n + 1) + i;
+                triangles.push([a, a + 1, a + n + 2]);
+                triangles.push([a, a + n + 2, a + n + 1]);
+            }
+        }
+        (positions, triangles)
+    }
+
+    /// A camera on the z axis looking down at the origin, 640 × 480, 60°.
+    fn camera(eye_z: f64) -> Camera {
+        Camera {
+            up: [0.0, 1.0, 0.0],
+            width: 640,
+            height: 480,
+            ..Camera::looking_at([0.0, 0.0, eye_z], [0.0; 3], 1.0)
+        }
+    }
+
+    fn config(samples: usize) -> SamplingConfig {
+        SamplingConfig {
+            samples_per_view: samples,
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn samples_of_the_original_have_no_error() {
+        let (positions, triangles) = square(1.0, 0.0, 8);
+        let reference = ReferenceMesh::new(positions.clone(), triangles.clone()).unwrap();
+        let surface = Surface {
+            positions: &positions,
+            triangles: &triangles,
+        };
+        let v = pixel_errors(&reference, surface, &camera(3.0), [0.0; 3], &config(2000));
+        assert_eq!(v.errors_px.len() + v.skipped, 2000);
+        assert!(v.errors_px.len() > 1500, "the square fills the view centre");
+        let s = ErrorSummary::of(&v.errors_px).unwrap();
+        assert!(s.max_px < 1e-9, "{s:?}");
+    }
+
+    /// A surface offset by d towards the eye, seen head-on from depth z: d·K/z pixels.
+    #[test]
+    fn an_offset_of_d_at_depth_z_is_d_k_over_z_pixels() {
+        let (positions, triangles) = square(1.0, 0.0, 4);
+        let reference = ReferenceMesh::new(positions, triangles).unwrap();
+        let d = 0.01;
+        // A smaller square so every sample's nearest point is straight below it.
+        let (lifted, lifted_triangles) = square(0.5, d, 3);
+        let eye_z = 4.0;
+        let cam = camera(eye_z);
+        let surface = Surface {
+            positions: &lifted,
+            triangles: &lifted_triangles,
+        };
+        let v = pixel_errors(&reference, surface, &cam, [0.0; 3], &config(500));
+        assert_eq!(v.skipped, 0);
+        let k = 480.0 / (2.0 * (30f64).to_radians().tan());
+        let expected = d * k / (eye_z - d);
+        for e in &v.errors_px {
+            assert!((e - expected).abs() < 1e-9 * expected, "{e} vs {expected}");
+        }
+        // The same in another frame: everything moved by an origin of 1e7.
+        let origin = [1e7, -3e6, 5e5];
+        let moved = Camera {
+            eye: [0, 1, 2].map(|i| cam.eye[i] + origin[i]),
+            target: origin,
+            ..cam
+        };
+        let again = pixel_errors(&reference, surface, &moved, origin, &config(500));
+        assert_eq!(again.errors_px.len(), 500);
+        for e in &again.errors_px {
+            assert!((e - expected).abs() < 1e-6 * expected, "{e} vs {expected}");
+        }
+    }
+
+    #[test]
+    fn samples_behind_the_eye_or_off_screen_are_skipped() {
+        let (positions, triangles) = square(1.0, 0.0, 2);
+        let reference = ReferenceMesh::new(positions.clone(), triangles.clone()).unwrap();
+        let surface = Surface {
+            positions: &positions,
+            triangles: &triangles,
+        };
+        // Eye below the square, looking away from it.
+        let away = Camera {
+            target: [0.0, 0.0, -5.0],
+            ..camera(-1.0)
+        };
+        let v = pixel_errors(&reference, surface, &away, [0.0; 3], &config(300));
+        assert!(v.errors_px.is_empty() && v.skipped == 300, "{v:?}");
+        // Very close: most of the square is outside the side planes.
+        let near = pixel_errors(&reference, surface, &camera(0.2), [0.0; 3], &config(1000));
+        assert!(near.skipped > 800 && !near.errors_px.is_empty(), "{near:?}");
+    }
+
+    #[test]
+    fn sampling_is_deterministic_and_area_weighted() {
+        // Two triangles: the second has 3× the area of the first.
+        let positions = vec![
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [3.0, 0.0, 0.0],
+            [4.0, 0.0, 0.0],
+            [3.0, 3.0, 0.0],
+        ];
+        let triangles = vec![[0, 1, 2], [3, 4, 5]];
+        let surface = Surface {
+            positions: &positions,
+            triangles: &triangles,
+        };
+        let a = sample_surface(surface, 4000, 1);
+        assert_eq!(a, sample_surface(surface, 4000, 1));
+        assert_ne!(a, sample_surface(surface, 4000, 2));
+        let second = a.iter().filter(|p| p[0] >= 3.0).count() as f64 / 4000.0;
+        assert!((second - 0.75).abs() < 0.03, "{second}");
+        assert!(a.iter().all(|p| p[0] + p[1] <= 1.0 + 1e-12 || p[0] >= 3.0));
+        // No area, no samples.
+        let flat = vec![[0, 0, 1]];
+        let none = Surface {
+            positions: &positions,
+            triangles: &flat,
+        };
+        assert!(sample_surface(none, 10, 1).is_empty());
+    }
+
+    #[test]
+    fn summary_is_max_nearest_rank_p99_and_mean() {
+        let errors: Vec<f64> = (1..=200).rev().map(f64::from).collect();
+        let s = ErrorSummary::of(&errors).unwrap();
+        assert_eq!((s.samples, s.max_px, s.p99_px), (200, 200.0, 198.0));
+        assert!((s.mean_px - 100.5).abs() < 1e-12);
+        assert_eq!(ErrorSummary::of(&[]), None);
+    }
+}

@@ -1,0 +1,257 @@
+//! The cluster-DAG peer: meshoptimizer's clusterlod (`meshopt::clod_build`, 128-triangle
+//! clusters, default rasterisation config) — the Nanite-style continuous LOD over a DAG of
+//! cluster groups — with the cut chosen per frame on the CPU and drawn in one call.
+//!
+//! - Rule (clusterlod.h): a cluster of group g is drawn iff ρ(g.simplified) > τ (its group
+//!   would be too coarse once simplified) and, unless it is original geometry, ρ(groups[
+//!   refined].simplified) ≤ τ (the group it was simplified from may be coarsened). In our
+//!   words: own error ≤ τ < parent error. ρ projects a group's bounds like our ρ:
+//!   error · K / max(|centre − eye| − radius, near) (`ScreenSpaceMetric::rho`); clusterlod
+//!   makes these bounds monotone along the DAG, so the cut is consistent.
+//! - Culling, as our renderer culls patches: a cluster whose own sphere
+//!   (`ClodCluster::bounds`, for culling) is outside the frustum, or whose triangles all face
+//!   away (`meshopt::compute_cluster_bounds`'s normal cone, the apex test), is not drawn.
+//! - Drawing: the selected clusters' triangles are gathered and uploaded every frame
+//!   (`FullMeshRenderer::set_triangles`); its CPU time includes the selection and that upload.
+
+use std::time::Instant;
+
+use anyhow::Context;
+use tessera_core::cull::dot;
+use tessera_core::metric::center_minus_eye;
+use tessera_runtime::camera::Camera;
+use tessera_runtime::gpu::full_mesh::FullMeshRenderer;
+use tessera_runtime::gpu::GpuContext;
+use tessera_runtime::measure::Surface;
+
+use super::peer_mesh::PeerMesh;
+use super::subject::{Drawn, Subject};
+
+/// Triangles per cluster (clusterlod's `max_triangles`).
+pub const CLUSTER_TRIANGLES: usize = 128;
+
+/// A sphere with an error, relative to the repository origin (clusterlod's `clodBounds`).
+#[derive(Clone, Copy, Debug)]
+struct Bounds {
+    centre: [f32; 3],
+    radius: f32,
+    /// Model units; `f32::MAX` for a group that is never simplified.
+    error: f32,
+}
+
+impl From<meshopt::ClodBounds> for Bounds {
+    fn from(b: meshopt::ClodBounds) -> Bounds {
+        Bounds {
+            centre: b.center,
+            radius: b.radius,
+            error: b.error,
+        }
+    }
+}
+
+/// Culling volumes of a cluster.
+#[derive(Clone, Copy, Debug)]
+struct Cull {
+    centre: [f32; 3],
+    radius: f32,
+    cone_apex: [f32; 3],
+    cone_axis: [f32; 3],
+    /// ≥ 1: the cone never culls.
+    cone_cutoff: f32,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Cluster {
+    /// Its triangles: `triangles[first..first + count]`.
+    first: u32,
+    count: u32,
+    /// The bounds it was simplified to (error 0 for original geometry).
+    own: Bounds,
+    /// Its group's simplified bounds: beyond them the cluster is replaced by coarser ones.
+    parent: Bounds,
+    cull: Cull,
+}
+
+/// What `build` made, for the report.
+#[derive(Clone, Copy, Debug)]
+pub struct DagStats {
+    pub clusters: usize,
+    pub groups: usize,
+    /// DAG levels (the deepest group's depth + 1).
+    pub levels: usize,
+    pub seconds: f64,
+}
+
+/// The DAG as built: every cluster's triangles, bounds and culling volumes.
+pub struct Dag {
+    clusters: Vec<Cluster>,
+    triangles: Vec<[u32; 3]>,
+    pub stats: DagStats,
+}
+
+/// Runs `clod_build` on the peers' positions and keeps what the cut rule needs.
+pub fn build(mesh: &PeerMesh) -> Dag {
+    let start = Instant::now();
+    let adapter = mesh.vertex_adapter();
+    let clod_mesh = meshopt::ClodMesh::new(mesh.indices(), &adapter);
+    let mut groups: Vec<meshopt::ClodGroup> = Vec::new();
+    let mut clusters = Vec::new();
+    let mut triangles: Vec<[u32; 3]> = Vec::new();
+    meshopt::clod_build(
+        meshopt::clod_default_config(CLUSTER_TRIANGLES),
+        &clod_mesh,
+        |group, cs| {
+            for c in cs {
+                let own = if c.refined < 0 {
+                    Bounds {
+                        error: 0.0,
+                        ..Bounds::from(c.bounds)
+                    }
+                } else {
+                    Bounds::from(groups[c.refined as usize].simplified)
+                };
+                let b = meshopt::compute_cluster_bounds(c.indices, &adapter);
+                clusters.push(Cluster {
+                    first: triangles.len() as u32,
+                    count: (c.indices.len() / 3) as u32,
+                    own,
+                    parent: Bounds::from(group.simplified),
+                    cull: Cull {
+                        centre: c.bounds.center,
+                        radius: c.bounds.radius,
+                        cone_apex: b.cone_apex,
+                        cone_axis: b.cone_axis,
+                        cone_cutoff: b.cone_cutoff,
+                    },
+                });
+                triangles.extend(c.indices.chunks_exact(3).map(|t| [t[0], t[1], t[2]]));
+            }
+            groups.push(group);
+            groups.len() as i32 - 1
+        },
+    );
+    let stats = DagStats {
+        clusters: clusters.len(),
+        groups: groups.len(),
+        levels: groups
+            .iter()
+            .map(|g| g.depth as usize + 1)
+            .max()
+            .unwrap_or(0),
+        seconds: start.elapsed().as_secs_f64(),
+    };
+    Dag {
+        clusters,
+        triangles,
+        stats,
+    }
+}
+
+pub struct ClusterDag<'m> {
+    mesh: &'m PeerMesh,
+    dag: Dag,
+    renderer: FullMeshRenderer,
+    origin: [f64; 3],
+    /// The last frame's cut: its triangles and cluster count.
+    selected: Vec<[u32; 3]>,
+    selected_clusters: u64,
+}
+
+impl<'m> ClusterDag<'m> {
+    /// A renderer over the peers' vertices (`width` × `height`) that draws a cut of `dag`
+    /// per frame; `origin`: the repository's, the frame of the DAG's bounds.
+    pub fn new(
+        ctx: &GpuContext,
+        mesh: &'m PeerMesh,
+        dag: Dag,
+        origin: [f64; 3],
+        (width, height): (u32, u32),
+    ) -> anyhow::Result<ClusterDag<'m>> {
+        let renderer =
+            FullMeshRenderer::new(ctx, &mesh.positions, &mesh.triangles, origin, width, height)
+                .context("uploading the cluster DAG's vertices")?;
+        Ok(ClusterDag {
+            mesh,
+            dag,
+            renderer,
+            origin,
+            selected: Vec::new(),
+            selected_clusters: 0,
+        })
+    }
+
+    pub fn stats(&self) -> DagStats {
+        self.dag.stats
+    }
+
+    /// The cut for `camera` at `tau` (the rule and culling of the module comment) into
+    /// `self.selected`.
+    fn select(&mut self, camera: &Camera, tau: f32) {
+        let metric = camera.metric();
+        let volume = camera.view_volume();
+        let eye = camera.eye_local(self.origin);
+        let rho = |b: &Bounds| metric.rho(b.error, center_minus_eye(b.centre, eye), b.radius);
+        self.selected.clear();
+        self.selected_clusters = 0;
+        for c in &self.dag.clusters {
+            if !(rho(&c.own) <= tau && tau < rho(&c.parent)) {
+                continue;
+            }
+            if !volume.sphere_visible(center_minus_eye(c.cull.centre, eye), c.cull.radius) {
+                continue;
+            }
+            if c.cull.cone_cutoff < 1.0 {
+                let to_apex = center_minus_eye(c.cull.cone_apex, eye);
+                let length = dot(to_apex, to_apex).sqrt();
+                if dot(to_apex, c.cull.cone_axis) >= c.cull.cone_cutoff * length {
+                    continue;
+                }
+            }
+            let range = c.first as usize..(c.first + c.count) as usize;
+            self.selected.extend_from_slice(&self.dag.triangles[range]);
+            self.selected_clusters += 1;
+        }
+    }
+}
+
+impl Subject for ClusterDag<'_> {
+    fn name(&self) -> &'static str {
+        "cluster_dag"
+    }
+
+    fn submit(&mut self, ctx: &GpuContext, camera: &Camera, tau: f32) -> anyhow::Result<f64> {
+        let start = Instant::now();
+        self.select(camera, tau);
+        self.renderer.set_triangles(ctx, &self.selected)?;
+        self.renderer.render(ctx, camera, false);
+        Ok(start.elapsed().as_secs_f64() * 1e3)
+    }
+
+    fn gpu_ms(&self, ctx: &GpuContext) -> Option<f64> {
+        self.renderer.read_gpu_ms(ctx)
+    }
+
+    fn measured_frame(
+        &mut self,
+        ctx: &GpuContext,
+        camera: &Camera,
+        tau: f32,
+    ) -> anyhow::Result<(Drawn, image::RgbaImage)> {
+        self.select(camera, tau);
+        self.renderer.set_triangles(ctx, &self.selected)?;
+        self.renderer.render(ctx, camera, true);
+        let drawn = Drawn {
+            patches: self.selected_clusters,
+            triangles: self.selected.len() as u64,
+            level: None,
+        };
+        Ok((drawn, self.renderer.read_image(ctx)))
+    }
+
+    fn surface(&self) -> Surface<'_> {
+        Surface {
+            positions: &self.mesh.positions_f64,
+            triangles: &self.selected,
+        }
+    }
+}

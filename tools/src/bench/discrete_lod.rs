@@ -1,0 +1,183 @@
+//! The discrete-LOD peer (seed 004's run-time scheme): a few whole-object levels made
+//! offline, one picked per object and frame by distance, drawn in one call.
+//!
+//! - Levels: `LEVEL_FRACTIONS` of the source's triangles, each simplified from the source by
+//!   `meshopt::simplify` (absolute error, no target error: the count decides); level 0 is the
+//!   source itself with error 0. Each level records meshopt's error estimate in model units.
+//! - Choice: the coarsest level whose error projects to ≤ τ pixels at the distance from the
+//!   eye to the object's bounding sphere: ρ_l = err_l · K / max(|centre − eye| − radius, near)
+//!   (`ScreenSpaceMetric::rho`, the formula of our ρ with one sphere for the whole object).
+//! - Drawing: one `FullMeshRenderer` per level (all resident), no culling.
+
+use std::time::Instant;
+
+use anyhow::Context;
+use tessera_core::metric::center_minus_eye;
+use tessera_runtime::camera::Camera;
+use tessera_runtime::gpu::full_mesh::FullMeshRenderer;
+use tessera_runtime::gpu::GpuContext;
+use tessera_runtime::measure::Surface;
+
+use super::peer_mesh::PeerMesh;
+use super::subject::{Drawn, Subject};
+
+/// Share of the source's triangles in each level, finest first.
+pub const LEVEL_FRACTIONS: [f64; 4] = [1.0, 0.25, 0.0625, 0.015625];
+
+/// One level as built.
+#[derive(Clone, Debug)]
+pub struct Level {
+    /// Requested share of the source's triangles.
+    pub fraction: f64,
+    pub triangles: Vec<[u32; 3]>,
+    /// meshopt's simplification error, model units (0 for the source).
+    pub error: f64,
+    /// Time to simplify it.
+    pub seconds: f64,
+}
+
+/// Simplifies the source to every `LEVEL_FRACTIONS` share, each from the source.
+pub fn build_levels(mesh: &PeerMesh) -> Vec<Level> {
+    let adapter = mesh.vertex_adapter();
+    LEVEL_FRACTIONS
+        .iter()
+        .map(|&fraction| {
+            if fraction >= 1.0 {
+                return Level {
+                    fraction,
+                    triangles: mesh.triangles.clone(),
+                    error: 0.0,
+                    seconds: 0.0,
+                };
+            }
+            let start = Instant::now();
+            let target = ((mesh.triangles.len() as f64 * fraction) as usize).max(1) * 3;
+            let mut error = 0.0f32;
+            let indices = meshopt::simplify(
+                mesh.indices(),
+                &adapter,
+                target,
+                f32::MAX,
+                meshopt::SimplifyOptions::ErrorAbsolute,
+                Some(&mut error),
+            );
+            Level {
+                fraction,
+                triangles: indices
+                    .chunks_exact(3)
+                    .map(|t| [t[0], t[1], t[2]])
+                    .collect(),
+                error: error as f64,
+                seconds: start.elapsed().as_secs_f64(),
+            }
+        })
+        .collect()
+}
+
+pub struct DiscreteLod<'m> {
+    mesh: &'m PeerMesh,
+    levels: Vec<(Level, FullMeshRenderer)>,
+    /// The object's bounding sphere, relative to the repository origin.
+    centre: [f32; 3],
+    radius: f32,
+    origin: [f64; 3],
+    /// The level of the last measured frame.
+    last: usize,
+}
+
+impl<'m> DiscreteLod<'m> {
+    /// Uploads every level (one renderer each, `width` × `height` targets). `centre` and
+    /// `radius`: the object's bounding sphere relative to `origin` (the repository's).
+    pub fn new(
+        ctx: &GpuContext,
+        mesh: &'m PeerMesh,
+        levels: Vec<Level>,
+        centre: [f32; 3],
+        radius: f32,
+        origin: [f64; 3],
+        (width, height): (u32, u32),
+    ) -> anyhow::Result<DiscreteLod<'m>> {
+        let levels = levels
+            .into_iter()
+            .enumerate()
+            .map(|(i, level)| {
+                let renderer = FullMeshRenderer::new(
+                    ctx,
+                    &mesh.positions,
+                    &level.triangles,
+                    origin,
+                    width,
+                    height,
+                )
+                .with_context(|| format!("uploading discrete level {i}"))?;
+                Ok((level, renderer))
+            })
+            .collect::<anyhow::Result<Vec<_>>>()?;
+        Ok(DiscreteLod {
+            mesh,
+            levels,
+            centre,
+            radius,
+            origin,
+            last: 0,
+        })
+    }
+
+    /// The levels as built (for the report).
+    pub fn levels(&self) -> impl Iterator<Item = &Level> {
+        self.levels.iter().map(|(l, _)| l)
+    }
+
+    /// The coarsest level whose projected error is ≤ τ (level 0 when none is).
+    pub fn level_for(&self, camera: &Camera, tau: f32) -> usize {
+        let metric = camera.metric();
+        let c = center_minus_eye(self.centre, camera.eye_local(self.origin));
+        self.levels
+            .iter()
+            .rposition(|(l, _)| metric.rho(l.error as f32, c, self.radius) <= tau)
+            .unwrap_or(0)
+    }
+}
+
+impl Subject for DiscreteLod<'_> {
+    fn name(&self) -> &'static str {
+        "discrete_lod"
+    }
+
+    fn submit(&mut self, ctx: &GpuContext, camera: &Camera, tau: f32) -> anyhow::Result<f64> {
+        let start = Instant::now();
+        let level = self.level_for(camera, tau);
+        self.last = level;
+        self.levels[level].1.render(ctx, camera, false);
+        Ok(start.elapsed().as_secs_f64() * 1e3)
+    }
+
+    fn gpu_ms(&self, ctx: &GpuContext) -> Option<f64> {
+        self.levels[self.last].1.read_gpu_ms(ctx)
+    }
+
+    fn measured_frame(
+        &mut self,
+        ctx: &GpuContext,
+        camera: &Camera,
+        tau: f32,
+    ) -> anyhow::Result<(Drawn, image::RgbaImage)> {
+        let level = self.level_for(camera, tau);
+        self.last = level;
+        let (l, renderer) = &mut self.levels[level];
+        renderer.render(ctx, camera, true);
+        let drawn = Drawn {
+            patches: 1,
+            triangles: l.triangles.len() as u64,
+            level: Some(level as u32),
+        };
+        Ok((drawn, renderer.read_image(ctx)))
+    }
+
+    fn surface(&self) -> Surface<'_> {
+        Surface {
+            positions: &self.mesh.positions_f64,
+            triangles: &self.levels[self.last].0.triangles,
+        }
+    }
+}

@@ -1,0 +1,326 @@
+//! `tessera bench REPO --source INPUT [--tolerances 0.25,0.5,1,2,4,8,16] [--views N]
+//! [--size WxH] [--samples N] [--frames N] [--json] [--plot DIR]`: the trade-off benchmark —
+//! triangles, frame time and *measured* screen-space error per tolerance τ, ours against its
+//! peers, all measured in the same run on the same mesh, cameras and tolerances.
+//!
+//! Subjects (one file each):
+//! - `ours`: the repository on the GPU renderer;
+//! - `full_resolution`: the source in one draw (error 0 by definition; the time baseline and
+//!   the reference picture);
+//! - `discrete_lod`: four meshopt levels, one per object by distance (seed 004);
+//! - `cluster_dag`: meshoptimizer's clusterlod DAG, cut per frame on the CPU.
+//!
+//! The measurement (`trade_off`, on `tessera_runtime::measure`): on every view, the surface each
+//! subject drew is sampled and measured against the original mesh in pixels, and its image
+//! compared with the full resolution; frames are timed in interleaved rounds. Then `verdict`
+//! says who draws the fewest triangles at equal measured error, `report` prints, `plots` draws.
+//!
+//! Cameras: `--views` eyes outside the bounding sphere (`views::outside_views`, 1.3 to 4
+//! bounding radii), looking at the centre of the box.
+
+pub mod cluster_dag;
+pub mod cpu_cut;
+pub mod discrete_lod;
+pub mod full_resolution;
+pub mod ours;
+pub mod peer_mesh;
+pub mod plots;
+pub mod report;
+pub mod subject;
+pub mod trade_off;
+pub mod verdict;
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::Context;
+use clap::Args;
+use serde_json::json;
+use tessera_core::repository::format::Header;
+use tessera_core::repository::reader::Repository;
+use tessera_runtime::camera::{bounding_radius, Camera};
+use tessera_runtime::gpu::full_mesh::FullMeshRenderer;
+use tessera_runtime::gpu::{GpuContext, Renderer, RendererOptions};
+use tessera_runtime::measure::{ReferenceMesh, SamplingConfig, PSNR_SATURATED_DB};
+use tessera_runtime::views::outside_views;
+
+use self::subject::Subject;
+use self::trade_off::{Settings, SubjectRows};
+use crate::cmd_render::{default_up, parse_size, parse_vec3};
+use crate::progress::Stages;
+use crate::Outcome;
+
+#[derive(Args)]
+pub struct TradeArgs {
+    /// Repository file (built from --source).
+    #[arg(required = true)]
+    pub repository: Option<PathBuf>,
+    /// The mesh the repository was built from: the original the error is measured against,
+    /// and the input of every peer.
+    #[arg(long, required = true)]
+    pub source: Option<PathBuf>,
+    /// Pixel tolerances τ, one row each.
+    #[arg(long, value_delimiter = ',', default_value = "0.25,0.5,1,2,4,8,16")]
+    pub tolerances: Vec<f32>,
+    /// Camera positions, all outside the bounding sphere, looking at the model.
+    #[arg(long, default_value_t = 8)]
+    pub views: usize,
+    /// Target size, WIDTHxHEIGHT (τ is in pixels of this height).
+    #[arg(long, default_value = "1920x1080", value_parser = parse_size)]
+    pub size: (u32, u32),
+    /// Points sampled per view on each drawn surface to measure its error.
+    #[arg(long, default_value_t = 20_000)]
+    pub samples: usize,
+    /// Timed frames per view, subject and τ (after one warm-up frame); the median counts.
+    #[arg(long, default_value_t = 3)]
+    pub frames: usize,
+    /// Up direction of the cameras (default 0,1,0 for meshes, 0,0,1 for terrains).
+    #[arg(long, value_parser = parse_vec3)]
+    pub up: Option<[f64; 3]>,
+    /// Write triangles_vs_tau.png, error_vs_tau.png and frame_time_vs_tau.png here (created
+    /// if missing).
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
+    /// Adapter name substring (default: $TESSERA_ADAPTER, else the best present).
+    #[arg(long)]
+    pub adapter: Option<String>,
+    /// GPU memory budget for our resident model, MiB.
+    #[arg(long, default_value_t = 2048)]
+    pub gpu_budget: u64,
+    /// Print one JSON object on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// `count` cameras outside the bounding sphere of the model of `h`, looking at its box's
+/// centre, `size` pixels, 60°, `up` as given.
+pub fn outside_cameras(h: &Header, count: usize, size: (u32, u32), up: [f64; 3]) -> Vec<Camera> {
+    let centre = [0, 1, 2].map(|i| 0.5 * (h.bbox_min[i] + h.bbox_max[i]));
+    let radius = bounding_radius(h.bbox_min, h.bbox_max);
+    outside_views(h.bbox_min, h.bbox_max, count)
+        .into_iter()
+        .map(|eye| Camera {
+            up,
+            width: size.0,
+            height: size.1,
+            ..Camera::looking_at(eye, centre, radius)
+        })
+        .collect()
+}
+
+/// The original mesh relative to `origin`, as the measurement's reference.
+pub fn reference_mesh(
+    mesh: &tessera_preprocess::InputMesh,
+    origin: [f64; 3],
+) -> anyhow::Result<ReferenceMesh> {
+    let positions = mesh
+        .positions
+        .iter()
+        .map(|p| [0, 1, 2].map(|i| p[i] - origin[i]))
+        .collect();
+    ReferenceMesh::new(positions, mesh.triangles.clone()).context("the reference mesh")
+}
+
+fn validate(args: &TradeArgs) -> anyhow::Result<()> {
+    if args.tolerances.is_empty() {
+        anyhow::bail!("--tolerances needs at least one value");
+    }
+    if let Some(bad) = args.tolerances.iter().find(|t| !t.is_finite() || **t < 0.0) {
+        anyhow::bail!("tolerance {bad} must be a finite number ≥ 0");
+    }
+    for (flag, value) in [
+        ("--views", args.views),
+        ("--samples", args.samples),
+        ("--frames", args.frames),
+    ] {
+        if value == 0 {
+            anyhow::bail!("{flag} must be at least 1");
+        }
+    }
+    if args.up == Some([0.0; 3]) {
+        anyhow::bail!("--up must not be the zero vector");
+    }
+    Ok(())
+}
+
+pub fn run(args: TradeArgs) -> anyhow::Result<Outcome> {
+    // Everything the user typed, before any work.
+    validate(&args)?;
+    let (Some(repo_path), Some(source_path)) = (&args.repository, &args.source) else {
+        anyhow::bail!("usage: tessera bench REPO --source INPUT (or tessera bench build|render)");
+    };
+    if let Some(dir) = &args.plot {
+        std::fs::create_dir_all(dir)
+            .with_context(|| format!("cannot create --plot {}", dir.display()))?;
+    }
+    let stages = Stages::new("bench");
+
+    // The model and its original.
+    stages.stage("load");
+    let repo = Repository::open(repo_path)?;
+    let h = *repo.header();
+    let mesh = crate::cmd_bench_render::load_source_mesh(source_path, &repo)?;
+    stages.stage("reference BVH");
+    let t = Instant::now();
+    let reference = reference_mesh(&mesh, h.origin)?;
+    let reference_seconds = t.elapsed().as_secs_f64();
+    let peer_mesh = peer_mesh::PeerMesh::new(&mesh, h.origin);
+    drop(mesh);
+
+    // The peers' offline work.
+    stages.stage("discrete levels (meshopt::simplify)");
+    let levels = discrete_lod::build_levels(&peer_mesh);
+    stages.stage("cluster DAG (meshopt::clod_build)");
+    let dag = cluster_dag::build(&peer_mesh);
+
+    // The GPU side: every subject resident at once.
+    stages.stage("upload");
+    let ctx = GpuContext::new(args.adapter.as_deref())?;
+    let size = args.size;
+    let renderer = Renderer::new(
+        &ctx,
+        &repo,
+        RendererOptions {
+            width: size.0,
+            height: size.1,
+            budget_bytes: args.gpu_budget << 20,
+        },
+    )?;
+    let mut ours = ours::Ours::new(&repo, renderer);
+    let full_renderer = FullMeshRenderer::new(
+        &ctx,
+        &peer_mesh.positions,
+        &peer_mesh.triangles,
+        h.origin,
+        size.0,
+        size.1,
+    )
+    .with_context(|| format!("uploading {}", source_path.display()))?;
+    let mut full = full_resolution::FullResolution::new(&peer_mesh, full_renderer);
+    let centre = [0, 1, 2].map(|i| (0.5 * (h.bbox_min[i] + h.bbox_max[i]) - h.origin[i]) as f32);
+    let radius = bounding_radius(h.bbox_min, h.bbox_max) as f32;
+    let mut discrete =
+        discrete_lod::DiscreteLod::new(&ctx, &peer_mesh, levels, centre, radius, h.origin, size)?;
+    let mut cluster = cluster_dag::ClusterDag::new(&ctx, &peer_mesh, dag, h.origin, size)?;
+
+    // The measurement.
+    let up = args.up.unwrap_or(default_up(h.dimension));
+    let cameras = outside_cameras(&h, args.views, size, up);
+    let settings = Settings {
+        tolerances: args.tolerances.clone(),
+        frames: args.frames,
+        sampling: SamplingConfig {
+            samples_per_view: args.samples,
+            ..Default::default()
+        },
+        origin: h.origin,
+    };
+    let t = Instant::now();
+    let mut subjects: [&mut dyn Subject; 3] = [&mut ours, &mut discrete, &mut cluster];
+    let (rows, full_rows) = trade_off::measure(
+        &ctx,
+        &cameras,
+        &mut subjects,
+        Some(&mut full),
+        &reference,
+        &settings,
+        &|v| stages.stage(&format!("view {} of {}", v + 1, cameras.len())),
+    )?;
+    let measure_seconds = t.elapsed().as_secs_f64();
+    stages.finish();
+    let full_rows = full_rows.context("the full-resolution rows")?;
+    let (ours_rows, peers) = (&rows[0], [&full_rows, &rows[1], &rows[2]]);
+    let comparisons = verdict::compare(ours_rows, &peers);
+
+    // The report.
+    let all: Vec<&SubjectRows> = std::iter::once(ours_rows).chain(peers).collect();
+    let plots = match &args.plot {
+        Some(dir) => plots::write_plots(dir, &all)?,
+        None => Vec::new(),
+    };
+    let stats = cluster.stats();
+    let value = json!({
+        "adapter": ctx.adapter_description(),
+        "repository": repo_path.display().to_string(),
+        "source": source_path.display().to_string(),
+        "model_triangles": h.input_triangle_count,
+        "size": {"width": size.0, "height": size.1},
+        "views": cameras.len(),
+        "cameras": cameras.iter().map(|c| c.eye).collect::<Vec<_>>(),
+        "samples_per_view": args.samples,
+        "frames": args.frames,
+        "psnr_saturated_db": PSNR_SATURATED_DB,
+        "rows": ours_rows.rows.iter().map(report::row_json).collect::<Vec<_>>(),
+        "peers": peers.iter().map(|s| (s.name.to_string(), json!(s.rows.iter().map(report::row_json).collect::<Vec<_>>()))).collect::<serde_json::Map<_, _>>(),
+        "discrete_lod_levels": discrete.levels().map(|l| json!({
+            "fraction": l.fraction,
+            "triangles": l.triangles.len(),
+            "error": l.error,
+            "seconds": l.seconds,
+        })).collect::<Vec<_>>(),
+        "cluster_dag": {
+            "clusters": stats.clusters,
+            "groups": stats.groups,
+            "levels": stats.levels,
+            "max_triangles": cluster_dag::CLUSTER_TRIANGLES,
+            "seconds": stats.seconds,
+        },
+        "verdict": verdict::to_json(&comparisons),
+        "plots": plots.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
+        "seconds": {"reference_bvh": reference_seconds, "measure": measure_seconds},
+    });
+    if args.json {
+        println!("{value}");
+        return Ok(Outcome::Ok);
+    }
+    println!("adapter: {}", ctx.adapter_description());
+    println!(
+        "model: {} ({} triangles); {} views outside the bounding sphere, {}x{}; {} samples a \
+         view; {} timed frames per view and subject after 1 warm-up",
+        repo_path.display(),
+        h.input_triangle_count,
+        cameras.len(),
+        size.0,
+        size.1,
+        args.samples,
+        args.frames
+    );
+    for s in &all {
+        let title = match s.name {
+            "ours" => "ours (GPU traversal, stateless cut, frustum + cone culling)".to_string(),
+            "full_resolution" => "full_resolution (one draw; error 0 by definition)".to_string(),
+            "discrete_lod" => format!(
+                "discrete_lod (levels {}; one per object by distance; one draw)",
+                discrete
+                    .levels()
+                    .map(|l| format!(
+                        "{} tris err {:.2e}",
+                        verdict::group_digits(l.triangles.len() as f64),
+                        l.error
+                    ))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+            "cluster_dag" => format!(
+                "cluster_dag (clod_build: {} clusters in {} groups, {} levels; CPU cut with \
+                 frustum + cone culling, triangles uploaded per frame: in its CPU ms)",
+                stats.clusters, stats.groups, stats.levels
+            ),
+            other => other.to_string(),
+        };
+        println!();
+        for line in report::table(&title, &s.rows) {
+            println!("{line}");
+        }
+    }
+    println!();
+    println!("differ %: pixels with a channel off by > 8 levels; PSNR saturates at 99 dB");
+    println!("verdict (fewest triangles at equal measured p99 error):");
+    for line in verdict::lines(&comparisons) {
+        println!("{line}");
+    }
+    for p in &plots {
+        println!("plot written to {}", p.display());
+    }
+    Ok(Outcome::Ok)
+}

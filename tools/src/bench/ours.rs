@@ -1,0 +1,65 @@
+//! Ours: the repository drawn by `Renderer` (GPU traversal with the stateless rule ρ ≤ τ <
+//! ρ(parent), frustum and normal-cone culling, batched strips). The measured surface is what
+//! the GPU selected (`read_selection`), dequantised from the patches (`measure::drawn_cut`).
+
+use tessera_core::repository::reader::Repository;
+use tessera_runtime::camera::Camera;
+use tessera_runtime::gpu::{FrameRequest, GpuContext, Readback, Renderer};
+use tessera_runtime::measure::{drawn_cut, DrawnSurface, Surface};
+
+use super::subject::{Drawn, Subject};
+
+pub struct Ours<'r> {
+    repo: &'r Repository,
+    renderer: Renderer,
+    surface: DrawnSurface,
+}
+
+impl<'r> Ours<'r> {
+    /// `renderer` must hold `repo`, with a target of the cameras' size.
+    pub fn new(repo: &'r Repository, renderer: Renderer) -> Ours<'r> {
+        Ours {
+            repo,
+            renderer,
+            surface: DrawnSurface::default(),
+        }
+    }
+}
+
+impl Subject for Ours<'_> {
+    fn name(&self) -> &'static str {
+        "ours"
+    }
+
+    fn submit(&mut self, ctx: &GpuContext, camera: &Camera, tau: f32) -> anyhow::Result<f64> {
+        Ok(self
+            .renderer
+            .render(ctx, &FrameRequest::new(*camera, tau), Readback::default()))
+    }
+
+    fn gpu_ms(&self, ctx: &GpuContext) -> Option<f64> {
+        self.renderer.read_gpu_ms(ctx)
+    }
+
+    fn measured_frame(
+        &mut self,
+        ctx: &GpuContext,
+        camera: &Camera,
+        tau: f32,
+    ) -> anyhow::Result<(Drawn, image::RgbaImage)> {
+        let frame = self
+            .renderer
+            .render_and_read(ctx, &FrameRequest::new(*camera, tau));
+        self.surface = drawn_cut(self.repo, &frame.selection)?;
+        let drawn = Drawn {
+            patches: frame.selection.len() as u64,
+            triangles: frame.triangles,
+            level: None,
+        };
+        Ok((drawn, frame.image))
+    }
+
+    fn surface(&self) -> Surface<'_> {
+        self.surface.surface()
+    }
+}

@@ -1,0 +1,286 @@
+//! The trade-off plots (PNG, `plotters`), every subject on each:
+//!
+//! - `triangles_vs_tau.png`: triangles drawn against τ (log–log);
+//! - `error_vs_tau.png`: measured error against τ (log–log): p99 solid, max dashed, and the
+//!   line y = τ (the bound the cut rule aims at); a subject whose error is 0 (the full
+//!   resolution, by definition) has no point on a log axis and says so in its legend;
+//! - `frame_time_vs_tau.png`: wall milliseconds per frame against τ (log–log).
+//!
+//! Rows with τ ≤ 0 are left out (no place on a log axis). Each plot is drawn into memory and
+//! written through a temporary file (`output::save_png`). Text is drawn with DejaVu Sans
+//! embedded in the binary (`dejavu`, through plotters' pure-Rust `ab_glyph`): no system font
+//! library or font file is needed.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{anyhow, Context};
+use plotters::prelude::*;
+
+use super::trade_off::{Row, SubjectRows};
+use crate::output::save_png;
+
+/// The file names, in the order `write_plots` returns them.
+pub const PLOT_FILES: [&str; 3] = [
+    "triangles_vs_tau.png",
+    "error_vs_tau.png",
+    "frame_time_vs_tau.png",
+];
+
+const SIZE: (u32, u32) = (960, 640);
+
+/// A subject's colour: ours red, the peers in fixed colours.
+fn colour(name: &str) -> RGBColor {
+    match name {
+        "ours" => RGBColor(214, 39, 40),
+        "full_resolution" => RGBColor(60, 60, 60),
+        "discrete_lod" => RGBColor(31, 119, 180),
+        "cluster_dag" => RGBColor(44, 160, 44),
+        _ => RGBColor(148, 103, 189),
+    }
+}
+
+/// A value range for a log axis: the positive values, widened to whole decades (so that the
+/// axis has labels), or [1, 10].
+fn log_range(values: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
+    let (lo, hi) = values
+        .filter(|v| *v > 0.0 && v.is_finite())
+        .fold((f64::INFINITY, 0.0f64), |(lo, hi), v| {
+            (lo.min(v), hi.max(v))
+        });
+    if lo.is_finite() && hi > 0.0 {
+        10f64.powf((lo / 1.2).log10().floor())..10f64.powf((hi * 1.2).log10().ceil())
+    } else {
+        1.0..10.0
+    }
+}
+
+/// The τ axis: the positive tolerances, widened a little (no empty decades).
+fn tau_range(taus: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
+    let (lo, hi) = taus
+        .filter(|v| *v > 0.0 && v.is_finite())
+        .fold((f64::INFINITY, 0.0f64), |(lo, hi), v| {
+            (lo.min(v), hi.max(v))
+        });
+    if lo.is_finite() && hi > 0.0 {
+        lo / 1.4..hi * 1.4
+    } else {
+        1.0..10.0
+    }
+}
+
+/// An axis label: integers with thousands separators, small numbers with their digits.
+fn label(v: &f64) -> String {
+    if *v >= 1.0 {
+        super::verdict::group_digits(*v)
+    } else {
+        format!("{}", (*v * 1e6).round() / 1e6)
+    }
+}
+
+/// One plot: `value` of each row against τ, for every subject; `extra` draws more series.
+struct Plot<'a> {
+    file: &'a str,
+    caption: &'a str,
+    y_label: &'a str,
+    /// Where the legend goes (away from the curves).
+    legend: SeriesLabelPosition,
+}
+
+type Chart<'a, 'b> = ChartContext<
+    'a,
+    BitMapBackend<'b>,
+    Cartesian2d<
+        plotters::coord::combinators::LogCoord<f64>,
+        plotters::coord::combinators::LogCoord<f64>,
+    >,
+>;
+
+fn draw_plot(
+    dir: &Path,
+    plot: &Plot<'_>,
+    taus: std::ops::Range<f64>,
+    values: std::ops::Range<f64>,
+    series: impl FnOnce(&mut Chart<'_, '_>) -> anyhow::Result<()>,
+) -> anyhow::Result<PathBuf> {
+    let mut buffer = vec![0u8; (SIZE.0 * SIZE.1 * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut buffer, SIZE).into_drawing_area();
+        let err = |e: &dyn std::fmt::Display| anyhow!("drawing {}: {e}", plot.file);
+        root.fill(&WHITE).map_err(|e| err(&e))?;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(plot.caption, ("sans-serif", 22))
+            .margin(16)
+            .x_label_area_size(48)
+            .y_label_area_size(80)
+            .build_cartesian_2d(taus.log_scale(), values.log_scale())
+            .map_err(|e| err(&e))?;
+        chart
+            .configure_mesh()
+            .x_desc("tolerance τ (px)")
+            .y_desc(plot.y_label)
+            .x_label_formatter(&label)
+            .y_label_formatter(&label)
+            .label_style(("sans-serif", 15))
+            .draw()
+            .map_err(|e| err(&e))?;
+        series(&mut chart)?;
+        chart
+            .configure_series_labels()
+            .position(plot.legend.clone())
+            .label_font(("sans-serif", 15))
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .draw()
+            .map_err(|e| err(&e))?;
+        root.present().map_err(|e| err(&e))?;
+    }
+    let image = image::RgbImage::from_raw(SIZE.0, SIZE.1, buffer).context("plot buffer size")?;
+    let path = dir.join(plot.file);
+    save_png(&image::DynamicImage::ImageRgb8(image).to_rgba8(), &path)?;
+    Ok(path)
+}
+
+/// Points (τ, value) of the rows with τ > 0 and a positive value.
+fn points(rows: &[Row], value: impl Fn(&Row) -> Option<f64>) -> Vec<(f64, f64)> {
+    rows.iter()
+        .filter(|r| r.tolerance > 0.0)
+        .filter_map(|r| Some((r.tolerance as f64, value(r).filter(|v| *v > 0.0)?)))
+        .collect()
+}
+
+/// A solid line with dots, labelled in the legend.
+fn line(
+    chart: &mut Chart<'_, '_>,
+    name: &str,
+    points: Vec<(f64, f64)>,
+    label: String,
+) -> anyhow::Result<()> {
+    let c = colour(name);
+    let err = |e: &dyn std::fmt::Display| anyhow!("drawing {name}: {e}");
+    chart
+        .draw_series(LineSeries::new(points.clone(), c.stroke_width(2)))
+        .map_err(|e| err(&e))?
+        .label(label)
+        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], c.stroke_width(2)));
+    chart
+        .draw_series(points.into_iter().map(|p| Circle::new(p, 3, c.filled())))
+        .map_err(|e| err(&e))?;
+    Ok(())
+}
+
+/// Registers the embedded font as plotters' "sans-serif" (idempotent).
+fn register_font() -> anyhow::Result<()> {
+    plotters::style::register_font("sans-serif", FontStyle::Normal, dejavu::sans::regular())
+        .map_err(|_| anyhow!("the embedded DejaVu Sans font does not parse"))
+}
+
+/// Writes the three plots into `dir` (created if missing); returns their paths.
+pub fn write_plots(dir: &Path, subjects: &[&SubjectRows]) -> anyhow::Result<Vec<PathBuf>> {
+    std::fs::create_dir_all(dir)
+        .with_context(|| format!("cannot create --plot {}", dir.display()))?;
+    register_font()?;
+    let all_rows = || subjects.iter().flat_map(|s| s.rows.iter());
+    let taus = tau_range(all_rows().map(|r| r.tolerance as f64));
+    let mut written = Vec::new();
+
+    // Triangles.
+    written.push(draw_plot(
+        dir,
+        &Plot {
+            file: PLOT_FILES[0],
+            caption: "Triangles drawn",
+            y_label: "triangles (mean over views)",
+            legend: SeriesLabelPosition::UpperRight,
+        },
+        taus.clone(),
+        log_range(all_rows().map(|r| r.triangles)),
+        |chart| {
+            for s in subjects {
+                line(
+                    chart,
+                    s.name,
+                    points(&s.rows, |r| Some(r.triangles)),
+                    s.name.to_string(),
+                )?;
+            }
+            Ok(())
+        },
+    )?);
+
+    // Measured error, with y = τ.
+    let errors = all_rows()
+        .filter_map(|r| r.error)
+        .flat_map(|e| [e.p99_px, e.max_px])
+        .chain(all_rows().map(|r| r.tolerance as f64));
+    written.push(draw_plot(
+        dir,
+        &Plot {
+            file: PLOT_FILES[1],
+            caption: "Measured screen-space error (p99 solid, max dashed)",
+            y_label: "error (px)",
+            legend: SeriesLabelPosition::UpperLeft,
+        },
+        taus.clone(),
+        log_range(errors),
+        |chart| {
+            let err = |e: &dyn std::fmt::Display| anyhow!("drawing y = τ: {e}");
+            chart
+                .draw_series(LineSeries::new(
+                    [taus.start, taus.end].map(|t| (t, t)),
+                    BLACK.stroke_width(1),
+                ))
+                .map_err(|e| err(&e))?
+                .label("y = τ")
+                .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], BLACK));
+            for s in subjects {
+                let p99 = points(&s.rows, |r| r.error.map(|e| e.p99_px));
+                if p99.is_empty() {
+                    // Nothing positive: say why it is not on the plot.
+                    let c = colour(s.name);
+                    chart
+                        .draw_series(std::iter::empty::<Circle<(f64, f64), i32>>())
+                        .map_err(|e| err(&e))?
+                        .label(format!("{}: error 0 (not on a log axis)", s.name))
+                        .legend(move |(x, y)| {
+                            PathElement::new(vec![(x, y), (x + 24, y)], c.stroke_width(2))
+                        });
+                    continue;
+                }
+                line(chart, s.name, p99, format!("{} p99", s.name))?;
+                let max = points(&s.rows, |r| r.error.map(|e| e.max_px));
+                let c = colour(s.name);
+                chart
+                    .draw_series(DashedLineSeries::new(max, 8, 5, c.stroke_width(1)))
+                    .map_err(|e| err(&e))?
+                    .label(format!("{} max", s.name))
+                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], c));
+            }
+            Ok(())
+        },
+    )?);
+
+    // Frame time.
+    written.push(draw_plot(
+        dir,
+        &Plot {
+            file: PLOT_FILES[2],
+            caption: "Frame time (wall: record, submit, GPU, wait)",
+            y_label: "wall ms per frame (mean over views)",
+            legend: SeriesLabelPosition::UpperRight,
+        },
+        taus,
+        log_range(all_rows().map(|r| r.wall_ms)),
+        |chart| {
+            for s in subjects {
+                line(
+                    chart,
+                    s.name,
+                    points(&s.rows, |r| Some(r.wall_ms)),
+                    s.name.to_string(),
+                )?;
+            }
+            Ok(())
+        },
+    )?);
+    Ok(written)
+}

@@ -1,0 +1,83 @@
+//! The trade-off report: rows as JSON (the keys pipeline scripts parse) and as a table.
+//!
+//! Row keys, fixed: `tolerance`, `patches`, `triangles`, `cpu_ms`, `gpu_ms`, `error_max_px`,
+//! `error_p99_px`, `error_mean_px`, `pixels_differing`, `psnr`; added: `wall_ms`, `views`,
+//! `error_samples`, and `level` for a subject with discrete levels. `pixels_differing` is a
+//! share in [0, 1] (mean over views); `psnr` is in dB, of the views' mean MSE, saturated at
+//! 99 (identical frames); `gpu_ms` is null
+//! without timestamps (and misses compute passes on lavapipe: compare `wall_ms` there).
+
+use serde_json::json;
+
+use super::trade_off::Row;
+use super::verdict::group_digits;
+
+/// A row as JSON.
+pub fn row_json(row: &Row) -> serde_json::Value {
+    let mut v = json!({
+        "tolerance": row.tolerance,
+        "patches": row.patches,
+        "triangles": row.triangles,
+        "cpu_ms": row.cpu_ms,
+        "gpu_ms": row.gpu_ms,
+        "wall_ms": row.wall_ms,
+        "error_max_px": row.error.map(|e| e.max_px),
+        "error_p99_px": row.error.map(|e| e.p99_px),
+        "error_mean_px": row.error.map(|e| e.mean_px),
+        "error_samples": row.error.map_or(0, |e| e.samples),
+        "pixels_differing": row.pixels_differing,
+        "psnr": row.psnr,
+        "views": row.views,
+    });
+    if let Some(level) = row.level {
+        v["level"] = json!(level);
+    }
+    v
+}
+
+fn number(x: Option<f64>, digits: usize) -> String {
+    x.filter(|x| x.is_finite())
+        .map_or("n/a".to_string(), |x| format!("{x:.digits$}"))
+}
+
+/// The table of one subject's rows, a title line first.
+pub fn table(title: &str, rows: &[Row]) -> Vec<String> {
+    let mut lines = vec![title.to_string()];
+    lines.push(format!(
+        "{:>6} {:>9} {:>10} {:>9} {:>9} {:>9} {:>7} {:>8} {:>6} {:>9} {:>8} {:>8}",
+        "τ px",
+        "patches",
+        "triangles",
+        "p99 px",
+        "max px",
+        "mean px",
+        "p99/τ",
+        "differ %",
+        "PSNR",
+        "wall ms",
+        "GPU ms",
+        "CPU ms",
+    ));
+    for r in rows {
+        let ratio = r
+            .error
+            .filter(|_| r.tolerance > 0.0)
+            .map(|e| e.p99_px / r.tolerance as f64);
+        lines.push(format!(
+            "{:>6} {:>9} {:>10} {:>9} {:>9} {:>9} {:>7} {:>8} {:>6} {:>9} {:>8} {:>8}",
+            r.tolerance,
+            group_digits(r.patches),
+            group_digits(r.triangles),
+            number(r.error.map(|e| e.p99_px), 3),
+            number(r.error.map(|e| e.max_px), 3),
+            number(r.error.map(|e| e.mean_px), 3),
+            number(ratio, 2),
+            number(r.pixels_differing.map(|d| 100.0 * d), 2),
+            number(r.psnr, 1),
+            number(Some(r.wall_ms), 2),
+            number(r.gpu_ms, 2),
+            number(Some(r.cpu_ms), 3),
+        ));
+    }
+    lines
+}

@@ -1,0 +1,235 @@
+//! The measurement loop of the trade-off benchmark: every subject at every τ over every view,
+//! measured (counts, geometric error, image against the full resolution) and timed.
+//!
+//! Per view:
+//! 1. the full-resolution frame (when that peer is there): the reference picture;
+//! 2. one measured frame per (subject, τ): counts, the surface drawn sampled against the
+//!    original mesh (`measure::pixel_errors`), the image against the reference;
+//! 3. timed rounds: one warm-up round, then `frames` rounds, each drawing one frame of every
+//!    (subject, τ) in turn — interleaved, so that the shared machine's drifting load hits every
+//!    subject alike — each frame waited for. Per view the median of each time is kept.
+//!
+//! Per (subject, τ) the rows average the per-view numbers (counts, median times, share of
+//! differing pixels, MSE — the PSNR is the mean MSE's) and pool the error samples of all views
+//! before summarising them.
+
+use tessera_runtime::camera::Camera;
+use tessera_runtime::gpu::GpuContext;
+use tessera_runtime::measure::{
+    compare_images, pixel_errors, psnr_of_mse, ErrorSummary, ReferenceMesh, SamplingConfig,
+    DIFF_THRESHOLD, PSNR_SATURATED_DB,
+};
+
+use super::subject::{timed_frame, FrameTimes, Subject};
+
+/// What to measure.
+#[derive(Clone, Debug)]
+pub struct Settings {
+    /// Pixel tolerances τ, one row each.
+    pub tolerances: Vec<f32>,
+    /// Timed frames per (view, subject, τ), after one warm-up frame.
+    pub frames: usize,
+    /// Samples per view (the seed is offset by the view's index).
+    pub sampling: SamplingConfig,
+    /// The repository origin: the frame of every surface and of the reference mesh.
+    pub origin: [f64; 3],
+}
+
+/// One subject at one τ, averaged over the views.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Row {
+    pub tolerance: f32,
+    pub views: usize,
+    /// Mean over views.
+    pub patches: f64,
+    pub triangles: f64,
+    /// Mean level drawn, for a subject with discrete levels.
+    pub level: Option<f64>,
+    /// Mean over views of the per-view median.
+    pub cpu_ms: f64,
+    pub wall_ms: f64,
+    /// `None` where the adapter has no timestamps.
+    pub gpu_ms: Option<f64>,
+    /// Over the samples of all views; `None` when no sample was on screen.
+    pub error: Option<ErrorSummary>,
+    /// Mean over views of the share of differing pixels; `None` without a reference picture.
+    pub pixels_differing: Option<f64>,
+    /// PSNR (dB) of the views' mean MSE — of all the views' frames as one — saturated at
+    /// `PSNR_SATURATED_DB`; `None` without a reference picture. (Not the mean of per-view
+    /// PSNRs: one identical view would weigh 99 dB into it.)
+    pub psnr: Option<f64>,
+}
+
+/// A subject's rows, one per τ.
+#[derive(Clone, Debug)]
+pub struct SubjectRows {
+    pub name: &'static str,
+    pub rows: Vec<Row>,
+}
+
+/// Sums over views for one (subject, τ).
+#[derive(Clone, Debug, Default)]
+struct Tally {
+    views: usize,
+    patches: f64,
+    triangles: f64,
+    levels: Option<f64>,
+    cpu_ms: f64,
+    wall_ms: f64,
+    gpu_ms: Option<f64>,
+    gpu_missing: bool,
+    errors: Vec<f64>,
+    differing: Option<f64>,
+    mse: Option<f64>,
+}
+
+impl Tally {
+    fn add_times(&mut self, times: &[FrameTimes]) {
+        let median = |mut v: Vec<f64>| {
+            v.sort_by(f64::total_cmp);
+            v[(v.len() - 1) / 2]
+        };
+        self.cpu_ms += median(times.iter().map(|t| t.cpu_ms).collect());
+        self.wall_ms += median(times.iter().map(|t| t.wall_ms).collect());
+        let gpu: Vec<f64> = times.iter().filter_map(|t| t.gpu_ms).collect();
+        if gpu.len() == times.len() && !gpu.is_empty() {
+            *self.gpu_ms.get_or_insert(0.0) += median(gpu);
+        } else {
+            self.gpu_missing = true;
+        }
+    }
+
+    fn row(&self, tolerance: f32) -> Row {
+        let n = self.views.max(1) as f64;
+        Row {
+            tolerance,
+            views: self.views,
+            patches: self.patches / n,
+            triangles: self.triangles / n,
+            level: self.levels.map(|l| l / n),
+            cpu_ms: self.cpu_ms / n,
+            wall_ms: self.wall_ms / n,
+            gpu_ms: (!self.gpu_missing)
+                .then_some(self.gpu_ms)
+                .flatten()
+                .map(|g| g / n),
+            error: ErrorSummary::of(&self.errors),
+            pixels_differing: self.differing.map(|d| d / n),
+            psnr: self.mse.map(|mse| psnr_of_mse(mse / n)),
+        }
+    }
+}
+
+/// Measures `subjects` (and `full`, the full-resolution peer, when given: the reference
+/// picture and the baseline time) at every τ of `settings` from every camera. `on_view` is
+/// called before each view (progress). The full-resolution rows repeat its per-view numbers
+/// at every τ, with error 0 by definition, no differing pixel and a saturated PSNR.
+pub fn measure(
+    ctx: &GpuContext,
+    cameras: &[Camera],
+    subjects: &mut [&mut dyn Subject],
+    mut full: Option<&mut dyn Subject>,
+    reference: &ReferenceMesh,
+    settings: &Settings,
+    on_view: &dyn Fn(usize),
+) -> anyhow::Result<(Vec<SubjectRows>, Option<SubjectRows>)> {
+    let taus = &settings.tolerances;
+    let mut tallies = vec![vec![Tally::default(); taus.len()]; subjects.len()];
+    let mut full_tally = Tally::default();
+    for (v, camera) in cameras.iter().enumerate() {
+        on_view(v);
+        // 1. The reference picture.
+        let reference_image = match full.as_deref_mut() {
+            Some(f) => {
+                let (drawn, image) = f.measured_frame(ctx, camera, 0.0)?;
+                full_tally.views += 1;
+                full_tally.patches += drawn.patches as f64;
+                full_tally.triangles += drawn.triangles as f64;
+                Some(image)
+            }
+            None => None,
+        };
+        // 2. One measured frame per (subject, τ).
+        let sampling = SamplingConfig {
+            seed: settings.sampling.seed.wrapping_add(v as u64),
+            ..settings.sampling
+        };
+        for (subject, tallies) in subjects.iter_mut().zip(&mut tallies) {
+            for (&tau, tally) in taus.iter().zip(tallies.iter_mut()) {
+                let (drawn, image) = subject.measured_frame(ctx, camera, tau)?;
+                let errors = pixel_errors(
+                    reference,
+                    subject.surface(),
+                    camera,
+                    settings.origin,
+                    &sampling,
+                );
+                tally.views += 1;
+                tally.patches += drawn.patches as f64;
+                tally.triangles += drawn.triangles as f64;
+                if let Some(level) = drawn.level {
+                    *tally.levels.get_or_insert(0.0) += level as f64;
+                }
+                tally.errors.extend(errors.errors_px);
+                if let Some(reference_image) = &reference_image {
+                    let diff = compare_images(&image, reference_image, DIFF_THRESHOLD);
+                    *tally.differing.get_or_insert(0.0) += diff.differing_share();
+                    *tally.mse.get_or_insert(0.0) += diff.mse;
+                }
+            }
+        }
+        // 3. Timed rounds, interleaved.
+        let mut times = vec![vec![Vec::new(); taus.len()]; subjects.len()];
+        let mut full_times = Vec::new();
+        for round in 0..=settings.frames {
+            for (subject, times) in subjects.iter_mut().zip(&mut times) {
+                for (&tau, times) in taus.iter().zip(times.iter_mut()) {
+                    let t = timed_frame(&mut **subject, ctx, camera, tau)?;
+                    if round > 0 {
+                        times.push(t);
+                    }
+                }
+            }
+            if let Some(f) = full.as_deref_mut() {
+                let t = timed_frame(f, ctx, camera, 0.0)?;
+                if round > 0 {
+                    full_times.push(t);
+                }
+            }
+        }
+        for (tallies, times) in tallies.iter_mut().zip(&times) {
+            for (tally, times) in tallies.iter_mut().zip(times) {
+                tally.add_times(times);
+            }
+        }
+        if full.is_some() {
+            full_tally.add_times(&full_times);
+        }
+    }
+    let rows = subjects
+        .iter()
+        .zip(&tallies)
+        .map(|(s, tallies)| SubjectRows {
+            name: s.name(),
+            rows: taus.iter().zip(tallies).map(|(&t, y)| y.row(t)).collect(),
+        })
+        .collect();
+    let full_rows = full.map(|f| SubjectRows {
+        name: f.name(),
+        rows: taus
+            .iter()
+            .map(|&tau| Row {
+                error: Some(ErrorSummary {
+                    samples: 0,
+                    max_px: 0.0,
+                    p99_px: 0.0,
+                    mean_px: 0.0,
+                }),
+                pixels_differing: Some(0.0),
+                psnr: Some(PSNR_SATURATED_DB),
+                ..full_tally.row(tau)
+            })
+            .collect(),
+    });
+    Ok((rows, full_rows))
+}
