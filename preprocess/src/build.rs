@@ -35,8 +35,31 @@ pub struct BuildConfig {
     pub construction: Construction,
     /// Worker threads; None = one per core.
     pub threads: Option<usize>,
-    /// log2 of the lattice cube side: bounds the depth at 3·bits levels.
+    /// log2 of the lattice cube side: bounds the depth at dimension · bits levels.
     pub lattice_bits: u32,
+    /// What the hierarchy subdivides: tetrahedra for any mesh, triangles for a height field.
+    pub domain: Domain,
+}
+
+/// The space the LEB hierarchy subdivides.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Domain {
+    /// Tetrahedra over the model's bounding cube (3D LEB): any triangle mesh.
+    Volume,
+    /// Right triangles over the square around the model's x, y extent (2D LEB, BDAM's pair of
+    /// bintrees): a height field, z being the height; triangles are located by their (x, y)
+    /// barycentre.
+    HeightField,
+}
+
+impl Domain {
+    /// The LEB dimension: 3 or 2.
+    pub fn dim(self) -> u8 {
+        match self {
+            Domain::Volume => 3,
+            Domain::HeightField => 2,
+        }
+    }
 }
 
 impl Default for BuildConfig {
@@ -45,6 +68,7 @@ impl Default for BuildConfig {
             construction: Construction::LeafTriangles(DEFAULT_LEAF_TRIANGLES),
             threads: None,
             lattice_bits: 20,
+            domain: Domain::Volume,
         }
     }
 }
@@ -141,7 +165,8 @@ fn validate(mesh: &InputMesh, config: &BuildConfig) -> Result<(), BuildError> {
     // Spheres and errors are stored in f32 relative to the model: its extent must leave f32
     // room (1e30 is far beyond any real model and far below f32::MAX ≈ 3.4e38).
     let (lo, hi) = bounding_box(&mesh.positions);
-    if let Some(axis) = (0..3).find(|&i| !(hi[i] - lo[i] <= MAX_EXTENT)) {
+    // (Extents are finite: the coordinates were checked above.)
+    if let Some(axis) = (0..3).find(|&i| hi[i] - lo[i] > MAX_EXTENT) {
         return Err(BuildError::TooLarge {
             axis,
             extent: hi[axis] - lo[axis],
@@ -173,10 +198,10 @@ fn validate(mesh: &InputMesh, config: &BuildConfig) -> Result<(), BuildError> {
         Construction::LeafTriangles(0) => Err(BuildError::Config(
             "leaf triangles must be at least 1".into(),
         )),
-        Construction::Levels(l) if l as u32 > 3 * config.lattice_bits => {
+        Construction::Levels(l) if l as u32 > config.domain.dim() as u32 * config.lattice_bits => {
             Err(BuildError::Config(format!(
                 "{l} levels exceed the lattice's {} levels",
-                3 * config.lattice_bits
+                config.domain.dim() as u32 * config.lattice_bits
             )))
         }
         _ => Ok(()),
@@ -195,7 +220,8 @@ fn build_in_pool(
     // computation is relative to it, see frame.rs), lattice cube.
     let (bbox_min, bbox_max) = bounding_box(&mesh.positions);
     let origin = bbox_min;
-    let frame = LatticeFrame::around_box(bbox_min, bbox_max, config.lattice_bits);
+    let frame =
+        LatticeFrame::around_box(bbox_min, bbox_max, config.lattice_bits, config.domain.dim());
     let levels = (1u64 << POSITION_BITS) as f64 - 1.0;
     let step = [0, 1, 2].map(|i| (bbox_max[i] - bbox_min[i]) / levels);
     let model_size = crate::frame::diagonal(bbox_min, bbox_max).max(f64::MIN_POSITIVE);
@@ -339,7 +365,7 @@ fn build_in_pool(
     stage("strips", t);
 
     let header = Header {
-        dimension: 3,
+        dimension: config.domain.dim() as u32,
         attributes,
         root_tet_count: hierarchy.mesh.roots().len() as u64,
         input_vertex_count: mesh.positions.len() as u64,

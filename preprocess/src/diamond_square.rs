@@ -168,7 +168,11 @@ pub fn generate(params: &TerrainParams) -> Result<HeightGrid, TerrainError> {
         }
         // Diamond step: the midpoints of the squares' edges, from their 3 or 4 neighbours.
         for y in (0..n).step_by(half) {
-            let start = if (y / half).is_multiple_of(2) { half } else { 0 };
+            let start = if (y / half).is_multiple_of(2) {
+                half
+            } else {
+                0
+            };
             for x in (start..n).step_by(step) {
                 let mut sum = 0.0;
                 let mut count = 0.0;

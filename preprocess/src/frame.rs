@@ -11,9 +11,12 @@
 //! boundary) and is divided into `2^bits` lattice units per side; every LEB vertex is an
 //! integer lattice point. Triangles are located by their barycentre in lattice coordinates.
 
-/// Maps model space to lattice coordinates of the cube `[0, 2^bits]^3`.
+/// Maps model space to lattice coordinates of the cube `[0, 2^bits]^3` (3D), or of the square
+/// `[0, 2^bits]^2` over x and y (2D, height fields: z is the height and plays no part).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LatticeFrame {
+    /// 3 (tetrahedra over a cube) or 2 (triangles over a square in the x, y plane).
+    pub dim: u8,
     /// Model-space point every build computation is relative to (the bounding box minimum).
     pub model_origin: [f64; 3],
     /// Position of lattice point 0 relative to `model_origin`.
@@ -28,10 +31,14 @@ pub struct LatticeFrame {
 const CUBE_MARGIN: f64 = 0.01;
 
 impl LatticeFrame {
-    /// A cube around `[lo, hi]`, centred on the box, side `max extent · (1 + 2·margin)`, with
-    /// `lo` as the model origin.
-    pub fn around_box(lo: [f64; 3], hi: [f64; 3], bits: u32) -> LatticeFrame {
-        let extent = [0, 1, 2].map(|i| hi[i] - lo[i]);
+    /// A cube (or, for `dim` 2, a square in x and y) around `[lo, hi]`, centred on the box,
+    /// side `max extent · (1 + 2·margin)` over the axes it spans, with `lo` as the model origin.
+    pub fn around_box(lo: [f64; 3], hi: [f64; 3], bits: u32, dim: u8) -> LatticeFrame {
+        assert!(dim == 2 || dim == 3, "dimension must be 2 or 3");
+        let mut extent = [0, 1, 2].map(|i| hi[i] - lo[i]);
+        if dim == 2 {
+            extent[2] = 0.0;
+        }
         let largest = extent.iter().copied().fold(0.0, f64::max);
         // A degenerate (point) mesh still gets a unit cube.
         let side = if largest > 0.0 {
@@ -40,6 +47,7 @@ impl LatticeFrame {
             1.0
         };
         LatticeFrame {
+            dim,
             model_origin: lo,
             origin: extent.map(|e| 0.5 * e - 0.5 * side),
             unit: side / (1u64 << bits) as f64,
@@ -53,10 +61,14 @@ impl LatticeFrame {
         [0, 1, 2].map(|i| p[i] - self.model_origin[i])
     }
 
-    /// Lattice coordinates of a point given relative to the model origin.
+    /// Lattice coordinates of a point given relative to the model origin (z = 0 in 2D).
     #[inline]
     pub fn to_lattice(&self, r: [f64; 3]) -> [f64; 3] {
-        [0, 1, 2].map(|i| (r[i] - self.origin[i]) / self.unit)
+        let mut q = [0, 1, 2].map(|i| (r[i] - self.origin[i]) / self.unit);
+        if self.dim == 2 {
+            q[2] = 0.0;
+        }
+        q
     }
 
     /// Lattice coordinates of a triangle's barycentre (model-space corners): the corners are

@@ -43,14 +43,14 @@ pub fn build_hierarchy(
     barycenters: &[[f64; 3]],
     construction: Construction,
 ) -> Hierarchy {
-    let mut mesh = ConformingMesh::new(3, frame.bits);
+    let mut mesh = ConformingMesh::new(frame.dim, frame.bits);
     // Each leaf's triangles, in input order, with their barycentres beside them: partitioning
     // then streams through memory instead of gathering barycentres from all over the input.
     let mut leaf_triangles: HashMap<SimplexKey, Vec<Located>> =
         mesh.roots().iter().map(|r| (r.key, Vec::new())).collect();
     let roots: Vec<Simplex> = mesh.roots().to_vec();
     for (t, b) in barycenters.iter().enumerate() {
-        let root = roots[Simplex::root_index_of(3, *b) as usize];
+        let root = roots[Simplex::root_index_of(frame.dim, *b) as usize];
         leaf_triangles.get_mut(&root.key).unwrap().push(Located {
             barycenter: *b,
             triangle: t as u32,

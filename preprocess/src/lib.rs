@@ -17,6 +17,6 @@ pub mod saturate;
 pub mod simplify;
 pub mod strips;
 
-pub use build::{build_contents, build_repository, BuildConfig, BuildError, BuildSummary};
+pub use build::{build_contents, build_repository, BuildConfig, BuildError, BuildSummary, Domain};
 pub use hierarchy::Construction;
 pub use mesh::InputMesh;

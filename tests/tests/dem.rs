@@ -72,3 +72,29 @@ fn volcano_from_json() {
     assert!(!g.geographic);
     assert_eq!(g.heights[0], 103.0);
 }
+
+/// The Jacksboro DEM as a height field: 2D hierarchy, every cut closed where the grid is.
+#[test]
+fn jacksboro_builds_on_the_2d_hierarchy_and_checks_clean() {
+    use tessera_preprocess::{BuildConfig, Domain};
+    use tessera_runtime::geometric_check::{check_cuts, decode_all_patches, CheckConfig};
+    let grid = load_dem(
+        &testdata("dem/jacksboro_fault_dem.npz"),
+        &DemOptions::default(),
+    )
+    .unwrap();
+    let mesh = grid.to_mesh(&TerrainOptions::default());
+    let built = tessera_tests::build(
+        &mesh,
+        &BuildConfig {
+            domain: Domain::HeightField,
+            ..Default::default()
+        },
+    );
+    assert_eq!(built.repo.header().dimension, 2);
+    let patches = decode_all_patches(&built.repo).unwrap();
+    let report = check_cuts(&built.repo, &patches, &CheckConfig::default());
+    eprintln!("{:?}\n{report:?}", built.summary);
+    assert!(report.is_clean(), "{report:?}");
+    assert!(report.min_triangles < report.max_triangles / 10);
+}
