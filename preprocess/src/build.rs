@@ -19,7 +19,7 @@ use crate::frame::LatticeFrame;
 use crate::hierarchy::{build_hierarchy, Construction, Hierarchy};
 use crate::mesh::InputMesh;
 use crate::saturate::saturate;
-use crate::simplify::{simplify_hierarchy, CurrentMesh};
+use crate::simplify::{simplify_hierarchy, CurrentMesh, SimplifySettings};
 use crate::strips::build_patch;
 
 /// Default maximum triangles per leaf; chosen by the sweep in ARCHITECTURE.md.
@@ -39,6 +39,8 @@ pub struct BuildConfig {
     pub lattice_bits: u32,
     /// What the hierarchy subdivides: tetrahedra for any mesh, triangles for a height field.
     pub domain: Domain,
+    /// How each diamond is simplified.
+    pub simplify: SimplifySettings,
 }
 
 /// The space the LEB hierarchy subdivides.
@@ -69,6 +71,7 @@ impl Default for BuildConfig {
             threads: None,
             lattice_bits: 20,
             domain: Domain::Volume,
+            simplify: SimplifySettings::default(),
         }
     }
 }
@@ -188,6 +191,17 @@ fn validate(mesh: &InputMesh, config: &BuildConfig) -> Result<(), BuildError> {
             return Err(BuildError::RepeatedVertex { index, vertex });
         }
     }
+    let SimplifySettings {
+        keep,
+        normal_weight,
+    } = config.simplify;
+    let keep_ok = keep > 0.0 && keep < 1.0;
+    let weight_ok = normal_weight >= 0.0 && normal_weight.is_finite();
+    if !keep_ok || !weight_ok {
+        return Err(BuildError::Config(format!(
+            "simplifier keep {keep} must be in (0, 1), normal weight {normal_weight} ≥ 0"
+        )));
+    }
     if !(4..=30).contains(&config.lattice_bits) {
         return Err(BuildError::Config(format!(
             "lattice bits {} not in 4..=30",
@@ -245,7 +259,7 @@ fn build_in_pool(
     // 2. Simplification, diamond by diamond, finest first, borders locked.
     on_stage("simplify");
     let t = Instant::now();
-    let simplified = simplify_hierarchy(mesh, &hierarchy, current);
+    let simplified = simplify_hierarchy(mesh, &hierarchy, current, &config.simplify);
     stage("simplify", t);
 
     // 3. Table order: breadth-first from the roots, so roots come first and siblings are

@@ -20,3 +20,4 @@ pub mod strips;
 pub use build::{build_contents, build_repository, BuildConfig, BuildError, BuildSummary, Domain};
 pub use hierarchy::Construction;
 pub use mesh::InputMesh;
+pub use simplify::SimplifySettings;

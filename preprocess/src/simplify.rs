@@ -94,12 +94,37 @@ struct Context<'a> {
     positions: Vec<[f32; 3]>,
     /// Model units per unit of `positions` (meshopt's errors are multiplied by it).
     size: f64,
+    settings: SimplifySettings,
+}
+
+/// How each diamond is simplified.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SimplifySettings {
+    /// Share of its gathered triangles a diamond aims to keep. A diamond has half as many
+    /// simplices as the children it replaces, so 0.5 keeps patches about the same size at
+    /// every level; less makes coarse patches smaller (coarser faster), more larger.
+    pub keep: f32,
+    /// Weight of unit normals against positions (in model sizes) in meshopt's attribute
+    /// metric, where the input has normals: at 0.05 a normal turned by one radian weighs like a
+    /// displacement of 5 % of the model — a mild preference for keeping shading, the same for
+    /// every model whatever its units.
+    pub normal_weight: f32,
+}
+
+impl Default for SimplifySettings {
+    fn default() -> Self {
+        SimplifySettings {
+            keep: 0.5,
+            normal_weight: 0.05,
+        }
+    }
 }
 
 /// Simplifies every split diamond of `hierarchy`, finest level first.
 /// Positions go to meshopt relative to the model origin and in model sizes (`LatticeFrame`), in
-/// f32; normals (if any) are simplification attributes; errors come back in model units. `current` is `CurrentMesh::new(mesh)` (built by the caller so
-/// that it can overlap with the hierarchy's construction).
+/// f32; normals (if any) are simplification attributes; errors come back in model units.
+/// `current` is `CurrentMesh::new(mesh)` (built by the caller so that it can overlap with the
+/// hierarchy's construction).
 ///
 /// Guarantee: after each diamond's merge (in the order of the batches, any order within a
 /// batch), no edge of the current mesh has more than two triangles unless it had that many
@@ -109,6 +134,7 @@ pub fn simplify_hierarchy(
     mesh: &InputMesh,
     hierarchy: &Hierarchy,
     mut current: CurrentMesh,
+    settings: &SimplifySettings,
 ) -> Simplified {
     let frame = &hierarchy.frame;
     let size = frame.model_size();
@@ -123,6 +149,7 @@ pub fn simplify_hierarchy(
         frame,
         positions,
         size,
+        settings: *settings,
     };
     let mut patches: HashMap<SimplexKey, Vec<[u32; 3]>> = hierarchy
         .leaf_triangles
@@ -324,6 +351,7 @@ fn simplify_diamond(
         &lock,
         &ctx.positions,
         mesh,
+        &ctx.settings,
     );
     // meshopt's absolute error is in model sizes.
     let error = (error as f64 * ctx.size) as f32;
@@ -572,14 +600,15 @@ fn coincident_runs(indices: &[u32], vertex_count: usize) -> Vec<([u32; 3], Vec<u
     runs
 }
 
-/// meshopt simplification to half the triangles with the given locks; returns local indices
-/// and the absolute error (model units).
+/// meshopt simplification to `settings.keep` of the triangles with the given locks; returns
+/// local indices and the absolute error (in the units of `positions`).
 fn simplify_locked(
     indices: &[u32],
     global_of: &[u32],
     lock: &[bool],
     positions: &[[f32; 3]],
     mesh: &InputMesh,
+    settings: &SimplifySettings,
 ) -> (Vec<u32>, f32) {
     if indices.is_empty() {
         return (Vec::new(), 0.0);
@@ -587,7 +616,7 @@ fn simplify_locked(
     let local_positions: Vec<[f32; 3]> = global_of.iter().map(|&g| positions[g as usize]).collect();
     let bytes: &[u8] = bytemuck::cast_slice(&local_positions);
     let adapter = VertexDataAdapter::new(bytes, 12, 0).expect("tightly packed f32x3 positions");
-    let target = (indices.len() / 3 / 2) * 3;
+    let target = ((indices.len() / 3) as f64 * settings.keep as f64) as usize * 3;
     let options = SimplifyOptions::ErrorAbsolute;
     let mut error = 0.0f32;
     let out = match &mesh.normals {
@@ -600,7 +629,7 @@ fn simplify_locked(
                 indices,
                 &adapter,
                 &attributes,
-                &[NORMAL_WEIGHT; 3],
+                &[settings.normal_weight; 3],
                 12,
                 lock,
                 target,
@@ -621,11 +650,6 @@ fn simplify_locked(
     };
     (out, error)
 }
-
-/// Weight of unit normals against positions (in model sizes) in meshopt's attribute metric:
-/// a normal turned by one radian weighs like a displacement of 5 % of the model — a mild
-/// preference for keeping shading, the same for every model whatever its units.
-const NORMAL_WEIGHT: f32 = 0.05;
 
 fn barycenter_lattice(tri: &[u32; 3], mesh: &InputMesh, frame: &LatticeFrame) -> [f64; 3] {
     frame.barycentre(tri.map(|v| mesh.positions[v as usize]))

@@ -17,7 +17,9 @@ use tessera_core::cut::{diamond_rhos, select_stateless};
 use tessera_core::metric::{eye_local, ScreenSpaceMetric};
 use tessera_core::repository::reader::Repository;
 use tessera_preprocess::import::load_mesh;
-use tessera_preprocess::{build_repository, BuildConfig, Construction, InputMesh};
+use tessera_preprocess::{
+    build_repository, BuildConfig, Construction, InputMesh, SimplifySettings,
+};
 use tessera_runtime::views::check_views;
 
 use tessera_runtime::measure::{ErrorSummary, ReferenceMesh, SamplingConfig};
@@ -62,6 +64,14 @@ pub struct BuildBenchArgs {
     /// Also build with each of these leaf sizes and report the run-time trade.
     #[arg(long, value_delimiter = ',')]
     pub sweep: Vec<usize>,
+    /// Also build (default leaf size) with each of these simplifier `keep` shares: the share
+    /// of its gathered triangles a diamond keeps (default 0.5).
+    #[arg(long, value_delimiter = ',')]
+    pub sweep_keep: Vec<f32>,
+    /// Also build (default leaf size) with each of these normal weights (inputs with normals;
+    /// default 0.05).
+    #[arg(long, value_delimiter = ',')]
+    pub sweep_normal_weight: Vec<f32>,
     /// Print one JSON object on stdout.
     #[arg(long)]
     pub json: bool,
@@ -87,7 +97,14 @@ fn bench_build(args: BuildBenchArgs) -> anyhow::Result<Outcome> {
     let leaf = args
         .leaf_triangles
         .unwrap_or(tessera_preprocess::build::DEFAULT_LEAF_TRIANGLES);
-    let ours = build_once(&mesh, leaf, args.threads, &dir.path().join("ours.tsr"))?;
+    let defaults = SimplifySettings::default();
+    let ours = build_once(
+        &mesh,
+        leaf,
+        defaults,
+        args.threads,
+        &dir.path().join("ours.tsr"),
+    )?;
     let peak_rss_bytes = peak_rss_bytes();
 
     // The peer: clod_build with 128-triangle clusters on the same positions and indices.
@@ -98,9 +115,29 @@ fn bench_build(args: BuildBenchArgs) -> anyhow::Result<Outcome> {
     let mut sweep = Vec::new();
     // The original, for the measured error: built once (every build of a mesh has one origin).
     let mut reference: Option<([f64; 3], ReferenceMesh)> = None;
-    for &n in &args.sweep {
-        let path = dir.path().join(format!("sweep{n}.tsr"));
-        let mut r = build_once(&mesh, n, args.threads, &path)?;
+    // Leaf sizes with the default simplifier, then simplifier settings at the default leaf size.
+    let runs: Vec<(usize, SimplifySettings)> = args
+        .sweep
+        .iter()
+        .map(|&n| (n, defaults))
+        .chain(
+            args.sweep_keep
+                .iter()
+                .map(|&keep| (leaf, SimplifySettings { keep, ..defaults })),
+        )
+        .chain(args.sweep_normal_weight.iter().map(|&normal_weight| {
+            (
+                leaf,
+                SimplifySettings {
+                    normal_weight,
+                    ..defaults
+                },
+            )
+        }))
+        .collect();
+    for (k, &(n, settings)) in runs.iter().enumerate() {
+        let path = dir.path().join(format!("sweep{k}.tsr"));
+        let mut r = build_once(&mesh, n, settings, args.threads, &path)?;
         let repo = Repository::open(&path)?;
         let h = *repo.header();
         if reference.as_ref().is_none_or(|(o, _)| *o != h.origin) {
@@ -161,12 +198,14 @@ fn bench_build(args: BuildBenchArgs) -> anyhow::Result<Outcome> {
             ours.mean_triangles_per_patch
         );
         if !sweep.is_empty() {
-            println!("leaf  seconds  bytes/ply  tris/patch  depth  root_err   cut@1px tris  cut@1px patches  p99@1px  max@1px");
+            println!("leaf  keep  nweight  seconds  bytes/ply  tris/patch  depth  root_err   cut@1px tris  cut@1px patches  p99@1px  max@1px");
             let px = |x: Option<f64>| x.map_or("n/a".to_string(), |x| format!("{x:.3}"));
             for r in &sweep {
                 println!(
-                    "{:5} {:8.2} {:10.3} {:11.1} {:6} {:9.2e} {:13.0} {:16.0} {:>8} {:>8}",
+                    "{:5} {:5.2} {:8.3} {:8.2} {:10.3} {:11.1} {:6} {:9.2e} {:13.0} {:16.0} {:>8} {:>8}",
                     r.leaf,
+                    r.settings.keep,
+                    r.settings.normal_weight,
                     r.seconds,
                     r.repository_bytes as f64 / ply_bytes as f64,
                     r.mean_triangles_per_patch,
@@ -189,6 +228,7 @@ fn bench_build(args: BuildBenchArgs) -> anyhow::Result<Outcome> {
 
 struct BuildRun {
     leaf: usize,
+    settings: SimplifySettings,
     seconds: f64,
     repository_bytes: u64,
     mean_triangles_per_patch: f64,
@@ -205,6 +245,8 @@ impl BuildRun {
     fn to_json(&self) -> serde_json::Value {
         json!({
             "leaf_triangles": self.leaf,
+            "simplify_keep": self.settings.keep,
+            "simplify_normal_weight": self.settings.normal_weight,
             "seconds": self.seconds,
             "repository_bytes": self.repository_bytes,
             "mean_triangles_per_patch": self.mean_triangles_per_patch,
@@ -222,12 +264,14 @@ impl BuildRun {
 fn build_once(
     mesh: &InputMesh,
     leaf: usize,
+    settings: SimplifySettings,
     threads: usize,
     path: &std::path::Path,
 ) -> anyhow::Result<BuildRun> {
     let config = BuildConfig {
         construction: Construction::LeafTriangles(leaf),
         threads: Some(threads),
+        simplify: settings,
         ..Default::default()
     };
     let t = Instant::now();
@@ -256,6 +300,7 @@ fn build_once(
     }
     Ok(BuildRun {
         leaf,
+        settings,
         seconds,
         repository_bytes: s.repository_bytes,
         mean_triangles_per_patch: s.patch_triangles as f64 / s.tetrahedra.max(1) as f64,
