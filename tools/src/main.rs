@@ -14,6 +14,8 @@ mod cmd_info;
 mod cmd_render;
 mod output;
 mod progress;
+#[allow(dead_code)] // wired into `tessera bench terrain` as the baselines land
+mod terrain;
 
 use std::process::ExitCode;
 

@@ -176,25 +176,34 @@ impl HeightGrid {
         self.heights.iter().filter(|h| !h.is_nan()).count()
     }
 
+    /// Where the mesh's samples lie: the position (x, y) of sample (row 0, column 0) and the
+    /// step per column and per row, in metres for geographic grids (plate carrée), else in the
+    /// grid's units; `options.spacing` replaces both (origin 0, signs kept).
+    pub fn placement(&self, options: &TerrainOptions) -> ([f64; 2], [f64; 2]) {
+        let unit = if self.geographic && options.spacing.is_none() {
+            METRES_PER_DEGREE
+        } else {
+            1.0
+        };
+        match options.spacing {
+            Some(s) => (
+                [0.0, 0.0],
+                [s * self.spacing[0].signum(), s * self.spacing[1].signum()],
+            ),
+            None => (
+                self.origin.map(|o| o * unit),
+                self.spacing.map(|s| s * unit),
+            ),
+        }
+    }
+
     /// The triangle mesh of the grid: one vertex per sample with a height, two triangles per
     /// cell whose four corners have heights, one per cell with exactly three (missing samples
     /// are holes). Triangles are counter-clockwise seen from above (+z). Geographic grids are
     /// drawn as plate carrée in metres (`METRES_PER_DEGREE`).
     pub fn to_mesh(&self, options: &TerrainOptions) -> InputMesh {
         let (columns, rows) = (self.columns, self.rows);
-        let unit = if self.geographic && options.spacing.is_none() {
-            METRES_PER_DEGREE
-        } else {
-            1.0
-        };
-        let spacing = match options.spacing {
-            Some(s) => [s * self.spacing[0].signum(), s * self.spacing[1].signum()],
-            None => self.spacing.map(|s| s * unit),
-        };
-        let origin = match options.spacing {
-            Some(_) => [0.0, 0.0],
-            None => self.origin.map(|o| o * unit),
-        };
+        let (origin, spacing) = self.placement(options);
         // Vertex ids in sample order, skipping missing samples.
         let mut id = vec![u32::MAX; columns * rows];
         let mut positions = Vec::with_capacity(self.valid_samples());
