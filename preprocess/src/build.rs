@@ -25,6 +25,11 @@ use crate::strips::build_patch;
 /// Default maximum triangles per leaf; chosen by the sweep in ARCHITECTURE.md.
 pub const DEFAULT_LEAF_TRIANGLES: usize = 1024;
 
+/// Default leaf size of a height field (2D): a grid fills its triangles evenly, so leaves hold
+/// close to the cap and a smaller cap gives patches of the size a mesh's 1024 gives (measured
+/// sweep in ARCHITECTURE.md).
+pub const DEFAULT_LEAF_TRIANGLES_HEIGHT_FIELD: usize = 256;
+
 /// Largest extent of a model along any axis, in its units.
 pub const MAX_EXTENT: f64 = 1e30;
 
@@ -55,6 +60,14 @@ pub enum Domain {
 }
 
 impl Domain {
+    /// The default `--leaf-triangles` of this domain.
+    pub fn default_leaf_triangles(self) -> usize {
+        match self {
+            Domain::Volume => DEFAULT_LEAF_TRIANGLES,
+            Domain::HeightField => DEFAULT_LEAF_TRIANGLES_HEIGHT_FIELD,
+        }
+    }
+
     /// The LEB dimension: 3 or 2.
     pub fn dim(self) -> u8 {
         match self {

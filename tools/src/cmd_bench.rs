@@ -16,9 +16,8 @@ use serde_json::json;
 use tessera_core::cut::{diamond_rhos, select_stateless};
 use tessera_core::metric::{eye_local, ScreenSpaceMetric};
 use tessera_core::repository::reader::Repository;
-use tessera_preprocess::import::load_mesh;
 use tessera_preprocess::{
-    build_repository, BuildConfig, Construction, InputMesh, SimplifySettings,
+    build_repository, BuildConfig, Construction, Domain, InputMesh, SimplifySettings,
 };
 use tessera_runtime::views::check_views;
 
@@ -49,6 +48,9 @@ pub enum BenchWhat {
     Build(BuildBenchArgs),
     /// Frame times (GPU, wall, CPU) per tolerance against the full mesh in one draw call.
     Render(crate::cmd_bench_render::RenderBenchArgs),
+    /// A height field: ROAM, RUSTiC and tessera at equal triangle budgets (vertical error
+    /// against the full grid, CPU ms per frame, frame time).
+    Terrain(crate::terrain::bench::TerrainBenchArgs),
 }
 
 #[derive(Args)]
@@ -75,19 +77,23 @@ pub struct BuildBenchArgs {
     /// Print one JSON object on stdout.
     #[arg(long)]
     pub json: bool,
+    #[command(flatten)]
+    pub heightfield: crate::input::HeightFieldArgs,
 }
 
 pub fn run(args: BenchArgs) -> anyhow::Result<Outcome> {
     match args.what {
         Some(BenchWhat::Build(a)) => bench_build(a),
         Some(BenchWhat::Render(a)) => crate::cmd_bench_render::run(a),
+        Some(BenchWhat::Terrain(a)) => crate::terrain::bench::run(a),
         None => crate::bench::run(args.trade),
     }
 }
 
 fn bench_build(args: BuildBenchArgs) -> anyhow::Result<Outcome> {
     let t = Instant::now();
-    let mesh = load_mesh(&args.input)?.mesh;
+    let input = crate::input::load_input(&args.input, &args.heightfield)?;
+    let (mesh, domain) = (input.mesh, input.domain);
     let import_seconds = t.elapsed().as_secs_f64();
     let dir = tempfile::tempdir()?;
     let ply_bytes = write_binary_ply(&mesh, &dir.path().join("mesh.ply"))?;
@@ -96,10 +102,11 @@ fn bench_build(args: BuildBenchArgs) -> anyhow::Result<Outcome> {
     // Ours, first, so that the peak RSS read right after it is ours alone.
     let leaf = args
         .leaf_triangles
-        .unwrap_or(tessera_preprocess::build::DEFAULT_LEAF_TRIANGLES);
+        .unwrap_or(domain.default_leaf_triangles());
     let defaults = SimplifySettings::default();
     let ours = build_once(
         &mesh,
+        domain,
         leaf,
         defaults,
         args.threads,
@@ -137,7 +144,7 @@ fn bench_build(args: BuildBenchArgs) -> anyhow::Result<Outcome> {
         .collect();
     for (k, &(n, settings)) in runs.iter().enumerate() {
         let path = dir.path().join(format!("sweep{k}.tsr"));
-        let mut r = build_once(&mesh, n, settings, args.threads, &path)?;
+        let mut r = build_once(&mesh, domain, n, settings, args.threads, &path)?;
         let repo = Repository::open(&path)?;
         let h = *repo.header();
         if reference.as_ref().is_none_or(|(o, _)| *o != h.origin) {
@@ -263,6 +270,7 @@ impl BuildRun {
 
 fn build_once(
     mesh: &InputMesh,
+    domain: Domain,
     leaf: usize,
     settings: SimplifySettings,
     threads: usize,
@@ -272,6 +280,7 @@ fn build_once(
         construction: Construction::LeafTriangles(leaf),
         threads: Some(threads),
         simplify: settings,
+        domain,
         ..Default::default()
     };
     let t = Instant::now();

@@ -1,4 +1,8 @@
 //! `tessera build INPUT -o OUT.tsr [--leaf-triangles N | --levels L] [--threads N] [--json]`
+//! `[--heightfield] [--raw-size WxH] [--variable NAME] [--spacing M] [--exaggeration X]`
+//!
+//! A mesh builds the 3D hierarchy (tetrahedra); a DEM (by extension) or `--heightfield` the 2D
+//! one (right triangles over x, y).`
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -6,7 +10,6 @@ use std::time::Instant;
 use anyhow::Context;
 use clap::Args;
 use serde_json::json;
-use tessera_preprocess::import::load_mesh;
 use tessera_preprocess::{build_repository, BuildConfig, BuildSummary, Construction};
 
 use crate::progress::Stages;
@@ -14,12 +17,13 @@ use crate::Outcome;
 
 #[derive(Args)]
 pub struct BuildArgs {
-    /// Input mesh.
+    /// Input mesh, or height field (DEM).
     pub input: PathBuf,
     /// Output repository (written to a temporary file, then renamed).
     #[arg(short, long)]
     pub output: PathBuf,
-    /// Split leaves holding more than N triangles (adaptive construction).
+    /// Split leaves holding more than N triangles (adaptive construction; default 1024 for
+    /// meshes, 256 for height fields).
     #[arg(long, value_name = "N", conflicts_with = "levels")]
     pub leaf_triangles: Option<usize>,
     /// Build a complete hierarchy of L levels instead.
@@ -31,6 +35,8 @@ pub struct BuildArgs {
     /// Print one JSON object on stdout.
     #[arg(long)]
     pub json: bool,
+    #[command(flatten)]
+    pub heightfield: crate::input::HeightFieldArgs,
 }
 
 pub fn run(args: BuildArgs) -> anyhow::Result<Outcome> {
@@ -47,9 +53,13 @@ pub fn run(args: BuildArgs) -> anyhow::Result<Outcome> {
     let stages = Stages::new("build");
     stages.stage("import");
     let start = Instant::now();
-    let report = load_mesh(&args.input)?;
+    let input = crate::input::load_input(&args.input, &args.heightfield)?;
+    config.domain = input.domain;
+    if args.leaf_triangles.is_none() && args.levels.is_none() {
+        config.construction = Construction::LeafTriangles(input.domain.default_leaf_triangles());
+    }
     let import_seconds = start.elapsed().as_secs_f64();
-    let summary = build_repository(&report.mesh, &config, &args.output, &|s| stages.stage(s))
+    let summary = build_repository(&input.mesh, &config, &args.output, &|s| stages.stage(s))
         .with_context(|| format!("building {}", args.input.display()))?;
     stages.finish();
     let seconds = start.elapsed().as_secs_f64();
@@ -57,8 +67,14 @@ pub fn run(args: BuildArgs) -> anyhow::Result<Outcome> {
         let mut value = summary_json(&summary, seconds);
         value["import_seconds"] = json!(import_seconds);
         value["output"] = json!(args.output.display().to_string());
+        value["domain"] = json!(match input.domain {
+            tessera_preprocess::Domain::Volume => "volume",
+            tessera_preprocess::Domain::HeightField => "heightfield",
+        });
+        value["grid"] = crate::input::grid_json(input.grid.as_ref());
         println!("{value}");
     } else {
+        println!("{}: {}", args.input.display(), input.description);
         print_summary(&summary, seconds, import_seconds);
         println!("wrote {}", args.output.display());
     }

@@ -72,3 +72,11 @@ pub fn write_binary_ply(mesh: &InputMesh, path: &Path) -> anyhow::Result<u64> {
     })?;
     Ok(std::fs::metadata(path)?.len())
 }
+
+/// Writes bytes through a temporary file and a rename.
+pub fn write_bytes(bytes: &[u8], path: &Path) -> anyhow::Result<()> {
+    write_atomically(path, |_, file| {
+        file.write_all(bytes)?;
+        Ok(())
+    })
+}

@@ -20,6 +20,7 @@ mod image_grid;
 mod netcdf;
 mod npy;
 mod raw;
+pub mod write;
 
 use std::path::Path;
 

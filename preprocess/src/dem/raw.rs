@@ -1,6 +1,6 @@
 //! Height fields without a header of their own: raw little-endian f32 samples (dimensions
 //! given by the caller), and the JSON grid `{"width": W, "height": H, "values": [...]}` (the
-//! volcano of vega-datasets), `null` values marking holes.
+//! volcano of vega-datasets), `null` values marking holes, with an optional `"spacing"`.
 
 use super::error::{bad, check_fits, DemErrorKind};
 use super::{DemOptions, HeightGrid};
@@ -69,7 +69,19 @@ pub fn read_json(bytes: &[u8]) -> Result<HeightGrid, DemErrorKind> {
                 .ok_or_else(|| bad(format!("value {i} is not a number or null"))),
         })
         .collect::<Result<_, _>>()?;
-    Ok(grid(columns as usize, rows as usize, heights))
+    let mut grid = grid(columns as usize, rows as usize, heights);
+    // Optional: the horizontal distance between samples (what `tessera gen terrain` writes).
+    if let Some(spacing) = value.get("spacing") {
+        match spacing.as_f64() {
+            Some(s) if s.is_finite() && s > 0.0 => grid.spacing = [s, s],
+            _ => {
+                return Err(bad(format!(
+                    "\"spacing\" {spacing} is not a positive number"
+                )))
+            }
+        }
+    }
+    Ok(grid)
 }
 
 #[cfg(test)]

@@ -1,0 +1,167 @@
+//! What `build` (and the benchmarks) accept as input: a mesh file, or a height field (DEM)
+//! recognised by its extension, which builds on the 2D hierarchy.
+
+use std::path::Path;
+
+use anyhow::bail;
+use clap::Args;
+use serde_json::json;
+use tessera_preprocess::dem::{load_dem, DemFormat, DemOptions, HeightGrid, TerrainOptions};
+use tessera_preprocess::import::{load_mesh, ImportErrorKind};
+use tessera_preprocess::{Domain, InputMesh};
+
+/// Height-field options of the commands that read an input.
+#[derive(Args, Clone, Debug, Default)]
+pub struct HeightFieldArgs {
+    /// Build the 2D hierarchy (height field, z up) even for a mesh file; DEM files (.cdf, .nc,
+    /// .npy, .npz, .tif, .tiff, .png, .pgm, .f32, .raw, .json) always build it.
+    #[arg(long)]
+    pub heightfield: bool,
+    /// Columns and rows of a raw little-endian f32 grid (.f32, .raw): WIDTHxHEIGHT.
+    #[arg(long, value_name = "WxH", value_parser = parse_raw_size)]
+    pub raw_size: Option<(usize, usize)>,
+    /// The netCDF variable or npz array to read (default: the only 2-D one, or the largest).
+    #[arg(long, value_name = "NAME")]
+    pub variable: Option<String>,
+    /// Horizontal spacing between samples in metres, replacing the grid's own (geographic
+    /// grids default to plate carrée metres).
+    #[arg(long, value_name = "METRES")]
+    pub spacing: Option<f64>,
+    /// Heights are multiplied by this.
+    #[arg(long, value_name = "X", default_value_t = 1.0)]
+    pub exaggeration: f64,
+}
+
+fn parse_raw_size(s: &str) -> Result<(usize, usize), String> {
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("expected WIDTHxHEIGHT, got {s:?}"))?;
+    let w: usize = w.trim().parse().map_err(|e| format!("width {w:?}: {e}"))?;
+    let h: usize = h.trim().parse().map_err(|e| format!("height {h:?}: {e}"))?;
+    Ok((w, h))
+}
+
+/// An input ready to build.
+pub struct LoadedInput {
+    pub mesh: InputMesh,
+    pub domain: Domain,
+    /// The grid, for a DEM.
+    pub grid: Option<HeightGrid>,
+    /// One line about what was read.
+    pub description: String,
+}
+
+impl HeightFieldArgs {
+    pub fn terrain_options(&self) -> anyhow::Result<TerrainOptions> {
+        if let Some(s) = self.spacing {
+            if !(s.is_finite() && s > 0.0) {
+                bail!("--spacing {s}: must be a positive number of metres");
+            }
+        }
+        if !(self.exaggeration.is_finite() && self.exaggeration != 0.0) {
+            bail!(
+                "--exaggeration {}: must be finite and non-zero",
+                self.exaggeration
+            );
+        }
+        Ok(TerrainOptions {
+            spacing: self.spacing,
+            vertical_exaggeration: self.exaggeration,
+        })
+    }
+
+    fn dem_options(&self) -> DemOptions {
+        DemOptions {
+            raw_size: self.raw_size,
+            variable: self.variable.clone(),
+        }
+    }
+
+    /// Reads a height field (any DEM extension).
+    pub fn load_grid(&self, path: &Path) -> anyhow::Result<HeightGrid> {
+        Ok(load_dem(path, &self.dem_options())?)
+    }
+}
+
+/// Reads `path`: a DEM by extension (2D hierarchy), else a mesh (3D, or 2D with
+/// `--heightfield`).
+pub fn load_input(path: &Path, args: &HeightFieldArgs) -> anyhow::Result<LoadedInput> {
+    let options = args.terrain_options()?;
+    if DemFormat::from_path(path).is_some() {
+        let grid = args.load_grid(path)?;
+        let mesh = grid.to_mesh(&options);
+        if mesh.triangles.is_empty() {
+            bail!(
+                "{}: no cell of the {} × {} grid has three samples with heights",
+                path.display(),
+                grid.columns,
+                grid.rows
+            );
+        }
+        let description = format!(
+            "height field {} × {} ({} samples with heights, {} triangles)",
+            grid.columns,
+            grid.rows,
+            grid.valid_samples(),
+            mesh.triangles.len()
+        );
+        return Ok(LoadedInput {
+            mesh,
+            domain: Domain::HeightField,
+            grid: Some(grid),
+            description,
+        });
+    }
+    if args.raw_size.is_some() || args.variable.is_some() || args.spacing.is_some() {
+        bail!(
+            "{}: --raw-size, --variable and --spacing apply to height-field files only ({})",
+            path.display(),
+            tessera_preprocess::dem::DEM_EXTENSIONS
+        );
+    }
+    let report = match load_mesh(path) {
+        Ok(report) => report,
+        Err(e) if matches!(e.kind, ImportErrorKind::UnsupportedExtension(_)) => {
+            bail!(
+                "{e}; height fields: {}",
+                tessera_preprocess::dem::DEM_EXTENSIONS
+            )
+        }
+        Err(e) => return Err(e.into()),
+    };
+    let domain = if args.heightfield {
+        Domain::HeightField
+    } else {
+        Domain::Volume
+    };
+    let mut mesh = report.mesh;
+    if options.vertical_exaggeration != 1.0 {
+        for p in &mut mesh.positions {
+            p[2] *= options.vertical_exaggeration;
+        }
+    }
+    let description = format!(
+        "mesh ({} triangles, {} vertices)",
+        mesh.triangles.len(),
+        mesh.positions.len()
+    );
+    Ok(LoadedInput {
+        mesh,
+        domain,
+        grid: None,
+        description,
+    })
+}
+
+/// The grid part of `build --json` (null for a mesh).
+pub fn grid_json(grid: Option<&HeightGrid>) -> serde_json::Value {
+    match grid {
+        Some(g) => json!({
+            "columns": g.columns,
+            "rows": g.rows,
+            "valid_samples": g.valid_samples(),
+            "geographic": g.geographic,
+        }),
+        None => serde_json::Value::Null,
+    }
+}
