@@ -118,8 +118,10 @@ fn fs_check_front(in: VertexOut) -> @location(0) vec4<f32> {
 
 // Below this |cos| between a face and the view ray a face is edge-on (about 1.7 degrees): its
 // screen winding can flip under f32 projection and sub-pixel snapping, so showing its back is
-// not evidence of a crack.
+// not evidence of a crack. Such pixels get GRAZING_COLOUR: covered, neither grey nor flagged
+// (the terrain check counts background pixels as holes, so they must not stay background).
 const GRAZING_COS: f32 = 0.03;
+const GRAZING_COLOUR: vec4<f32> = vec4<f32>(0.0, 0.0, 0.5, 1.0);
 
 struct CheckOut {
     @location(0) colour: vec4<f32>,
@@ -130,9 +132,26 @@ struct CheckOut {
 fn fs_check_back(in: VertexOut) -> CheckOut {
     let face = cross(dpdx(in.eye_relative), dpdy(in.eye_relative));
     if abs(dot(normalize(face), normalize(in.eye_relative))) < GRAZING_COS {
-        discard;
+        return CheckOut(GRAZING_COLOUR, 0.0);
     }
     return CheckOut(FLAG_COLOUR, 0.0);
+}
+
+// The terrain check's skirts: walls from the input's border edges (its outline and the borders
+// of its nodata holes) down below the terrain (views from above) or up above it (from below),
+// drawn in both check passes with fixed positions relative to the repository origin. Their
+// side facing the hole is front: a ray through a hole meets a grey wall or passes beyond the
+// terrain, as it does for the input, instead of seeing the far side of the surface.
+@vertex
+fn vs_skirt(@location(0) local_position: vec3<f32>) -> VertexOut {
+    let eye_relative = local_position - frame.eye_tau.xyz;
+    var out: VertexOut;
+    out.clip = frame.view_proj * vec4<f32>(eye_relative, 1.0);
+    out.eye_relative = eye_relative;
+    out.normal = vec3<f32>(0.0);
+    out.colour = vec3<f32>(0.82, 0.80, 0.76);
+    out.simplex = 0u;
+    return out;
 }
 
 // The wireframe overlay (line polygon mode, where the adapter has it).

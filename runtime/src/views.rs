@@ -54,3 +54,51 @@ pub fn outside_views(lo: [f64; 3], hi: [f64; 3], count: usize) -> Vec<[f64; 3]> 
         })
         .collect()
 }
+
+/// A camera position and direction for the terrain pixel check.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TerrainView {
+    pub eye: [f64; 3],
+    pub target: [f64; 3],
+    /// Below the terrain, looking up (its underside faces the camera).
+    pub from_below: bool,
+}
+
+/// `count` views of a height field with bounding box `[lo, hi]` (z up): half above its highest
+/// point, half below its lowest, every eye over the grid's (x, y) rectangle (inset by 10 %),
+/// looking down (up) at 25° to 90° from the horizontal, from 1 % to 50 % of the larger
+/// horizontal extent above (below) the terrain. From there every ray meets the side of the
+/// surface that faces the eye first, so a flag pixel is a hole: a crack, or a hole of the input.
+pub fn terrain_views(lo: [f64; 3], hi: [f64; 3], count: usize) -> Vec<TerrainView> {
+    let extent = (hi[0] - lo[0]).max(hi[1] - lo[1]).max(1e-30);
+    (0..count)
+        .map(|i| {
+            let from_below = i % 2 == 1;
+            let j = (i / 2) as f64;
+            // Low-discrepancy placements (golden-ratio and plastic-number sequences).
+            let u = 0.1 + 0.8 * (j * 0.618_033_988_75 + 0.31).fract();
+            let v = 0.1 + 0.8 * (j * 0.754_877_666 + 0.17).fract();
+            let t = (j * 0.569_840_290_998 + 0.5).fract();
+            let height = extent * 10f64.powf(-2.0 + 1.7 * t);
+            let elevation = (25.0 + 65.0 * (j * 0.414_213_562 + 0.2).fract()).to_radians();
+            let azimuth = (j * 137.507_764).to_radians();
+            let sign = if from_below { -1.0 } else { 1.0 };
+            let eye = [
+                lo[0] + u * (hi[0] - lo[0]),
+                lo[1] + v * (hi[1] - lo[1]),
+                if from_below { lo[2] } else { hi[2] } + sign * height,
+            ];
+            let forward = [
+                azimuth.cos() * elevation.cos(),
+                azimuth.sin() * elevation.cos(),
+                -sign * elevation.sin(),
+            ];
+            let target = [0, 1, 2].map(|k| eye[k] + forward[k] * height);
+            TerrainView {
+                eye,
+                target,
+                from_below,
+            }
+        })
+        .collect()
+}

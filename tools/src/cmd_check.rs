@@ -121,6 +121,7 @@ pub fn pixel_report_json(r: &PixelCheckReport, seconds: f64, adapter: &str) -> s
         "frames_with_flags": r.frames_with_flags,
         "selection_mismatches": r.selection_mismatches,
         "covered_pixels": r.covered_pixels,
+        "excused_pixels": r.excused_pixels,
         "worst": r.worst.as_ref().map(|w| json!({
             "view": w.view, "tolerance": w.tolerance, "flag_pixels": w.flag_pixels, "eye": w.eye,
         })),
@@ -134,6 +135,12 @@ pub fn print_pixel_report(r: &PixelCheckReport, seconds: f64, adapter: &str) {
         "GPU ({adapter}): {} frames in {seconds:.2} s: {} flag pixels in {} frames, {} selection mismatches (GPU vs CPU), {} pixels covered",
         r.frames, r.flag_pixels, r.frames_with_flags, r.selection_mismatches, r.covered_pixels
     );
+    if r.excused_pixels > 0 {
+        println!(
+            "  {} flag pixels next to the input's own see-through pixels (holes) excused",
+            r.excused_pixels
+        );
+    }
     if let Some(w) = &r.worst {
         println!(
             "worst frame: view {} at τ = {} px with {} flag pixels (eye {:?})",

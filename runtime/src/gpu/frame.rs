@@ -18,15 +18,23 @@ pub enum ShadingMode {
     Levels,
     /// Front faces grey, back faces `FLAG_COLOUR` (the pixel crack check).
     Check,
+    /// The same check for the other side of an open surface (a terrain seen from below):
+    /// faces clockwise on screen count as front, counter-clockwise ones are flagged.
+    CheckUnderside,
 }
 
 impl ShadingMode {
+    /// One of the two check modes.
+    pub fn is_check(self) -> bool {
+        matches!(self, ShadingMode::Check | ShadingMode::CheckUnderside)
+    }
+
     fn code(self) -> u32 {
         match self {
             ShadingMode::Lit => 0,
             ShadingMode::Patches => 1,
             ShadingMode::Levels => 2,
-            ShadingMode::Check => 3,
+            ShadingMode::Check | ShadingMode::CheckUnderside => 3,
         }
     }
 }

@@ -18,6 +18,7 @@ pub mod probe;
 pub mod renderer;
 pub mod resident;
 pub mod shaders;
+pub mod skirts;
 pub mod target;
 pub mod timing;
 pub mod traversal;

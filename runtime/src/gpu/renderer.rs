@@ -105,6 +105,8 @@ struct DrawPipelines {
     fill: wgpu::RenderPipeline,
     check_front: wgpu::RenderPipeline,
     check_back: wgpu::RenderPipeline,
+    check_front_under: wgpu::RenderPipeline,
+    check_back_under: wgpu::RenderPipeline,
     wire: Option<wgpu::RenderPipeline>,
 }
 
@@ -117,6 +119,9 @@ enum Pass {
     CheckFront,
     /// The check's second pass: back faces only, flag colour where no front face is.
     CheckBack,
+    /// `CheckFront` and `CheckBack` with clockwise faces counting as front (underside check).
+    CheckFrontUnder,
+    CheckBackUnder,
     /// Triangle edges over the fill.
     Wire,
 }
@@ -127,6 +132,8 @@ impl DrawPipelines {
             Pass::Fill => Some(&self.fill),
             Pass::CheckFront => Some(&self.check_front),
             Pass::CheckBack => Some(&self.check_back),
+            Pass::CheckFrontUnder => Some(&self.check_front_under),
+            Pass::CheckBackUnder => Some(&self.check_back_under),
             Pass::Wire => self.wire.as_ref(),
         }
     }
@@ -150,6 +157,7 @@ pub struct Renderer {
     wide: DrawPipelines,
     timer: Option<FrameTimer>,
     draw_indirect_count: bool,
+    skirts: super::skirts::CheckSkirts,
 }
 
 fn storage_entry(
@@ -297,14 +305,14 @@ impl Renderer {
             let (entry_point, cull_mode, depth_write, depth_compare) = match pass {
                 // Back faces are drawn: the lit mode shades them too.
                 Pass::Fill => ("fs_main", None, true, wgpu::CompareFunction::GreaterEqual),
-                Pass::CheckFront => (
+                Pass::CheckFront | Pass::CheckFrontUnder => (
                     "fs_check_front",
                     Some(wgpu::Face::Back),
                     true,
                     wgpu::CompareFunction::GreaterEqual,
                 ),
                 // Depth 0 "equal" the cleared depth: only where no front face was drawn.
-                Pass::CheckBack => (
+                Pass::CheckBack | Pass::CheckBackUnder => (
                     "fs_check_back",
                     Some(wgpu::Face::Front),
                     false,
@@ -324,7 +332,11 @@ impl Renderer {
                 primitive: wgpu::PrimitiveState {
                     topology: wgpu::PrimitiveTopology::TriangleStrip,
                     strip_index_format: Some(format),
-                    front_face: wgpu::FrontFace::Ccw,
+                    front_face: if matches!(pass, Pass::CheckFrontUnder | Pass::CheckBackUnder) {
+                        wgpu::FrontFace::Cw
+                    } else {
+                        wgpu::FrontFace::Ccw
+                    },
                     cull_mode,
                     unclipped_depth: false,
                     polygon_mode: if pass == Pass::Wire {
@@ -365,6 +377,8 @@ impl Renderer {
             fill: pipeline(format, Pass::Fill),
             check_front: pipeline(format, Pass::CheckFront),
             check_back: pipeline(format, Pass::CheckBack),
+            check_front_under: pipeline(format, Pass::CheckFrontUnder),
+            check_back_under: pipeline(format, Pass::CheckBackUnder),
             wire: ctx
                 .capabilities
                 .wireframe
@@ -372,6 +386,7 @@ impl Renderer {
         };
         let narrow = pipelines(wgpu::IndexFormat::Uint16);
         let wide = pipelines(wgpu::IndexFormat::Uint32);
+        let skirts = super::skirts::CheckSkirts::new(device, &draw_layout, &module);
 
         Ok(Renderer {
             header: *repo.header(),
@@ -390,7 +405,14 @@ impl Renderer {
             wide,
             timer: FrameTimer::new(ctx, "frame timestamps"),
             draw_indirect_count: ctx.capabilities.draw_indirect_count,
+            skirts,
         })
+    }
+
+    /// Walls the check modes draw with the model (`skirts.rs`: terrains with holes); empty
+    /// meshes remove them.
+    pub fn set_check_skirts(&mut self, ctx: &GpuContext, meshes: &super::skirts::SkirtMeshes) {
+        self.skirts.set(&ctx.device, meshes);
     }
 
     /// The resident model (sizes, pages, lists).
@@ -437,7 +459,7 @@ impl Renderer {
             self.timer.as_ref().map(FrameTimer::compute_start),
         );
         {
-            let background = if request.mode == ShadingMode::Check {
+            let background = if request.mode.is_check() {
                 wgpu::Color::BLACK
             } else {
                 BACKGROUND
@@ -451,6 +473,7 @@ impl Renderer {
             pass.set_bind_group(0, &self.draw_group, &[]);
             let passes: &[Pass] = match (request.mode, request.wireframe) {
                 (ShadingMode::Check, _) => &[Pass::CheckFront, Pass::CheckBack],
+                (ShadingMode::CheckUnderside, _) => &[Pass::CheckFrontUnder, Pass::CheckBackUnder],
                 (_, true) => &[Pass::Fill, Pass::Wire],
                 (_, false) => &[Pass::Fill],
             };
@@ -482,6 +505,17 @@ impl Renderer {
                     } else {
                         pass.multi_draw_indexed_indirect(&self.draws, offset, list.capacity);
                     }
+                }
+                match which {
+                    Pass::CheckFront | Pass::CheckBack => {
+                        self.skirts
+                            .draw(&mut pass, false, which == Pass::CheckFront)
+                    }
+                    Pass::CheckFrontUnder | Pass::CheckBackUnder => {
+                        self.skirts
+                            .draw(&mut pass, true, which == Pass::CheckFrontUnder)
+                    }
+                    Pass::Fill | Pass::Wire => {}
                 }
             }
         }

@@ -1,0 +1,184 @@
+//! Skirts for the terrain pixel check: walls on the input's border edges that close an open
+//! height field only inside the check (shaders/draw.wgsl, `vs_skirt`).
+//!
+//! Why: through a nodata hole an eye may see the far side of the surface, and which pixels
+//! do depends on the cut (a hole one cell wide is a sub-pixel aperture behind which coarser
+//! geometry moves by up to τ). Walls hanging from every border edge make what a ray through a
+//! hole meets the same at every τ — a wall, or nothing — so the check can compare each cut's
+//! hole pixels with the input's (`pixel_check.rs`). The border edges of a cut are the input's
+//! (kept exactly by the lock rule), so one set of walls serves every τ.
+
+use std::collections::HashMap;
+
+use tessera_core::repository::format::dequantize_position;
+use tessera_core::repository::reader::{Repository, RepositoryError};
+
+/// Wall triangles (positions relative to the repository origin), one list per side.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SkirtMeshes {
+    /// Walls from each border edge down to below the terrain's lowest point.
+    pub down: Vec<[f32; 3]>,
+    /// Walls from each border edge up to above its highest point.
+    pub up: Vec<[f32; 3]>,
+}
+
+/// The skirts of a height-field repository: border edges (used by one triangle) of its leaf
+/// patches — the input — each with the orientation of its triangle, which is counter-clockwise
+/// from above, so the hole lies to the edge's right.
+pub fn skirt_meshes(repo: &Repository) -> Result<SkirtMeshes, RepositoryError> {
+    let h = repo.header();
+    // (min id, max id) → (uses, oriented positions of the first use).
+    type EdgeUse = (u32, [[f64; 3]; 2]);
+    let mut edges: HashMap<(u32, u32), EdgeUse> = HashMap::new();
+    for (i, tet) in repo.tets().iter().enumerate() {
+        if !tet.is_leaf() {
+            continue;
+        }
+        let patch = repo.patch(i)?;
+        let ids: Vec<u32> = patch.global_ids().collect();
+        for t in patch.triangles() {
+            for k in 0..3 {
+                let (a, b) = (t[k] as usize, t[(k + 1) % 3] as usize);
+                let key = (ids[a].min(ids[b]), ids[a].max(ids[b]));
+                let at =
+                    |v: usize| dequantize_position(patch.position(v), h.bbox_min, h.position_step);
+                edges
+                    .entry(key)
+                    .and_modify(|e| e.0 += 1)
+                    .or_insert_with(|| (1, [at(a), at(b)]));
+            }
+        }
+    }
+    let depth = (h.bbox_max[2] - h.bbox_min[2]).max(1e-6 * (h.bbox_max[0] - h.bbox_min[0]));
+    let floor = h.bbox_min[2] - 0.01 * depth;
+    let ceiling = h.bbox_max[2] + 0.01 * depth;
+    let local = |p: [f64; 3]| [0, 1, 2].map(|i| (p[i] - h.origin[i]) as f32);
+    let mut meshes = SkirtMeshes::default();
+    let mut borders: Vec<_> = edges.into_values().filter(|(n, _)| *n == 1).collect();
+    // Deterministic order (the hash map's is not).
+    borders.sort_by(|x, y| x.1.partial_cmp(&y.1).expect("finite positions"));
+    for (_, [a, b]) in borders {
+        let (a_low, b_low) = ([a[0], a[1], floor], [b[0], b[1], floor]);
+        let (a_high, b_high) = ([a[0], a[1], ceiling], [b[0], b[1], ceiling]);
+        // Counter-clockwise seen from the hole side (the edge's right).
+        meshes
+            .down
+            .extend([a, a_low, b_low, a, b_low, b].map(local));
+        meshes
+            .up
+            .extend([a, b, b_high, a, b_high, a_high].map(local));
+    }
+    Ok(meshes)
+}
+
+/// The skirts on the GPU: two pipelines (the check's front and back passes, counter-clockwise
+/// front whatever the side checked: the wall's hole side is front in both) and the walls of
+/// each side, once set.
+pub struct CheckSkirts {
+    front: wgpu::RenderPipeline,
+    back: wgpu::RenderPipeline,
+    down: Option<(wgpu::Buffer, u32)>,
+    up: Option<(wgpu::Buffer, u32)>,
+}
+
+impl CheckSkirts {
+    /// `draw_layout`: the renderer's group 0 (frame uniforms first); `module`: draw.wgsl.
+    pub fn new(
+        device: &wgpu::Device,
+        draw_layout: &wgpu::BindGroupLayout,
+        module: &wgpu::ShaderModule,
+    ) -> CheckSkirts {
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("skirts"),
+            bind_group_layouts: &[Some(draw_layout)],
+            immediate_size: 0,
+        });
+        let attributes = wgpu::vertex_attr_array![0 => Float32x3];
+        let pipeline = |front_pass: bool| {
+            let (entry, cull, write, compare) = if front_pass {
+                (
+                    "fs_check_front",
+                    wgpu::Face::Back,
+                    true,
+                    wgpu::CompareFunction::GreaterEqual,
+                )
+            } else {
+                (
+                    "fs_check_back",
+                    wgpu::Face::Front,
+                    false,
+                    wgpu::CompareFunction::Equal,
+                )
+            };
+            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some(entry),
+                layout: Some(&layout),
+                vertex: wgpu::VertexState {
+                    module,
+                    entry_point: Some("vs_skirt"),
+                    compilation_options: Default::default(),
+                    buffers: &[Some(wgpu::VertexBufferLayout {
+                        array_stride: 12,
+                        step_mode: wgpu::VertexStepMode::Vertex,
+                        attributes: &attributes,
+                    })],
+                },
+                primitive: wgpu::PrimitiveState {
+                    topology: wgpu::PrimitiveTopology::TriangleList,
+                    front_face: wgpu::FrontFace::Ccw,
+                    cull_mode: Some(cull),
+                    ..Default::default()
+                },
+                depth_stencil: Some(wgpu::DepthStencilState {
+                    format: super::target::DEPTH_FORMAT,
+                    depth_write_enabled: Some(write),
+                    depth_compare: Some(compare),
+                    stencil: Default::default(),
+                    bias: Default::default(),
+                }),
+                multisample: Default::default(),
+                fragment: Some(wgpu::FragmentState {
+                    module,
+                    entry_point: Some(entry),
+                    compilation_options: Default::default(),
+                    targets: &[Some(super::target::COLOR_FORMAT.into())],
+                }),
+                multiview_mask: None,
+                cache: None,
+            })
+        };
+        CheckSkirts {
+            front: pipeline(true),
+            back: pipeline(false),
+            down: None,
+            up: None,
+        }
+    }
+
+    /// Uploads the walls (replacing earlier ones).
+    pub fn set(&mut self, device: &wgpu::Device, meshes: &SkirtMeshes) {
+        use wgpu::util::DeviceExt;
+        let upload = |label: &str, vertices: &[[f32; 3]]| {
+            (!vertices.is_empty()).then(|| {
+                let buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some(label),
+                    contents: bytemuck::cast_slice(vertices),
+                    usage: wgpu::BufferUsages::VERTEX,
+                });
+                (buffer, vertices.len() as u32)
+            })
+        };
+        self.down = upload("skirts down", &meshes.down);
+        self.up = upload("skirts up", &meshes.up);
+    }
+
+    /// Draws the walls of one side in one of the check's passes (group 0 already bound).
+    pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>, from_below: bool, front_pass: bool) {
+        let walls = if from_below { &self.up } else { &self.down };
+        if let Some((buffer, count)) = walls {
+            pass.set_pipeline(if front_pass { &self.front } else { &self.back });
+            pass.set_vertex_buffer(0, buffer.slice(..));
+            pass.draw(0..*count, 0..1);
+        }
+    }
+}
