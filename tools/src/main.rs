@@ -10,11 +10,13 @@ mod cmd_bench_render;
 mod cmd_build;
 mod cmd_check;
 mod cmd_demo;
+mod cmd_gen;
 mod cmd_info;
 mod cmd_render;
+mod demo_terrain;
+mod input;
 mod output;
 mod progress;
-#[allow(dead_code)] // wired into `tessera bench terrain` as the baselines land
 mod terrain;
 
 use std::process::ExitCode;
@@ -34,7 +36,8 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Build a repository from a mesh (PLY, OBJ, OFF, STL, glTF/GLB; .gz accepted).
+    /// Build a repository from a mesh (PLY, OBJ, OFF, STL, glTF/GLB; .gz accepted) or a height
+    /// field (netCDF, NumPy, GeoTIFF, PNG/PGM, raw f32, JSON grid).
     Build(cmd_build::BuildArgs),
     /// Describe a repository.
     Info(cmd_info::InfoArgs),
@@ -46,10 +49,12 @@ enum Command {
     /// trade-off: triangles, frame time and measured error per τ against discrete LODs, a
     /// cluster DAG and the full resolution), `bench build INPUT`, `bench render REPO`.
     Bench(cmd_bench::BenchArgs),
-    /// Generate a procedural 1.3 M-triangle mesh, build it, check it, render a few frames to
-    /// PNG, print a summary. Without a GPU adapter the frames are skipped (the reason is
+    /// Generate a procedural 1.3 M-triangle mesh and a terrain, build them, check them, render
+    /// a few frames to PNG, print a summary. Without a GPU adapter the frames are skipped (the reason is
     /// printed); the check alone decides the exit code.
     Demo(cmd_demo::DemoArgs),
+    /// Generate inputs: `gen terrain` (diamond-square with a map of regions, seed 002).
+    Gen(cmd_gen::GenArgs),
 }
 
 /// What a command reports: success, or a check that found problems (exit 1).
@@ -67,6 +72,7 @@ fn main() -> ExitCode {
         Command::Check(args) => cmd_check::run(args),
         Command::Demo(args) => cmd_demo::run(args),
         Command::Bench(args) => cmd_bench::run(args),
+        Command::Gen(args) => cmd_gen::run(args),
     };
     match result {
         Ok(Outcome::Ok) => ExitCode::SUCCESS,

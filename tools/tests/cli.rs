@@ -718,3 +718,186 @@ fn bench_trade_off_refuses_bad_input_with_exit_two() {
         check_bad_usage(args, needles);
     }
 }
+
+/// `gen terrain` writes a grid `build` reads as a height field (2D hierarchy, `grid` in its
+/// JSON), and `check --gpu` checks it from above and below; bad terrain parameters and DEM
+/// options exit 2 and leave nothing behind.
+#[test]
+fn gen_terrain_builds_as_a_height_field_and_checks_clean() {
+    let dir = tempfile::tempdir().unwrap();
+    let grid = dir.path().join("t.json");
+    let repo = dir.path().join("t.tsr");
+    let out = tessera(&[
+        "gen",
+        "terrain",
+        "-o",
+        grid.to_str().unwrap(),
+        "--levels",
+        "7",
+        "--seed",
+        "3",
+        "--regions",
+        "MP,HW",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let out = tessera(&[
+        "build",
+        grid.to_str().unwrap(),
+        "-o",
+        repo.to_str().unwrap(),
+        "--json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let b = json(&out);
+    assert_eq!(b["domain"], "heightfield", "{b}");
+    assert_eq!(b["grid"]["columns"], 129);
+    assert_eq!(b["input_triangles"], 2 * 128 * 128);
+    let out = tessera(&["info", repo.to_str().unwrap(), "--json"]);
+    assert_eq!(json(&out)["dimension"], 2);
+    let out = tessera(&[
+        "check",
+        repo.to_str().unwrap(),
+        "--gpu",
+        "--views",
+        "6",
+        "--tolerances",
+        "1,4",
+        "--json",
+    ]);
+    let c = json(&out);
+    assert!(out.status.success(), "{c}");
+    assert_eq!(c["gpu"]["flag_pixels"], 0, "{c}");
+    assert!(c["gpu"]["covered_pixels"].as_u64().unwrap() > 0, "{c}");
+
+    let bad = dir.path().join("bad.tsr");
+    for args in [
+        vec!["gen", "terrain", "-o", bad.to_str().unwrap()],
+        vec![
+            "gen",
+            "terrain",
+            "-o",
+            grid.to_str().unwrap(),
+            "--regions",
+            "MQ",
+        ],
+        vec![
+            "gen",
+            "terrain",
+            "-o",
+            grid.to_str().unwrap(),
+            "--levels",
+            "20",
+        ],
+        vec![
+            "build",
+            grid.to_str().unwrap(),
+            "-o",
+            bad.to_str().unwrap(),
+            "--spacing",
+            "0",
+        ],
+        vec![
+            "build",
+            grid.to_str().unwrap(),
+            "-o",
+            bad.to_str().unwrap(),
+            "--exaggeration",
+            "nan",
+        ],
+    ] {
+        let out = tessera(&args);
+        assert_eq!(out.status.code(), Some(2), "{args:?}");
+        assert!(!String::from_utf8_lossy(&out.stderr).is_empty());
+        assert!(!bad.exists(), "{args:?} left an output");
+    }
+}
+
+/// `bench terrain`: one JSON object with a row set per method (`roam`, `rustic` per cluster
+/// size, `tessera`), each row at its budget, errors measured, and the three plots.
+#[test]
+fn bench_terrain_measures_roam_rustic_and_tessera() {
+    let dem =
+        std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../testdata/dem/volcano.json");
+    assert!(dem.exists(), "run tools/fetch-testdata.sh first");
+    let dir = tempfile::tempdir().unwrap();
+    let plots = dir.path().join("plots");
+    let out = tessera(&[
+        "bench",
+        "terrain",
+        dem.to_str().unwrap(),
+        "--budgets",
+        "500,2000,1000000",
+        "--cluster-sizes",
+        "16,64",
+        "--views",
+        "2",
+        "--frames",
+        "2",
+        "--size",
+        "320x180",
+        "--json",
+        "--plot",
+        plots.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v = json(&out);
+    let rows = |name: &str| {
+        v[name]
+            .as_array()
+            .unwrap_or_else(|| panic!("no {name}: {v}"))
+            .clone()
+    };
+    assert_eq!(
+        rows("roam").len(),
+        2,
+        "the budget over the full grid is left out: {v}"
+    );
+    assert_eq!(rows("tessera").len(), 2);
+    assert_eq!(rows("rustic").len(), 4, "two budgets × two cluster sizes");
+    for name in ["roam", "rustic", "tessera"] {
+        for r in rows(name) {
+            let budget = r["budget"].as_f64().unwrap();
+            let triangles = r["triangles"].as_f64().unwrap();
+            // RUSTiC's counts move in whole clusters.
+            let granularity = 8.0 * r["cluster_size"].as_f64().unwrap_or(0.0);
+            assert!(
+                (triangles - budget).abs() <= 0.35 * budget + granularity,
+                "{name}: {r}"
+            );
+            let (max, mean) = (
+                r["error_max_m"].as_f64().unwrap(),
+                r["error_mean_m"].as_f64().unwrap(),
+            );
+            assert!(max >= mean && mean > 0.0, "{name}: {r}");
+            for key in ["cpu_ms", "frame_ms"] {
+                assert!(r[key].as_f64().unwrap() > 0.0, "{name}: {r}");
+            }
+        }
+        let (coarse, fine) = (&rows(name)[0], &rows(name)[1]);
+        assert!(
+            fine["error_mean_m"].as_f64() < coarse["error_mean_m"].as_f64(),
+            "{name}: more triangles, less error: {v}"
+        );
+    }
+    for file in [
+        "error_vs_triangles.png",
+        "cpu_vs_triangles.png",
+        "frame_time_vs_triangles.png",
+    ] {
+        assert!(plots.join(file).exists(), "{file}");
+    }
+    let out = tessera(&["bench", "terrain", dem.to_str().unwrap(), "--frames", "1"]);
+    assert_eq!(out.status.code(), Some(2));
+}

@@ -169,7 +169,7 @@ fn line(
 }
 
 /// Registers the embedded font as plotters' "sans-serif" (idempotent).
-fn register_font() -> anyhow::Result<()> {
+pub fn register_font() -> anyhow::Result<()> {
     plotters::style::register_font("sans-serif", FontStyle::Normal, dejavu::sans::regular())
         .map_err(|_| anyhow!("the embedded DejaVu Sans font does not parse"))
 }
