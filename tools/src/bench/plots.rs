@@ -41,7 +41,7 @@ fn colour(name: &str) -> RGBColor {
 
 /// A value range for a log axis: the positive values, widened to whole decades (so that the
 /// axis has labels), or [1, 10].
-fn log_range(values: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
+pub fn log_range(values: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
     let (lo, hi) = values
         .filter(|v| *v > 0.0 && v.is_finite())
         .fold((f64::INFINITY, 0.0f64), |(lo, hi), v| {

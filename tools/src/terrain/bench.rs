@@ -382,32 +382,12 @@ pub fn run(args: TerrainBenchArgs) -> anyhow::Result<Outcome> {
     let roam_setup_seconds = t.elapsed().as_secs_f64();
     let mut roam_rows = Vec::new();
     for &budget in &budgets {
-        let mut acc = Accumulator::default();
-        for path in &paths {
-            let mut last = Vec::new();
-            for (f, camera) in path.iter().enumerate() {
-                let start = Instant::now();
-                roam.update(&grid, &roam_view(camera), budget);
-                let triangles: Vec<[[i32; 2]; 3]> =
-                    roam.leaves().iter().map(|t| t.corners()).collect();
-                square.draw(&ctx, camera, &triangles)?;
-                let cpu_ms = start.elapsed().as_secs_f64() * 1e3;
-                ctx.wait_idle();
-                record(
-                    &mut acc,
-                    f,
-                    FrameResult {
-                        cpu_ms,
-                        frame_ms: start.elapsed().as_secs_f64() * 1e3,
-                    },
-                );
-                last = triangles;
-            }
-            acc.triangles.push(last.len() as f64);
-            acc.units.push(last.len() as f64);
-            let surface: Vec<_> = last.iter().map(|&c| sample_triangle(&grid, c)).collect();
-            acc.errors.push(vertical_error(&grid, &surface));
-        }
+        let acc = measure_baseline(&ctx, &grid, &mut square, &paths, |camera| {
+            roam.update(&grid, &roam_view(camera), budget);
+            let triangles: Vec<[[i32; 2]; 3]> = roam.leaves().iter().map(|t| t.corners()).collect();
+            let count = triangles.len();
+            (triangles, count)
+        })?;
         roam_rows.push(acc.row(budget, None));
     }
     drop(roam);
@@ -428,31 +408,10 @@ pub fn run(args: TerrainBenchArgs) -> anyhow::Result<Outcome> {
         }));
         let mut renderer = RusticRenderer::new(&grid, clusters);
         for &budget in &budgets {
-            let mut acc = Accumulator::default();
-            for path in &paths {
-                let mut clusters_drawn = 0;
-                for (f, camera) in path.iter().enumerate() {
-                    let start = Instant::now();
-                    let frame: RusticFrame = renderer.update(&grid, &roam_view(camera), budget);
-                    square.draw(&ctx, camera, &renderer.triangles())?;
-                    let cpu_ms = start.elapsed().as_secs_f64() * 1e3;
-                    ctx.wait_idle();
-                    record(
-                        &mut acc,
-                        f,
-                        FrameResult {
-                            cpu_ms,
-                            frame_ms: start.elapsed().as_secs_f64() * 1e3,
-                        },
-                    );
-                    clusters_drawn = frame.roam_triangles;
-                }
-                let last = renderer.triangles();
-                acc.triangles.push(last.len() as f64);
-                acc.units.push(clusters_drawn as f64);
-                let surface: Vec<_> = last.iter().map(|&c| sample_triangle(&grid, c)).collect();
-                acc.errors.push(vertical_error(&grid, &surface));
-            }
+            let acc = measure_baseline(&ctx, &grid, &mut square, &paths, |camera| {
+                let frame: RusticFrame = renderer.update(&grid, &roam_view(camera), budget);
+                (renderer.triangles(), frame.roam_triangles)
+            })?;
             rustic_rows.push(acc.row(budget, Some(size)));
         }
     }
@@ -528,6 +487,43 @@ pub fn run(args: TerrainBenchArgs) -> anyhow::Result<Outcome> {
         }
     }
     Ok(Outcome::Ok)
+}
+
+/// A baseline over every path: `frame` updates its triangulation for a camera and returns its
+/// triangles (sample-point corners) and its draw units; the frame's CPU time runs from the
+/// update to the submit, its frame time to the end of the GPU's work; the error is the last
+/// frame's of each path.
+fn measure_baseline(
+    ctx: &GpuContext,
+    grid: &BinGrid,
+    square: &mut SquareMesh,
+    paths: &[Vec<Camera>],
+    mut frame: impl FnMut(&Camera) -> (Vec<[[i32; 2]; 3]>, usize),
+) -> anyhow::Result<Accumulator> {
+    let mut acc = Accumulator::default();
+    for path in paths {
+        let mut last = (Vec::new(), 0);
+        for (f, camera) in path.iter().enumerate() {
+            let start = Instant::now();
+            last = frame(camera);
+            square.draw(ctx, camera, &last.0)?;
+            let cpu_ms = start.elapsed().as_secs_f64() * 1e3;
+            ctx.wait_idle();
+            record(
+                &mut acc,
+                f,
+                FrameResult {
+                    cpu_ms,
+                    frame_ms: start.elapsed().as_secs_f64() * 1e3,
+                },
+            );
+        }
+        acc.triangles.push(last.0.len() as f64);
+        acc.units.push(last.1 as f64);
+        let surface: Vec<_> = last.0.iter().map(|&c| sample_triangle(grid, c)).collect();
+        acc.errors.push(vertical_error(grid, &surface));
+    }
+    Ok(acc)
 }
 
 /// Frames after a path's first are timed.

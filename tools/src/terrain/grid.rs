@@ -118,24 +118,64 @@ impl BinGrid {
         x0 < self.columns as i32 - 1 && y0 < self.rows as i32 - 1 && x1 > 0 && y1 > 0
     }
 
-    /// The two root triangles of the square (hypotenuse on the diagonal (0,0)–(side,side)).
+    /// The two root triangles of the square (`roots_of_side`).
     pub fn roots(&self) -> [BinTri; 2] {
-        let s = self.side;
-        [
-            BinTri {
-                apex: [s, 0],
-                left: [s, s],
-                right: [0, 0],
-                id: 2,
-            },
-            BinTri {
-                apex: [0, s],
-                left: [0, 0],
-                right: [s, s],
-                id: 3,
-            },
-        ]
+        roots_of_side(self.side)
     }
+
+    /// The world box of the real grid's samples.
+    #[cfg(test)]
+    pub fn world_bounds(&self) -> ([f64; 3], [f64; 3]) {
+        let mut lo = [f64::INFINITY; 3];
+        let mut hi = [f64::NEG_INFINITY; 3];
+        for r in 0..self.rows as i32 {
+            for c in 0..self.columns as i32 {
+                let p = self.world([c, r]);
+                for k in 0..3 {
+                    lo[k] = lo[k].min(p[k]);
+                    hi[k] = hi[k].max(p[k]);
+                }
+            }
+        }
+        (lo, hi)
+    }
+}
+
+/// The two root triangles of a square of `side` cells (hypotenuse on the diagonal
+/// (0, 0)–(side, side)).
+pub fn roots_of_side(s: i32) -> [BinTri; 2] {
+    [
+        BinTri {
+            apex: [s, 0],
+            left: [s, s],
+            right: [0, 0],
+            id: 2,
+        },
+        BinTri {
+            apex: [0, s],
+            left: [0, 0],
+            right: [s, s],
+            id: 3,
+        },
+    ]
+}
+
+/// A grid of `columns` × `rows` unit-spaced samples, heights `f(row, column)` (tests).
+#[cfg(test)]
+pub fn test_grid(columns: usize, rows: usize, f: impl Fn(usize, usize) -> f32) -> BinGrid {
+    let heights = (0..rows)
+        .flat_map(|r| (0..columns).map(move |c| (r, c)))
+        .map(|(r, c)| f(r, c))
+        .collect();
+    let g = HeightGrid {
+        columns,
+        rows,
+        heights,
+        origin: [0.0, 0.0],
+        spacing: [1.0, 1.0],
+        geographic: false,
+    };
+    BinGrid::new(&g, &TerrainOptions::default())
 }
 
 /// Fills NaNs of a row with the nearest non-NaN value (ties: the left one); an all-NaN row stays.
@@ -314,22 +354,6 @@ pub fn sample_triangle(grid: &BinGrid, corners: [[i32; 2]; 3]) -> [[f64; 3]; 3] 
 mod tests {
     use super::*;
 
-    fn grid(columns: usize, rows: usize, f: impl Fn(usize, usize) -> f32) -> BinGrid {
-        let heights = (0..rows)
-            .flat_map(|r| (0..columns).map(move |c| (r, c)))
-            .map(|(r, c)| f(r, c))
-            .collect();
-        let g = HeightGrid {
-            columns,
-            rows,
-            heights,
-            origin: [0.0, 0.0],
-            spacing: [1.0, 1.0],
-            geographic: false,
-        };
-        BinGrid::new(&g, &TerrainOptions::default())
-    }
-
     fn leaves(t: BinTri, level: u32, out: &mut Vec<BinTri>) {
         if t.level() == level {
             out.push(t);
@@ -342,20 +366,20 @@ mod tests {
 
     #[test]
     fn the_square_covers_the_grid_and_pads_by_clamping() {
-        let g = grid(5, 3, |r, c| (10 * r + c) as f32);
+        let g = test_grid(5, 3, |r, c| (10 * r + c) as f32);
         assert_eq!(g.side, 4);
         assert_eq!(g.finest_level(), 4);
         assert_eq!(g.height([4, 2]), 24.0);
         assert_eq!(g.height([4, 4]), 24.0, "padding clamps to the last row");
         assert!(g.real_height([4, 3]).is_nan());
-        let g = grid(6, 2, |_, c| c as f32);
+        let g = test_grid(6, 2, |_, c| c as f32);
         assert_eq!(g.side, 8);
         assert_eq!(g.height([7, 1]), 5.0);
     }
 
     #[test]
     fn children_tile_the_parent_and_the_finest_level_is_one_cell() {
-        let g = grid(9, 9, |_, _| 0.0);
+        let g = test_grid(9, 9, |_, _| 0.0);
         let mut all = Vec::new();
         for root in g.roots() {
             leaves(root, g.finest_level(), &mut all);
@@ -380,7 +404,7 @@ mod tests {
 
     #[test]
     fn vertical_error_is_zero_for_the_finest_level_and_exact_for_a_coarse_one() {
-        let g = grid(9, 9, |r, c| ((r * 7 + c * 3) % 5) as f32);
+        let g = test_grid(9, 9, |r, c| ((r * 7 + c * 3) % 5) as f32);
         let mut fine = Vec::new();
         for root in g.roots() {
             leaves(root, g.finest_level(), &mut fine);
@@ -392,7 +416,7 @@ mod tests {
         let e = vertical_error(&g, &tris);
         assert_eq!((e.max, e.uncovered, e.covered), (0.0, 0, 81));
         // A flat grid with one bump: the two roots miss it by its height.
-        let g = grid(9, 9, |r, c| if (r, c) == (3, 5) { 4.0 } else { 0.0 });
+        let g = test_grid(9, 9, |r, c| if (r, c) == (3, 5) { 4.0 } else { 0.0 });
         let tris: Vec<_> = g
             .roots()
             .iter()

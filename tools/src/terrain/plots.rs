@@ -61,19 +61,6 @@ fn lines<'a>(
     out
 }
 
-fn log_range(values: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
-    let (lo, hi) = values
-        .filter(|v| *v > 0.0 && v.is_finite())
-        .fold((f64::INFINITY, 0.0f64), |(lo, hi), v| {
-            (lo.min(v), hi.max(v))
-        });
-    if lo.is_finite() && hi > 0.0 {
-        lo / 1.5..hi * 1.5
-    } else {
-        1.0..10.0
-    }
-}
-
 /// One plot of `values` (each row's one or two y values: solid, dashed) against triangles.
 fn plot(
     dir: &Path,
@@ -84,8 +71,8 @@ fn plot(
     values: &dyn Fn(&TerrainRow) -> (f64, Option<f64>),
 ) -> anyhow::Result<PathBuf> {
     let all = || lines.iter().flat_map(|l| l.rows.iter());
-    let x = log_range(all().map(|r| r.triangles));
-    let y = log_range(all().flat_map(|r| {
+    let x = crate::bench::plots::log_range(all().map(|r| r.triangles));
+    let y = crate::bench::plots::log_range(all().flat_map(|r| {
         let (a, b) = values(r);
         [Some(a), b].into_iter().flatten()
     }));

@@ -38,24 +38,8 @@ fn bin(g: &HeightGrid) -> BinGrid {
     BinGrid::new(g, &TerrainOptions::default())
 }
 
-/// The world box of the real grid.
-fn bounds(grid: &BinGrid) -> ([f64; 3], [f64; 3]) {
-    let mut lo = [f64::INFINITY; 3];
-    let mut hi = [f64::NEG_INFINITY; 3];
-    for r in 0..grid.rows as i32 {
-        for c in 0..grid.columns as i32 {
-            let p = grid.world([c, r]);
-            for k in 0..3 {
-                lo[k] = lo[k].min(p[k]);
-                hi[k] = hi[k].max(p[k]);
-            }
-        }
-    }
-    (lo, hi)
-}
-
 fn orbit(grid: &BinGrid, azimuth: f64, elevation: f64, distance: f64) -> Camera {
-    let (lo, hi) = bounds(grid);
+    let (lo, hi) = grid.world_bounds();
     Camera::orbit(lo, hi, Z_UP, azimuth, elevation, distance)
 }
 
@@ -66,7 +50,7 @@ fn overhead(grid: &BinGrid) -> RoamView {
 
 /// Low over one corner, looking across the grid towards the far corner.
 fn low(grid: &BinGrid) -> Camera {
-    let (lo, hi) = bounds(grid);
+    let (lo, hi) = grid.world_bounds();
     let eye = [
         lo[0] + 0.1 * (hi[0] - lo[0]),
         lo[1] + 0.1 * (hi[1] - lo[1]),
@@ -383,7 +367,7 @@ fn far_and_unseen_triangles_are_coarser() {
     let mut roam = Roam::new(&grid, WedgieErrors::from_grid(&grid));
     roam.update(&grid, &view, 4000);
     check(&mut roam, &grid, &view);
-    let (lo, hi) = bounds(&grid);
+    let (lo, hi) = grid.world_bounds();
     let extent = (hi[0] - lo[0]).max(hi[1] - lo[1]);
     let centre = |t: &BinTri| {
         let c = t.corners().map(|p| grid.world(p));
@@ -471,7 +455,7 @@ fn jacksboro_timings() {
         grid.finest_level()
     );
     let cam = orbit(&grid, 30.0, 25.0, 0.8);
-    let (lo, hi) = bounds(&grid);
+    let (lo, hi) = grid.world_bounds();
     println!("  world box {lo:?} – {hi:?}, eye {:?}", cam.eye);
     let view = RoamView::from_camera(&cam);
     for budget in [10_000, 100_000] {

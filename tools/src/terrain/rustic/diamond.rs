@@ -180,26 +180,9 @@ mod tests {
     use super::*;
     use crate::terrain::grid::BinTri;
 
-    fn roots(s: i32) -> [BinTri; 2] {
-        [
-            BinTri {
-                apex: [s, 0],
-                left: [s, s],
-                right: [0, 0],
-                id: 2,
-            },
-            BinTri {
-                apex: [0, s],
-                left: [0, 0],
-                right: [s, s],
-                id: 3,
-            },
-        ]
-    }
-
     fn all_triangles(s: i32) -> Vec<BinTri> {
         let mut out = Vec::new();
-        let mut stack = roots(s).to_vec();
+        let mut stack = crate::terrain::grid::roots_of_side(s).to_vec();
         while let Some(t) = stack.pop() {
             out.push(t);
             if t.can_split() {

@@ -82,24 +82,8 @@ mod tests {
     use crate::terrain::rustic::tests::{check_conforming, rough, Rng};
     use tessera_runtime::camera::{Camera, Z_UP};
 
-    /// The world box of the real grid.
-    fn bounds(grid: &BinGrid) -> ([f64; 3], [f64; 3]) {
-        let mut lo = [f64::INFINITY; 3];
-        let mut hi = [f64::NEG_INFINITY; 3];
-        for r in 0..grid.rows as i32 {
-            for c in 0..grid.columns as i32 {
-                let p = grid.world([c, r]);
-                for k in 0..3 {
-                    lo[k] = lo[k].min(p[k]);
-                    hi[k] = hi[k].max(p[k]);
-                }
-            }
-        }
-        (lo, hi)
-    }
-
     fn orbit(grid: &BinGrid, azimuth: f64, elevation: f64, distance: f64) -> RoamView {
-        let (lo, hi) = bounds(grid);
+        let (lo, hi) = grid.world_bounds();
         RoamView::from_camera(&Camera::orbit(lo, hi, Z_UP, azimuth, elevation, distance))
     }
 

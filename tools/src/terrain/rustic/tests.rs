@@ -6,7 +6,6 @@ use std::collections::{HashMap, HashSet};
 use super::diamond::{in_square, Diamond};
 use super::{build_with, Rustic};
 use crate::terrain::grid::{sample_triangle, vertical_error, BinGrid, BinTri};
-use tessera_preprocess::dem::{HeightGrid, TerrainOptions};
 use tessera_preprocess::diamond_square::{generate, TerrainParams};
 
 /// splitmix64: a small deterministic generator for the tests.
@@ -30,22 +29,6 @@ impl Rng {
     }
 }
 
-pub(super) fn grid_of(columns: usize, rows: usize, f: impl Fn(usize, usize) -> f32) -> BinGrid {
-    let heights = (0..rows)
-        .flat_map(|r| (0..columns).map(move |c| (r, c)))
-        .map(|(r, c)| f(r, c))
-        .collect();
-    let g = HeightGrid {
-        columns,
-        rows,
-        heights,
-        origin: [0.0, 0.0],
-        spacing: [1.0, 1.0],
-        geographic: false,
-    };
-    BinGrid::new(&g, &TerrainOptions::default())
-}
-
 /// A rough diamond-square terrain of (2^levels + 1)² samples, cropped to `columns` × `rows`.
 pub(super) fn rough(levels: u32, columns: usize, rows: usize, seed: u64) -> BinGrid {
     let g = generate(&TerrainParams {
@@ -56,7 +39,7 @@ pub(super) fn rough(levels: u32, columns: usize, rows: usize, seed: u64) -> BinG
         regions: vec!["M".into()],
     })
     .expect("valid parameters");
-    grid_of(columns, rows, |r, c| g.heights[r * g.columns + c])
+    crate::terrain::grid::test_grid(columns, rows, |r, c| g.heights[r * g.columns + c])
 }
 
 /// A random conforming triangulation of cluster triangles (levels ≤ `max_level`): random
@@ -187,7 +170,7 @@ fn clusters_of_every_conforming_cut_are_crack_free() {
         ("rough padded 50×37", rough(6, 50, 37, 8)),
         (
             "spiky 33²",
-            grid_of(33, 33, |r, c| ((r * 31 + c * 17) % 11) as f32 * 40.0),
+            crate::terrain::grid::test_grid(33, 33, |r, c| ((r * 31 + c * 17) % 11) as f32 * 40.0),
         ),
     ];
     for (name, grid) in &grids {
@@ -256,7 +239,7 @@ fn clusters_hold_about_n_triangles() {
 #[test]
 fn cluster_errors_are_the_vertical_error_of_their_triangles() {
     let grids = [
-        grid_of(33, 33, |r, c| {
+        crate::terrain::grid::test_grid(33, 33, |r, c| {
             ((r * 7 + c * 13) % 17) as f32 * 3.5 - (r as f32).sqrt()
         }),
         rough(5, 21, 14, 5), // padded: only real samples count
@@ -293,7 +276,7 @@ fn adaptive_clusters_beat_even_ones_on_uneven_terrain() {
     // below that of the even split into 2^Q triangles (the simple split method, seed 000 §3.1).
     let r = rough(6, 65, 65, 9);
     let patch = |c: i32, row: i32| (40..=56).contains(&c) && (8..=24).contains(&row);
-    let grid = grid_of(65, 65, |row, c| {
+    let grid = crate::terrain::grid::test_grid(65, 65, |row, c| {
         if patch(c as i32, row as i32) {
             r.height([c as i32, row as i32]) - r.height([40, 8])
         } else {
