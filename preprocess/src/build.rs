@@ -207,6 +207,7 @@ fn validate(mesh: &InputMesh, config: &BuildConfig) -> Result<(), BuildError> {
     let SimplifySettings {
         keep,
         normal_weight,
+        ..
     } = config.simplify;
     let keep_ok = keep > 0.0 && keep < 1.0;
     let weight_ok = normal_weight >= 0.0 && normal_weight.is_finite();
@@ -272,7 +273,11 @@ fn build_in_pool(
     // 2. Simplification, diamond by diamond, finest first, borders locked.
     on_stage("simplify");
     let t = Instant::now();
-    let simplified = simplify_hierarchy(mesh, &hierarchy, current, &config.simplify);
+    let settings = SimplifySettings {
+        keep_borders: config.simplify.keep_borders && config.domain == Domain::Volume,
+        ..config.simplify
+    };
+    let simplified = simplify_hierarchy(mesh, &hierarchy, current, &settings);
     stage("simplify", t);
 
     // 3. Table order: breadth-first from the roots, so roots come first and siblings are

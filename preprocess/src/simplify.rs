@@ -109,6 +109,14 @@ pub struct SimplifySettings {
     /// displacement of 5 % of the model — a mild preference for keeping shading, the same for
     /// every model whatever its units.
     pub normal_weight: f32,
+    /// Keep the input's border edges (hole and outline edges inside a diamond) exactly, or let
+    /// meshopt shorten border chains (it collapses a border vertex only along its border). The
+    /// build keeps them for meshes and frees them for height fields, whose outline otherwise
+    /// fills every coarse patch with slivers fanned between the outline's samples. Either way
+    /// every vertex shared with the rest of the mesh stays locked, so cuts stay crack-free;
+    /// the check accepts a cut border that simplifies an input border loop
+    /// (`geometric_check.rs`).
+    pub keep_borders: bool,
 }
 
 impl Default for SimplifySettings {
@@ -116,6 +124,7 @@ impl Default for SimplifySettings {
         SimplifySettings {
             keep: 0.5,
             normal_weight: 0.05,
+            keep_borders: true,
         }
     }
 }
@@ -323,7 +332,7 @@ fn simplify_diamond(
         .map(|(&g, &n)| n == current.use_count(g))
         .collect();
     let gathered_edges = LocalEdges::count(interior.len(), &local.indices);
-    let mut lock = lock_vertices(&gathered_edges, &interior);
+    let mut lock = lock_vertices(&gathered_edges, &interior, ctx.settings.keep_borders);
     if !extra_locks.is_empty() {
         for (l, g) in lock.iter_mut().zip(&local.global_of) {
             *l |= extra_locks.contains(g);
@@ -498,13 +507,12 @@ fn merge_effect(
 }
 
 /// Locks a vertex when the rest of the current mesh also uses it (it is not interior), or when
-/// it lies on an edge of the gathered set that is not used by exactly two of its triangles
-/// (holes of the scan, non-manifold edges): both keep every conforming cut's borders where the
-/// input has them.
-fn lock_vertices(gathered_edges: &LocalEdges, interior: &[bool]) -> Vec<bool> {
+/// it lies on a non-manifold edge of the gathered set, or (with `keep_borders`) on a border
+/// edge (holes of the scan): all keep every conforming cut's borders where the input has them.
+fn lock_vertices(gathered_edges: &LocalEdges, interior: &[bool], keep_borders: bool) -> Vec<bool> {
     let mut lock: Vec<bool> = interior.iter().map(|&i| !i).collect();
     for (_, a, b, uses) in gathered_edges.iter() {
-        if uses != 2 {
+        if uses > 2 || (uses == 1 && keep_borders) {
             lock[a as usize] = true;
             lock[b as usize] = true;
         }

@@ -1,7 +1,8 @@
 //! The exact crack check (no pixels): extract the cut for many eyes and tolerances and compare
 //! its edges, by global vertex id, with the input's (the τ = 0 cut, i.e. every leaf).
 //!
-//! - crack: an edge used by one triangle of the cut that is not a border edge of the input;
+//! - crack: an edge used by one triangle of the cut that is not a border edge of the input,
+//!   nor an input border chain simplified (`border_loops.rs`: height fields shorten theirs);
 //! - non-manifold introduced: an edge used by more than two triangles that the input did not
 //!   have as such;
 //! - monotonicity violation: a diamond DAG edge with ρ(parent) < ρ(child) in f32, as the GPU
@@ -20,6 +21,7 @@ use tessera_core::repository::format::NO_INDEX;
 use tessera_core::repository::reader::Repository;
 use tessera_core::repository::RepositoryError;
 
+use crate::border_loops::BorderLoops;
 use crate::views::check_views;
 
 /// What to check.
@@ -181,6 +183,17 @@ pub fn check_cuts_at(
         .filter(|(_, n)| *n == 1)
         .map(|(k, _)| *k)
         .collect();
+    let loops = BorderLoops::new(
+        (0..tets.len())
+            .filter(|&i| tets[i].first_child == NO_INDEX)
+            .flat_map(|i| patches[i].iter()),
+    );
+    let vertex_count = patches
+        .iter()
+        .flatten()
+        .flatten()
+        .max()
+        .map_or(0, |&v| v as usize + 1);
     let input_nonmanifold: HashSet<u64> = reference
         .iter()
         .filter(|(_, n)| *n > 2)
@@ -216,10 +229,33 @@ pub fn check_cuts_at(
                 }
                 let triangles: usize = cut.iter().map(|&i| patches[i as usize].len()).sum();
                 let edges = edge_counts(cut.iter().flat_map(|&i| patches[i as usize].iter()));
-                let cracks = edges
+                let mut cracks = edges
                     .iter()
                     .filter(|(k, n)| *n == 1 && !input_border.contains(k))
                     .count();
+                if cracks > 0 && !loops.is_empty() {
+                    // Border edges that are not the input's: simplified border chains, or cracks.
+                    let candidates: HashSet<u64> = edges
+                        .iter()
+                        .filter(|(k, n)| *n == 1 && !input_border.contains(k))
+                        .map(|(k, _)| *k)
+                        .collect();
+                    let mut used = vec![false; vertex_count];
+                    for t in cut.iter().flat_map(|&i| patches[i as usize].iter()) {
+                        for &v in t {
+                            used[v as usize] = true;
+                        }
+                    }
+                    let is_used = |v: u32| used.get(v as usize).copied().unwrap_or(false);
+                    cracks = cut
+                        .iter()
+                        .flat_map(|&i| patches[i as usize].iter())
+                        .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
+                        .filter(|&(a, b)| {
+                            candidates.contains(&edge_key(a, b)) && !loops.accepts(a, b, &is_used)
+                        })
+                        .count();
+                }
                 r.nonmanifold_introduced += edges
                     .iter()
                     .filter(|(k, n)| *n > 2 && !input_nonmanifold.contains(k))

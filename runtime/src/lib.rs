@@ -6,6 +6,7 @@
 //! Architecture invariant: the runtime reads repositories only through tessera-core; it never
 //! imports the preprocessor.
 
+pub mod border_loops;
 pub mod camera;
 pub mod geometric_check;
 pub mod gpu;

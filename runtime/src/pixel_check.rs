@@ -5,12 +5,13 @@
 //! A terrain (a repository of dimension 2) is open: a crack in it shows the background, or the
 //! far side of the surface. It is checked from above with the flag on its underside and from
 //! below with the flag on its top (`ShadingMode::CheckUnderside`), eyes over its rectangle
-//! (`views::terrain_views`), with walls on the input's border edges drawn into both passes
-//! (`gpu/skirts.rs`: what a ray through a nodata hole meets is then the same at every τ), and
-//! every *hole pixel* (background or flag) counts — except where the input itself lets the eye
-//! through: the input (τ = 0, exactly its triangles) is rendered from each view first, and a
-//! hole pixel within ⌈2τ⌉ + 1 pixels of one of the input's own hole pixels (beyond the outline,
-//! the horizon, down a hole) is counted as `excused_pixels` instead. The reach allows for the
+//! (`views::terrain_views`), with walls on each frame's border edges that simplify the input's
+//! border drawn into both passes (`gpu/skirts.rs`: what a ray through a nodata hole meets is
+//! then a wall or nothing, at every τ; a crack gets no wall), and every *hole pixel*
+//! (background or flag) counts — except where the input itself lets the eye through: the
+//! input (τ = 0, exactly its triangles) is rendered from each view first, and a hole pixel
+//! within ⌈2τ⌉ + 1 pixels of one of the input's own hole pixels (beyond the outline, the
+//! horizon, down a hole) is counted as `excused_pixels` instead. The reach allows for the
 //! cut's error (max about 1.5 τ measured on the dragon); a crack inside the terrain, farther
 //! than that from the input's own hole pixels, is a flag pixel.
 //!
@@ -114,11 +115,17 @@ pub fn check_pixels(
                 (camera, mode)
             })
             .collect();
-        // A patch that does not decode is the geometric check's finding; the walls then miss
-        // its edges, which can only add flag pixels.
-        let skirts = crate::gpu::skirts::skirt_meshes(repo).unwrap_or_default();
-        renderer.set_check_skirts(ctx, &skirts);
-        let report = check_views(ctx, renderer, repo, &views, &config.tolerances, true);
+        // A patch that does not decode is the geometric check's finding; its frames then have
+        // no walls, which can only add flag pixels.
+        let skirts = crate::gpu::skirts::SkirtSource::new(repo).ok();
+        let report = check_views(
+            ctx,
+            renderer,
+            repo,
+            &views,
+            &config.tolerances,
+            skirts.as_ref(),
+        );
         renderer.set_check_skirts(ctx, &Default::default());
         return report;
     }
@@ -148,7 +155,7 @@ pub fn check_pixels_at(
 ) -> PixelCheckReport {
     let views: Vec<(Camera, ShadingMode)> =
         cameras.iter().map(|&c| (c, ShadingMode::Check)).collect();
-    check_views(ctx, renderer, repo, &views, tolerances, false)
+    check_views(ctx, renderer, repo, &views, tolerances, None)
 }
 
 const BACKGROUND: [u8; 4] = [0, 0, 0, 255];
@@ -163,16 +170,24 @@ fn hole_pixels(image: &image::RgbaImage, background: bool) -> Vec<(u32, u32)> {
         .collect()
 }
 
-/// The check of every (view, τ), each view in its mode; with `excuse_input`, the input's own
-/// see-through pixels (and their neighbourhood) are excused (module comment).
+/// The check of every (view, τ), each view in its mode. With `terrain` (a height field: its
+/// walls), every frame gets the walls of its cut, and the input's own hole pixels (and their
+/// neighbourhood) are excused (module comment).
 fn check_views(
     ctx: &GpuContext,
     renderer: &mut Renderer,
     repo: &Repository,
     views: &[(Camera, ShadingMode)],
     tolerances: &[f32],
-    excuse_input: bool,
+    terrain: Option<&crate::gpu::skirts::SkirtSource>,
 ) -> PixelCheckReport {
+    let excuse_input = terrain.is_some();
+    let set_walls = |renderer: &mut Renderer, selection: &[u32]| {
+        if let Some(source) = terrain {
+            let walls = source.walls(repo, selection).unwrap_or_default();
+            renderer.set_check_skirts(ctx, &walls);
+        }
+    };
     assert!(
         views
             .iter()
@@ -192,6 +207,9 @@ fn check_views(
         // The input's own flag pixels from this view, as a bitmap.
         let (width, height) = renderer.size();
         let input_flags = excuse_input.then(|| {
+            let mut input = select_visible(repo.tets(), &rhos, 0.0, eye_local, &cull);
+            input.retain(|&i| repo.tets()[i as usize].strip_index_count > 0);
+            set_walls(renderer, &input);
             let request = FrameRequest {
                 camera,
                 tau: 0.0,
@@ -214,6 +232,9 @@ fn check_views(
             bitmap
         });
         for &tau in tolerances {
+            let mut cpu = select_visible(repo.tets(), &rhos, tau, eye_local, &cull);
+            cpu.retain(|&i| repo.tets()[i as usize].strip_index_count > 0);
+            set_walls(renderer, &cpu);
             let request = FrameRequest {
                 camera,
                 tau,
@@ -231,8 +252,6 @@ fn check_views(
             );
             let image = renderer.read_image(ctx);
             let gpu = renderer.read_selection(ctx);
-            let mut cpu = select_visible(repo.tets(), &rhos, tau, eye_local, &cull);
-            cpu.retain(|&i| repo.tets()[i as usize].strip_index_count > 0);
             if gpu != cpu {
                 report.selection_mismatches += 1;
             }

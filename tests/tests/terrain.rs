@@ -240,3 +240,54 @@ fn a_nudged_terrain_patch_is_caught_from_above_and_below() {
     );
     assert_eq!(px.selection_mismatches, 0, "only positions changed");
 }
+
+/// With border chains free to shorten, the geometric check still finds cracks: a triangle
+/// taken out of each patch in the middle of the terrain (one not touching the input's border)
+/// leaves edges used once that simplify no border chain, and one taken from along the
+/// outline leaves the outline's vertices drawn on both sides of the gap.
+#[test]
+fn the_terrain_geometric_check_still_finds_cracks() {
+    let grid = load_dem(
+        &testdata("dem/jacksboro_fault_dem.npz"),
+        &DemOptions::default(),
+    )
+    .unwrap();
+    let mesh = grid.to_mesh(&TerrainOptions::default());
+    let outline: std::collections::HashSet<u32> = {
+        let mut count: HashMap<(u32, u32), u32> = HashMap::new();
+        for t in &mesh.triangles {
+            for k in 0..3 {
+                let (a, b) = (t[k], t[(k + 1) % 3]);
+                *count.entry((a.min(b), a.max(b))).or_default() += 1;
+            }
+        }
+        count
+            .into_iter()
+            .filter(|&(_, n)| n == 1)
+            .flat_map(|((a, b), _)| [a, b])
+            .collect()
+    };
+    let repo = open(&contents_of(&mesh));
+    let intact = decode_all_patches(&repo).unwrap();
+    let config = CheckConfig {
+        views: 8,
+        ..Default::default()
+    };
+    assert!(check_cuts(&repo, &intact, &config).is_clean());
+    for on_outline in [false, true] {
+        let mut broken = intact.clone();
+        for patch in broken.iter_mut() {
+            if let Some(k) = patch
+                .iter()
+                .position(|t| t.iter().any(|v| outline.contains(v)) == on_outline)
+            {
+                patch.remove(k);
+            }
+        }
+        let report = check_cuts(&repo, &broken, &config);
+        assert!(
+            report.cracks > 0,
+            "on the outline: {on_outline}: {report:?}"
+        );
+    }
+}

@@ -1,17 +1,20 @@
-//! Skirts for the terrain pixel check: walls on the input's border edges that close an open
-//! height field only inside the check (shaders/draw.wgsl, `vs_skirt`).
+//! Skirts for the terrain pixel check: walls on a cut's border edges that close an open height
+//! field only inside the check (shaders/draw.wgsl, `vs_skirt`).
 //!
 //! Why: through a nodata hole an eye may see the far side of the surface, and which pixels
 //! do depends on the cut (a hole one cell wide is a sub-pixel aperture behind which coarser
-//! geometry moves by up to τ). Walls hanging from every border edge make what a ray through a
-//! hole meets the same at every τ — a wall, or nothing — so the check can compare each cut's
-//! hole pixels with the input's (`pixel_check.rs`). The border edges of a cut are the input's
-//! (kept exactly by the lock rule), so one set of walls serves every τ.
+//! geometry moves by up to τ). Walls hanging from the border make what a ray through a hole
+//! meets a wall, or nothing, at every τ, so the check can compare each cut's hole pixels with
+//! the input's (`pixel_check.rs`). Height fields shorten their border chains, so each frame's
+//! walls follow its own cut — but only on the border edges that simplify the input's border
+//! (`border_loops.rs`): a crack gets no wall and stays visible.
 
 use std::collections::HashMap;
 
 use tessera_core::repository::format::dequantize_position;
 use tessera_core::repository::reader::{Repository, RepositoryError};
+
+use crate::border_loops::BorderLoops;
 
 /// Wall triangles (positions relative to the repository origin), one list per side.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -22,53 +25,74 @@ pub struct SkirtMeshes {
     pub up: Vec<[f32; 3]>,
 }
 
-/// The skirts of a height-field repository: border edges (used by one triangle) of its leaf
-/// patches — the input — each with the orientation of its triangle, which is counter-clockwise
-/// from above, so the hole lies to the edge's right.
-pub fn skirt_meshes(repo: &Repository) -> Result<SkirtMeshes, RepositoryError> {
-    let h = repo.header();
-    // (min id, max id) → (uses, oriented positions of the first use).
-    type EdgeUse = (u32, [[f64; 3]; 2]);
-    let mut edges: HashMap<(u32, u32), EdgeUse> = HashMap::new();
-    for (i, tet) in repo.tets().iter().enumerate() {
-        if !tet.is_leaf() {
-            continue;
-        }
-        let patch = repo.patch(i)?;
-        let ids: Vec<u32> = patch.global_ids().collect();
-        for t in patch.triangles() {
-            for k in 0..3 {
-                let (a, b) = (t[k] as usize, t[(k + 1) % 3] as usize);
-                let key = (ids[a].min(ids[b]), ids[a].max(ids[b]));
-                let at =
-                    |v: usize| dequantize_position(patch.position(v), h.bbox_min, h.position_step);
-                edges
-                    .entry(key)
-                    .and_modify(|e| e.0 += 1)
-                    .or_insert_with(|| (1, [at(a), at(b)]));
+/// What the walls of any cut of one repository are made from: the input's border chains and
+/// the heights the walls reach.
+pub struct SkirtSource {
+    loops: BorderLoops,
+    floor: f64,
+    ceiling: f64,
+}
+
+impl SkirtSource {
+    /// The input's border chains (from the leaf patches) of a height-field repository.
+    pub fn new(repo: &Repository) -> Result<SkirtSource, RepositoryError> {
+        let mut input = Vec::new();
+        for (i, tet) in repo.tets().iter().enumerate() {
+            if tet.is_leaf() {
+                let patch = repo.patch(i)?;
+                let ids: Vec<u32> = patch.global_ids().collect();
+                input.extend(patch.triangles().map(|t| t.map(|v| ids[v as usize])));
             }
         }
+        let h = repo.header();
+        let depth = (h.bbox_max[2] - h.bbox_min[2]).max(1e-6 * (h.bbox_max[0] - h.bbox_min[0]));
+        Ok(SkirtSource {
+            loops: BorderLoops::new(input.iter()),
+            floor: h.bbox_min[2] - 0.01 * depth,
+            ceiling: h.bbox_max[2] + 0.01 * depth,
+        })
     }
-    let depth = (h.bbox_max[2] - h.bbox_min[2]).max(1e-6 * (h.bbox_max[0] - h.bbox_min[0]));
-    let floor = h.bbox_min[2] - 0.01 * depth;
-    let ceiling = h.bbox_max[2] + 0.01 * depth;
-    let local = |p: [f64; 3]| [0, 1, 2].map(|i| (p[i] - h.origin[i]) as f32);
-    let mut meshes = SkirtMeshes::default();
-    let mut borders: Vec<_> = edges.into_values().filter(|(n, _)| *n == 1).collect();
-    // Deterministic order (the hash map's is not).
-    borders.sort_by(|x, y| x.1.partial_cmp(&y.1).expect("finite positions"));
-    for (_, [a, b]) in borders {
-        let (a_low, b_low) = ([a[0], a[1], floor], [b[0], b[1], floor]);
-        let (a_high, b_high) = ([a[0], a[1], ceiling], [b[0], b[1], ceiling]);
-        // Counter-clockwise seen from the hole side (the edge's right).
-        meshes
-            .down
-            .extend([a, a_low, b_low, a, b_low, b].map(local));
-        meshes
-            .up
-            .extend([a, b, b_high, a, b_high, a_high].map(local));
+
+    /// The walls of the cut `selection` (simplex indices): one per border edge of the cut that
+    /// simplifies the input's border, directed as its triangle runs (counter-clockwise from
+    /// above, so the hole lies to the edge's right).
+    pub fn walls(
+        &self,
+        repo: &Repository,
+        selection: &[u32],
+    ) -> Result<SkirtMeshes, RepositoryError> {
+        let h = repo.header();
+        let mut triangles = Vec::new();
+        let mut position: HashMap<u32, [f64; 3]> = HashMap::new();
+        for &i in selection {
+            let patch = repo.patch(i as usize)?;
+            let ids: Vec<u32> = patch.global_ids().collect();
+            for (v, &id) in ids.iter().enumerate() {
+                position.entry(id).or_insert_with(|| {
+                    dequantize_position(patch.position(v), h.bbox_min, h.position_step)
+                });
+            }
+            triangles.extend(patch.triangles().map(|t| t.map(|v| ids[v as usize])));
+        }
+        let refs: Vec<&[u32; 3]> = triangles.iter().collect();
+        let mut border = self.loops.classify(&refs).border;
+        border.sort_unstable();
+        let local = |p: [f64; 3]| [0, 1, 2].map(|i| (p[i] - h.origin[i]) as f32);
+        let mut meshes = SkirtMeshes::default();
+        for (a, b) in border {
+            let (a, b) = (position[&a], position[&b]);
+            let (a_low, b_low) = ([a[0], a[1], self.floor], [b[0], b[1], self.floor]);
+            let (a_high, b_high) = ([a[0], a[1], self.ceiling], [b[0], b[1], self.ceiling]);
+            // Counter-clockwise seen from the hole side (the edge's right).
+            meshes
+                .down
+                .extend([a, a_low, b_low, a, b_low, b].map(local));
+            meshes
+                .up
+                .extend([a, b, b_high, a, b_high, a_high].map(local));
+        }
+        Ok(meshes)
     }
-    Ok(meshes)
 }
 
 /// The skirts on the GPU: two pipelines (the check's front and back passes, counter-clockwise
