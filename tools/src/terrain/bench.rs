@@ -122,12 +122,6 @@ impl TerrainRow {
     }
 }
 
-/// What a method did in one frame.
-struct FrameResult {
-    cpu_ms: f64,
-    frame_ms: f64,
-}
-
 /// Per-view accumulation of one (method, budget).
 #[derive(Default)]
 struct Accumulator {
@@ -261,15 +255,15 @@ impl SquareMesh {
     }
 }
 
+/// ρ of every diamond from `camera` (what tessera's selections at any τ share).
+fn camera_rhos(repo: &Repository, camera: &Camera) -> Vec<f32> {
+    let origin = repo.header().origin;
+    diamond_rhos(repo.diamonds(), camera.eye_local(origin), &camera.metric())
+}
+
 /// tessera's selection at `tau` without culling: (simplices, triangles).
-fn tessera_cut(repo: &Repository, camera: &Camera, tau: f32) -> (Vec<u32>, usize) {
-    let h = repo.header();
-    let rhos = diamond_rhos(
-        repo.diamonds(),
-        camera.eye_local(h.origin),
-        &camera.metric(),
-    );
-    let cut = select_stateless(repo.tets(), &rhos, tau);
+fn tessera_cut(repo: &Repository, rhos: &[f32], tau: f32) -> (Vec<u32>, usize) {
+    let cut = select_stateless(repo.tets(), rhos, tau);
     let triangles = cut
         .iter()
         .map(|&i| repo.tets()[i as usize].triangle_count as usize)
@@ -279,17 +273,19 @@ fn tessera_cut(repo: &Repository, camera: &Camera, tau: f32) -> (Vec<u32>, usize
 
 /// The τ whose cut from `camera` draws closest to `budget` triangles (bisection on log τ).
 fn tau_for_budget(repo: &Repository, camera: &Camera, budget: usize) -> f32 {
+    let rhos = camera_rhos(repo, camera);
+    let count = |t: f64| tessera_cut(repo, &rhos, t as f32).1;
     let (mut lo, mut hi) = (1e-4f64, 1e6f64);
     for _ in 0..40 {
         let mid = (lo * hi).sqrt();
-        if tessera_cut(repo, camera, mid as f32).1 > budget {
+        if count(mid) > budget {
             lo = mid;
         } else {
             hi = mid;
         }
     }
-    let count = |t: f64| tessera_cut(repo, camera, t as f32).1 as f64;
-    if (count(lo) - budget as f64).abs() < (count(hi) - budget as f64).abs() {
+    let miss = |t: f64| count(t).abs_diff(budget);
+    if miss(lo) < miss(hi) {
         lo as f32
     } else {
         hi as f32
@@ -427,8 +423,7 @@ pub fn run(args: TerrainBenchArgs) -> anyhow::Result<Outcome> {
         let mut acc = Accumulator::default();
         for path in &paths {
             let tau = tau_for_budget(&repo, &path[0], budget);
-            for (f, camera) in path.iter().enumerate() {
-                let start = Instant::now();
+            time_path(&ctx, path, &mut acc, |camera| {
                 let request = FrameRequest {
                     camera: *camera,
                     tau,
@@ -436,18 +431,10 @@ pub fn run(args: TerrainBenchArgs) -> anyhow::Result<Outcome> {
                     mode: ShadingMode::Lit,
                     wireframe: false,
                 };
-                let cpu_ms = ours.render(&ctx, &request, Readback::default());
-                ctx.wait_idle();
-                record(
-                    &mut acc,
-                    f,
-                    FrameResult {
-                        cpu_ms,
-                        frame_ms: start.elapsed().as_secs_f64() * 1e3,
-                    },
-                );
-            }
-            let (cut, triangles) = tessera_cut(&repo, path.last().expect("frames ≥ 2"), tau);
+                Ok(ours.render(&ctx, &request, Readback::default()))
+            })?;
+            let last = path.last().expect("frames ≥ 2");
+            let (cut, triangles) = tessera_cut(&repo, &camera_rhos(&repo, last), tau);
             acc.triangles.push(triangles as f64);
             acc.units.push(cut.len() as f64);
             acc.taus.push(tau as f64);
@@ -503,21 +490,12 @@ fn measure_baseline(
     let mut acc = Accumulator::default();
     for path in paths {
         let mut last = (Vec::new(), 0);
-        for (f, camera) in path.iter().enumerate() {
+        time_path(ctx, path, &mut acc, |camera| {
             let start = Instant::now();
             last = frame(camera);
             square.draw(ctx, camera, &last.0)?;
-            let cpu_ms = start.elapsed().as_secs_f64() * 1e3;
-            ctx.wait_idle();
-            record(
-                &mut acc,
-                f,
-                FrameResult {
-                    cpu_ms,
-                    frame_ms: start.elapsed().as_secs_f64() * 1e3,
-                },
-            );
-        }
+            Ok(start.elapsed().as_secs_f64() * 1e3)
+        })?;
         acc.triangles.push(last.0.len() as f64);
         acc.units.push(last.1 as f64);
         let surface: Vec<_> = last.0.iter().map(|&c| sample_triangle(grid, c)).collect();
@@ -526,12 +504,25 @@ fn measure_baseline(
     Ok(acc)
 }
 
-/// Frames after a path's first are timed.
-fn record(acc: &mut Accumulator, frame: usize, r: FrameResult) {
-    if frame > 0 {
-        acc.cpu_ms.push(r.cpu_ms);
-        acc.frame_ms.push(r.frame_ms);
+/// Runs `frame` for every camera of `path` (it returns the frame's CPU milliseconds), waits
+/// for the GPU after each, and records the frames after the path's first (the first is a
+/// jump from wherever the method was).
+fn time_path(
+    ctx: &GpuContext,
+    path: &[Camera],
+    acc: &mut Accumulator,
+    mut frame: impl FnMut(&Camera) -> anyhow::Result<f64>,
+) -> anyhow::Result<()> {
+    for (f, camera) in path.iter().enumerate() {
+        let start = Instant::now();
+        let cpu_ms = frame(camera)?;
+        ctx.wait_idle();
+        if f > 0 {
+            acc.cpu_ms.push(cpu_ms);
+            acc.frame_ms.push(start.elapsed().as_secs_f64() * 1e3);
+        }
     }
+    Ok(())
 }
 
 fn print_table(
