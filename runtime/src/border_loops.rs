@@ -16,6 +16,11 @@ pub struct BorderLoops {
     next: HashMap<u32, Vec<u32>>,
 }
 
+/// Undirected edge key (the geometric check's).
+pub fn edge_key(a: u32, b: u32) -> u64 {
+    ((a.min(b) as u64) << 32) | a.max(b) as u64
+}
+
 /// Longest chain a cut border edge may replace (a bound on the walk; a patch's border is
 /// far shorter).
 const MAX_CHAIN: usize = 1 << 20;
@@ -23,18 +28,30 @@ const MAX_CHAIN: usize = 1 << 20;
 impl BorderLoops {
     /// From the input's triangles (the leaves), orientation as stored.
     pub fn new<'a>(triangles: impl Iterator<Item = &'a [u32; 3]> + Clone) -> BorderLoops {
-        let mut uses: HashMap<(u32, u32), u32> = HashMap::new();
-        for t in triangles.clone() {
-            for k in 0..3 {
-                let (a, b) = (t[k], t[(k + 1) % 3]);
-                *uses.entry((a.min(b), a.max(b))).or_default() += 1;
-            }
-        }
+        let mut keys: Vec<u64> = triangles
+            .clone()
+            .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
+            .map(|(a, b)| edge_key(a, b))
+            .collect();
+        keys.sort_unstable();
+        let border: HashSet<u64> = keys
+            .chunk_by(|x, y| x == y)
+            .filter(|run| run.len() == 1)
+            .map(|run| run[0])
+            .collect();
+        BorderLoops::from_border(triangles, |a, b| border.contains(&edge_key(a, b)))
+    }
+
+    /// From the input's triangles and its border edges (`is_border(a, b)`, either order), for
+    /// a caller that has counted the edges already.
+    pub fn from_border<'a>(
+        triangles: impl Iterator<Item = &'a [u32; 3]>,
+        is_border: impl Fn(u32, u32) -> bool,
+    ) -> BorderLoops {
         let mut next: HashMap<u32, Vec<u32>> = HashMap::new();
         for t in triangles {
-            for k in 0..3 {
-                let (a, b) = (t[k], t[(k + 1) % 3]);
-                if uses[&(a.min(b), a.max(b))] == 1 {
+            for (a, b) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
+                if is_border(a, b) {
                     next.entry(a).or_default().push(b);
                 }
             }

@@ -21,7 +21,7 @@ use tessera_core::repository::format::NO_INDEX;
 use tessera_core::repository::reader::Repository;
 use tessera_core::repository::RepositoryError;
 
-use crate::border_loops::BorderLoops;
+use crate::border_loops::{edge_key, BorderLoops};
 use crate::views::check_views;
 
 /// What to check.
@@ -98,11 +98,6 @@ pub fn position_mismatches(repo: &Repository) -> Result<usize, RepositoryError> 
         }
     }
     Ok(mismatched.iter().filter(|&&m| m).count())
-}
-
-/// Undirected edge key.
-fn edge_key(a: u32, b: u32) -> u64 {
-    ((a.min(b) as u64) << 32) | a.max(b) as u64
 }
 
 /// Sorted (edge, use count) of a triangle set.
@@ -183,10 +178,11 @@ pub fn check_cuts_at(
         .filter(|(_, n)| *n == 1)
         .map(|(k, _)| *k)
         .collect();
-    let loops = BorderLoops::new(
+    let loops = BorderLoops::from_border(
         (0..tets.len())
             .filter(|&i| tets[i].first_child == NO_INDEX)
             .flat_map(|i| patches[i].iter()),
+        |a, b| input_border.contains(&edge_key(a, b)),
     );
     let vertex_count = patches
         .iter()
