@@ -77,15 +77,27 @@ impl Domain {
     }
 }
 
-impl Default for BuildConfig {
-    fn default() -> Self {
+impl BuildConfig {
+    /// The defaults for a domain: its leaf size, and for height fields border chains free to
+    /// shorten (`SimplifySettings::keep_borders`, ARCHITECTURE.md "Lock rule").
+    pub fn for_domain(domain: Domain) -> BuildConfig {
         BuildConfig {
-            construction: Construction::LeafTriangles(DEFAULT_LEAF_TRIANGLES),
+            construction: Construction::LeafTriangles(domain.default_leaf_triangles()),
             threads: None,
             lattice_bits: 20,
-            domain: Domain::Volume,
-            simplify: SimplifySettings::default(),
+            domain,
+            simplify: SimplifySettings {
+                keep_borders: domain == Domain::Volume,
+                ..SimplifySettings::default()
+            },
         }
+    }
+}
+
+impl Default for BuildConfig {
+    /// `for_domain(Domain::Volume)`.
+    fn default() -> Self {
+        BuildConfig::for_domain(Domain::Volume)
     }
 }
 
@@ -273,11 +285,7 @@ fn build_in_pool(
     // 2. Simplification, diamond by diamond, finest first, borders locked.
     on_stage("simplify");
     let t = Instant::now();
-    let settings = SimplifySettings {
-        keep_borders: config.simplify.keep_borders && config.domain == Domain::Volume,
-        ..config.simplify
-    };
-    let simplified = simplify_hierarchy(mesh, &hierarchy, current, &settings);
+    let simplified = simplify_hierarchy(mesh, &hierarchy, current, &config.simplify);
     stage("simplify", t);
 
     // 3. Table order: breadth-first from the roots, so roots come first and siblings are

@@ -110,8 +110,8 @@ pub struct SimplifySettings {
     /// every model whatever its units.
     pub normal_weight: f32,
     /// Keep the input's border edges (hole and outline edges inside a diamond) exactly, or let
-    /// meshopt shorten border chains (it collapses a border vertex only along its border). The
-    /// build keeps them for meshes and frees them for height fields, whose outline otherwise
+    /// meshopt shorten border chains (it collapses a border vertex only along its border).
+    /// `BuildConfig::for_domain` keeps them for meshes and frees them for height fields, whose outline otherwise
     /// fills every coarse patch with slivers fanned between the outline's samples. Either way
     /// every vertex shared with the rest of the mesh stays locked, so cuts stay crack-free;
     /// the check accepts a cut border that simplifies an input border loop

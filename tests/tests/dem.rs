@@ -84,13 +84,7 @@ fn jacksboro_builds_on_the_2d_hierarchy_and_checks_clean() {
     )
     .unwrap();
     let mesh = grid.to_mesh(&TerrainOptions::default());
-    let built = tessera_tests::build(
-        &mesh,
-        &BuildConfig {
-            domain: Domain::HeightField,
-            ..Default::default()
-        },
-    );
+    let built = tessera_tests::build(&mesh, &BuildConfig::for_domain(Domain::HeightField));
     assert_eq!(built.repo.header().dimension, 2);
     let patches = decode_all_patches(&built.repo).unwrap();
     let report = check_cuts(&built.repo, &patches, &CheckConfig::default());

@@ -3,7 +3,7 @@
 //! Alone in its test binary, so the process's peak memory is this build's.
 
 use tessera_preprocess::dem::{load_dem, DemOptions, TerrainOptions};
-use tessera_preprocess::{BuildConfig, Construction, Domain};
+use tessera_preprocess::{BuildConfig, Domain};
 use tessera_runtime::geometric_check::{check_cuts, decode_all_patches, CheckConfig};
 use tessera_runtime::gpu::{Renderer, RendererOptions};
 use tessera_runtime::pixel_check::{check_pixels, PixelCheckConfig};
@@ -26,11 +26,7 @@ fn etopo5_builds_under_4_gib_and_is_crack_free() {
     let mesh = grid.to_mesh(&TerrainOptions::default());
     drop(grid);
     assert_eq!(mesh.triangles.len(), 2 * 4319 * 2160);
-    let config = BuildConfig {
-        domain: Domain::HeightField,
-        construction: Construction::LeafTriangles(Domain::HeightField.default_leaf_triangles()),
-        ..Default::default()
-    };
+    let config = BuildConfig::for_domain(Domain::HeightField);
     let built = tessera_tests::build(&mesh, &config);
     drop(mesh);
     let peak = peak_rss_bytes();

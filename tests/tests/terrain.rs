@@ -10,7 +10,7 @@ use tessera_core::repository::reader::Repository;
 use tessera_core::repository::writer::{write_repository, RepositoryContents};
 use tessera_preprocess::dem::{load_dem, DemOptions, HeightGrid, TerrainOptions};
 use tessera_preprocess::diamond_square::{generate, TerrainParams};
-use tessera_preprocess::{build_contents, BuildConfig, Construction, Domain, InputMesh};
+use tessera_preprocess::{build_contents, BuildConfig, Domain, InputMesh};
 use tessera_runtime::camera::Camera;
 use tessera_runtime::geometric_check::{check_cuts, decode_all_patches, CheckConfig, CheckReport};
 use tessera_runtime::gpu::{GpuContext, Renderer, RendererOptions};
@@ -19,11 +19,7 @@ use tessera_runtime::views::terrain_views;
 use tessera_tests::{gpu, testdata};
 
 fn height_field_config() -> BuildConfig {
-    BuildConfig {
-        domain: Domain::HeightField,
-        construction: Construction::LeafTriangles(Domain::HeightField.default_leaf_triangles()),
-        ..Default::default()
-    }
+    BuildConfig::for_domain(Domain::HeightField)
 }
 
 fn contents_of(mesh: &InputMesh) -> RepositoryContents {

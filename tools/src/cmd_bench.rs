@@ -103,7 +103,7 @@ fn bench_build(args: BuildBenchArgs) -> anyhow::Result<Outcome> {
     let leaf = args
         .leaf_triangles
         .unwrap_or(domain.default_leaf_triangles());
-    let defaults = SimplifySettings::default();
+    let defaults = BuildConfig::for_domain(domain).simplify;
     let ours = build_once(
         &mesh,
         domain,
@@ -280,8 +280,7 @@ fn build_once(
         construction: Construction::LeafTriangles(leaf),
         threads: Some(threads),
         simplify: settings,
-        domain,
-        ..Default::default()
+        ..BuildConfig::for_domain(domain)
     };
     let t = Instant::now();
     let s = build_repository(mesh, &config, path, &|_| {})?;

@@ -40,23 +40,19 @@ pub struct BuildArgs {
 }
 
 pub fn run(args: BuildArgs) -> anyhow::Result<Outcome> {
+    let stages = Stages::new("build");
+    stages.stage("import");
+    let start = Instant::now();
+    let input = crate::input::load_input(&args.input, &args.heightfield)?;
     let mut config = BuildConfig {
         threads: args.threads,
-        ..Default::default()
+        ..BuildConfig::for_domain(input.domain)
     };
     if let Some(n) = args.leaf_triangles {
         config.construction = Construction::LeafTriangles(n);
     }
     if let Some(l) = args.levels {
         config.construction = Construction::Levels(l);
-    }
-    let stages = Stages::new("build");
-    stages.stage("import");
-    let start = Instant::now();
-    let input = crate::input::load_input(&args.input, &args.heightfield)?;
-    config.domain = input.domain;
-    if args.leaf_triangles.is_none() && args.levels.is_none() {
-        config.construction = Construction::LeafTriangles(input.domain.default_leaf_triangles());
     }
     let import_seconds = start.elapsed().as_secs_f64();
     let summary = build_repository(&input.mesh, &config, &args.output, &|s| stages.stage(s))

@@ -9,7 +9,7 @@ use std::time::Instant;
 use tessera_core::repository::reader::Repository;
 use tessera_preprocess::dem::TerrainOptions;
 use tessera_preprocess::diamond_square::{generate, TerrainParams};
-use tessera_preprocess::{build_repository, BuildConfig, Construction, Domain};
+use tessera_preprocess::{build_repository, BuildConfig, Domain};
 use tessera_runtime::camera::{Camera, Z_UP};
 use tessera_runtime::geometric_check::{check_cuts, decode_all_patches, CheckConfig};
 use tessera_runtime::gpu::{FrameRequest, GpuContext, Renderer, RendererOptions};
@@ -44,11 +44,7 @@ pub fn terrain_demo(
     let mesh = grid.to_mesh(&TerrainOptions::default());
     let generate_seconds = t.elapsed().as_secs_f64();
     let path = dir_for_repo.join("terrain.tsr");
-    let config = BuildConfig {
-        domain: Domain::HeightField,
-        construction: Construction::LeafTriangles(Domain::HeightField.default_leaf_triangles()),
-        ..Default::default()
-    };
+    let config = BuildConfig::for_domain(Domain::HeightField);
     let summary = build_repository(&mesh, &config, &path, &|_| {})?;
     let repo = Repository::open(&path)?;
     let t = Instant::now();

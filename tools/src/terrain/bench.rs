@@ -32,7 +32,7 @@ use tessera_core::cull::CullTests;
 use tessera_core::cut::{diamond_rhos, select_stateless};
 use tessera_core::repository::format::dequantize_position;
 use tessera_core::repository::reader::Repository;
-use tessera_preprocess::{build_repository, BuildConfig, Construction, Domain};
+use tessera_preprocess::{build_repository, BuildConfig, Domain};
 use tessera_runtime::camera::{bounding_radius, Camera, Z_UP};
 use tessera_runtime::gpu::full_mesh::FullMeshRenderer;
 use tessera_runtime::gpu::{
@@ -340,11 +340,7 @@ pub fn run(args: TerrainBenchArgs) -> anyhow::Result<Outcome> {
     // tessera's repository, built as `tessera build` would.
     let dir = tempfile::tempdir()?;
     let path = dir.path().join("terrain.tsr");
-    let config = BuildConfig {
-        domain: Domain::HeightField,
-        construction: Construction::LeafTriangles(Domain::HeightField.default_leaf_triangles()),
-        ..Default::default()
-    };
+    let config = BuildConfig::for_domain(Domain::HeightField);
     let t = Instant::now();
     build_repository(&mesh, &config, &path, &|_| {})?;
     let build_seconds = t.elapsed().as_secs_f64();
