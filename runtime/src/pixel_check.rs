@@ -353,7 +353,7 @@ mod tests {
                 seed = seed
                     .wrapping_mul(6364136223846793005)
                     .wrapping_add(1442695040888963407);
-                (seed >> 33) % 29 == 0
+                (seed >> 33).is_multiple_of(29)
             })
             .collect();
         let d = chessboard_distance(&marked, w, h);
