@@ -189,17 +189,14 @@ pub fn generate(params: &TerrainParams) -> Result<HeightGrid, TerrainError> {
         step = half;
         level += 1;
     }
+    let heights = h
+        .iter()
+        .zip(&regions)
+        .map(|(v, r)| (v + r.base) as f32)
+        .collect();
     Ok(HeightGrid {
-        columns: n,
-        rows: n,
-        heights: h
-            .iter()
-            .zip(&regions)
-            .map(|(v, r)| (v + r.base) as f32)
-            .collect(),
-        origin: [0.0, 0.0],
         spacing: [params.spacing, params.spacing],
-        geographic: false,
+        ..HeightGrid::unit(n, n, heights)
     })
 }
 

@@ -5,17 +5,6 @@
 use super::error::{bad, check_fits, DemErrorKind};
 use super::HeightGrid;
 
-fn grid(columns: usize, rows: usize, heights: Vec<f32>) -> HeightGrid {
-    HeightGrid {
-        columns,
-        rows,
-        heights,
-        origin: [0.0, 0.0],
-        spacing: [1.0, 1.0],
-        geographic: false,
-    }
-}
-
 pub fn read_png(bytes: &[u8]) -> Result<HeightGrid, DemErrorKind> {
     let mut reader =
         image::ImageReader::with_format(std::io::Cursor::new(bytes), image::ImageFormat::Png);
@@ -36,7 +25,7 @@ pub fn read_png(bytes: &[u8]) -> Result<HeightGrid, DemErrorKind> {
             )))
         }
     };
-    Ok(grid(columns, rows, heights))
+    Ok(HeightGrid::unit(columns, rows, heights))
 }
 
 /// The next whitespace-separated token of a PGM header (comments `#` to end of line skipped).
@@ -102,7 +91,7 @@ pub fn read_pgm(bytes: &[u8]) -> Result<HeightGrid, DemErrorKind> {
             data.iter().map(|&b| b as f32).collect()
         }
     };
-    Ok(grid(columns as usize, rows as usize, heights))
+    Ok(HeightGrid::unit(columns as usize, rows as usize, heights))
 }
 
 #[cfg(test)]

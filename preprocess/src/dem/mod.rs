@@ -140,6 +140,19 @@ impl Default for TerrainOptions {
 }
 
 impl HeightGrid {
+    /// A grid with its samples one unit apart from (0, 0), not geographic: what a format
+    /// without georeferencing gives (`TerrainOptions::spacing` scales it).
+    pub fn unit(columns: usize, rows: usize, heights: Vec<f32>) -> HeightGrid {
+        HeightGrid {
+            columns,
+            rows,
+            heights,
+            origin: [0.0, 0.0],
+            spacing: [1.0, 1.0],
+            geographic: false,
+        }
+    }
+
     /// Checks the invariants every reader promises: a non-empty grid whose heights fill it,
     /// finite spacing and origin, no infinite height.
     pub fn validate(&self) -> Result<(), DemErrorKind> {
@@ -263,17 +276,6 @@ impl HeightGrid {
 mod tests {
     use super::*;
 
-    fn grid(columns: usize, rows: usize, heights: Vec<f32>) -> HeightGrid {
-        HeightGrid {
-            columns,
-            rows,
-            heights,
-            origin: [0.0, 0.0],
-            spacing: [1.0, 1.0],
-            geographic: false,
-        }
-    }
-
     fn signed_area(mesh: &InputMesh, t: [u32; 3]) -> f64 {
         let [a, b, c] = t.map(|v| mesh.positions[v as usize]);
         (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
@@ -281,13 +283,14 @@ mod tests {
 
     #[test]
     fn a_full_grid_has_two_triangles_per_cell_counter_clockwise() {
-        let mesh = grid(4, 3, (0..12).map(|i| i as f32).collect()).to_mesh(&Default::default());
+        let mesh = HeightGrid::unit(4, 3, (0..12).map(|i| i as f32).collect())
+            .to_mesh(&Default::default());
         assert_eq!(mesh.positions.len(), 12);
         assert_eq!(mesh.triangles.len(), 2 * 3 * 2);
         assert!(mesh.triangles.iter().all(|&t| signed_area(&mesh, t) > 0.0));
         assert_eq!(mesh.positions[5], [1.0, 1.0, 5.0]);
         // Rows running south (negative y step) keep the orientation.
-        let mut south = grid(4, 3, vec![0.0; 12]);
+        let mut south = HeightGrid::unit(4, 3, vec![0.0; 12]);
         south.spacing = [1.0, -1.0];
         let mesh = south.to_mesh(&Default::default());
         assert!(mesh.triangles.iter().all(|&t| signed_area(&mesh, t) > 0.0));
@@ -297,7 +300,7 @@ mod tests {
     fn missing_samples_are_holes_not_zeros() {
         let mut heights = vec![1.0; 16];
         heights[5] = f32::NAN; // an interior sample of a 4 × 4 grid
-        let mesh = grid(4, 4, heights).to_mesh(&Default::default());
+        let mesh = HeightGrid::unit(4, 4, heights).to_mesh(&Default::default());
         assert_eq!(mesh.positions.len(), 15);
         assert!(mesh.positions.iter().all(|p| p[2] == 1.0));
         // Each of the four cells around the sample keeps one triangle, of its 3 present
@@ -308,7 +311,7 @@ mod tests {
 
     #[test]
     fn geographic_grids_are_plate_carree_in_metres() {
-        let mut g = grid(2, 2, vec![0.0, 1.0, 2.0, 3.0]);
+        let mut g = HeightGrid::unit(2, 2, vec![0.0, 1.0, 2.0, 3.0]);
         g.geographic = true;
         g.origin = [10.0, -5.0];
         g.spacing = [0.5, 0.25];
@@ -329,15 +332,17 @@ mod tests {
 
     #[test]
     fn validation_refuses_what_cannot_be_a_terrain() {
-        assert!(grid(1, 5, vec![0.0; 5]).validate().is_err());
-        assert!(grid(2, 2, vec![0.0; 3]).validate().is_err());
-        assert!(grid(2, 2, vec![f32::NAN; 4]).validate().is_err());
-        assert!(grid(2, 2, vec![0.0, f32::INFINITY, 0.0, 0.0])
+        assert!(HeightGrid::unit(1, 5, vec![0.0; 5]).validate().is_err());
+        assert!(HeightGrid::unit(2, 2, vec![0.0; 3]).validate().is_err());
+        assert!(HeightGrid::unit(2, 2, vec![f32::NAN; 4])
             .validate()
             .is_err());
-        let mut g = grid(2, 2, vec![0.0; 4]);
+        assert!(HeightGrid::unit(2, 2, vec![0.0, f32::INFINITY, 0.0, 0.0])
+            .validate()
+            .is_err());
+        let mut g = HeightGrid::unit(2, 2, vec![0.0; 4]);
         g.spacing = [0.0, 1.0];
         assert!(g.validate().is_err());
-        assert!(grid(2, 2, vec![0.0; 4]).validate().is_ok());
+        assert!(HeightGrid::unit(2, 2, vec![0.0; 4]).validate().is_ok());
     }
 }

@@ -171,14 +171,11 @@ fn to_grid(array: Array) -> Result<HeightGrid, DemErrorKind> {
             array.shape
         )));
     }
-    Ok(HeightGrid {
-        rows: array.shape[0],
-        columns: array.shape[1],
-        heights: array.values.iter().map(|&v| v as f32).collect(),
-        origin: [0.0, 0.0],
-        spacing: [1.0, 1.0],
-        geographic: false,
-    })
+    Ok(HeightGrid::unit(
+        array.shape[1],
+        array.shape[0],
+        array.values.iter().map(|&v| v as f32).collect(),
+    ))
 }
 
 /// A `.npy` holding one 2-D array (unit spacing).

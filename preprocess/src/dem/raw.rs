@@ -5,17 +5,6 @@
 use super::error::{bad, check_fits, DemErrorKind};
 use super::{DemOptions, HeightGrid};
 
-fn grid(columns: usize, rows: usize, heights: Vec<f32>) -> HeightGrid {
-    HeightGrid {
-        columns,
-        rows,
-        heights,
-        origin: [0.0, 0.0],
-        spacing: [1.0, 1.0],
-        geographic: false,
-    }
-}
-
 pub fn read_f32(bytes: &[u8], options: &DemOptions) -> Result<HeightGrid, DemErrorKind> {
     let Some((columns, rows)) = options.raw_size else {
         return Err(DemErrorKind::NoGrid(
@@ -35,7 +24,7 @@ pub fn read_f32(bytes: &[u8], options: &DemOptions) -> Result<HeightGrid, DemErr
         .chunks_exact(4)
         .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
         .collect();
-    Ok(grid(columns, rows, heights))
+    Ok(HeightGrid::unit(columns, rows, heights))
 }
 
 pub fn read_json(bytes: &[u8]) -> Result<HeightGrid, DemErrorKind> {
@@ -69,7 +58,7 @@ pub fn read_json(bytes: &[u8]) -> Result<HeightGrid, DemErrorKind> {
                 .ok_or_else(|| bad(format!("value {i} is not a number or null"))),
         })
         .collect::<Result<_, _>>()?;
-    let mut grid = grid(columns as usize, rows as usize, heights);
+    let mut grid = HeightGrid::unit(columns as usize, rows as usize, heights);
     // Optional: the horizontal distance between samples (what `tessera gen terrain` writes).
     if let Some(spacing) = value.get("spacing") {
         match spacing.as_f64() {

@@ -55,12 +55,8 @@ mod tests {
     #[test]
     fn both_formats_read_back() {
         let grid = HeightGrid {
-            columns: 3,
-            rows: 2,
-            heights: vec![1.0, -2.5, f32::NAN, 4.0, 1e6, 0.125],
-            origin: [0.0, 0.0],
             spacing: [30.0, 30.0],
-            geographic: false,
+            ..HeightGrid::unit(3, 2, vec![1.0, -2.5, f32::NAN, 4.0, 1e6, 0.125])
         };
         let same = |g: &HeightGrid| {
             assert_eq!((g.columns, g.rows), (3, 2));

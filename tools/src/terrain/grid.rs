@@ -167,15 +167,10 @@ pub fn test_grid(columns: usize, rows: usize, f: impl Fn(usize, usize) -> f32) -
         .flat_map(|r| (0..columns).map(move |c| (r, c)))
         .map(|(r, c)| f(r, c))
         .collect();
-    let g = HeightGrid {
-        columns,
-        rows,
-        heights,
-        origin: [0.0, 0.0],
-        spacing: [1.0, 1.0],
-        geographic: false,
-    };
-    BinGrid::new(&g, &TerrainOptions::default())
+    BinGrid::new(
+        &HeightGrid::unit(columns, rows, heights),
+        &TerrainOptions::default(),
+    )
 }
 
 /// Fills NaNs of a row with the nearest non-NaN value (ties: the left one); an all-NaN row stays.

@@ -105,19 +105,9 @@ fn thickness(grid: &BinGrid, t: BinTri, max_level: u32, values: &mut [f32]) -> f
 #[cfg(test)]
 mod tests {
     use super::*;
-    use tessera_preprocess::dem::{HeightGrid, TerrainOptions};
 
     fn grid(n: usize, f: impl Fn(usize, usize) -> f32) -> BinGrid {
-        let heights = (0..n * n).map(|i| f(i / n, i % n)).collect();
-        let g = HeightGrid {
-            columns: n,
-            rows: n,
-            heights,
-            origin: [0.0, 0.0],
-            spacing: [1.0, 1.0],
-            geographic: false,
-        };
-        BinGrid::new(&g, &TerrainOptions::default())
+        crate::terrain::grid::test_grid(n, n, f)
     }
 
     fn all(t: BinTri, max_level: u32, out: &mut Vec<BinTri>) {
