@@ -11,5 +11,6 @@ pub mod camera;
 pub mod geometric_check;
 pub mod gpu;
 pub mod measure;
+pub mod mesh_problem;
 pub mod pixel_check;
 pub mod views;

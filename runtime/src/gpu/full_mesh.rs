@@ -30,6 +30,7 @@ use super::frame::{FrameUniforms, ShadingMode};
 use super::target::{RenderTarget, BACKGROUND, COLOR_FORMAT, DEPTH_FORMAT};
 use super::timing::FrameTimer;
 use crate::camera::Camera;
+use crate::mesh_problem::{check_finite, check_indices, MeshProblem};
 
 /// The full-mesh pass (`vs_full_mesh`, `fs_full_mesh`), prefixed by the shared records.
 pub fn full_mesh_source() -> String {
@@ -52,14 +53,8 @@ pub enum FullMeshError {
     BadSize { width: u32, height: u32, max: u32 },
     #[error("the mesh has no triangles")]
     Empty,
-    #[error("triangle {triangle} uses vertex {vertex}, but the mesh has {count} vertices")]
-    IndexOutOfRange {
-        triangle: usize,
-        vertex: u32,
-        count: usize,
-    },
-    #[error("vertex {vertex} has a non-finite coordinate")]
-    NonFinite { vertex: usize },
+    #[error(transparent)]
+    Bad(#[from] MeshProblem),
     #[error(
         "the mesh's {what} buffer needs {bytes} bytes; the adapter's largest buffer is \
          {limit} bytes (the largest buffer, within u32 indices; the one-draw peer cannot \
@@ -134,22 +129,8 @@ impl FullMeshRenderer {
                 });
             }
         }
-        if let Some(vertex) = positions
-            .iter()
-            .position(|p| !p.iter().all(|x| x.is_finite()))
-        {
-            return Err(FullMeshError::NonFinite { vertex });
-        }
-        let count = positions.len();
-        for (triangle, t) in triangles.iter().enumerate() {
-            if let Some(&vertex) = t.iter().find(|&&v| v as usize >= count) {
-                return Err(FullMeshError::IndexOutOfRange {
-                    triangle,
-                    vertex,
-                    count,
-                });
-            }
-        }
+        check_finite(positions)?;
+        check_indices(triangles, positions.len())?;
 
         let device = &ctx.device;
         use wgpu::BufferUsages as U;
@@ -283,16 +264,7 @@ impl FullMeshRenderer {
                 limit,
             });
         }
-        let count = self.vertex_count as usize;
-        for (triangle, t) in triangles.iter().enumerate() {
-            if let Some(&vertex) = t.iter().find(|&&v| v as usize >= count) {
-                return Err(FullMeshError::IndexOutOfRange {
-                    triangle,
-                    vertex,
-                    count,
-                });
-            }
-        }
+        check_indices(triangles, self.vertex_count as usize)?;
         if bytes > self.indices.size() {
             self.indices = ctx.device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("full mesh triangles"),
@@ -468,7 +440,10 @@ mod tests {
         assert_eq!(r.read_image(&ctx), image);
         assert!(matches!(
             r.set_triangles(&ctx, &[[0, 1, 4]]),
-            Err(FullMeshError::IndexOutOfRange { vertex: 4, .. })
+            Err(FullMeshError::Bad(MeshProblem::IndexOutOfRange {
+                vertex: 4,
+                ..
+            }))
         ));
         for bad in [&[[0, 1, 4]][..], &[][..]] {
             assert!(FullMeshRenderer::new(&ctx, &positions, bad, origin, 64, 48).is_err());

@@ -18,6 +18,8 @@ use glam::Vec3A;
 use obvhs::aabb::Aabb;
 use obvhs::bvh2::builder::build_bvh2;
 use obvhs::bvh2::Bvh2;
+
+use crate::mesh_problem::{check_finite, check_indices, MeshProblem};
 use obvhs::BvhBuildParams;
 
 /// Why a mesh cannot serve as the reference.
@@ -25,14 +27,8 @@ use obvhs::BvhBuildParams;
 pub enum MeshError {
     #[error("the reference mesh has no triangles")]
     Empty,
-    #[error("triangle {triangle} uses vertex {vertex}, but the mesh has {count} vertices")]
-    IndexOutOfRange {
-        triangle: usize,
-        vertex: u32,
-        count: usize,
-    },
-    #[error("vertex {vertex} has a non-finite coordinate")]
-    NonFinite { vertex: usize },
+    #[error(transparent)]
+    Bad(#[from] MeshProblem),
 }
 
 /// A triangle mesh with a BVH over its triangles, for closest-distance queries.
@@ -62,22 +58,8 @@ impl ReferenceMesh {
         if triangles.is_empty() {
             return Err(MeshError::Empty);
         }
-        if let Some(vertex) = positions
-            .iter()
-            .position(|p| !p.iter().all(|x| x.is_finite()))
-        {
-            return Err(MeshError::NonFinite { vertex });
-        }
-        let count = positions.len();
-        for (triangle, t) in triangles.iter().enumerate() {
-            if let Some(&vertex) = t.iter().find(|&&v| v as usize >= count) {
-                return Err(MeshError::IndexOutOfRange {
-                    triangle,
-                    vertex,
-                    count,
-                });
-            }
-        }
+        check_finite(&positions)?;
+        check_indices(&triangles, positions.len())?;
         let magnitude = positions
             .iter()
             .flatten()
@@ -322,13 +304,16 @@ mod tests {
         );
         assert!(matches!(
             ReferenceMesh::new(p.clone(), vec![[0, 1, 3]]),
-            Err(MeshError::IndexOutOfRange { vertex: 3, .. })
+            Err(MeshError::Bad(MeshProblem::IndexOutOfRange {
+                vertex: 3,
+                ..
+            }))
         ));
         let mut nan = p;
         nan[1][2] = f64::NAN;
         assert_eq!(
             ReferenceMesh::new(nan, vec![[0, 1, 2]]).err(),
-            Some(MeshError::NonFinite { vertex: 1 })
+            Some(MeshError::Bad(MeshProblem::NonFinite { vertex: 1 }))
         );
     }
 }
