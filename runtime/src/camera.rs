@@ -10,6 +10,8 @@
 use tessera_core::cull::ViewVolume;
 use tessera_core::metric::{eye_local, ScreenSpaceMetric};
 
+use crate::vec3::{cross, dot, length, normalize, sub};
+
 /// Where the camera is and what it sees.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {
@@ -175,31 +177,6 @@ impl Camera {
 /// Half the diagonal of a box.
 pub fn bounding_radius(lo: [f64; 3], hi: [f64; 3]) -> f64 {
     0.5 * length(sub(hi, lo)).max(1e-300)
-}
-
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
-fn length(a: [f64; 3]) -> f64 {
-    dot(a, a).sqrt()
-}
-
-fn normalize(a: [f64; 3]) -> Option<[f64; 3]> {
-    let l = length(a);
-    (l > 0.0 && l.is_finite()).then(|| a.map(|x| x / l))
 }
 
 #[cfg(test)]

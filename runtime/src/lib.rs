@@ -13,4 +13,5 @@ pub mod gpu;
 pub mod measure;
 pub mod mesh_problem;
 pub mod pixel_check;
+pub mod vec3;
 pub mod views;

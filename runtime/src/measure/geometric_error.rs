@@ -17,6 +17,7 @@ use rayon::prelude::*;
 
 use super::nearest::ReferenceMesh;
 use crate::camera::Camera;
+use crate::vec3::{cross, dot, sub};
 
 /// A triangle soup to sample: positions in the reference mesh's frame (f64).
 #[derive(Clone, Copy, Debug)]
@@ -98,22 +99,6 @@ impl SplitMix64 {
     fn next_f64(&mut self) -> f64 {
         (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
     }
-}
-
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
 }
 
 /// `count` area-weighted points on `surface` (none when it has no area).

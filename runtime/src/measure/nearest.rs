@@ -20,6 +20,7 @@ use obvhs::bvh2::builder::build_bvh2;
 use obvhs::bvh2::Bvh2;
 
 use crate::mesh_problem::{check_finite, check_indices, MeshProblem};
+use crate::vec3::{dot, sub};
 use obvhs::BvhBuildParams;
 
 /// Why a mesh cannot serve as the reference.
@@ -158,14 +159,6 @@ fn box_distance_squared(aabb: &Aabb, p: [f64; 3]) -> f64 {
             d * d
         })
         .sum()
-}
-
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
 /// `a + s·u + t·v`.
