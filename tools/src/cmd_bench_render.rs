@@ -29,7 +29,7 @@ use tessera_preprocess::import::load_mesh;
 use tessera_preprocess::InputMesh;
 use tessera_runtime::camera::{bounding_radius, Camera};
 use tessera_runtime::gpu::full_mesh::{relative_positions, FullMeshRenderer};
-use tessera_runtime::gpu::{FrameRequest, GpuContext, Readback, Renderer, RendererOptions};
+use tessera_runtime::gpu::{FrameRequest, Readback};
 
 use crate::cmd_render::{default_up, parse_size, parse_vec3};
 use crate::output::save_png;
@@ -70,12 +70,8 @@ pub struct RenderBenchArgs {
     /// Write one more, untimed frame of every subject here as PNG (full.png, tau-1.png, ...).
     #[arg(long)]
     pub save_frames: Option<PathBuf>,
-    /// Adapter name substring (default: $TESSERA_ADAPTER, else the best present).
-    #[arg(long)]
-    pub adapter: Option<String>,
-    /// GPU memory budget for the resident model, MiB.
-    #[arg(long, default_value_t = 2048)]
-    pub gpu_budget: u64,
+    #[command(flatten)]
+    pub gpu: crate::gpu_args::GpuArgs,
     /// Print one JSON object on stdout.
     #[arg(long)]
     pub json: bool,
@@ -164,16 +160,10 @@ pub fn run(args: RenderBenchArgs) -> anyhow::Result<Outcome> {
     }
 
     // The GPU side: both renderers resident at once.
-    let ctx = GpuContext::new(args.adapter.as_deref())?;
-    let mut renderer = Renderer::new(
-        &ctx,
-        &repo,
-        RendererOptions {
-            width: camera.width,
-            height: camera.height,
-            budget_bytes: args.gpu_budget << 20,
-        },
-    )?;
+    let ctx = args.gpu.context()?;
+    let mut renderer = args
+        .gpu
+        .renderer(&ctx, &repo, (camera.width, camera.height))?;
     let mut full = match &source {
         Some(s) => Some(
             FullMeshRenderer::new(

@@ -10,7 +10,6 @@ use clap::Args;
 use serde_json::json;
 use tessera_core::repository::reader::Repository;
 use tessera_runtime::geometric_check::{check_cuts, decode_all_patches, CheckConfig, CheckReport};
-use tessera_runtime::gpu::{GpuContext, Renderer, RendererOptions};
 use tessera_runtime::pixel_check::{check_pixels, PixelCheckConfig, PixelCheckReport};
 
 use crate::Outcome;
@@ -35,12 +34,8 @@ pub struct CheckArgs {
     /// Up direction of the GPU check's cameras (default: y for meshes, z for terrains).
     #[arg(long, value_parser = crate::cmd_render::parse_vec3)]
     pub up: Option<[f64; 3]>,
-    /// Adapter name substring (default: $TESSERA_ADAPTER, else the best present).
-    #[arg(long)]
-    pub adapter: Option<String>,
-    /// GPU memory budget for the resident model, MiB.
-    #[arg(long, default_value_t = 2048)]
-    pub gpu_budget: u64,
+    #[command(flatten)]
+    pub device: crate::gpu_args::GpuArgs,
     /// Print one JSON object on stdout.
     #[arg(long)]
     pub json: bool,
@@ -62,16 +57,10 @@ pub fn run(args: CheckArgs) -> anyhow::Result<Outcome> {
     let seconds = start.elapsed().as_secs_f64();
     let gpu = if args.gpu {
         let start = Instant::now();
-        let ctx = GpuContext::new(args.adapter.as_deref())?;
-        let mut renderer = Renderer::new(
-            &ctx,
-            &repo,
-            RendererOptions {
-                width: args.size.0,
-                height: args.size.1,
-                budget_bytes: args.gpu_budget << 20,
-            },
-        )?;
+        let ctx = args.device.context()?;
+        let mut renderer = args
+            .device
+            .renderer(&ctx, &repo, (args.size.0, args.size.1))?;
         let pixels = check_pixels(
             &ctx,
             &mut renderer,

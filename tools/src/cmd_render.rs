@@ -7,7 +7,7 @@ use clap::{Args, ValueEnum};
 use serde_json::json;
 use tessera_core::repository::reader::Repository;
 use tessera_runtime::camera::{bounding_radius, Camera, Y_UP, Z_UP};
-use tessera_runtime::gpu::{FrameRequest, GpuContext, Renderer, RendererOptions, ShadingMode};
+use tessera_runtime::gpu::{FrameRequest, ShadingMode};
 
 use crate::output::save_png;
 use crate::Outcome;
@@ -50,12 +50,8 @@ pub struct RenderArgs {
     /// Overlay the triangle edges (where the adapter has line mode).
     #[arg(long)]
     pub wireframe: bool,
-    /// Adapter name substring (default: $TESSERA_ADAPTER, else the best present).
-    #[arg(long)]
-    pub adapter: Option<String>,
-    /// GPU memory budget for the resident model, MiB.
-    #[arg(long, default_value_t = 2048)]
-    pub gpu_budget: u64,
+    #[command(flatten)]
+    pub gpu: crate::gpu_args::GpuArgs,
     /// Print one JSON object on stdout.
     #[arg(long)]
     pub json: bool,
@@ -171,16 +167,10 @@ pub fn run(args: RenderArgs) -> anyhow::Result<Outcome> {
     let repo = Repository::open(&args.repository)?;
     let h = *repo.header();
     let camera = camera_from_args(&args, h.bbox_min, h.bbox_max, h.dimension)?;
-    let ctx = GpuContext::new(args.adapter.as_deref())?;
-    let mut renderer = Renderer::new(
-        &ctx,
-        &repo,
-        RendererOptions {
-            width: camera.width,
-            height: camera.height,
-            budget_bytes: args.gpu_budget << 20,
-        },
-    )?;
+    let ctx = args.gpu.context()?;
+    let mut renderer = args
+        .gpu
+        .renderer(&ctx, &repo, (camera.width, camera.height))?;
     let request = FrameRequest {
         mode: args.mode.into(),
         wireframe: args.wireframe,

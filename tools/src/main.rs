@@ -14,6 +14,7 @@ mod cmd_gen;
 mod cmd_info;
 mod cmd_render;
 mod demo_terrain;
+mod gpu_args;
 mod input;
 mod output;
 mod progress;

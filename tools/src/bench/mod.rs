@@ -40,7 +40,6 @@ use tessera_core::repository::format::Header;
 use tessera_core::repository::reader::Repository;
 use tessera_runtime::camera::{bounding_radius, Camera};
 use tessera_runtime::gpu::full_mesh::FullMeshRenderer;
-use tessera_runtime::gpu::{GpuContext, Renderer, RendererOptions};
 use tessera_runtime::measure::{ReferenceMesh, SamplingConfig, PSNR_SATURATED_DB};
 use tessera_runtime::views::outside_views;
 
@@ -81,12 +80,8 @@ pub struct TradeArgs {
     /// if missing).
     #[arg(long)]
     pub plot: Option<PathBuf>,
-    /// Adapter name substring (default: $TESSERA_ADAPTER, else the best present).
-    #[arg(long)]
-    pub adapter: Option<String>,
-    /// GPU memory budget for our resident model, MiB.
-    #[arg(long, default_value_t = 2048)]
-    pub gpu_budget: u64,
+    #[command(flatten)]
+    pub gpu: crate::gpu_args::GpuArgs,
     /// Print one JSON object on stdout.
     #[arg(long)]
     pub json: bool,
@@ -175,17 +170,9 @@ pub fn run(args: TradeArgs) -> anyhow::Result<Outcome> {
 
     // The GPU side: every subject resident at once.
     stages.stage("upload");
-    let ctx = GpuContext::new(args.adapter.as_deref())?;
+    let ctx = args.gpu.context()?;
     let size = args.size;
-    let renderer = Renderer::new(
-        &ctx,
-        &repo,
-        RendererOptions {
-            width: size.0,
-            height: size.1,
-            budget_bytes: args.gpu_budget << 20,
-        },
-    )?;
+    let renderer = args.gpu.renderer(&ctx, &repo, (size.0, size.1))?;
     let mut ours = ours::Ours::new(&repo, renderer);
     let full_renderer = FullMeshRenderer::new(
         &ctx,

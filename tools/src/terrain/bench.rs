@@ -35,9 +35,7 @@ use tessera_core::repository::reader::Repository;
 use tessera_preprocess::{build_repository, BuildConfig, Domain};
 use tessera_runtime::camera::{bounding_radius, Camera, Z_UP};
 use tessera_runtime::gpu::full_mesh::FullMeshRenderer;
-use tessera_runtime::gpu::{
-    FrameRequest, GpuContext, Readback, Renderer, RendererOptions, ShadingMode,
-};
+use tessera_runtime::gpu::{FrameRequest, GpuContext, Readback, ShadingMode};
 use tessera_runtime::views::terrain_views;
 
 use super::grid::{sample_triangle, vertical_error, BinGrid, VerticalError};
@@ -74,9 +72,8 @@ pub struct TerrainBenchArgs {
     /// Write error_vs_triangles.png, cpu_vs_triangles.png, frame_time_vs_triangles.png here.
     #[arg(long)]
     pub plot: Option<PathBuf>,
-    /// Adapter name substring (default: $TESSERA_ADAPTER, else the best present).
-    #[arg(long)]
-    pub adapter: Option<String>,
+    #[command(flatten)]
+    pub gpu: crate::gpu_args::GpuArgs,
     /// Print one JSON object on stdout.
     #[arg(long)]
     pub json: bool,
@@ -350,17 +347,9 @@ pub fn run(args: TerrainBenchArgs) -> anyhow::Result<Outcome> {
 
     let grid = BinGrid::new(&dem, &options);
     let paths = camera_paths(&repo, &args);
-    let ctx = GpuContext::new(args.adapter.as_deref())?;
+    let ctx = args.gpu.context()?;
     let mut square = SquareMesh::new(&ctx, &grid, origin, args.size)?;
-    let mut ours = Renderer::new(
-        &ctx,
-        &repo,
-        RendererOptions {
-            width: args.size.0,
-            height: args.size.1,
-            ..Default::default()
-        },
-    )?;
+    let mut ours = args.gpu.renderer(&ctx, &repo, args.size)?;
     let progress = |what: &str| {
         if !args.json {
             eprintln!("[{:6.1} s] {what}", started.elapsed().as_secs_f64());
