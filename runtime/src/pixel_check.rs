@@ -257,21 +257,21 @@ fn check_views(
         };
         let eye_local = camera.eye_local(h.origin);
         let rhos = diamond_rhos(repo.diamonds(), eye_local, &camera.metric());
+        let request = |tau: f32| FrameRequest {
+            camera,
+            tau,
+            cull,
+            mode,
+            wireframe: false,
+        };
         // How far (Chebyshev pixels) each pixel is from one of the input's own hole pixels.
         let (width, height) = renderer.size();
         let input_hole_distance = excuse_input.then(|| {
             let input = drawn_selection(repo, &rhos, 0.0, eye_local, &cull);
             set_walls(renderer, &input);
-            let request = FrameRequest {
-                camera,
-                tau: 0.0,
-                cull,
-                mode,
-                wireframe: false,
-            };
             renderer.render(
                 ctx,
-                &request,
+                &request(0.0),
                 Readback {
                     image: true,
                     selection: false,
@@ -286,16 +286,9 @@ fn check_views(
         for &tau in tolerances {
             let cpu = drawn_selection(repo, &rhos, tau, eye_local, &cull);
             set_walls(renderer, &cpu);
-            let request = FrameRequest {
-                camera,
-                tau,
-                cull,
-                mode,
-                wireframe: false,
-            };
             renderer.render(
                 ctx,
-                &request,
+                &request(tau),
                 Readback {
                     image: true,
                     selection: true,

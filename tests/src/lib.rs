@@ -40,3 +40,24 @@ pub fn gpu() -> tessera_runtime::gpu::GpuContext {
         panic!("{e}\n(the GPU tests need a Vulkan adapter; .ci/run installs lavapipe)")
     })
 }
+
+/// The pixel check of `repo` from `views` views at 480 × 270 (the default tolerances).
+pub fn check_pixels_small(
+    ctx: &tessera_runtime::gpu::GpuContext,
+    repo: &Repository,
+    views: usize,
+) -> tessera_runtime::pixel_check::PixelCheckReport {
+    use tessera_runtime::gpu::{Renderer, RendererOptions};
+    use tessera_runtime::pixel_check::{check_pixels, PixelCheckConfig};
+    let options = RendererOptions {
+        width: 480,
+        height: 270,
+        ..Default::default()
+    };
+    let mut renderer = Renderer::new(ctx, repo, options).expect("the model fits the GPU budget");
+    let config = PixelCheckConfig {
+        views,
+        ..Default::default()
+    };
+    check_pixels(ctx, &mut renderer, repo, &config)
+}

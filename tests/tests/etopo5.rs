@@ -5,8 +5,6 @@
 use tessera_preprocess::dem::{load_dem, DemOptions, TerrainOptions};
 use tessera_preprocess::{BuildConfig, Domain};
 use tessera_runtime::geometric_check::{check_cuts, decode_all_patches, CheckConfig};
-use tessera_runtime::gpu::{Renderer, RendererOptions};
-use tessera_runtime::pixel_check::{check_pixels, PixelCheckConfig};
 use tessera_tests::{gpu, testdata};
 
 /// The process's peak resident set (VmHWM), bytes; Linux only.
@@ -48,25 +46,7 @@ fn etopo5_builds_under_4_gib_and_is_crack_free() {
     drop(patches);
 
     let ctx = gpu();
-    let mut renderer = Renderer::new(
-        &ctx,
-        repo,
-        RendererOptions {
-            width: 480,
-            height: 270,
-            ..Default::default()
-        },
-    )
-    .unwrap();
-    let px = check_pixels(
-        &ctx,
-        &mut renderer,
-        repo,
-        &PixelCheckConfig {
-            views: 8,
-            ..Default::default()
-        },
-    );
+    let px = tessera_tests::check_pixels_small(&ctx, repo, 8);
     eprintln!("{px:?}");
     assert!(px.is_clean(), "{px:?}");
 }

@@ -13,10 +13,8 @@ use tessera_preprocess::diamond_square::{generate, TerrainParams};
 use tessera_preprocess::{build_contents, BuildConfig, Domain, InputMesh};
 use tessera_runtime::camera::Camera;
 use tessera_runtime::geometric_check::{check_cuts, decode_all_patches, CheckConfig, CheckReport};
-use tessera_runtime::gpu::{GpuContext, Renderer, RendererOptions};
-use tessera_runtime::pixel_check::{check_pixels, PixelCheckConfig, PixelCheckReport};
 use tessera_runtime::views::terrain_views;
-use tessera_tests::{gpu, testdata};
+use tessera_tests::{check_pixels_small, gpu, testdata};
 
 fn height_field_config() -> BuildConfig {
     BuildConfig::for_domain(Domain::HeightField)
@@ -37,28 +35,6 @@ fn open(contents: &RepositoryContents) -> Repository {
 fn geometric(repo: &Repository) -> CheckReport {
     let patches = decode_all_patches(repo).unwrap();
     check_cuts(repo, &patches, &CheckConfig::default())
-}
-
-fn pixels(ctx: &GpuContext, repo: &Repository, views: usize) -> PixelCheckReport {
-    let mut renderer = Renderer::new(
-        ctx,
-        repo,
-        RendererOptions {
-            width: 480,
-            height: 270,
-            ..Default::default()
-        },
-    )
-    .unwrap();
-    check_pixels(
-        ctx,
-        &mut renderer,
-        repo,
-        &PixelCheckConfig {
-            views,
-            ..Default::default()
-        },
-    )
 }
 
 /// Edges used by one triangle: the grid's outline and the borders of its holes.
@@ -84,7 +60,7 @@ fn every_dem_of_the_test_data_is_crack_free_from_above_and_below() {
         let report = geometric(&repo);
         assert!(report.is_clean(), "{name}: {report:?}");
         assert!(report.cuts_checked >= 64 * 5, "{name}");
-        let px = pixels(&ctx, &repo, 16);
+        let px = check_pixels_small(&ctx, &repo, 16);
         eprintln!("{name}: {report:?}\n{px:?}");
         assert!(px.is_clean(), "{name}: {px:?}");
         // The views saw the terrain: most of each frame is covered.
@@ -139,7 +115,7 @@ fn a_grid_with_nodata_holes_is_crack_free() {
     let repo = open(&contents_of(&mesh));
     let report = geometric(&repo);
     assert!(report.is_clean(), "{report:?}");
-    let px = pixels(&gpu(), &repo, 16);
+    let px = check_pixels_small(&gpu(), &repo, 16);
     eprintln!("{report:?}\n{px:?}");
     assert!(px.is_clean(), "{px:?}");
 }
@@ -227,7 +203,7 @@ fn a_nudged_terrain_patch_is_caught_from_above_and_below() {
     let broken = open(&contents);
     let report = geometric(&broken);
     assert!(report.position_mismatches > 0, "{report:?}");
-    let px = pixels(&gpu(), &broken, 16);
+    let px = check_pixels_small(&gpu(), &broken, 16);
     eprintln!("{px:?}");
     assert!(px.flag_pixels > 0 && !px.is_clean(), "{px:?}");
     assert!(
