@@ -67,8 +67,13 @@ impl Sphere {
         Sphere { center, radius }
     }
 
-    /// Grows the radius by `margin` (used to make containment survive f32 rounding).
+    /// Grows the radius by `margin` (used to make containment survive f32 rounding). The
+    /// empty sphere stays empty (its radius is −1: grown by a margin above 1, as for a model
+    /// a million units across, it would become a sphere at the origin).
     pub fn inflated(&self, margin: f64) -> Sphere {
+        if self.is_empty() {
+            return *self;
+        }
         Sphere {
             center: self.center,
             radius: self.radius + margin,
@@ -168,6 +173,7 @@ mod tests {
         assert!(distance(m.center, a.center) + a.radius <= m.radius);
         assert!(distance(m.center, b.center) + b.radius <= m.radius);
         assert_eq!(a.merge(&Sphere::EMPTY), a);
+        assert!(Sphere::EMPTY.inflated(1e6).is_empty());
     }
 
     #[test]

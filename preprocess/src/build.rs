@@ -18,7 +18,7 @@ use tessera_core::repository::RepositoryError;
 use crate::frame::LatticeFrame;
 use crate::hierarchy::{build_hierarchy, Construction, Hierarchy};
 use crate::mesh::InputMesh;
-use crate::saturate::saturate;
+use crate::saturate::{saturate, RADIUS_MARGIN};
 use crate::simplify::{simplify_hierarchy, CurrentMesh, SimplifySettings};
 use crate::strips::build_patch;
 
@@ -349,7 +349,7 @@ fn build_in_pool(
     let attributes = (mesh.normals.is_some() as u32 * ATTR_NORMALS)
         | (mesh.colors.is_some() as u32 * ATTR_COLORS)
         | (mesh.uvs.is_some() as u32 * ATTR_UVS);
-    let encoded: Vec<(Vec<u8>, Vec<u8>, TetRecord)> = simplices
+    let encoded: Vec<(Vec<u8>, Vec<u8>, TetRecord, Sphere)> = simplices
         .par_iter()
         .map(|entry| {
             let tris = &simplified.patches[&entry.simplex.key];
@@ -361,7 +361,8 @@ fn build_in_pool(
             ));
             let mut ids = Vec::with_capacity(2 * patch.global_ids.len());
             let placement = encode_patch(&patch, attributes, &mut bytes, &mut ids);
-            let (center, radius) = patch_sphere(entry.simplex.key).to_f32();
+            let sphere = patch_sphere(entry.simplex.key);
+            let (center, radius) = sphere.to_f32();
             let cone = NormalCone::around_normals(tris.iter().map(|t| triangle_normal(t, mesh)));
             let diamond = table_index
                 .get(&entry.simplex.split_point())
@@ -389,19 +390,22 @@ fn build_in_pool(
                 id_bytes: placement.id_bytes,
                 patch_checksum: 0,
             };
-            (bytes, ids, record)
+            (bytes, ids, record, sphere)
         })
         .collect();
-    let mut patch_blob = Vec::with_capacity(encoded.iter().map(|(b, _, _)| b.len()).sum());
-    let mut id_blob = Vec::with_capacity(encoded.iter().map(|(_, i, _)| i.len()).sum());
+    let mut patch_blob = Vec::with_capacity(encoded.iter().map(|(b, ..)| b.len()).sum());
+    let mut id_blob = Vec::with_capacity(encoded.iter().map(|(_, i, ..)| i.len()).sum());
     let mut tets = Vec::with_capacity(encoded.len());
-    for (bytes, ids, mut record) in encoded {
+    let mut spheres = Vec::with_capacity(encoded.len());
+    for (bytes, ids, mut record, sphere) in encoded {
         record.patch_offset = patch_blob.len() as u64;
         record.id_offset = id_blob.len() as u64;
         patch_blob.extend_from_slice(&bytes);
         id_blob.extend_from_slice(&ids);
         tets.push(record);
+        spheres.push(sphere);
     }
+    nest_simplex_spheres(&mut tets, &mut spheres, RADIUS_MARGIN * model_size);
     stage("strips", t);
 
     let header = Header {
@@ -504,4 +508,54 @@ fn triangle_normal(t: &[u32; 3], mesh: &InputMesh) -> [f64; 3] {
         u[2] * v[0] - u[0] * v[2],
         u[0] * v[1] - u[1] * v[0],
     ]
+}
+
+/// Makes every simplex's sphere contain its patch and, grown by `margin` (so containment
+/// survives f32 rounding), both children's spheres: a simplex's sphere then bounds every patch
+/// of its subtree, so a traversal may cull a simplex before refining it (nothing below an
+/// invisible sphere is visible) and streaming requests only what a view can show. Children
+/// come after their parents in the table, so one reverse pass nests them (and one forward
+/// pass places empty subtrees at their parent's centre).
+fn nest_simplex_spheres(tets: &mut [TetRecord], spheres: &mut [Sphere], margin: f64) {
+    for i in (0..tets.len()).rev() {
+        let c = tets[i].first_child;
+        if c != NO_INDEX {
+            let c = c as usize;
+            spheres[i] = spheres[i]
+                .merge(&spheres[c].inflated(margin))
+                .merge(&spheres[c + 1].inflated(margin));
+        }
+        (tets[i].center, tets[i].radius) = spheres[i].to_f32();
+    }
+    // A subtree with no triangle gets a point at its parent's centre: inside the parent's
+    // sphere like any other child, so culling stays monotone down the tree.
+    for i in 0..tets.len() {
+        let c = tets[i].first_child;
+        if c != NO_INDEX {
+            for c in [c as usize, c as usize + 1] {
+                if spheres[c].is_empty() {
+                    tets[c].center = tets[i].center;
+                }
+            }
+        }
+    }
+    // The f32 spheres nest too (the margin dwarfs f32 rounding): checked here, where a broken
+    // invariant would otherwise travel silently into the repository and cull visible patches.
+    let f64s = |c: [f32; 3]| c.map(f64::from);
+    for (i, t) in tets
+        .iter()
+        .enumerate()
+        .filter(|(_, t)| t.first_child != NO_INDEX)
+    {
+        for c in [t.first_child as usize, t.first_child as usize + 1] {
+            let child = &tets[c];
+            let reach = tessera_core::bounds::distance(f64s(t.center), f64s(child.center))
+                + child.radius as f64;
+            assert!(
+                spheres[c].is_empty() || reach <= t.radius as f64,
+                "simplex {i}'s sphere does not contain its child {c}'s ({reach} > {})",
+                t.radius
+            );
+        }
+    }
 }

@@ -151,6 +151,112 @@ pub fn check_cuts(
     check_cuts_at(repo, patches, &eyes, &config.tolerances)
 }
 
+/// The input's edges and borders, against which any cut's triangles are checked.
+pub struct CutChecker<'p> {
+    patches: &'p [Vec<[u32; 3]>],
+    input_border: HashSet<u64>,
+    input_nonmanifold: HashSet<u64>,
+    loops: BorderLoops,
+    vertex_count: usize,
+}
+
+/// What one cut showed.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct CutFindings {
+    /// Edges used by one triangle of the cut that are no border of the input (nor a simplified
+    /// chain of one, for inputs whose border chains are free).
+    pub cracks: usize,
+    /// Edges used by more than two triangles of the cut that the input has at most twice.
+    pub nonmanifold_introduced: usize,
+    /// Triangles of the cut.
+    pub triangles: usize,
+}
+
+impl<'p> CutChecker<'p> {
+    /// Prepares the check of `repo`'s cuts; `patches` from `decode_all_patches`.
+    pub fn new(repo: &Repository, patches: &'p [Vec<[u32; 3]>]) -> CutChecker<'p> {
+        let tets = repo.tets();
+        // The input's edges: the leaves hold exactly the input triangles.
+        let reference = edge_counts(
+            (0..tets.len())
+                .filter(|&i| tets[i].first_child == NO_INDEX)
+                .flat_map(|i| patches[i].iter()),
+        );
+        let input_border: HashSet<u64> = reference
+            .iter()
+            .filter(|(_, n)| *n == 1)
+            .map(|(k, _)| *k)
+            .collect();
+        let loops = BorderLoops::from_border(
+            (0..tets.len())
+                .filter(|&i| tets[i].first_child == NO_INDEX)
+                .flat_map(|i| patches[i].iter()),
+            |a, b| input_border.contains(&edge_key(a, b)),
+        );
+        let vertex_count = patches
+            .iter()
+            .flatten()
+            .flatten()
+            .max()
+            .map_or(0, |&v| v as usize + 1);
+        let input_nonmanifold: HashSet<u64> = reference
+            .iter()
+            .filter(|(_, n)| *n > 2)
+            .map(|(k, _)| *k)
+            .collect();
+        CutChecker {
+            patches,
+            input_border,
+            input_nonmanifold,
+            loops,
+            vertex_count,
+        }
+    }
+
+    /// Checks the cut made of the simplices `cut` (any set: the rule's, a streaming frame's).
+    pub fn check(&self, cut: &[u32]) -> CutFindings {
+        let patches = self.patches;
+        let triangles: usize = cut.iter().map(|&i| patches[i as usize].len()).sum();
+        let edges = edge_counts(cut.iter().flat_map(|&i| patches[i as usize].iter()));
+        let mut cracks = edges
+            .iter()
+            .filter(|(k, n)| *n == 1 && !self.input_border.contains(k))
+            .count();
+        if cracks > 0 && !self.loops.is_empty() {
+            // Border edges that are not the input's: simplified border chains, or cracks.
+            let candidates: HashSet<u64> = edges
+                .iter()
+                .filter(|(k, n)| *n == 1 && !self.input_border.contains(k))
+                .map(|(k, _)| *k)
+                .collect();
+            let mut used = vec![false; self.vertex_count];
+            for t in cut.iter().flat_map(|&i| patches[i as usize].iter()) {
+                for &v in t {
+                    used[v as usize] = true;
+                }
+            }
+            let is_used = |v: u32| used.get(v as usize).copied().unwrap_or(false);
+            cracks = cut
+                .iter()
+                .flat_map(|&i| patches[i as usize].iter())
+                .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
+                .filter(|&(a, b)| {
+                    candidates.contains(&edge_key(a, b)) && !self.loops.accepts(a, b, &is_used)
+                })
+                .count();
+        }
+        let nonmanifold_introduced = edges
+            .iter()
+            .filter(|(k, n)| *n > 2 && !self.input_nonmanifold.contains(k))
+            .count();
+        CutFindings {
+            cracks,
+            nonmanifold_introduced,
+            triangles,
+        }
+    }
+}
+
 /// The same check for the given eyes (any position, any metric: a camera's own near distance
 /// and field of view) at every tolerance of `tolerances`; `worst` names the index into `eyes`.
 pub fn check_cuts_at(
@@ -162,35 +268,7 @@ pub fn check_cuts_at(
     let tets = repo.tets();
     let diamonds = repo.diamonds();
     let header = repo.header();
-    // The input's edges: the leaves hold exactly the input triangles.
-    let reference = edge_counts(
-        (0..tets.len())
-            .filter(|&i| tets[i].first_child == NO_INDEX)
-            .flat_map(|i| patches[i].iter()),
-    );
-    let input_border: HashSet<u64> = reference
-        .iter()
-        .filter(|(_, n)| *n == 1)
-        .map(|(k, _)| *k)
-        .collect();
-    let loops = BorderLoops::from_border(
-        (0..tets.len())
-            .filter(|&i| tets[i].first_child == NO_INDEX)
-            .flat_map(|i| patches[i].iter()),
-        |a, b| input_border.contains(&edge_key(a, b)),
-    );
-    let vertex_count = patches
-        .iter()
-        .flatten()
-        .flatten()
-        .max()
-        .map_or(0, |&v| v as usize + 1);
-    let input_nonmanifold: HashSet<u64> = reference
-        .iter()
-        .filter(|(_, n)| *n > 2)
-        .map(|(k, _)| *k)
-        .collect();
-    drop(reference);
+    let checker = CutChecker::new(repo, patches);
 
     let per_view: Vec<CheckReport> = eyes
         .par_iter()
@@ -218,39 +296,12 @@ pub fn check_cuts_at(
                 if cut != select_top_down(tets, header.root_tet_count as usize, &rhos, tau) {
                     r.traversal_mismatches += 1;
                 }
-                let triangles: usize = cut.iter().map(|&i| patches[i as usize].len()).sum();
-                let edges = edge_counts(cut.iter().flat_map(|&i| patches[i as usize].iter()));
-                let mut cracks = edges
-                    .iter()
-                    .filter(|(k, n)| *n == 1 && !input_border.contains(k))
-                    .count();
-                if cracks > 0 && !loops.is_empty() {
-                    // Border edges that are not the input's: simplified border chains, or cracks.
-                    let candidates: HashSet<u64> = edges
-                        .iter()
-                        .filter(|(k, n)| *n == 1 && !input_border.contains(k))
-                        .map(|(k, _)| *k)
-                        .collect();
-                    let mut used = vec![false; vertex_count];
-                    for t in cut.iter().flat_map(|&i| patches[i as usize].iter()) {
-                        for &v in t {
-                            used[v as usize] = true;
-                        }
-                    }
-                    let is_used = |v: u32| used.get(v as usize).copied().unwrap_or(false);
-                    cracks = cut
-                        .iter()
-                        .flat_map(|&i| patches[i as usize].iter())
-                        .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
-                        .filter(|&(a, b)| {
-                            candidates.contains(&edge_key(a, b)) && !loops.accepts(a, b, &is_used)
-                        })
-                        .count();
-                }
-                r.nonmanifold_introduced += edges
-                    .iter()
-                    .filter(|(k, n)| *n > 2 && !input_nonmanifold.contains(k))
-                    .count();
+                let CutFindings {
+                    cracks,
+                    nonmanifold_introduced,
+                    triangles,
+                } = checker.check(&cut);
+                r.nonmanifold_introduced += nonmanifold_introduced;
                 r.cracks += cracks;
                 if cracks > r.worst.as_ref().map_or(0, |w| w.2) {
                     r.worst = Some((view, format!("{tau}"), cracks));

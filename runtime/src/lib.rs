@@ -13,5 +13,6 @@ pub mod gpu;
 pub mod measure;
 pub mod mesh_problem;
 pub mod pixel_check;
+pub mod stream;
 pub mod vec3;
 pub mod views;

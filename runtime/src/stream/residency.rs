@@ -1,0 +1,408 @@
+//! Which units are resident, which diamonds may refine, what to load next and what to evict.
+//!
+//! The rule that keeps every frame's cut valid (shared/DESIGN.md, "Residency without losing
+//! the stateless rule"): `may_refine(D)` ⇔ R(D) is resident ∧ every parent of D may refine.
+//! The traversal uses ρ'(D) = may_refine(D) ? ρ(D) : 0 in the unchanged rule, so the refined
+//! set {ρ' > τ} is closed upwards (ρ(P) ≥ ρ(D) for every parent P) and every drawn simplex was
+//! created by a diamond that may refine, i.e. is resident: each frame draws a conforming cut,
+//! crack-free at every moment of streaming, only coarser where data is missing.
+//!
+//! Each frame the traversal reports the diamonds it refined (used, with their ρ/τ) and the
+//! ones it wanted to refine but could not (requests, with their ρ/τ), both from visible
+//! simplices only. A request for D asks for R(A) of every ancestor A of D that is not
+//! resident, with the request's priority; `plan` issues loads by priority (coarsest first on
+//! ties) within a per-frame byte budget, and makes room by evicting units that
+//! - have no resident (or loading) child unit, so no refined descendant loses its parent, and
+//! - were not used in the latest frame, least recently used first, or were used with a lower
+//!   priority than the request: a unit is never evicted for a request of lower or equal
+//!   priority, so a paused camera settles and stops loading (no thrash).
+//!
+//! A unit that fails to load (a damaged patch) is broken for good: it never becomes resident,
+//! so the diamond whose split creates the damaged patch never refines.
+
+use super::units::UnitTable;
+
+/// Where a unit is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum UnitState {
+    /// Not in memory.
+    Absent,
+    /// Issued to the loader; its bytes count against the budget.
+    Loading,
+    /// In memory: its diamond may refine once its parents may.
+    Resident,
+    /// Failed to load (a damaged patch): never loaded again.
+    Broken,
+}
+
+/// Totals since the residency was made.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ResidencyStats {
+    /// Bytes of resident and loading units plus the pinned roots.
+    pub resident_bytes: u64,
+    /// The most `resident_bytes` ever reached.
+    pub peak_resident_bytes: u64,
+    /// Units resident now.
+    pub resident_units: usize,
+    /// Units issued to the loader and not yet completed.
+    pub loading_units: usize,
+    /// Bytes of every load issued.
+    pub loaded_bytes: u64,
+    /// Loads issued.
+    pub loads: u64,
+    /// Units evicted.
+    pub evictions: u64,
+    /// Units broken by a failed load.
+    pub broken_units: usize,
+    /// Units wanted in the latest frame but neither resident nor loading.
+    pub pending_units: usize,
+}
+
+/// What `plan` decided: load these units (in this order), after evicting those.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Plan {
+    /// Units evicted now: their diamonds may no longer refine from the next frame's flags on;
+    /// their memory may be reused once no frame in flight can draw them.
+    pub evict: Vec<u32>,
+    /// Units to read, highest priority first; their bytes are reserved.
+    pub load: Vec<u32>,
+}
+
+/// The residency of one repository's units under a byte budget.
+#[derive(Clone, Debug)]
+pub struct Residency {
+    units: UnitTable,
+    state: Vec<UnitState>,
+    may_refine: Vec<bool>,
+    /// Per unit: child units that are resident or loading (a unit with any is not evictable).
+    live_children: Vec<u32>,
+    /// Per unit: the frame it was last used (itself or a descendant refined or wanted by a
+    /// visible simplex), 0 = never.
+    last_used: Vec<u64>,
+    /// Per unit: the frame `feedback` last reached it, and the priority then (ρ/τ of the
+    /// highest-priority diamond at or below it).
+    touched: Vec<u64>,
+    priority: Vec<f32>,
+    /// Units wanted in the latest frame (deduplicated), not resident nor loading.
+    candidates: Vec<u32>,
+    budget_bytes: u64,
+    frame: u64,
+    flags_changed: bool,
+    stats: ResidencyStats,
+}
+
+impl Residency {
+    /// Every unit absent; the roots' patches pinned. Fails when the roots alone exceed the
+    /// budget (the message gives both sizes).
+    pub fn new(units: UnitTable, budget_bytes: u64) -> Result<Residency, String> {
+        if units.root_bytes() > budget_bytes {
+            return Err(format!(
+                "the roots' patches take {} bytes, more than the budget of {budget_bytes} bytes",
+                units.root_bytes()
+            ));
+        }
+        let n = units.len();
+        let stats = ResidencyStats {
+            resident_bytes: units.root_bytes(),
+            peak_resident_bytes: units.root_bytes(),
+            ..Default::default()
+        };
+        Ok(Residency {
+            units,
+            state: vec![UnitState::Absent; n],
+            may_refine: vec![false; n],
+            live_children: vec![0; n],
+            last_used: vec![0; n],
+            touched: vec![0; n],
+            priority: vec![0.0; n],
+            candidates: Vec::new(),
+            budget_bytes,
+            frame: 0,
+            flags_changed: true,
+            stats,
+        })
+    }
+
+    /// The unit table.
+    pub fn units(&self) -> &UnitTable {
+        &self.units
+    }
+
+    /// Per diamond: may it refine in the next frame.
+    pub fn may_refine(&self) -> &[bool] {
+        &self.may_refine
+    }
+
+    /// The flags as bit words (bit d % 32 of word d / 32), as the GPU reads them.
+    pub fn may_refine_words(&self) -> Vec<u32> {
+        let mut words = vec![0u32; self.may_refine.len().div_ceil(32).max(1)];
+        for (d, _) in self.may_refine.iter().enumerate().filter(|(_, &m)| m) {
+            words[d / 32] |= 1 << (d % 32);
+        }
+        words
+    }
+
+    /// True once since the flags last changed (the caller uploads them then).
+    pub fn take_flags_changed(&mut self) -> bool {
+        std::mem::take(&mut self.flags_changed)
+    }
+
+    /// Where unit `d` is.
+    pub fn state(&self, d: u32) -> UnitState {
+        self.state[d as usize]
+    }
+
+    /// The byte budget.
+    pub fn budget_bytes(&self) -> u64 {
+        self.budget_bytes
+    }
+
+    /// Totals so far.
+    pub fn stats(&self) -> ResidencyStats {
+        self.stats
+    }
+
+    /// Takes one frame's feedback: the diamonds the traversal refined and those it wanted to
+    /// refine but could not, each with its ρ/τ (duplicates allowed). Every ancestor of either
+    /// counts as used in this frame with the highest priority among the diamonds below it
+    /// (ρ only grows upwards, so that is a lower bound of its own); every absent one becomes
+    /// a candidate load with that priority. Cost: the distinct ancestors reached, about the
+    /// refined set.
+    pub fn feedback(&mut self, refined: &[(u32, f32)], wanted: &[(u32, f32)]) {
+        self.frame += 1;
+        let frame = self.frame;
+        let mut seeds: Vec<(u32, f32)> = refined.iter().chain(wanted).copied().collect();
+        // Highest priority first: the first visit of a unit carries its highest priority.
+        seeds.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
+        self.candidates.clear();
+        let mut stack: Vec<u32> = Vec::new();
+        for (d, priority) in seeds {
+            stack.push(d);
+            while let Some(a) = stack.pop() {
+                let ai = a as usize;
+                if self.touched[ai] == frame {
+                    continue;
+                }
+                self.touched[ai] = frame;
+                self.priority[ai] = priority;
+                match self.state[ai] {
+                    UnitState::Resident | UnitState::Loading => self.last_used[ai] = frame,
+                    UnitState::Absent => self.candidates.push(a),
+                    UnitState::Broken => {}
+                }
+                stack.extend_from_slice(self.units.parents(a));
+            }
+        }
+        self.stats.pending_units = self.candidates.len();
+    }
+
+    /// The eviction key of resident unit `d` this frame: used units keep their priority,
+    /// unused ones rank below every request (`-1`), least recently used first.
+    fn eviction_key(&self, d: u32) -> (f32, u64) {
+        let d = d as usize;
+        let priority = if self.last_used[d] == self.frame {
+            self.priority[d]
+        } else {
+            -1.0
+        };
+        (priority, self.last_used[d])
+    }
+
+    /// Decides this frame's loads (at most `upload_bytes` of them, but always at least one
+    /// candidate that fits, so a unit larger than the per-frame allowance still loads) and the
+    /// evictions that make room for them. Issued loads are `Loading` until `complete`.
+    pub fn plan(&mut self, upload_bytes: u64) -> Plan {
+        let mut plan = Plan::default();
+        if self.candidates.is_empty() {
+            return plan;
+        }
+        let frame = self.frame;
+        let mut order = std::mem::take(&mut self.candidates);
+        order.sort_by(|&a, &b| {
+            let (pa, pb) = (self.priority[a as usize], self.priority[b as usize]);
+            pb.total_cmp(&pa)
+                .then(self.units.level(a).cmp(&self.units.level(b)))
+                .then(a.cmp(&b))
+        });
+        // Eviction candidates, best victim last.
+        let mut victims: Vec<u32> = (0..self.state.len() as u32)
+            .filter(|&d| self.evictable(d))
+            .collect();
+        victims.sort_by(|&a, &b| {
+            let (ka, kb) = (self.eviction_key(a), self.eviction_key(b));
+            kb.0.total_cmp(&ka.0).then(kb.1.cmp(&ka.1)).then(b.cmp(&a))
+        });
+        let mut issued_bytes = 0u64;
+        for &u in &order {
+            if self.state[u as usize] != UnitState::Absent || self.touched[u as usize] != frame {
+                continue;
+            }
+            let bytes = self.units.bytes(u);
+            if !plan.load.is_empty() && issued_bytes + bytes > upload_bytes {
+                break;
+            }
+            let priority = self.priority[u as usize];
+            // Make room, never for a request that does not outrank the victim, and only when
+            // the room can be made: evicting without loading would only start a cycle.
+            let over = (self.stats.resident_bytes + bytes).saturating_sub(self.budget_bytes);
+            if over > 0 {
+                let mut freed = 0u64;
+                let mut chosen = Vec::new();
+                for (k, &v) in victims.iter().enumerate().rev() {
+                    if freed >= over {
+                        break;
+                    }
+                    if !self.evictable(v) {
+                        continue; // became a parent of something issued this frame
+                    }
+                    if self.eviction_key(v).0 >= priority {
+                        break;
+                    }
+                    freed += self.units.bytes(v);
+                    chosen.push(k);
+                }
+                if freed < over {
+                    continue; // does not fit: a smaller candidate may
+                }
+                // `chosen` holds descending positions: removing them in order keeps the rest.
+                for k in chosen {
+                    let v = victims.remove(k);
+                    self.evict(v);
+                    plan.evict.push(v);
+                }
+            }
+            self.issue(u, bytes);
+            plan.load.push(u);
+            issued_bytes += bytes;
+            // A parent of a loading unit is no longer evictable: `evictable` is rechecked.
+        }
+        self.stats.pending_units = order
+            .iter()
+            .filter(|&&u| self.state[u as usize] == UnitState::Absent)
+            .count();
+        self.candidates = order;
+        plan
+    }
+
+    fn evictable(&self, d: u32) -> bool {
+        self.state[d as usize] == UnitState::Resident && self.live_children[d as usize] == 0
+    }
+
+    fn issue(&mut self, u: u32, bytes: u64) {
+        self.state[u as usize] = UnitState::Loading;
+        for &p in self.units.parents(u) {
+            self.live_children[p as usize] += 1;
+        }
+        self.stats.resident_bytes += bytes;
+        self.stats.peak_resident_bytes = self
+            .stats
+            .peak_resident_bytes
+            .max(self.stats.resident_bytes);
+        self.stats.loaded_bytes += bytes;
+        self.stats.loads += 1;
+        self.stats.loading_units += 1;
+    }
+
+    fn evict(&mut self, v: u32) {
+        debug_assert!(self.evictable(v));
+        self.state[v as usize] = UnitState::Absent;
+        self.set_may_refine(v, false);
+        for &p in self.units.parents(v) {
+            self.live_children[p as usize] -= 1;
+        }
+        self.stats.resident_bytes -= self.units.bytes(v);
+        self.stats.resident_units -= 1;
+        self.stats.evictions += 1;
+    }
+
+    fn set_may_refine(&mut self, d: u32, value: bool) {
+        if self.may_refine[d as usize] != value {
+            self.may_refine[d as usize] = value;
+            self.flags_changed = true;
+        }
+    }
+
+    /// Ends a load: `ok` makes the unit resident (and lets it and every resident descendant
+    /// whose parents now all may refine refine); a failure marks it broken and frees its
+    /// bytes.
+    pub fn complete(&mut self, u: u32, ok: bool) {
+        let ui = u as usize;
+        assert_eq!(
+            self.state[ui],
+            UnitState::Loading,
+            "unit {u} completed without being issued"
+        );
+        self.stats.loading_units -= 1;
+        if !ok {
+            self.state[ui] = UnitState::Broken;
+            for &p in self.units.parents(u) {
+                self.live_children[p as usize] -= 1;
+            }
+            self.stats.resident_bytes -= self.units.bytes(u);
+            self.stats.broken_units += 1;
+            return;
+        }
+        self.state[ui] = UnitState::Resident;
+        self.stats.resident_units += 1;
+        let mut stack = vec![u];
+        while let Some(d) = stack.pop() {
+            let ready = self.state[d as usize] == UnitState::Resident
+                && !self.may_refine[d as usize]
+                && self
+                    .units
+                    .parents(d)
+                    .iter()
+                    .all(|&p| self.may_refine[p as usize]);
+            if ready {
+                self.set_may_refine(d, true);
+                stack.extend_from_slice(self.units.children(d));
+            }
+        }
+    }
+
+    /// Checks the invariants (for tests and debug builds): `may_refine` is exactly "resident
+    /// and every parent may refine", the live-children counts and the byte total match the
+    /// states. Returns the first violation.
+    pub fn check_invariants(&self) -> Result<(), String> {
+        let mut bytes = self.units.root_bytes();
+        let mut live = vec![0u32; self.state.len()];
+        for d in 0..self.state.len() as u32 {
+            let s = self.state[d as usize];
+            if matches!(s, UnitState::Resident | UnitState::Loading) {
+                bytes += self.units.bytes(d);
+                for &p in self.units.parents(d) {
+                    live[p as usize] += 1;
+                }
+            }
+            let expected = s == UnitState::Resident
+                && self
+                    .units
+                    .parents(d)
+                    .iter()
+                    .all(|&p| self.may_refine[p as usize]);
+            if self.may_refine[d as usize] != expected {
+                return Err(format!(
+                    "diamond {d}: may_refine {} but state {s:?} and parents {:?}",
+                    self.may_refine[d as usize],
+                    self.units.parents(d)
+                ));
+            }
+        }
+        if live != self.live_children {
+            return Err("live-children counts differ from the states".into());
+        }
+        if bytes != self.stats.resident_bytes {
+            return Err(format!(
+                "resident bytes {} but the states add up to {bytes}",
+                self.stats.resident_bytes
+            ));
+        }
+        if bytes > self.budget_bytes {
+            return Err(format!(
+                "resident bytes {bytes} exceed the budget {}",
+                self.budget_bytes
+            ));
+        }
+        Ok(())
+    }
+}

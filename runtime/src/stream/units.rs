@@ -1,0 +1,156 @@
+//! Units of residency: R(D), the patches that splitting diamond D creates.
+//!
+//! A diamond D's split replaces D's simplices by their children; R(D) is the set of those
+//! children's patches. D may refine only when R(D) is resident (and every parent of D may
+//! refine), so the unit is what the loader reads, uploads and evicts as one. The roots'
+//! patches belong to no unit: they are pinned.
+//!
+//! The tables here are derived once from the directory, in O(tets + diamonds) time and memory
+//! (like the directory itself, which is resident for now; paging it with the units is the
+//! next step of the out-of-core runtime).
+
+use tessera_core::repository::format::{DiamondRecord, TetRecord, NO_INDEX};
+
+/// Compressed rows: row `r` is `items[starts[r]..starts[r + 1]]`.
+#[derive(Clone, Debug, Default)]
+struct Rows {
+    starts: Vec<u32>,
+    items: Vec<u32>,
+}
+
+impl Rows {
+    /// Rows from (row, item) pairs; rows keep the pairs' order.
+    fn from_pairs(row_count: usize, pairs: impl Iterator<Item = (u32, u32)> + Clone) -> Rows {
+        let mut starts = vec![0u32; row_count + 1];
+        for (r, _) in pairs.clone() {
+            starts[r as usize + 1] += 1;
+        }
+        for r in 0..row_count {
+            starts[r + 1] += starts[r];
+        }
+        let mut fill = starts.clone();
+        let mut items = vec![0u32; starts[row_count] as usize];
+        for (r, item) in pairs {
+            items[fill[r as usize] as usize] = item;
+            fill[r as usize] += 1;
+        }
+        Rows { starts, items }
+    }
+
+    fn row(&self, r: usize) -> &[u32] {
+        &self.items[self.starts[r] as usize..self.starts[r + 1] as usize]
+    }
+}
+
+/// The units of a repository and the diamond DAG's edges both ways.
+#[derive(Clone, Debug)]
+pub struct UnitTable {
+    /// Per diamond: the simplices its split creates (its unit's patches).
+    created: Rows,
+    /// Per diamond: the diamonds that list it as a parent.
+    children: Rows,
+    /// Per diamond: its parents (copied out of the records for locality).
+    parents: Rows,
+    /// Per diamond: bytes of its unit's patches.
+    unit_bytes: Vec<u64>,
+    /// Per diamond: LEB level.
+    levels: Vec<u32>,
+    /// Bytes of the roots' patches (pinned).
+    root_bytes: u64,
+    /// The roots.
+    roots: Vec<u32>,
+}
+
+impl UnitTable {
+    /// Derives the units from a validated directory (`Repository::diamonds`, `tets`).
+    pub fn new(diamonds: &[DiamondRecord], tets: &[TetRecord], root_count: usize) -> UnitTable {
+        let created = Rows::from_pairs(
+            diamonds.len(),
+            tets.iter().enumerate().filter_map(|(i, t)| {
+                (t.parent_diamond != NO_INDEX).then_some((t.parent_diamond, i as u32))
+            }),
+        );
+        let children = Rows::from_pairs(
+            diamonds.len(),
+            diamonds
+                .iter()
+                .enumerate()
+                .flat_map(|(i, d)| d.parents().iter().map(move |&p| (p, i as u32))),
+        );
+        let parents = Rows::from_pairs(
+            diamonds.len(),
+            diamonds
+                .iter()
+                .enumerate()
+                .flat_map(|(i, d)| d.parents().iter().map(move |&p| (i as u32, p))),
+        );
+        let unit_bytes = (0..diamonds.len())
+            .map(|d| {
+                created
+                    .row(d)
+                    .iter()
+                    .map(|&t| tets[t as usize].patch_bytes as u64)
+                    .sum()
+            })
+            .collect();
+        let roots: Vec<u32> = (0..root_count as u32).collect();
+        let root_bytes = roots
+            .iter()
+            .map(|&t| tets[t as usize].patch_bytes as u64)
+            .sum();
+        UnitTable {
+            created,
+            children,
+            parents,
+            unit_bytes,
+            levels: diamonds.iter().map(|d| d.level).collect(),
+            root_bytes,
+            roots,
+        }
+    }
+
+    /// Number of units (one per diamond).
+    pub fn len(&self) -> usize {
+        self.unit_bytes.len()
+    }
+
+    /// True for a repository with no split diamond (only roots).
+    pub fn is_empty(&self) -> bool {
+        self.unit_bytes.is_empty()
+    }
+
+    /// The simplices whose patches unit `d` holds.
+    pub fn simplices(&self, d: u32) -> &[u32] {
+        self.created.row(d as usize)
+    }
+
+    /// Bytes of unit `d`'s patches.
+    pub fn bytes(&self, d: u32) -> u64 {
+        self.unit_bytes[d as usize]
+    }
+
+    /// Diamonds that list `d` as a parent.
+    pub fn children(&self, d: u32) -> &[u32] {
+        self.children.row(d as usize)
+    }
+
+    /// `d`'s parents.
+    pub fn parents(&self, d: u32) -> &[u32] {
+        self.parents.row(d as usize)
+    }
+
+    /// `d`'s LEB level.
+    pub fn level(&self, d: u32) -> u32 {
+        self.levels[d as usize]
+    }
+
+    /// The root simplices, whose patches are pinned.
+    pub fn roots(&self) -> &[u32] {
+        &self.roots
+    }
+
+    /// Bytes of the roots' patches.
+    pub fn root_bytes(&self) -> u64 {
+        self.root_bytes
+    }
+}

@@ -1,0 +1,311 @@
+//! Streaming under a byte budget (issue 11): every frame's cut is crack-free while data is
+//! missing, the settled cut equals the unlimited one where the view fits, a paused camera
+//! stops loading when it does not, a damaged patch keeps its diamond coarse, and a long loop
+//! neither stalls nor grows. The traversal here is the CPU reference (`stream::stream_frame`),
+//! the same rule the GPU runs; the checks are exact (edges by global vertex id).
+
+use tessera_core::cull::CullTests;
+use tessera_core::cut::{diamond_rhos, select_stateless, select_visible};
+use tessera_core::repository::Repository;
+use tessera_preprocess::import::load_mesh;
+use tessera_preprocess::BuildConfig;
+use tessera_runtime::camera::{Camera, Y_UP};
+use tessera_runtime::geometric_check::{decode_all_patches, CutChecker};
+use tessera_runtime::stream::{gated_rhos, CpuStreamer, StreamSettings, UnitState, UnitTable};
+use tessera_tests::{build, testdata, Built};
+
+const TAU: f32 = 1.0;
+
+fn units_of(repo: &Repository) -> UnitTable {
+    UnitTable::new(
+        repo.diamonds(),
+        repo.tets(),
+        repo.header().root_tet_count as usize,
+    )
+}
+
+fn built(file: &str) -> Built {
+    let input = load_mesh(&testdata(file)).expect("import");
+    build(&input.mesh, &BuildConfig::default())
+}
+
+/// Half a turn around the model at 0.9 radii, from azimuth 150° on, after `fly_in`'s end.
+fn close_orbit(repo: &Repository, frames: usize) -> Vec<Camera> {
+    let h = repo.header();
+    (0..frames)
+        .map(|i| {
+            let s = i as f64 / (frames.max(2) - 1) as f64;
+            Camera::orbit(h.bbox_min, h.bbox_max, Y_UP, 150.0 + 180.0 * s, 10.0, 0.9)
+        })
+        .collect()
+}
+
+/// A fly-in around the model: `frames` cameras from 3 radii out to 0.9, turning 120°.
+fn fly_in(repo: &Repository, frames: usize) -> Vec<Camera> {
+    let h = repo.header();
+    (0..frames)
+        .map(|i| {
+            let s = i as f64 / (frames.max(2) - 1) as f64;
+            Camera::orbit(
+                h.bbox_min,
+                h.bbox_max,
+                Y_UP,
+                30.0 + 120.0 * s,
+                20.0 - 10.0 * s,
+                3.0 - 2.1 * s,
+            )
+        })
+        .collect()
+}
+
+fn cull_of(camera: &Camera) -> CullTests {
+    CullTests {
+        frustum: Some(camera.view_volume()),
+        cones: true,
+    }
+}
+
+/// Bytes of every unit that the unlimited cuts of `cameras` refine (visible simplices only),
+/// plus the roots: the path's working set.
+fn working_set(repo: &Repository, cameras: &[Camera]) -> u64 {
+    let units = units_of(repo);
+    let all = vec![true; repo.diamonds().len()];
+    let mut used = vec![false; units.len()];
+    for camera in cameras {
+        let eye = camera.eye_local(repo.header().origin);
+        let rhos = diamond_rhos(repo.diamonds(), eye, &camera.metric());
+        let frame = tessera_runtime::stream::stream_frame(
+            repo.tets(),
+            repo.header().root_tet_count as usize,
+            &rhos,
+            &all,
+            TAU,
+            eye,
+            &cull_of(camera),
+        );
+        // A refined diamond needs every ancestor resident too.
+        let mut stack: Vec<u32> = frame.refined.iter().map(|&(d, _)| d).collect();
+        while let Some(d) = stack.pop() {
+            if !std::mem::replace(&mut used[d as usize], true) {
+                stack.extend_from_slice(units.parents(d));
+            }
+        }
+    }
+    units.root_bytes()
+        + (0..units.len() as u32)
+            .filter(|&d| used[d as usize])
+            .map(|d| units.bytes(d))
+            .sum::<u64>()
+}
+
+fn settings(budget_bytes: u64) -> StreamSettings {
+    StreamSettings {
+        budget_bytes,
+        upload_bytes_per_frame: 256 << 10,
+        latency_frames: 2,
+    }
+}
+
+/// Runs `cameras` through a streamer, checking every frame: the drawn cut is crack-free and
+/// introduces no non-manifold edge (the whole cut, culling off: what every view of it shows),
+/// the culled selection is the stateless rule's with ρ', the residency's invariants hold.
+/// Returns the last frame's culled selection.
+fn stream_checked(
+    streamer: &mut CpuStreamer,
+    repo: &Repository,
+    checker: &CutChecker,
+    cameras: &[Camera],
+) -> Vec<u32> {
+    let mut last = Vec::new();
+    for (i, camera) in cameras.iter().enumerate() {
+        let eye = camera.eye_local(repo.header().origin);
+        let cull = cull_of(camera);
+        let f = streamer.frame(eye, &camera.metric(), TAU, &cull);
+        let rhos = gated_rhos(
+            &diamond_rhos(repo.diamonds(), eye, &camera.metric()),
+            &f.may_refine,
+        );
+        let flat = select_visible(repo.tets(), &rhos, TAU, eye, &cull);
+        assert_eq!(
+            f.frame.selection, flat,
+            "frame {i}: top-down streaming selection differs from the rule with rho'"
+        );
+        let whole = select_stateless(repo.tets(), &rhos, TAU);
+        let findings = checker.check(&whole);
+        assert_eq!(findings.cracks, 0, "frame {i}: {findings:?}");
+        assert_eq!(findings.nonmanifold_introduced, 0, "frame {i}");
+        streamer.residency().check_invariants().unwrap();
+        assert!(f.stats.resident_bytes <= streamer.residency().budget_bytes());
+        last = f.frame.selection;
+    }
+    last
+}
+
+/// The selection a camera gets with everything resident.
+fn unlimited_selection(repo: &Repository, camera: &Camera) -> Vec<u32> {
+    let eye = camera.eye_local(repo.header().origin);
+    let rhos = diamond_rhos(repo.diamonds(), eye, &camera.metric());
+    select_visible(repo.tets(), &rhos, TAU, eye, &cull_of(camera))
+}
+
+#[test]
+fn every_streaming_frame_is_crack_free_and_the_settled_cut_is_the_unlimited_one() {
+    let b = built("mesh/dragon_vrip_res2.ply.gz");
+    let patches = decode_all_patches(&b.repo).unwrap();
+    let checker = CutChecker::new(&b.repo, &patches);
+    let mut path = fly_in(&b.repo, 40);
+    path.extend(close_orbit(&b.repo, 40));
+    let need = working_set(&b.repo, &path[path.len() - 1..]);
+    let total = working_set(&b.repo, &path);
+    eprintln!("working set: last view {need} B, whole path {total} B");
+    assert!(need > units_of(&b.repo).root_bytes() && total > need);
+
+    // A budget that fits the last view's working set exactly: the fly-in streams under
+    // pressure, every frame crack-free, then the paused camera settles on the unlimited cut.
+    let mut streamer = CpuStreamer::new(&b.repo, settings(need)).unwrap();
+    stream_checked(&mut streamer, &b.repo, &checker, &path);
+    let last = path[path.len() - 1];
+    let settled = stream_checked(&mut streamer, &b.repo, &checker, &vec![last; 60]);
+    assert_eq!(settled, unlimited_selection(&b.repo, &last));
+    let stats = streamer.residency().stats();
+    assert_eq!(
+        (stats.loading_units, stats.pending_units),
+        (0, 0),
+        "{stats:?}"
+    );
+    assert!(
+        stats.evictions > 0,
+        "the path did not stream under pressure: {stats:?}"
+    );
+}
+
+#[test]
+fn a_paused_camera_stops_loading_at_half_its_working_set() {
+    let b = built("mesh/armadillo.off");
+    let patches = decode_all_patches(&b.repo).unwrap();
+    let checker = CutChecker::new(&b.repo, &patches);
+    let camera = fly_in(&b.repo, 40)[39];
+    let need = working_set(&b.repo, &[camera]);
+    let roots = units_of(&b.repo).root_bytes();
+    let budget = roots + (need - roots) / 2;
+    let mut streamer = CpuStreamer::new(&b.repo, settings(budget)).unwrap();
+    stream_checked(&mut streamer, &b.repo, &checker, &vec![camera; 200]);
+    let before = streamer.residency().stats();
+    stream_checked(&mut streamer, &b.repo, &checker, &vec![camera; 100]);
+    let after = streamer.residency().stats();
+    assert_eq!(after.loads, before.loads, "loads in the last 100 frames");
+    assert_eq!(
+        after.evictions, before.evictions,
+        "evictions in the last 100 frames"
+    );
+    assert!(
+        after.pending_units > 0,
+        "half the working set cannot hold everything"
+    );
+    assert!(after.peak_resident_bytes <= budget);
+    // Coarser than the unlimited cut, never finer.
+    let eye = camera.eye_local(b.repo.header().origin);
+    let rhos = diamond_rhos(b.repo.diamonds(), eye, &camera.metric());
+    let unlimited = select_stateless(b.repo.tets(), &rhos, TAU);
+    let gated = select_stateless(
+        b.repo.tets(),
+        &gated_rhos(&rhos, streamer.residency().may_refine()),
+        TAU,
+    );
+    let triangles = |cut: &[u32]| checker.check(cut).triangles;
+    assert!(triangles(&gated) < triangles(&unlimited));
+}
+
+#[test]
+fn a_damaged_patch_keeps_its_diamond_from_refining() {
+    let b = built("mesh/bunny00.off");
+    let path_on_disk = b.dir.path().join("model.tsr");
+    let repo = &b.repo;
+    let camera = fly_in(repo, 20)[19];
+    // The finest unit the view refines: damage one of its patches.
+    let units = units_of(repo);
+    let eye = camera.eye_local(repo.header().origin);
+    let rhos = diamond_rhos(repo.diamonds(), eye, &camera.metric());
+    let all = vec![true; repo.diamonds().len()];
+    let frame = tessera_runtime::stream::stream_frame(
+        repo.tets(),
+        repo.header().root_tet_count as usize,
+        &rhos,
+        &all,
+        TAU,
+        eye,
+        &cull_of(&camera),
+    );
+    let victim = frame
+        .refined
+        .iter()
+        .map(|&(d, _)| d)
+        .max_by_key(|&d| (units.level(d), d))
+        .unwrap();
+    let simplex = *units
+        .simplices(victim)
+        .iter()
+        .find(|&&t| repo.tets()[t as usize].patch_bytes > 0)
+        .unwrap();
+    let mut bytes = std::fs::read(&path_on_disk).unwrap();
+    let patches_at = repo
+        .sections()
+        .iter()
+        .find(|s| s.kind == tessera_core::repository::format::SECTION_PATCHES)
+        .unwrap()
+        .offset;
+    let at = patches_at + repo.tets()[simplex as usize].patch_offset;
+    bytes[at as usize + 1] ^= 0x20;
+    let damaged_path = b.dir.path().join("damaged.tsr");
+    std::fs::write(&damaged_path, bytes).unwrap();
+    let damaged = Repository::open(&damaged_path).unwrap();
+
+    // The healthy patches still decode for the checker: only the damaged one is refused.
+    let patches = decode_all_patches(repo).unwrap();
+    let checker = CutChecker::new(repo, &patches);
+    let mut streamer = CpuStreamer::new(&damaged, settings(u64::MAX)).unwrap();
+    stream_checked(&mut streamer, &damaged, &checker, &vec![camera; 40]);
+    assert_eq!(streamer.residency().state(victim), UnitState::Broken);
+    assert!(!streamer.residency().may_refine()[victim as usize]);
+    assert_eq!(streamer.failures.len(), 1);
+    let message = streamer.failures[0].1.to_string();
+    assert!(
+        message.contains(&format!("patch of tet {simplex} is damaged")),
+        "{message}"
+    );
+    assert_eq!(streamer.residency().stats().broken_units, 1);
+}
+
+#[test]
+fn a_long_loop_under_pressure_neither_stalls_nor_grows() {
+    let b = built("mesh/armadillo.off");
+    let patches = decode_all_patches(&b.repo).unwrap();
+    let checker = CutChecker::new(&b.repo, &patches);
+    // Out and back in: 40 frames each way, then 20 paused at the loop's end.
+    let mut path = fly_in(&b.repo, 40);
+    path.extend(fly_in(&b.repo, 40).into_iter().rev());
+    let pause = path[path.len() - 1];
+    path.extend(vec![pause; 20]);
+    let total = working_set(&b.repo, &path);
+    let roots = units_of(&b.repo).root_bytes();
+    let budget = roots + (total - roots) * 2 / 3;
+    let mut streamer = CpuStreamer::new(&b.repo, settings(budget)).unwrap();
+    let mut first: Option<Vec<u32>> = None;
+    let loops = 2000usize.div_ceil(path.len());
+    for lap in 0..loops {
+        let settled = stream_checked(&mut streamer, &b.repo, &checker, &path);
+        match &first {
+            None => first = Some(settled),
+            Some(f) => assert_eq!(&settled, f, "lap {lap} settled elsewhere"),
+        }
+        let stats = streamer.residency().stats();
+        assert!(stats.peak_resident_bytes <= budget);
+    }
+    let stats = streamer.residency().stats();
+    eprintln!("{} frames: {stats:?}", loops * path.len());
+    assert!(loops * path.len() >= 2000);
+    assert!(
+        stats.evictions > 0,
+        "the loop never streamed under pressure"
+    );
+}
