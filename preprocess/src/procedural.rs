@@ -111,6 +111,12 @@ pub fn demo_mesh_refined(subdivisions: u32, refine: u32) -> InputMesh {
 /// Radius of the demo surface in the direction `dir` (a unit vector), in
 /// [`DEMO_MIN_RADIUS`, `DEMO_MAX_RADIUS`].
 pub fn demo_radius(dir: [f64; 3]) -> f64 {
+    relief_radius(dir, SEED)
+}
+
+/// The demo's relief with another noise seed (`gen mesh --seed`): the same look, another
+/// surface. `relief_radius(dir, s)` for the demo's own seed is [`demo_radius`].
+pub fn relief_radius(dir: [f64; 3], seed: u32) -> f64 {
     let mut freq = BASE_FREQUENCY;
     let mut amp = 1.0;
     let mut norm = 0.0;
@@ -125,7 +131,7 @@ pub fn demo_radius(dir: [f64; 3]) -> f64 {
             dir[1] * freq + 5.77 * o,
             dir[2] * freq + 11.13 * o,
         ];
-        let n = gradient_noise(q, SEED.wrapping_add(octave.wrapping_mul(0x9e37_79b9)));
+        let n = gradient_noise(q, seed.wrapping_add(octave.wrapping_mul(0x9e37_79b9)));
         fbm += amp * n;
         // Ridged multifractal (Musgrave): sharp creases where the noise crosses zero, rougher
         // where the coarser octaves already made a ridge.
