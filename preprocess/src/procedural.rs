@@ -293,22 +293,33 @@ fn lattice_hash(x: i32, y: i32, z: i32, seed: u32) -> u32 {
     h
 }
 
-/// Dot product with one of Perlin's 12 edge gradients (16 entries, 4 repeated).
+/// Perlin's 12 edge gradients as 16 entries (4 repeated), by the hash's top 4 bits.
+const GRADIENTS: [[f64; 3]; 16] = [
+    [1.0, 1.0, 0.0],
+    [-1.0, 1.0, 0.0],
+    [1.0, -1.0, 0.0],
+    [-1.0, -1.0, 0.0],
+    [1.0, 0.0, 1.0],
+    [-1.0, 0.0, 1.0],
+    [1.0, 0.0, -1.0],
+    [-1.0, 0.0, -1.0],
+    [0.0, 1.0, 1.0],
+    [0.0, -1.0, 1.0],
+    [0.0, 1.0, -1.0],
+    [0.0, -1.0, -1.0],
+    [1.0, 1.0, 0.0],
+    [-1.0, 1.0, 0.0],
+    [0.0, -1.0, 1.0],
+    [0.0, -1.0, -1.0],
+];
+
+/// Dot product with one of Perlin's 12 edge gradients: a table, not a `match`, because a
+/// branch on a hash is mispredicted whenever neighbouring calls do not share lattice points
+/// (`gen mesh --shuffle-vertices` ran 2.5× slower). Products with ±1 and 0 are exact, so the
+/// values equal the sums and differences of Perlin's cases (tested against them).
 fn grad(h: u32, x: f64, y: f64, z: f64) -> f64 {
-    match h >> 28 {
-        0 | 12 => x + y,
-        1 | 13 => -x + y,
-        2 => x - y,
-        3 => -x - y,
-        4 => x + z,
-        5 => -x + z,
-        6 => x - z,
-        7 => -x - z,
-        8 => y + z,
-        9 | 14 => -y + z,
-        10 => y - z,
-        _ => -y - z,
-    }
+    let g = GRADIENTS[(h >> 28) as usize];
+    g[0] * x + g[1] * y + g[2] * z
 }
 
 fn fade(t: f64) -> f64 {
@@ -507,5 +518,37 @@ mod tests {
             (r - 1.003_265_460_803_776_8).abs() < 1e-12,
             "noise changed: {r}"
         );
+    }
+
+    /// Perlin's cases as he wrote them, the reference for the table.
+    fn grad_cases(h: u32, x: f64, y: f64, z: f64) -> f64 {
+        match h >> 28 {
+            0 | 12 => x + y,
+            1 | 13 => -x + y,
+            2 => x - y,
+            3 => -x - y,
+            4 => x + z,
+            5 => -x + z,
+            6 => x - z,
+            7 => -x - z,
+            8 => y + z,
+            9 | 14 => -y + z,
+            10 => y - z,
+            _ => -y - z,
+        }
+    }
+
+    #[test]
+    fn gradient_table_equals_perlins_cases() {
+        let mut h = 0x1234_5678u32;
+        for i in 0..100_000u32 {
+            h = lattice_hash(i as i32, 7, -3, h);
+            let p = [0, 1, 2].map(|k| f64::from(lattice_hash(i as i32, k, 1, h)) / 1e9 - 2.0);
+            assert_eq!(
+                grad(h, p[0], p[1], p[2]),
+                grad_cases(h, p[0], p[1], p[2]),
+                "{h:x}"
+            );
+        }
     }
 }
