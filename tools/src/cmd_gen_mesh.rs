@@ -66,6 +66,9 @@ pub fn run(args: MeshArgs) -> anyhow::Result<Outcome> {
     })
     .map_err(anyhow::Error::msg)?;
     let to_stdout = args.output.as_os_str() == "-";
+    if to_stdout && std::io::stdout().is_terminal() {
+        anyhow::bail!("-o -: standard output is a terminal; redirect or pipe the binary PLY");
+    }
     let exact = mesh.triangle_count() == args.triangles;
     if !exact {
         eprintln!(

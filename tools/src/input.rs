@@ -1,6 +1,7 @@
 //! What `build` (and the benchmarks) accept as input: a mesh file, or a height field (DEM)
 //! recognised by its extension, which builds on the 2D hierarchy; `-`: a PLY on standard input.
 
+use std::io::IsTerminal;
 use std::path::Path;
 
 use anyhow::bail;
@@ -120,6 +121,9 @@ pub fn load_input(path: &Path, args: &HeightFieldArgs) -> anyhow::Result<LoadedI
             path.display(),
             tessera_preprocess::dem::DEM_EXTENSIONS
         );
+    }
+    if is_stdin(path) && std::io::stdin().is_terminal() {
+        bail!("standard input is a terminal: pipe a PLY mesh into `-`");
     }
     let report = match read_mesh(path) {
         Ok(report) => report,
