@@ -1,4 +1,4 @@
-//! `tessera build INPUT -o OUT.tsr [--leaf-triangles N | --levels L] [--threads N] [--json]`
+//! `tessera build INPUT|- -o OUT.tsr [--leaf-triangles N | --levels L] [--threads N] [--json]`
 //! `[--heightfield] [--raw-size WxH] [--variable NAME] [--spacing M] [--exaggeration X]`
 //!
 //! A mesh builds the 3D hierarchy (tetrahedra); a DEM (by extension) or `--heightfield` the 2D
@@ -17,7 +17,7 @@ use crate::Outcome;
 
 #[derive(Args)]
 pub struct BuildArgs {
-    /// Input mesh, or height field (DEM).
+    /// Input mesh, or height field (DEM); `-` reads a PLY mesh from standard input.
     pub input: PathBuf,
     /// Output repository (written to a temporary file, then renamed).
     #[arg(short, long)]
@@ -55,13 +55,22 @@ pub fn run(args: BuildArgs) -> anyhow::Result<Outcome> {
         config.construction = Construction::Levels(l);
     }
     let import_seconds = start.elapsed().as_secs_f64();
+    let name = if crate::input::is_stdin(&args.input) {
+        "standard input".to_string()
+    } else {
+        args.input.display().to_string()
+    };
     let summary = build_repository(&input.mesh, &config, &args.output, &|s| stages.stage(s))
-        .with_context(|| format!("building {}", args.input.display()))?;
+        .with_context(|| format!("building {name}"))?;
     stages.finish();
     let seconds = start.elapsed().as_secs_f64();
     if args.json {
         let mut value = summary_json(&summary, seconds);
         value["import_seconds"] = json!(import_seconds);
+        if let Some(stages) = value["stages"].as_array_mut() {
+            stages.insert(0, json!({"stage": "import", "seconds": import_seconds}));
+        }
+        value["peak_rss_bytes"] = json!(crate::peak_rss::peak_rss_bytes());
         value["output"] = json!(args.output.display().to_string());
         value["domain"] = json!(match input.domain {
             tessera_preprocess::Domain::Volume => "volume",
@@ -70,7 +79,7 @@ pub fn run(args: BuildArgs) -> anyhow::Result<Outcome> {
         value["grid"] = crate::input::grid_json(input.grid.as_ref());
         println!("{value}");
     } else {
-        println!("{}: {}", args.input.display(), input.description);
+        println!("{name}: {}", input.description);
         print_summary(&summary, seconds, import_seconds);
         println!("wrote {}", args.output.display());
     }

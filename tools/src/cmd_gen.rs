@@ -1,6 +1,7 @@
 //! `tessera gen terrain -o OUT.{npy,json} [--seed S] [--levels L] [--spacing M]
 //! [--roughness R] [--regions MH,PW]`: a diamond-square terrain (seed 002) with a map of
-//! regions, written as a height field that `tessera build` reads.
+//! regions, written as a height field that `tessera build` reads. `gen mesh`: see
+//! `cmd_gen_mesh.rs`.
 
 use std::path::PathBuf;
 
@@ -21,6 +22,8 @@ pub struct GenArgs {
 pub enum GenWhat {
     /// A diamond-square terrain with a map of regions.
     Terrain(TerrainArgs),
+    /// A closed procedural mesh of any size with the demo's relief, streamed as binary PLY.
+    Mesh(crate::cmd_gen_mesh::MeshArgs),
 }
 
 #[derive(Args)]
@@ -49,6 +52,7 @@ pub struct TerrainArgs {
 pub fn run(args: GenArgs) -> anyhow::Result<Outcome> {
     match args.what {
         GenWhat::Terrain(a) => terrain(a),
+        GenWhat::Mesh(a) => crate::cmd_gen_mesh::run(a),
     }
 }
 

@@ -1,13 +1,16 @@
 //! What `build` (and the benchmarks) accept as input: a mesh file, or a height field (DEM)
-//! recognised by its extension, which builds on the 2D hierarchy.
+//! recognised by its extension, which builds on the 2D hierarchy; `-`: a PLY on standard input.
 
+use std::io::IsTerminal;
 use std::path::Path;
 
 use anyhow::bail;
 use clap::Args;
 use serde_json::json;
 use tessera_preprocess::dem::{load_dem, DemFormat, DemOptions, HeightGrid, TerrainOptions};
-use tessera_preprocess::import::{load_mesh, ImportErrorKind};
+use tessera_preprocess::import::{
+    load_mesh, load_mesh_from_reader, ImportError, ImportErrorKind, ImportReport, MeshFormat,
+};
 use tessera_preprocess::{Domain, InputMesh};
 
 /// Height-field options of the commands that read an input.
@@ -84,7 +87,7 @@ impl HeightFieldArgs {
 }
 
 /// Reads `path`: a DEM by extension (2D hierarchy), else a mesh (3D, or 2D with
-/// `--heightfield`).
+/// `--heightfield`); `-` reads a PLY mesh from standard input.
 pub fn load_input(path: &Path, args: &HeightFieldArgs) -> anyhow::Result<LoadedInput> {
     let options = args.terrain_options()?;
     if DemFormat::from_path(path).is_some() {
@@ -119,7 +122,10 @@ pub fn load_input(path: &Path, args: &HeightFieldArgs) -> anyhow::Result<LoadedI
             tessera_preprocess::dem::DEM_EXTENSIONS
         );
     }
-    let report = match load_mesh(path) {
+    if is_stdin(path) && std::io::stdin().is_terminal() {
+        bail!("standard input is a terminal: pipe a PLY mesh into `-`");
+    }
+    let report = match read_mesh(path) {
         Ok(report) => report,
         Err(e) if matches!(e.kind, ImportErrorKind::UnsupportedExtension(_)) => {
             bail!(
@@ -151,6 +157,21 @@ pub fn load_input(path: &Path, args: &HeightFieldArgs) -> anyhow::Result<LoadedI
         grid: None,
         description,
     })
+}
+
+/// Whether `path` means standard input (`-`).
+pub fn is_stdin(path: &Path) -> bool {
+    path.as_os_str() == "-"
+}
+
+/// A mesh file, or a PLY (ASCII or binary) on standard input for `-`: the same reader and
+/// welding either way, so the same mesh.
+fn read_mesh(path: &Path) -> Result<ImportReport, ImportError> {
+    if is_stdin(path) {
+        load_mesh_from_reader(std::io::stdin(), MeshFormat::Ply, "standard input")
+    } else {
+        load_mesh(path)
+    }
 }
 
 /// The grid part of `build --json` (null for a mesh).

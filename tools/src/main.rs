@@ -11,12 +11,14 @@ mod cmd_build;
 mod cmd_check;
 mod cmd_demo;
 mod cmd_gen;
+mod cmd_gen_mesh;
 mod cmd_info;
 mod cmd_render;
 mod demo_terrain;
 mod gpu_args;
 mod input;
 mod output;
+mod peak_rss;
 mod progress;
 mod terrain;
 
@@ -54,7 +56,8 @@ enum Command {
     /// a few frames to PNG, print a summary. Without a GPU adapter the frames are skipped (the reason is
     /// printed); the check alone decides the exit code.
     Demo(cmd_demo::DemoArgs),
-    /// Generate inputs: `gen terrain` (diamond-square with a map of regions, seed 002).
+    /// Generate inputs: `gen terrain` (diamond-square with a map of regions, seed 002), `gen mesh`
+    /// (a closed procedural mesh of any size, streamed as binary PLY).
     Gen(cmd_gen::GenArgs),
 }
 

@@ -1,4 +1,5 @@
-//! Files the CLI writes besides repositories: PNG frames and binary PLY meshes. Each goes
+//! Files the CLI writes besides repositories: PNG frames, binary PLY meshes (`gen mesh` streams
+//! its own through [`write_atomically`]). Each goes
 //! through a temporary file in the target directory and a rename, so a failed write leaves
 //! nothing behind; the result gets ordinary permissions (0644), not the temporary file's 0600.
 
@@ -9,7 +10,7 @@ use anyhow::Context;
 use tessera_preprocess::InputMesh;
 
 /// Writes `path` through a temporary file: `write` fills it, then it is renamed into place.
-fn write_atomically(
+pub fn write_atomically(
     path: &Path,
     write: impl FnOnce(&Path, &mut std::fs::File) -> anyhow::Result<()>,
 ) -> anyhow::Result<()> {

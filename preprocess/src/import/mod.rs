@@ -17,6 +17,7 @@ mod ply;
 mod stl;
 mod weld;
 
+use std::io::Read;
 use std::path::Path;
 
 pub use error::{ImportError, ImportErrorKind, Location, SUPPORTED_EXTENSIONS};
@@ -79,15 +80,42 @@ impl MeshFormat {
 /// Loads the mesh at `path` (format from the extension, see [`SUPPORTED_EXTENSIONS`]), welds and
 /// cleans it (see [`weld`]). A mesh with no triangles left is an error.
 pub fn load_mesh(path: &Path) -> Result<ImportReport, ImportError> {
-    let raw = load_raw(path)?;
+    weld_nonempty(load_raw(path)?).map_err(|kind| kind.at_path(path))
+}
+
+/// Loads a mesh of `format` from `reader` (a pipe, standard input): the same reader and the
+/// same welding as [`load_mesh`] of a file with these bytes, so the same [`ImportReport`].
+/// Errors name the input `name`. glTF (not streamable) and `.gz` are not read this way.
+pub fn load_mesh_from_reader(
+    reader: impl Read + 'static,
+    format: MeshFormat,
+    name: &str,
+) -> Result<ImportReport, ImportError> {
+    let mut input = Input::new(Box::new(reader), false, None);
+    let raw = match format {
+        MeshFormat::Ply => ply::read(&mut input),
+        MeshFormat::Obj => obj::read(&mut input),
+        MeshFormat::Off => off::read(&mut input),
+        MeshFormat::Stl => stl::read(&mut input),
+        MeshFormat::Gltf => Err(ImportErrorKind::Unsupported {
+            at: Location::None,
+            what: "glTF from a stream (give a file)".into(),
+        }),
+    };
+    raw.and_then(validate)
+        .and_then(weld_nonempty)
+        .map_err(|kind| kind.at_path(name))
+}
+
+/// Welds `raw`; a mesh with no triangles left is an error.
+fn weld_nonempty(raw: RawMesh) -> Result<ImportReport, ImportErrorKind> {
     let report = weld(raw);
     if report.mesh.triangles.is_empty() {
         return Err(ImportErrorKind::Empty {
             raw_triangles: report.raw_triangles,
             degenerate: report.degenerate_triangles,
             duplicate: report.duplicate_triangles,
-        }
-        .at_path(path));
+        });
     }
     Ok(report)
 }
@@ -130,7 +158,11 @@ fn read_raw(path: &Path) -> Result<RawMesh, ImportErrorKind> {
             }
         }
     };
-    // The readers check as they go (with line numbers); this catches anything they missed.
+    validate(raw)
+}
+
+/// The readers check as they go (with line numbers); this catches anything they missed.
+fn validate(raw: RawMesh) -> Result<RawMesh, ImportErrorKind> {
     for (i, p) in raw.positions.iter().enumerate() {
         input::check_finite(*p, i as u64, || Location::None)?;
     }

@@ -1,0 +1,169 @@
+//! `tessera gen mesh --triangles N -o OUT.ply [--seed S] [--shuffle-vertices]
+//! [--density-range R] [--json]`: a closed, watertight, 2-manifold procedural mesh with the
+//! demo's relief (`tessera_preprocess::gen_mesh`), streamed as binary little-endian PLY in
+//! constant memory to a file (temporary file + rename) or to standard output (`-o -`).
+//!
+//! The summary (or the `--json` object) goes to stdout, or to stderr when the mesh does.
+
+use std::io::IsTerminal;
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::Context;
+use clap::Args;
+use indicatif::{ProgressBar, ProgressStyle};
+use serde_json::json;
+use tessera_preprocess::gen_mesh::{write_ply, GenMesh, MeshParams};
+
+use crate::Outcome;
+
+#[derive(Args)]
+pub struct MeshArgs {
+    /// Triangles, e.g. 2000000, 100M or 1G: exactly N when N is even, N + 1 when odd (a
+    /// closed triangle mesh has an even count); at least 192.
+    #[arg(long, value_name = "N", value_parser = parse_count)]
+    pub triangles: u64,
+    /// Output binary PLY, or `-` for standard output.
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Seed of the relief (and of the vertex order): the same parameters give the same bytes.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Write the vertices in a pseudo-random order (no locality), faces renumbered to match.
+    #[arg(long)]
+    pub shuffle_vertices: bool,
+    /// Triangle areas vary by this factor from the densest region (around −z) to the
+    /// sparsest (around +z), measured on the mesh before its relief; 1 = nearly uniform.
+    #[arg(long, value_name = "R", default_value_t = 1.0)]
+    pub density_range: f64,
+    /// Print one JSON object (on stderr when the mesh goes to stdout).
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// A count with an optional decimal suffix: K (10³), M (10⁶), G (10⁹).
+fn parse_count(s: &str) -> Result<u64, String> {
+    let t = s.trim();
+    let (digits, scale) = match t.char_indices().last() {
+        Some((i, 'k' | 'K')) => (&t[..i], 1_000),
+        Some((i, 'm' | 'M')) => (&t[..i], 1_000_000),
+        Some((i, 'g' | 'G')) => (&t[..i], 1_000_000_000),
+        _ => (t, 1),
+    };
+    digits
+        .parse::<u64>()
+        .ok()
+        .and_then(|n| n.checked_mul(scale))
+        .ok_or_else(|| format!("expected a count such as 2000000, 100M or 1G, got {s:?}"))
+}
+
+pub fn run(args: MeshArgs) -> anyhow::Result<Outcome> {
+    let mesh = GenMesh::new(MeshParams {
+        triangles: args.triangles,
+        seed: args.seed,
+        shuffle_vertices: args.shuffle_vertices,
+        density_range: args.density_range,
+    })
+    .map_err(anyhow::Error::msg)?;
+    let to_stdout = args.output.as_os_str() == "-";
+    if to_stdout && std::io::stdout().is_terminal() {
+        anyhow::bail!("-o -: standard output is a terminal; redirect or pipe the binary PLY");
+    }
+    let exact = mesh.triangle_count() == args.triangles;
+    if !exact {
+        eprintln!(
+            "note: {} triangles requested, writing {} (a closed triangle mesh has an even count)",
+            args.triangles,
+            mesh.triangle_count()
+        );
+    }
+    let bar = progress_bar(mesh.vertex_count() + mesh.triangle_count());
+    let mut progress = |done: u64| {
+        if let Some(bar) = &bar {
+            bar.set_position(done);
+        }
+    };
+    let start = Instant::now();
+    let bytes = if to_stdout {
+        let mut out = std::io::stdout().lock();
+        write_ply(&mesh, &mut out, &mut progress).context("writing the mesh to standard output")?
+    } else {
+        let mut bytes = 0;
+        crate::output::write_atomically(&args.output, |_, file| {
+            bytes = write_ply(&mesh, file, &mut progress)?;
+            Ok(())
+        })?;
+        bytes
+    };
+    let seconds = start.elapsed().as_secs_f64();
+    if let Some(bar) = &bar {
+        bar.finish_and_clear();
+    }
+    let mb_per_s = bytes as f64 / 1e6 / seconds.max(1e-9);
+    let name = if to_stdout {
+        "standard output".to_string()
+    } else {
+        args.output.display().to_string()
+    };
+    let report = if args.json {
+        json!({
+            "output": name,
+            "requested_triangles": args.triangles,
+            "triangles": mesh.triangle_count(),
+            "exact": exact,
+            "vertices": mesh.vertex_count(),
+            "grid": mesh.topology.n,
+            "split_cells": mesh.topology.splits,
+            "seed": args.seed,
+            "shuffle_vertices": args.shuffle_vertices,
+            "density_range": args.density_range,
+            "bytes": bytes,
+            "seconds": seconds,
+            "mb_per_s": mb_per_s,
+            "peak_rss_bytes": crate::peak_rss::peak_rss_bytes(),
+        })
+        .to_string()
+    } else {
+        format!(
+            "wrote {name}: {} triangles{}, {} vertices, {bytes} bytes in {seconds:.2} s \
+             ({mb_per_s:.0} MB/s)",
+            mesh.triangle_count(),
+            if exact { "" } else { " (rounded up to even)" },
+            mesh.vertex_count(),
+        )
+    };
+    if to_stdout {
+        eprintln!("{report}");
+    } else {
+        println!("{report}");
+    }
+    Ok(Outcome::Ok)
+}
+
+/// A bar on stderr when it is a terminal (records written of vertices + triangles).
+fn progress_bar(total: u64) -> Option<ProgressBar> {
+    std::io::stderr().is_terminal().then(|| {
+        let bar = ProgressBar::new(total);
+        bar.set_style(
+            ProgressStyle::with_template("gen mesh: {wide_bar} {percent}% [{elapsed}<{eta}]")
+                .unwrap(),
+        );
+        bar
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::parse_count;
+
+    #[test]
+    fn counts_with_suffixes() {
+        assert_eq!(parse_count("2000000"), Ok(2_000_000));
+        assert_eq!(parse_count("100M"), Ok(100_000_000));
+        assert_eq!(parse_count("1G"), Ok(1_000_000_000));
+        assert_eq!(parse_count("5k"), Ok(5_000));
+        for bad in ["", "M", "-5", "1.5M", "1e8", "99999999999G"] {
+            assert!(parse_count(bad).is_err(), "{bad:?}");
+        }
+    }
+}
