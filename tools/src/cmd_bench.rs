@@ -51,6 +51,9 @@ pub enum BenchWhat {
     /// A height field: ROAM, RUSTiC and tessera at equal triangle budgets (vertical error
     /// against the full grid, CPU ms per frame, frame time).
     Terrain(crate::terrain::bench::TerrainBenchArgs),
+    /// A camera path under a residency budget, warm and cold: resident bytes, loads, missing
+    /// units, max ρ/τ of the drawn cut and frame ms per frame (CPU traversal).
+    Stream(crate::cmd_bench_stream::StreamBenchArgs),
 }
 
 #[derive(Args)]
@@ -86,6 +89,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<Outcome> {
         Some(BenchWhat::Build(a)) => bench_build(a),
         Some(BenchWhat::Render(a)) => crate::cmd_bench_render::run(a),
         Some(BenchWhat::Terrain(a)) => crate::terrain::bench::run(a),
+        Some(BenchWhat::Stream(a)) => crate::cmd_bench_stream::run(a),
         None => crate::bench::run(args.trade),
     }
 }

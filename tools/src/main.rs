@@ -5,8 +5,10 @@
 //! on stderr, no output file left behind).
 
 mod bench;
+mod bench_stream_plot;
 mod cmd_bench;
 mod cmd_bench_render;
+mod cmd_bench_stream;
 mod cmd_build;
 mod cmd_check;
 mod cmd_demo;

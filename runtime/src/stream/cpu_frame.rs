@@ -24,6 +24,9 @@ pub struct StreamFrame {
     pub refined: Vec<(u32, f32)>,
     /// Diamonds a visible simplex wanted to refine but could not, with ρ/τ, deduplicated.
     pub wanted: Vec<(u32, f32)>,
+    /// The largest ρ(D)/τ over the drawn simplices (0 for leaves): ≤ 1 when the cut is what
+    /// the tolerance asks for, above 1 where missing data keeps it coarser.
+    pub max_error_over_tau: f32,
 }
 
 /// ρ' of every diamond: ρ where the diamond may refine, else 0.
@@ -56,6 +59,10 @@ pub fn stream_frame(
         if t.diamond == NO_INDEX || rhos[t.diamond as usize] <= tau {
             if cull.keeps(t, eye_local) {
                 frame.selection.push(i);
+                if t.diamond != NO_INDEX {
+                    let e = rhos[t.diamond as usize] / tau;
+                    frame.max_error_over_tau = frame.max_error_over_tau.max(e);
+                }
             }
             continue;
         }
@@ -67,6 +74,7 @@ pub fn stream_frame(
         } else {
             if cull.keeps(t, eye_local) {
                 frame.selection.push(i);
+                frame.max_error_over_tau = frame.max_error_over_tau.max(priority);
             }
             frame.wanted.push((d, priority));
         }

@@ -1,0 +1,416 @@
+//! `tessera bench stream REPO --gpu-budget MB`: a camera path flown under a residency budget,
+//! warm and cold, frame by frame.
+//!
+//! The streaming loop is `tessera_runtime::stream::CpuStreamer`: the residency's flags gate the
+//! cut, the traversal's feedback (refined and wanted diamonds) drives loads by screen error
+//! within a per-frame allowance, loads land `--latency-frames` later (read through the map,
+//! checksums checked, at that moment), evictions make room. The traversal runs on the CPU here
+//! (`"traversal": "cpu"` in the JSON): the figures are the residency's — resident bytes,
+//! bytes loaded, wanted units not resident, how far the drawn cut is from what τ asks
+//! (max ρ/τ over the drawn simplices), frames to settle — and `frame_ms` is the CPU time of a
+//! frame's traversal, planning and the reads of the loads landing in it, not GPU time.
+//!
+//! Warm: the file is read once first, so the page cache holds it. Cold: the file is dropped
+//! from the page cache first (`posix_fadvise(DONTNEED)`), so loads read the disk; each run
+//! reports the share of the file's pages resident before it (`mincore`).
+
+use std::fs::File;
+use std::io::Read;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{anyhow, bail, Context};
+use clap::Args;
+use serde::Deserialize;
+use serde_json::json;
+use tessera_core::cull::CullTests;
+use tessera_core::repository::reader::Repository;
+use tessera_runtime::camera::Camera;
+use tessera_runtime::stream::{CpuStreamer, StreamSettings};
+
+use crate::cmd_render::default_up;
+use crate::Outcome;
+
+#[derive(Args)]
+pub struct StreamBenchArgs {
+    /// Repository file.
+    pub repository: PathBuf,
+    /// Residency budget in MiB: the resident units plus the pinned roots.
+    #[arg(long, default_value_t = 32.0)]
+    pub gpu_budget: f64,
+    /// Camera path: a JSON file `{"keyframes": [{"eye": [x,y,z], "target": [x,y,z]}, ...],
+    /// "frames_between": N, "pause_frames": M}` (model coordinates; eyes interpolated
+    /// linearly, N frames per segment, then M frames paused at the last keyframe). Default: a
+    /// fly-in from 3 bounding radii to 0.9 turning 120° (120 frames), half a turn at 0.9 radii
+    /// (120 frames), 120 frames paused.
+    #[arg(long)]
+    pub path: Option<PathBuf>,
+    /// Pixel tolerance τ (1920×1080 unless --size, 60° vertical field of view).
+    #[arg(long, default_value_t = 1.0)]
+    pub tolerance: f32,
+    /// Viewport WxH.
+    #[arg(long, default_value = "1920x1080")]
+    pub size: String,
+    /// Bytes of loads issued per frame, MiB.
+    #[arg(long, default_value_t = 4.0)]
+    pub upload_mb_per_frame: f64,
+    /// Frames between issuing a load and its data being usable.
+    #[arg(long, default_value_t = 2)]
+    pub latency_frames: u64,
+    /// Print one JSON object on stdout.
+    #[arg(long)]
+    pub json: bool,
+    /// Write `stream.png` (resident MB, bytes loaded, max error / τ, frame ms over the frames,
+    /// warm and cold) into this directory.
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
+}
+
+#[derive(Deserialize)]
+struct PathFile {
+    keyframes: Vec<Keyframe>,
+    #[serde(default = "default_between")]
+    frames_between: usize,
+    #[serde(default)]
+    pause_frames: usize,
+}
+
+#[derive(Deserialize)]
+struct Keyframe {
+    eye: [f64; 3],
+    target: [f64; 3],
+}
+
+fn default_between() -> usize {
+    30
+}
+
+/// One frame of a run.
+#[derive(Clone, Copy, Debug)]
+struct Row {
+    patches: usize,
+    triangles: u64,
+    resident_bytes: u64,
+    loaded_bytes: u64,
+    wanted_not_resident: usize,
+    max_error_over_tau: f32,
+    frame_ms: f64,
+}
+
+fn parse_size(s: &str) -> anyhow::Result<(u32, u32)> {
+    let (w, h) = s
+        .split_once('x')
+        .ok_or_else(|| anyhow!("--size {s:?} is not WxH"))?;
+    let (w, h): (u32, u32) = (w.trim().parse()?, h.trim().parse()?);
+    if w == 0 || h == 0 || w > 16384 || h > 16384 {
+        bail!("--size {s:?}: each side must be 1..=16384");
+    }
+    Ok((w, h))
+}
+
+/// The cameras of the run, sized `width` × `height`.
+fn cameras(
+    args: &StreamBenchArgs,
+    repo: &Repository,
+    size: (u32, u32),
+) -> anyhow::Result<Vec<Camera>> {
+    let h = repo.header();
+    let up = default_up(h.dimension);
+    let radius = tessera_runtime::camera::bounding_radius(h.bbox_min, h.bbox_max);
+    let mut cams: Vec<Camera> = match &args.path {
+        Some(file) => {
+            let text = std::fs::read_to_string(file)
+                .with_context(|| format!("cannot read --path {}", file.display()))?;
+            let path: PathFile = serde_json::from_str(&text)
+                .with_context(|| format!("--path {}: not a camera path", file.display()))?;
+            if path.keyframes.is_empty() || path.frames_between == 0 {
+                bail!(
+                    "--path {}: needs at least one keyframe and frames_between ≥ 1",
+                    file.display()
+                );
+            }
+            let bad = |k: &Keyframe| {
+                !(k.eye.iter().chain(&k.target).all(|x| x.is_finite())) || k.eye == k.target
+            };
+            if let Some(i) = path.keyframes.iter().position(bad) {
+                bail!(
+                    "--path {}: keyframe {i} has a non-finite position or its eye on its target",
+                    file.display()
+                );
+            }
+            let look = |eye: [f64; 3], target: [f64; 3]| Camera {
+                up,
+                ..Camera::looking_at(eye, target, radius)
+            };
+            let mut out = vec![look(path.keyframes[0].eye, path.keyframes[0].target)];
+            for pair in path.keyframes.windows(2) {
+                for k in 1..=path.frames_between {
+                    let s = k as f64 / path.frames_between as f64;
+                    let lerp =
+                        |a: [f64; 3], b: [f64; 3]| [0, 1, 2].map(|i| a[i] + (b[i] - a[i]) * s);
+                    out.push(look(
+                        lerp(pair[0].eye, pair[1].eye),
+                        lerp(pair[0].target, pair[1].target),
+                    ));
+                }
+            }
+            let last = *out.last().unwrap();
+            out.extend(std::iter::repeat_n(last, path.pause_frames));
+            out
+        }
+        None => {
+            let orbit = |az: f64, el: f64, dist: f64| {
+                Camera::orbit(h.bbox_min, h.bbox_max, up, az, el, dist)
+            };
+            let mut out: Vec<Camera> = (0..120)
+                .map(|i| {
+                    let s = i as f64 / 119.0;
+                    orbit(30.0 + 120.0 * s, 20.0 - 10.0 * s, 3.0 - 2.1 * s)
+                })
+                .collect();
+            out.extend((0..120).map(|i| orbit(150.0 + 180.0 * (i as f64 / 119.0), 10.0, 0.9)));
+            let last = *out.last().unwrap();
+            out.extend(std::iter::repeat_n(last, 120));
+            out
+        }
+    };
+    for c in &mut cams {
+        (c.width, c.height) = size;
+    }
+    Ok(cams)
+}
+
+/// Share of `path`'s pages in the page cache (`mincore` over a fresh map).
+fn page_cache_share(path: &Path) -> anyhow::Result<f64> {
+    let file = File::open(path)?;
+    let len = file.metadata()?.len() as usize;
+    if len == 0 {
+        return Ok(0.0);
+    }
+    // SAFETY: read-only map of a file this process does not modify; only its address is used.
+    let map = unsafe { memmap2::Mmap::map(&file)? };
+    let page = 4096usize;
+    let pages = len.div_ceil(page);
+    let mut vec = vec![0u8; pages];
+    // SAFETY: `vec` has one byte per page of the mapped range.
+    let rc = unsafe { libc::mincore(map.as_ptr() as *mut libc::c_void, len, vec.as_mut_ptr()) };
+    if rc != 0 {
+        bail!("mincore failed: {}", std::io::Error::last_os_error());
+    }
+    Ok(vec.iter().filter(|&&b| b & 1 != 0).count() as f64 / pages as f64)
+}
+
+/// Reads the whole file (warm) or drops it from the page cache (cold).
+fn prepare_cache(path: &Path, cold: bool) -> anyhow::Result<()> {
+    let mut file = File::open(path)?;
+    if cold {
+        use std::os::fd::AsRawFd;
+        // SAFETY: a valid descriptor; advice only.
+        let rc = unsafe { libc::posix_fadvise(file.as_raw_fd(), 0, 0, libc::POSIX_FADV_DONTNEED) };
+        if rc != 0 {
+            bail!("posix_fadvise(DONTNEED) failed with {rc}");
+        }
+    } else {
+        let mut buf = vec![0u8; 1 << 20];
+        while file.read(&mut buf)? > 0 {}
+    }
+    Ok(())
+}
+
+/// One run of the path: rows per frame, and the frame (index) from which the stream stayed
+/// settled to the end (no load issued, none in flight), if it did.
+fn run_path(
+    path: &Path,
+    cams: &[Camera],
+    settings: StreamSettings,
+    tau: f32,
+) -> anyhow::Result<(
+    Vec<Row>,
+    Option<usize>,
+    tessera_runtime::stream::ResidencyStats,
+)> {
+    let repo = Repository::open(path)?;
+    let mut streamer = CpuStreamer::new(&repo, settings).map_err(|e| anyhow!("{e}"))?;
+    let mut rows = Vec::with_capacity(cams.len());
+    let mut settled_from: Option<usize> = None;
+    for (i, cam) in cams.iter().enumerate() {
+        let eye = cam.eye_local(repo.header().origin);
+        let cull = CullTests {
+            frustum: Some(cam.view_volume()),
+            cones: true,
+        };
+        let t = Instant::now();
+        let f = streamer.frame(eye, &cam.metric(), tau, &cull);
+        let frame_ms = t.elapsed().as_secs_f64() * 1e3;
+        let triangles = f
+            .frame
+            .selection
+            .iter()
+            .map(|&s| repo.tets()[s as usize].triangle_count as u64)
+            .sum();
+        // Settled: the stream has gone quiet (nothing issued, nothing in flight); under a
+        // budget smaller than the view's working set units may still be wanted.
+        let settled = f.loads == 0 && f.stats.loading_units == 0;
+        match (settled, settled_from) {
+            (true, None) => settled_from = Some(i),
+            (false, Some(_)) => settled_from = None,
+            _ => {}
+        }
+        rows.push(Row {
+            patches: f.frame.selection.len(),
+            triangles,
+            resident_bytes: f.stats.resident_bytes,
+            loaded_bytes: f.loaded_bytes,
+            wanted_not_resident: f.stats.pending_units,
+            max_error_over_tau: f.frame.max_error_over_tau,
+            frame_ms,
+        });
+    }
+    if let Some((unit, e)) = streamer.failures.first() {
+        eprintln!("warning: unit {unit} could not be loaded: {e}");
+    }
+    Ok((rows, settled_from, streamer.residency().stats()))
+}
+
+pub fn run(args: StreamBenchArgs) -> anyhow::Result<Outcome> {
+    if !(args.gpu_budget.is_finite() && args.gpu_budget > 0.0) {
+        bail!(
+            "--gpu-budget {} must be a positive number of MiB",
+            args.gpu_budget
+        );
+    }
+    if !(args.upload_mb_per_frame.is_finite() && args.upload_mb_per_frame > 0.0) {
+        bail!("--upload-mb-per-frame must be positive");
+    }
+    if !(args.tolerance.is_finite() && args.tolerance > 0.0) {
+        bail!("--tolerance {} must be positive and finite", args.tolerance);
+    }
+    let size = parse_size(&args.size)?;
+    let probe = Repository::open(&args.repository)?;
+    let cams = cameras(&args, &probe, size)?;
+    let file_bytes = probe.file_bytes();
+    drop(probe);
+    let settings = StreamSettings {
+        budget_bytes: (args.gpu_budget * (1u64 << 20) as f64) as u64,
+        upload_bytes_per_frame: (args.upload_mb_per_frame * (1u64 << 20) as f64) as u64,
+        latency_frames: args.latency_frames.max(1),
+    };
+    let mut runs = Vec::new();
+    let mut plotted = Vec::new();
+    for mode in ["warm", "cold"] {
+        prepare_cache(&args.repository, mode == "cold")?;
+        let cached = page_cache_share(&args.repository)?;
+        let t = Instant::now();
+        let (rows, settled_from, stats) =
+            run_path(&args.repository, &cams, settings, args.tolerance)?;
+        let seconds = t.elapsed().as_secs_f64();
+        let mut ms: Vec<f64> = rows.iter().map(|r| r.frame_ms).collect();
+        ms.sort_by(f64::total_cmp);
+        let summary = json!({
+            "page_cache_share_before": cached,
+            "seconds": seconds,
+            "frames": rows.len(),
+            "settled_from_frame": settled_from,
+            "peak_resident_bytes": stats.peak_resident_bytes,
+            "loaded_bytes": stats.loaded_bytes,
+            "loads": stats.loads,
+            "evictions": stats.evictions,
+            "broken_units": stats.broken_units,
+            "frame_ms_median": ms[ms.len() / 2],
+            "frame_ms_max": ms[ms.len() - 1],
+            "max_error_over_tau_last": rows.last().map(|r| r.max_error_over_tau),
+            "wanted_not_resident_last": rows.last().map(|r| r.wanted_not_resident),
+        });
+        if !args.json {
+            println!(
+                "{mode}: {} frames in {seconds:.2} s (page cache {:.0} % before); settled from \
+                 frame {settled_from:?}; peak resident {:.2} MiB of {:.2}; loaded {:.2} MiB in {} \
+                 loads, {} evictions; frame ms median {:.3}, max {:.3}; last frame max ρ/τ {:.3}",
+                rows.len(),
+                100.0 * cached,
+                stats.peak_resident_bytes as f64 / (1u64 << 20) as f64,
+                args.gpu_budget,
+                stats.loaded_bytes as f64 / (1u64 << 20) as f64,
+                stats.loads,
+                stats.evictions,
+                ms[ms.len() / 2],
+                ms[ms.len() - 1],
+                rows.last().map_or(0.0, |r| r.max_error_over_tau),
+            );
+        }
+        let frames: Vec<_> = rows
+            .iter()
+            .map(|r| {
+                json!({
+                    "patches": r.patches,
+                    "triangles": r.triangles,
+                    "resident_bytes": r.resident_bytes,
+                    "loaded_bytes": r.loaded_bytes,
+                    "wanted_not_resident": r.wanted_not_resident,
+                    "max_error_over_tau": r.max_error_over_tau,
+                    "frame_ms": r.frame_ms,
+                })
+            })
+            .collect();
+        runs.push(json!({"mode": mode, "summary": summary, "per_frame": frames}));
+        plotted.push((mode, rows));
+    }
+    if let Some(dir) = &args.plot {
+        let file = crate::bench_stream_plot::write_plot(dir, &views(&plotted))?;
+        if !args.json {
+            println!("plot: {}", file.display());
+        }
+    }
+    if args.json {
+        println!(
+            "{}",
+            json!({
+                "repository": args.repository,
+                "repository_bytes": file_bytes,
+                "traversal": "cpu",
+                "tolerance": args.tolerance,
+                "size": [size.0, size.1],
+                "budget_bytes": settings.budget_bytes,
+                "upload_bytes_per_frame": settings.upload_bytes_per_frame,
+                "latency_frames": settings.latency_frames,
+                "runs": runs,
+            })
+        );
+    }
+    Ok(Outcome::Ok)
+}
+
+/// What `bench_stream_plot` draws from a run's rows.
+pub fn series(rows: &[RowView]) -> [Vec<(f64, f64)>; 4] {
+    let mut out: [Vec<(f64, f64)>; 4] = Default::default();
+    for (i, r) in rows.iter().enumerate() {
+        let x = i as f64;
+        out[0].push((x, r.0));
+        out[1].push((x, r.1));
+        out[2].push((x, r.2));
+        out[3].push((x, r.3));
+    }
+    out
+}
+
+/// (resident MiB, loaded KiB, max ρ/τ, frame ms) of one frame.
+pub type RowView = (f64, f64, f64, f64);
+
+impl Row {
+    /// The plotted quantities.
+    fn view(&self) -> RowView {
+        (
+            self.resident_bytes as f64 / (1u64 << 20) as f64,
+            self.loaded_bytes as f64 / 1024.0,
+            self.max_error_over_tau as f64,
+            self.frame_ms,
+        )
+    }
+}
+
+/// Rows of every run as plotted quantities.
+fn views(runs: &[(&str, Vec<Row>)]) -> Vec<(String, Vec<RowView>)> {
+    runs.iter()
+        .map(|(m, rows)| (m.to_string(), rows.iter().map(Row::view).collect()))
+        .collect()
+}
