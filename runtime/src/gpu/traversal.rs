@@ -1,6 +1,6 @@
 //! The traversal pass (`shaders/traverse.wgsl`): stateless and top-down, one indirect dispatch
-//! per depth of the simplex tree. Depth 0 visits the roots; each visited simplex either draws
-//! its patch or queues its two children for the next depth and raises that depth's workgroup
+//! per depth of the simplex tree. Depth 0 visits the roots; each visited simplex either appends
+//! its patch to its page's selection list or queues its two children for the next depth and raises that depth's workgroup
 //! count (`atomicMax` on its indirect arguments). GPU work is proportional to the simplices the
 //! descent reaches (about twice the cut), CPU work to the tree's depth (one dispatch each).
 
@@ -56,13 +56,13 @@ fn entry(
 }
 
 impl Traversal {
-    /// The pipeline and buffers for `model`; `frame` holds the `FrameUniforms`, `draws` and
-    /// `counts` receive the draw lists.
+    /// The pipeline and buffers for `model`; `frame` holds the `FrameUniforms`, `selected` and
+    /// `counts` receive the pages' selection lists and their lengths.
     pub fn new(
         ctx: &GpuContext,
         model: &ResidentModel,
         frame: &wgpu::Buffer,
-        draws: &wgpu::Buffer,
+        selected: &wgpu::Buffer,
         counts: &wgpu::Buffer,
     ) -> Traversal {
         use wgpu::util::DeviceExt;
@@ -177,7 +177,7 @@ impl Traversal {
                 &model.diamonds,
                 &model.tets,
                 &model.locations,
-                draws,
+                selected,
                 counts,
                 &queued,
             ]
@@ -233,13 +233,9 @@ impl Traversal {
         }
     }
 
-    /// Records the frame's traversal: resets the counters, then one compute pass with one
-    /// indirect dispatch per depth. `draws` counts must have been cleared by the caller.
-    pub fn record(
-        &self,
-        encoder: &mut wgpu::CommandEncoder,
-        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
-    ) {
+    /// Resets the traversal's counters and dispatch arguments (before the compute pass; the
+    /// selection lists' counts are the caller's to clear).
+    pub fn reset(&self, encoder: &mut wgpu::CommandEncoder) {
         encoder.clear_buffer(&self.queued, 0, None);
         for (k, dispatches) in self.dispatches.iter().enumerate() {
             encoder.copy_buffer_to_buffer(
@@ -250,10 +246,10 @@ impl Traversal {
                 self.dispatch_bytes,
             );
         }
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("traverse"),
-            timestamp_writes,
-        });
+    }
+
+    /// Records the traversal's dispatches, one per depth, into `pass`.
+    pub fn dispatch(&self, pass: &mut wgpu::ComputePass<'_>) {
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, &self.tables, &[]);
         for depth in 0..self.depth_count {
