@@ -14,6 +14,9 @@
 @group(0) @binding(4) var<storage, read_write> selected: array<Selected>;    // the pages' lists
 @group(0) @binding(5) var<storage, read_write> counts: array<atomic<u32>>;   // one per page
 @group(0) @binding(6) var<storage, read_write> queued: array<atomic<u32>>;   // one per depth
+// Bit d % 32 of word d / 32: diamond d may refine (tessera_core::cut::may_refine; all set
+// unless streaming forbids some, closed downwards by the loader).
+@group(0) @binding(7) var<storage, read> may_refine: array<u32>;
 
 struct Step {
     depth: u32,
@@ -42,6 +45,14 @@ fn rho(d: DiamondRecord) -> f32 {
 
 fn dot3(a: vec3<f32>, b: vec3<f32>) -> f32 {
     return a.x * b.x + a.y * b.y + a.z * b.z;
+}
+
+// rho'(d) = may_refine(d) ? rho(d) : 0 (tessera_core::cut::restrict_rhos).
+fn restricted_rho(d: u32) -> f32 {
+    if ((may_refine[d / 32u] >> (d % 32u)) & 1u) == 0u {
+        return 0.0;
+    }
+    return rho(diamonds[d]);
 }
 
 // tessera_core::cull::ViewVolume::sphere_visible.
@@ -106,7 +117,7 @@ fn traverse(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroup
             i = queue_in[k];
         }
         let t = tets[i];
-        if t.diamond == NO_INDEX || rho(diamonds[t.diamond]) <= tau {
+        if t.diamond == NO_INDEX || restricted_rho(t.diamond) <= tau {
             draw(i, t);
         } else {
             // Refine: the children (first_child, first_child + 1) are visited at depth + 1.

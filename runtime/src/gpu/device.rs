@@ -8,7 +8,7 @@
 //! `--backend` (else wgpu's own `WGPU_BACKEND`) limits the backends.
 //!
 //! What the renderer relies on, checked before a device is made (`usable`): compute shaders,
-//! indirect draws and dispatches, storage buffers read by vertex shaders, 9 storage buffers in
+//! indirect draws and dispatches, storage buffers read by vertex shaders, 10 storage buffers in
 //! one compute stage (the traversal), 256-thread workgroups (the compaction). It needs no
 //! optional feature: no primitive restart, multi-draw, count draw or `first_instance`.
 
@@ -147,7 +147,7 @@ impl std::fmt::Debug for GpuContext {
 }
 
 /// Storage buffers the traversal binds in its compute stage.
-const TRAVERSAL_STORAGE_BUFFERS: u32 = 9;
+const TRAVERSAL_STORAGE_BUFFERS: u32 = 10;
 
 impl GpuContext {
     /// Opens the adapter whose name contains `wanted` (case-insensitive), else the one named by

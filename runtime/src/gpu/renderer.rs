@@ -100,6 +100,12 @@ pub enum RenderError {
     Resident(#[from] ResidentError),
     #[error("the target size {width}×{height} is not within 1..={max} pixels per side")]
     BadSize { width: u32, height: u32, max: u32 },
+    #[error("{got} may_refine words given; the model's {diamonds} diamonds take {expected}")]
+    MayRefineLength {
+        got: usize,
+        expected: usize,
+        diamonds: u32,
+    },
 }
 
 /// The draw pipelines.
@@ -445,6 +451,22 @@ impl Renderer {
     /// meshes remove them.
     pub fn set_check_skirts(&mut self, ctx: &GpuContext, meshes: &super::skirts::SkirtMeshes) {
         self.skirts.set(&ctx.device, meshes);
+    }
+
+    /// Replaces the `may_refine` flags the traversal reads (`tessera_core::cut`: one bit per
+    /// diamond, closed downwards with `close_may_refine`; all set at creation): a diamond whose
+    /// flag is clear does not refine, ρ'(D) = 0.
+    pub fn set_may_refine(&self, ctx: &GpuContext, words: &[u32]) -> Result<(), RenderError> {
+        if self.traversal.set_may_refine(&ctx.queue, words) {
+            Ok(())
+        } else {
+            let diamonds = self.model.diamond_count;
+            Err(RenderError::MayRefineLength {
+                got: words.len(),
+                expected: tessera_core::cut::may_refine_all(diamonds as usize).len(),
+                diamonds,
+            })
+        }
     }
 
     /// The resident model (sizes, pages, selection lists).

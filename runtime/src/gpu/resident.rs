@@ -96,6 +96,7 @@ pub struct ResidentModel {
     /// Entries of all lists together.
     pub entry_count: u32,
     pub tet_count: u32,
+    pub diamond_count: u32,
     /// Roots are simplices `0..root_count`.
     pub root_count: u32,
     /// Depths of the simplex tree (longest root-to-leaf chain + 1): the traversal's dispatches.
@@ -192,6 +193,7 @@ impl ResidentModel {
             lists: layout.lists,
             entry_count: layout.entry_count,
             tet_count: tets.len() as u32,
+            diamond_count: repo.diamonds().len() as u32,
             root_count: repo.header().root_tet_count as u32,
             depth_count: tree_depths(repo),
             resident_bytes: needed - working,

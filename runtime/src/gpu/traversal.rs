@@ -4,6 +4,8 @@
 //! count (`atomicMax` on its indirect arguments). GPU work is proportional to the simplices the
 //! descent reaches (about twice the cut), CPU work to the tree's depth (one dispatch each).
 
+use tessera_core::cut::may_refine_all;
+
 use super::device::GpuContext;
 use super::resident::ResidentModel;
 use super::shaders::{traverse_source, TRAVERSE_WORKGROUP};
@@ -36,6 +38,9 @@ pub struct Traversal {
     dispatch_template: wgpu::Buffer,
     dispatch_bytes: u64,
     depth_count: u32,
+    /// `may_refine` flag words, one bit per diamond.
+    may_refine: wgpu::Buffer,
+    diamond_count: u32,
 }
 
 fn entry(
@@ -81,6 +86,7 @@ impl Traversal {
                 entry(4, storage(false), false),
                 entry(5, storage(false), false),
                 entry(6, storage(false), false),
+                entry(7, storage(true), false),
             ],
         });
         let step_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -143,6 +149,11 @@ impl Traversal {
             dispatch_buffer("traversal dispatches (even depths)"),
             dispatch_buffer("traversal dispatches (odd depths)"),
         ];
+        let may_refine = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("may refine"),
+            contents: bytemuck::cast_slice(&may_refine_all(model.diamond_count as usize)),
+            usage: U::STORAGE | U::COPY_DST,
+        });
         let queue = |label| {
             device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some(label),
@@ -180,6 +191,7 @@ impl Traversal {
                 selected,
                 counts,
                 &queued,
+                &may_refine,
             ]
             .iter()
             .enumerate()
@@ -230,7 +242,20 @@ impl Traversal {
             dispatch_template,
             dispatch_bytes,
             depth_count: depths,
+            may_refine,
+            diamond_count: model.diamond_count,
         }
+    }
+
+    /// Replaces the `may_refine` flags (`tessera_core::cut`: one bit per diamond, closed
+    /// downwards by the caller) for the frames that follow; `false` when `words` is not
+    /// `may_refine_all(diamonds).len()` words long (nothing is written then).
+    pub fn set_may_refine(&self, queue: &wgpu::Queue, words: &[u32]) -> bool {
+        if words.len() != may_refine_all(self.diamond_count as usize).len() {
+            return false;
+        }
+        queue.write_buffer(&self.may_refine, 0, bytemuck::cast_slice(words));
+        true
     }
 
     /// Resets the traversal's counters and dispatch arguments (before the compute pass; the
