@@ -8,11 +8,13 @@
 //! - `shaders`: the WGSL passes of `shaders/`;
 //! - `target`: offscreen colour/depth and read-back; `timing`: GPU timestamps of a frame;
 //! - `traversal`: the top-down stateless traversal, one indirect dispatch per depth;
+//! - `draw_pipelines`: the fill, check and wireframe pipelines of draw.wgsl;
 //! - `compact`: per page, the selected patches' strip-slot prefix sums and one indirect draw;
 //! - `renderer`: traversal + draws, one submit per frame.
 
 pub mod compact;
 pub mod device;
+pub mod draw_pipelines;
 pub mod frame;
 pub mod full_mesh;
 pub mod renderer;

@@ -13,10 +13,11 @@ use tessera_core::repository::reader::Repository;
 
 use super::compact::Compaction;
 use super::device::GpuContext;
+use super::draw_pipelines::{DrawPipelines, Pass};
 use super::frame::{FrameUniforms, ShadingMode};
 use super::resident::{ResidentError, ResidentModel, DRAW_ARGS_BYTES, ENTRY_BYTES};
 use super::shaders::draw_source;
-use super::target::{read_buffer, RenderTarget, BACKGROUND, COLOR_FORMAT, DEPTH_FORMAT};
+use super::target::{read_buffer, RenderTarget, BACKGROUND};
 use super::timing::FrameTimer;
 use super::traversal::Traversal;
 use crate::camera::Camera;
@@ -106,45 +107,6 @@ pub enum RenderError {
         expected: usize,
         diamonds: u32,
     },
-}
-
-/// The draw pipelines.
-struct DrawPipelines {
-    fill: wgpu::RenderPipeline,
-    check_front: wgpu::RenderPipeline,
-    check_back: wgpu::RenderPipeline,
-    check_front_under: wgpu::RenderPipeline,
-    check_back_under: wgpu::RenderPipeline,
-    wire: Option<wgpu::RenderPipeline>,
-}
-
-/// Which draw pipeline.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Pass {
-    /// Every face, shaded by the frame's mode.
-    Fill,
-    /// The check's first pass: front faces only, grey.
-    CheckFront,
-    /// The check's second pass: back faces only, flag colour where no front face is.
-    CheckBack,
-    /// `CheckFront` and `CheckBack` with clockwise faces counting as front (underside check).
-    CheckFrontUnder,
-    CheckBackUnder,
-    /// Triangle edges over the fill.
-    Wire,
-}
-
-impl DrawPipelines {
-    fn get(&self, pass: Pass) -> Option<&wgpu::RenderPipeline> {
-        match pass {
-            Pass::Fill => Some(&self.fill),
-            Pass::CheckFront => Some(&self.check_front),
-            Pass::CheckBack => Some(&self.check_back),
-            Pass::CheckFrontUnder => Some(&self.check_front_under),
-            Pass::CheckBackUnder => Some(&self.check_back_under),
-            Pass::Wire => self.wire.as_ref(),
-        }
-    }
 }
 
 pub struct Renderer {
@@ -340,91 +302,12 @@ impl Renderer {
             label: Some("draw.wgsl"),
             source: wgpu::ShaderSource::Wgsl(draw_source().into()),
         });
-        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("draw"),
-            bind_group_layouts: &[Some(&draw_layout), Some(&page_layout)],
-            immediate_size: 0,
-        });
-        let pipeline = |pass: Pass| {
-            let (entry_point, cull_mode, depth_write, depth_compare) = match pass {
-                // Back faces are drawn: the lit mode shades them too.
-                Pass::Fill => ("fs_main", None, true, wgpu::CompareFunction::GreaterEqual),
-                Pass::CheckFront | Pass::CheckFrontUnder => (
-                    "fs_check_front",
-                    Some(wgpu::Face::Back),
-                    true,
-                    wgpu::CompareFunction::GreaterEqual,
-                ),
-                // Depth 0 "equal" the cleared depth: only where no front face was drawn.
-                Pass::CheckBack | Pass::CheckBackUnder => (
-                    "fs_check_back",
-                    Some(wgpu::Face::Front),
-                    false,
-                    wgpu::CompareFunction::Equal,
-                ),
-                Pass::Wire => ("fs_wire", None, false, wgpu::CompareFunction::GreaterEqual),
-            };
-            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some(entry_point),
-                layout: Some(&layout),
-                vertex: wgpu::VertexState {
-                    module: &module,
-                    entry_point: Some("vs_main"),
-                    compilation_options: Default::default(),
-                    buffers: &[],
-                },
-                primitive: wgpu::PrimitiveState {
-                    topology: wgpu::PrimitiveTopology::TriangleList,
-                    strip_index_format: None,
-                    front_face: if matches!(pass, Pass::CheckFrontUnder | Pass::CheckBackUnder) {
-                        wgpu::FrontFace::Cw
-                    } else {
-                        wgpu::FrontFace::Ccw
-                    },
-                    cull_mode,
-                    unclipped_depth: false,
-                    polygon_mode: if pass == Pass::Wire {
-                        wgpu::PolygonMode::Line
-                    } else {
-                        wgpu::PolygonMode::Fill
-                    },
-                    conservative: false,
-                },
-                depth_stencil: Some(wgpu::DepthStencilState {
-                    format: DEPTH_FORMAT,
-                    depth_write_enabled: Some(depth_write),
-                    depth_compare: Some(depth_compare),
-                    stencil: Default::default(),
-                    // Reverse Z: a positive bias pulls the lines towards the eye.
-                    bias: if pass == Pass::Wire {
-                        wgpu::DepthBiasState {
-                            constant: 2,
-                            slope_scale: 1.0,
-                            clamp: 0.0,
-                        }
-                    } else {
-                        Default::default()
-                    },
-                }),
-                multisample: Default::default(),
-                fragment: Some(wgpu::FragmentState {
-                    module: &module,
-                    entry_point: Some(entry_point),
-                    compilation_options: Default::default(),
-                    targets: &[Some(COLOR_FORMAT.into())],
-                }),
-                multiview_mask: None,
-                cache: None,
-            })
-        };
-        let pipelines = DrawPipelines {
-            fill: pipeline(Pass::Fill),
-            check_front: pipeline(Pass::CheckFront),
-            check_back: pipeline(Pass::CheckBack),
-            check_front_under: pipeline(Pass::CheckFrontUnder),
-            check_back_under: pipeline(Pass::CheckBackUnder),
-            wire: ctx.capabilities.wireframe.then(|| pipeline(Pass::Wire)),
-        };
+        let pipelines = DrawPipelines::new(
+            device,
+            &[&draw_layout, &page_layout],
+            &module,
+            ctx.capabilities.wireframe,
+        );
         let skirts = super::skirts::CheckSkirts::new(device, &draw_layout, &module);
 
         Ok(Renderer {
