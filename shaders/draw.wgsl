@@ -1,12 +1,26 @@
-// Drawing the selected patches: triangle strips with primitive restart, vertices pulled from the
-// resident page (packed 63-bit positions on the global grid, then the optional attributes),
-// the simplex index arriving as the instance index (the traversal's first_instance).
+// Drawing the selected patches of one resident page with one non-indexed indirect draw: 3
+// vertices per strip slot of the page's selected patches (compact.wgsl). Vertex v belongs to
+// slot t = v / 3; a binary search over the page's prefix sums finds the patch and its slot k,
+// whose triangle is (s[k], s[k+1], s[k+2]) with the first two swapped when k is odd (every
+// strip segment starts at an even position: patch.rs). A slot that touches a restart marker or
+// repeats an index draws nothing (its three vertices at one point: zero area). Positions
+// and attributes are pulled from the page (packed 63-bit positions on the global grid, then
+// the optional attributes). No primitive restart, no multi-draw, no first_instance.
 // Prepended by records.wgsl.
 
 @group(0) @binding(0) var<uniform> frame: Frame;
 @group(0) @binding(1) var<storage, read> tets: array<TetRecord>;             // one per simplex
 @group(0) @binding(2) var<storage, read> locations: array<PatchLocation>;    // one per simplex
+@group(0) @binding(3) var<storage, read> selected: array<Selected>;          // the pages' lists
+@group(0) @binding(4) var<storage, read> counts: array<u32>;                 // one per page
+
+struct PageDraw {
+    page: u32,
+    first_entry: u32,   // the page's selection list starts here in `selected`
+}
+
 @group(1) @binding(0) var<storage, read> page: array<u32>;                   // one resident page
+@group(1) @binding(1) var<uniform> page_draw: PageDraw;
 
 const MODE_LIT: u32 = 0u;
 const MODE_PATCHES: u32 = 1u;
@@ -39,23 +53,68 @@ fn oct_decode(word: u32) -> vec3<f32> {
     return normalize(n);
 }
 
+// Strip index i of a patch whose strip starts at index `first` of the page; NO_INDEX for a
+// restart marker.
+fn strip_index(first: u32, i: u32, wide: bool) -> u32 {
+    if wide {
+        return page[first + i];
+    }
+    let at = first + i;
+    let half = (page[at / 2u] >> (16u * (at % 2u))) & 0xffffu;
+    return select(half, NO_INDEX, half == 0xffffu);
+}
+
 @vertex
-fn vs_main(@builtin(vertex_index) slot: u32, @builtin(instance_index) simplex: u32) -> VertexOut {
-    // slot = base_vertex + local index: the vertex's 8-byte position slot in the page.
-    let q = unpack_position(page[2u * slot], page[2u * slot + 1u]);
-    let local_position = frame.base.xyz + vec3<f32>(q) * frame.step.xyz;
-    let eye_relative = local_position - frame.eye_tau.xyz;
+fn vs_main(@builtin(vertex_index) vertex: u32) -> VertexOut {
+    let t = vertex / 3u;
+    let corner = vertex % 3u;
+    // The last entry of the list whose first slot is ≤ t.
+    let first = page_draw.first_entry;
+    var low = 0u;
+    var high = counts[page_draw.page]; // t < the list's slots, so entry `low` qualifies
+    while high - low > 1u {
+        let middle = (low + high) / 2u;
+        if selected[first + middle].first_slot <= t {
+            low = middle;
+        } else {
+            high = middle;
+        }
+    }
+    let entry = selected[first + low];
+    let simplex = entry.simplex;
+    let k = t - entry.first_slot;
+    let location = locations[simplex];
+    let n = tets[simplex].vertex_count;
+    let wide = n > 65535u;
+    var a = strip_index(location.first_index, k, wide);
+    var b = strip_index(location.first_index, k + 1u, wide);
+    let c = strip_index(location.first_index, k + 2u, wide);
+    if (k & 1u) == 1u {
+        let swap = a;
+        a = b;
+        b = swap;
+    }
     var out: VertexOut;
-    out.clip = frame.view_proj * vec4<f32>(eye_relative, 1.0);
-    out.eye_relative = eye_relative;
     out.simplex = simplex;
     out.normal = vec3<f32>(0.0);
     out.colour = vec3<f32>(0.82, 0.80, 0.76);
+    if a == NO_INDEX || b == NO_INDEX || c == NO_INDEX || a == b || b == c || a == c {
+        // Nothing to draw: all three corners at one point, a zero-area triangle. The point is
+        // inside the clip volume (on the far plane): a vertex outside it would send the whole
+        // batch through the clipper on some drivers (lavapipe: 2× the frame time).
+        out.clip = vec4<f32>(0.0, 0.0, 0.0, 1.0);
+        out.eye_relative = vec3<f32>(0.0);
+        return out;
+    }
+    let local_index = select(select(c, b, corner == 1u), a, corner == 0u);
+    let slot = location.base_vertex + local_index; // the vertex's 8-byte position slot
+    let q = unpack_position(page[2u * slot], page[2u * slot + 1u]);
+    let local_position = frame.base.xyz + vec3<f32>(q) * frame.step.xyz;
+    let eye_relative = local_position - frame.eye_tau.xyz;
+    out.clip = frame.view_proj * vec4<f32>(eye_relative, 1.0);
+    out.eye_relative = eye_relative;
     // The attribute arrays follow the positions, one u32 per vertex each (patch.rs).
-    let first = u32(locations[simplex].base_vertex);
-    let n = tets[simplex].vertex_count;
-    let local_index = slot - first;
-    var word = 2u * (first + n) + local_index;
+    var word = 2u * (location.base_vertex + n) + local_index;
     let attributes = frame.counts.w;
     if (attributes & ATTR_NORMALS) != 0u {
         out.normal = oct_decode(page[word]);

@@ -38,21 +38,32 @@ struct TetRecord {
     reserved: u32,
 }
 
-// Where a simplex's patch is resident and how to draw it: 16 bytes, one per simplex.
+// Where a simplex's patch is resident: 16 bytes, one per simplex.
 struct PatchLocation {
-    list: u32,          // draw list: 2 * page + (1 if u32 strip indices else 0); NO_INDEX if empty
-    first_slot: u32,    // first slot of that list in the draw array
-    first_index: u32,   // strip start in the page, in indices
-    base_vertex: i32,   // first position in the page, in 8-byte slots
+    page: u32,          // resident page; NO_INDEX if the patch is empty
+    first_entry: u32,   // first entry of that page's selection list
+    first_index: u32,   // strip start in the page, in indices (u16, or u32 over 65,535 vertices)
+    base_vertex: u32,   // first position in the page, in 8-byte slots
 }
 
-// wgpu::util::DrawIndexedIndirectArgs.
-struct DrawIndexedIndirect {
-    index_count: u32,
+// One selected patch of a page's selection list: the traversal appends the simplex, the
+// compaction pass writes the exclusive prefix sum of the list's strip slots.
+struct Selected {
+    simplex: u32,
+    first_slot: u32,
+}
+
+// wgpu::util::DrawIndirectArgs, one per page (what the compaction pass writes).
+struct DrawIndirect {
+    vertex_count: u32,
     instance_count: u32,
-    first_index: u32,
-    base_vertex: i32,
-    first_instance: u32, // the simplex, read back by the vertex shader as instance_index
+    first_vertex: u32,
+    first_instance: u32,
+}
+
+// Strip slots of a patch with m strip indices: slot k is (s[k], s[k+1], s[k+2]).
+fn strip_slots(m: u32) -> u32 {
+    return select(0u, m - 2u, m >= 3u);
 }
 
 struct Frame {

@@ -1,7 +1,7 @@
 // The traversal: stateless and top-down (seed 001). Dispatch k visits the simplices of depth k
 // that the descent reaches; each decides alone with the rule rho(own diamond) <= tau (a leaf
-// always stops) and either draws its patch — after the frustum and normal-cone tests — or
-// queues its two children for dispatch k + 1. Reaching a simplex means its parent refined,
+// always stops) and either selects its patch — after the frustum and normal-cone tests,
+// appending it to its page's selection list — or queues its two children for dispatch k + 1. Reaching a simplex means its parent refined,
 // i.e. tau < rho(parent diamond): the same rule as the flat CPU reference
 // tessera_core::cut::select_visible, with the same f32 operations in the same order, and work
 // proportional to the cut rather than to the model.
@@ -11,9 +11,12 @@
 @group(0) @binding(1) var<storage, read> diamonds: array<DiamondRecord>;     // one per diamond
 @group(0) @binding(2) var<storage, read> tets: array<TetRecord>;             // one per simplex
 @group(0) @binding(3) var<storage, read> locations: array<PatchLocation>;    // one per simplex
-@group(0) @binding(4) var<storage, read_write> draws: array<DrawIndexedIndirect>;
-@group(0) @binding(5) var<storage, read_write> counts: array<atomic<u32>>;   // one per draw list
+@group(0) @binding(4) var<storage, read_write> selected: array<Selected>;    // the pages' lists
+@group(0) @binding(5) var<storage, read_write> counts: array<atomic<u32>>;   // one per page
 @group(0) @binding(6) var<storage, read_write> queued: array<atomic<u32>>;   // one per depth
+// Bit d % 32 of word d / 32: diamond d may refine (tessera_core::cut::may_refine; all set
+// unless streaming forbids some, closed downwards by the loader).
+@group(0) @binding(7) var<storage, read> may_refine: array<u32>;
 
 struct Step {
     depth: u32,
@@ -42,6 +45,14 @@ fn rho(d: DiamondRecord) -> f32 {
 
 fn dot3(a: vec3<f32>, b: vec3<f32>) -> f32 {
     return a.x * b.x + a.y * b.y + a.z * b.z;
+}
+
+// rho'(d) = may_refine(d) ? rho(d) : 0 (tessera_core::cut::restrict_rhos).
+fn restricted_rho(d: u32) -> f32 {
+    if ((may_refine[d / 32u] >> (d % 32u)) & 1u) == 0u {
+        return 0.0;
+    }
+    return rho(diamonds[d]);
 }
 
 // tessera_core::cull::ViewVolume::sphere_visible.
@@ -74,10 +85,10 @@ fn cone_backfacing(axis: vec3<f32>, cone_cos: f32, c: vec3<f32>, radius: f32) ->
     return dot3(axis, c) > (sin_sum + 1e-4) * distance;
 }
 
-// Draws simplex i's patch if it survives the culling tests.
+// Selects simplex i's patch if it survives the culling tests: appends it to its page's list.
 fn draw(i: u32, t: TetRecord) {
     let location = locations[i];
-    if location.list == NO_INDEX {
+    if location.page == NO_INDEX {
         return; // an empty patch: selected, nothing to draw
     }
     let c = vec3<f32>(t.cx - frame.eye_tau.x, t.cy - frame.eye_tau.y, t.cz - frame.eye_tau.z);
@@ -88,9 +99,8 @@ fn draw(i: u32, t: TetRecord) {
     if (flags & CULL_CONES) != 0u && cone_backfacing(vec3<f32>(t.ax, t.ay, t.az), t.cone_cos, c, t.radius) {
         return;
     }
-    let slot = atomicAdd(&counts[location.list], 1u);
-    draws[location.first_slot + slot] = DrawIndexedIndirect(
-        t.strip_index_count, 1u, location.first_index, location.base_vertex, i);
+    let k = atomicAdd(&counts[location.page], 1u);
+    selected[location.first_entry + k].simplex = i;
 }
 
 @compute @workgroup_size(64) // one simplex per thread (threads stride over big depths)
@@ -107,7 +117,7 @@ fn traverse(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroup
             i = queue_in[k];
         }
         let t = tets[i];
-        if t.diamond == NO_INDEX || rho(diamonds[t.diamond]) <= tau {
+        if t.diamond == NO_INDEX || restricted_rho(t.diamond) <= tau {
             draw(i, t);
         } else {
             // Refine: the children (first_child, first_child + 1) are visited at depth + 1.

@@ -47,7 +47,12 @@ fn patch(n: u32, seed: u32, attributes: u32) -> PatchData {
     let strip: Vec<u32> = if n < 3 {
         Vec::new()
     } else {
-        (0..n).chain([R, n - 1, 0, 1, 1, 2]).collect()
+        // Segments start at even positions (a second restart where needed).
+        let restarts = if n.is_multiple_of(2) { 2 } else { 1 };
+        (0..n)
+            .chain(std::iter::repeat_n(R, restarts))
+            .chain([n - 1, 0, 1, 1, 2])
+            .collect()
     };
     PatchData {
         global_ids: (0..n).map(|i| seed * 100_000 + i).collect(),
@@ -307,8 +312,9 @@ fn big_patch_uses_u32_indices() {
     let StripIndices::U32(strip) = view.strip() else {
         panic!("a 70,000-vertex patch needs u32 indices")
     };
-    assert_eq!(strip.len(), 70_006);
-    assert_eq!(strip[70_000], u32::MAX);
+    // 70,000 indices, two restarts (the second segment starts at an even position), five.
+    assert_eq!(strip.len(), 70_007);
+    assert_eq!(strip[70_000..70_002], [u32::MAX, u32::MAX]);
     assert_eq!(view.strip_index(69_999), Some(69_999));
     assert_eq!(view.position(69_999), [69_999, 69_999 * 7 + 9, 9]);
     assert_eq!(view.global_ids().nth(69_999), Some(969_999));

@@ -1,5 +1,6 @@
-//! Patch encoding: vertex-cache-optimised triangle strips with primitive restart, vertices in
-//! first-use order, positions quantised on the one global grid (so a vertex shared by patches
+//! Patch encoding: vertex-cache-optimised triangle strips with restart markers, every segment
+//! starting at an even strip position (`even_segments`: the renderer knows a triangle's winding
+//! parity from its position alone, `PatchView::parse` checks it), vertices in first-use order, positions quantised on the one global grid (so a vertex shared by patches
 //! is bit-identical in all of them), and the attributes the input has.
 
 use tessera_core::repository::format::{oct_encode_normal, quantize_position};
@@ -39,8 +40,10 @@ pub fn build_patch(
     let strip = if renumbered.is_empty() {
         Vec::new()
     } else {
-        meshopt::stripify(&renumbered, vertex_count, RESTART)
-            .expect("stripify of a valid index list")
+        even_segments(
+            &meshopt::stripify(&renumbered, vertex_count, RESTART)
+                .expect("stripify of a valid index list"),
+        )
     };
     PatchData {
         positions: order
@@ -64,5 +67,71 @@ pub fn build_patch(
         global_ids: order,
         strip,
         triangle_count: triangles.len() as u32,
+    }
+}
+
+/// `strip` with one extra restart marker wherever a segment would start at an odd position, so
+/// that every segment starts at an even one: the k-th strip slot (s[k], s[k+1], s[k+2]) then
+/// has the winding parity of k, which the vertex shader derives from k alone. Triangles and
+/// their order are unchanged.
+pub fn even_segments(strip: &[u32]) -> Vec<u32> {
+    let mut out = Vec::with_capacity(strip.len() + strip.len() / 8);
+    for &index in strip {
+        if index == RESTART {
+            out.push(RESTART);
+            // The next segment would start at out.len(): make it even.
+            if out.len() % 2 == 1 {
+                out.push(RESTART);
+            }
+        } else {
+            out.push(index);
+        }
+    }
+    // Trailing markers carry nothing.
+    while out.last() == Some(&RESTART) {
+        out.pop();
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const R: u32 = RESTART;
+
+    #[test]
+    fn segments_start_even_and_keep_their_triangles() {
+        let cases: &[&[u32]] = &[
+            &[],
+            &[0, 1, 2],
+            &[0, 1, 2, 3, R, 4, 5, 6],
+            &[0, 1, 2, R, 3, 4, 5, 6, R, 7, 8, 9, R],
+            &[0, 1, 2, 2, 3, 4, R, R, 5, 6, 7],
+        ];
+        for &strip in cases {
+            let even = even_segments(strip);
+            let mut start = 0;
+            for (k, &i) in even.iter().enumerate() {
+                if i == R {
+                    start = k + 1;
+                } else {
+                    assert_eq!(start % 2, 0, "{strip:?} → {even:?}");
+                }
+            }
+            let triangles = |s: &[u32]| {
+                let patch = PatchData {
+                    strip: s.to_vec(),
+                    ..Default::default()
+                };
+                patch.triangles().collect::<Vec<[u32; 3]>>()
+            };
+            assert_eq!(triangles(&even), triangles(strip), "{strip:?} → {even:?}");
+        }
+        assert_eq!(even_segments(&[0, 1, 2, R, 3, 4, 5]), [0, 1, 2, R, 3, 4, 5]);
+        assert_eq!(
+            even_segments(&[0, 1, 2, 3, R, 4, 5, 6]),
+            [0, 1, 2, 3, R, R, 4, 5, 6]
+        );
     }
 }

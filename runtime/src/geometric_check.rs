@@ -15,7 +15,7 @@
 use std::collections::{HashMap, HashSet};
 
 use rayon::prelude::*;
-use tessera_core::cut::{diamond_rhos, select_stateless, select_top_down};
+use tessera_core::cut::{diamond_rhos, restrict_rhos, select_stateless, select_top_down};
 use tessera_core::metric::{eye_local, ScreenSpaceMetric};
 use tessera_core::repository::format::NO_INDEX;
 use tessera_core::repository::reader::Repository;
@@ -265,6 +265,18 @@ pub fn check_cuts_at(
     eyes: &[CheckEye],
     tolerances: &[f32],
 ) -> CheckReport {
+    check_cuts_restricted(repo, patches, eyes, tolerances, None)
+}
+
+/// `check_cuts_at` with the cut rule using ρ'(D) = may_refine(D) ? ρ(D) : 0 where `may_refine`
+/// flag words are given (`tessera_core::cut`; closed downwards, as streaming keeps them).
+pub fn check_cuts_restricted(
+    repo: &Repository,
+    patches: &[Vec<[u32; 3]>],
+    eyes: &[CheckEye],
+    tolerances: &[f32],
+    may_refine: Option<&[u32]>,
+) -> CheckReport {
     let tets = repo.tets();
     let diamonds = repo.diamonds();
     let header = repo.header();
@@ -274,7 +286,10 @@ pub fn check_cuts_at(
         .par_iter()
         .enumerate()
         .map(|(view, eye)| {
-            let rhos = diamond_rhos(diamonds, eye_local(eye.eye, header.origin), &eye.metric);
+            let mut rhos = diamond_rhos(diamonds, eye_local(eye.eye, header.origin), &eye.metric);
+            if let Some(words) = may_refine {
+                restrict_rhos(&mut rhos, words);
+            }
             let mut r = CheckReport {
                 min_triangles: usize::MAX,
                 ..Default::default()

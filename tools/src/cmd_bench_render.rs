@@ -304,7 +304,7 @@ pub fn run(args: RenderBenchArgs) -> anyhow::Result<Outcome> {
     });
     let value = json!({
         "adapter": ctx.adapter_description(),
-        "draw_indirect_count": ctx.capabilities.draw_indirect_count,
+        "backend": ctx.backend.name(),
         "repository": args.repository.display().to_string(),
         "model_triangles": h.input_triangle_count,
         "simplices": repo.tets().len(),

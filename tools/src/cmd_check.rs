@@ -78,24 +78,27 @@ pub fn run(args: CheckArgs) -> anyhow::Result<Outcome> {
             pixels,
             start.elapsed().as_secs_f64(),
             ctx.adapter_description(),
+            ctx.backend.name(),
         ))
     } else {
         None
     };
     if args.json {
         let mut value = report_json(&report, seconds);
-        if let Some((pixels, seconds, adapter)) = &gpu {
+        if let Some((pixels, seconds, adapter, backend)) = &gpu {
             value["gpu"] = pixel_report_json(pixels, *seconds, adapter);
+            value["gpu"]["backend"] = (*backend).into();
+            value["backend"] = (*backend).into();
             value["flag_pixels"] = pixels.flag_pixels.into();
         }
         println!("{value}");
     } else {
         print_report(&report, seconds);
-        if let Some((pixels, seconds, adapter)) = &gpu {
+        if let Some((pixels, seconds, adapter, _)) = &gpu {
             print_pixel_report(pixels, *seconds, adapter);
         }
     }
-    let clean = report.is_clean() && gpu.as_ref().is_none_or(|(p, _, _)| p.is_clean());
+    let clean = report.is_clean() && gpu.as_ref().is_none_or(|(p, ..)| p.is_clean());
     Ok(if clean {
         Outcome::Ok
     } else {

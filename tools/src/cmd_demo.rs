@@ -96,10 +96,22 @@ pub struct DemoArgs {
     /// Adapter name substring (default: $TESSERA_ADAPTER, else the best present).
     #[arg(long)]
     pub adapter: Option<String>,
+    /// wgpu backend: vulkan, gl, metal or dx12 (default: $WGPU_BACKEND, else any).
+    #[arg(long)]
+    pub backend: Option<tessera_runtime::gpu::Backend>,
     /// Also write the generated mesh (positions and triangles) as a binary PLY, e.g. the
     /// `--source` of `tessera bench render`.
     #[arg(long)]
     pub save_mesh: Option<PathBuf>,
+}
+
+impl DemoArgs {
+    fn device_options(&self) -> tessera_runtime::gpu::DeviceOptions {
+        tessera_runtime::gpu::DeviceOptions {
+            adapter: self.adapter.clone(),
+            backend: self.backend,
+        }
+    }
 }
 
 pub fn run(args: DemoArgs) -> anyhow::Result<Outcome> {
@@ -162,7 +174,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<Outcome> {
         temp.path(),
         args.views,
         frames_dir,
-        args.adapter.as_deref(),
+        &args.device_options(),
         args.frame_size,
     )?;
     stages.finish();
@@ -202,7 +214,7 @@ fn render_frames(
     mesh: Option<&InputMesh>,
     dir: &Path,
 ) -> anyhow::Result<Result<Vec<String>, String>> {
-    let ctx = match GpuContext::new(args.adapter.as_deref()) {
+    let ctx = match GpuContext::open(&args.device_options()) {
         Ok(ctx) => ctx,
         Err(e) => return Ok(Err(e.to_string().trim_end().to_string())),
     };

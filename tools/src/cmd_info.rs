@@ -24,6 +24,8 @@ pub fn run(args: InfoArgs) -> anyhow::Result<Outcome> {
     let tets = repo.tets();
     let leaves = tets.iter().filter(|t| t.first_child == u32::MAX).count();
     let patch_triangles: u64 = tets.iter().map(|t| t.triangle_count as u64).sum();
+    // Restart markers included: what the renderer's strip slots are made of.
+    let strip_indices: u64 = tets.iter().map(|t| t.strip_index_count as u64).sum();
     let depth = tets.iter().map(|t| t.level).max().unwrap_or(0);
     let root_error = repo.diamonds().first().map_or(0.0, |d| d.error);
     let (patch_blob_bytes, id_blob_bytes) = (repo.patch_blob().len(), repo.id_blob().len());
@@ -47,6 +49,7 @@ pub fn run(args: InfoArgs) -> anyhow::Result<Outcome> {
         "diamonds": h.diamond_count,
         "depth": depth,
         "patch_triangles": patch_triangles,
+        "strip_indices": strip_indices,
         "root_error": root_error,
         "bbox_min": h.bbox_min,
         "bbox_max": h.bbox_max,
@@ -69,7 +72,8 @@ pub fn run(args: InfoArgs) -> anyhow::Result<Outcome> {
             h.tet_count, leaves, h.diamond_count, depth
         );
         println!(
-            "  patches: {patch_triangles} triangles over all levels; root error {root_error:.3e}"
+            "  patches: {patch_triangles} triangles over all levels in {strip_indices} strip \
+             indices; root error {root_error:.3e}"
         );
         println!("  bbox: {:?} .. {:?}", h.bbox_min, h.bbox_max);
         println!(

@@ -194,7 +194,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<Outcome> {
                 "gpu_ms": gpu_ms,
                 "cpu_ms": cpu_ms,
                 "adapter": ctx.adapter_description(),
-                "draw_indirect_count": ctx.capabilities.draw_indirect_count,
+                "backend": ctx.backend.name(),
                 "tolerance": args.tolerance,
                 "width": camera.width,
                 "height": camera.height,

@@ -35,7 +35,7 @@ pub fn terrain_demo(
     dir_for_repo: &Path,
     views: usize,
     frames_dir: Option<&Path>,
-    adapter: Option<&str>,
+    device: &tessera_runtime::gpu::DeviceOptions,
     size: (u32, u32),
 ) -> anyhow::Result<TerrainDemo> {
     let params = TerrainParams::default();
@@ -88,7 +88,7 @@ pub fn terrain_demo(
     ];
     let mut clean = report.is_clean();
     if let Some(dir) = frames_dir {
-        match GpuContext::new(adapter) {
+        match GpuContext::open(device) {
             Err(e) => lines.push(format!(
                 "  terrain frames skipped: {}",
                 e.to_string().trim_end()

@@ -2,13 +2,19 @@
 
 use clap::Args;
 use tessera_core::repository::reader::Repository;
-use tessera_runtime::gpu::{GpuContext, RenderError, Renderer, RendererOptions};
+use tessera_runtime::gpu::{
+    Backend, DeviceOptions, GpuContext, RenderError, Renderer, RendererOptions,
+};
 
 #[derive(Args, Clone, Debug)]
 pub struct GpuArgs {
     /// Adapter name substring (default: $TESSERA_ADAPTER, else the best present).
     #[arg(long)]
     pub adapter: Option<String>,
+    /// wgpu backend: vulkan, gl, metal or dx12 (default: $WGPU_BACKEND, else any). A backend
+    /// that lacks what tessera needs is refused with what is missing.
+    #[arg(long)]
+    pub backend: Option<Backend>,
     /// GPU memory budget for the resident model, MiB.
     #[arg(long, default_value_t = 2048)]
     pub gpu_budget: u64,
@@ -17,7 +23,10 @@ pub struct GpuArgs {
 impl GpuArgs {
     /// The device on the chosen adapter.
     pub fn context(&self) -> anyhow::Result<GpuContext> {
-        Ok(GpuContext::new(self.adapter.as_deref())?)
+        Ok(GpuContext::open(&DeviceOptions {
+            adapter: self.adapter.clone(),
+            backend: self.backend,
+        })?)
     }
 
     /// Our renderer of `repo` at `size`, within the budget.

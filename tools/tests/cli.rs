@@ -141,6 +141,56 @@ fn build_info_check_speak_json_and_exit_zero() {
         assert_eq!(c[key], 0, "{c}");
     }
     assert!(c["min_triangles"].as_u64().unwrap() > 0);
+
+    // Every GPU command takes --backend and reports the backend it used, on both backends CI
+    // installs (lavapipe for Vulkan, Mesa's EGL for GL).
+    for backend in ["vulkan", "gl"] {
+        let png = dir.path().join(format!("octa-{backend}.png"));
+        let out = tessera(&[
+            "render",
+            repo.to_str().unwrap(),
+            "-o",
+            png.to_str().unwrap(),
+            "--size",
+            "160x120",
+            "--backend",
+            backend,
+            "--json",
+        ]);
+        assert!(
+            out.status.success(),
+            "render --backend {backend}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let r = json(&out);
+        assert_eq!(r["backend"], backend, "{r}");
+        assert!(r["adapter"].as_str().unwrap().contains(backend), "{r}");
+        assert!(r["triangles"].as_u64().unwrap() > 0, "{r}");
+        let out = tessera(&[
+            "check",
+            repo.to_str().unwrap(),
+            "--views",
+            "4",
+            "--tolerances",
+            "2",
+            "--gpu",
+            "--size",
+            "160x120",
+            "--backend",
+            backend,
+            "--json",
+        ]);
+        assert!(
+            out.status.success(),
+            "check --gpu --backend {backend}: {}",
+            String::from_utf8_lossy(&out.stdout)
+        );
+        let c = json(&out);
+        assert_eq!(c["backend"], backend, "{c}");
+        assert_eq!(c["gpu"]["backend"], backend, "{c}");
+        assert_eq!(c["flag_pixels"], 0, "{c}");
+        assert_eq!(c["gpu"]["selection_mismatches"], 0, "{c}");
+    }
 }
 
 #[test]
@@ -313,6 +363,13 @@ fn bench_render_refuses_bad_input_with_exit_two() {
     let octa = dir.path().join("octa.off");
     write_octahedron_off(&octa);
     let missing = dir.path().join("nope.tsr");
+    // A backend this platform cannot have.
+    let absent = if cfg!(target_os = "macos") {
+        "dx12"
+    } else {
+        "metal"
+    };
+    let absent_message = format!("no adapter on the {absent} backend");
     let cases: &[(&[&str], &[&str])] = &[
         // A repository that is not there.
         (
@@ -351,6 +408,15 @@ fn bench_render_refuses_bad_input_with_exit_two() {
             &["bench", "render", repo, "--adapter", "no-such-gpu"],
             &["no adapter", "no-such-gpu"],
         ),
+        // No such backend, and a backend this machine does not have.
+        (
+            &["bench", "render", repo, "--backend", "glide"],
+            &["glide", "vulkan, gl, metal or dx12"],
+        ),
+        (
+            &["render", repo, "-o", "/tmp/never.png", "--backend", absent],
+            &[&absent_message],
+        ),
     ];
     for (args, needles) in cases {
         check_bad_usage(args, needles);
@@ -384,9 +450,20 @@ fn bench_render_measures_ours_and_the_full_resolution_peer() {
         String::from_utf8_lossy(&out.stderr)
     );
     let v = json(&out);
-    for key in ["adapter", "size", "camera", "full_resolution", "rows"] {
+    for key in [
+        "adapter",
+        "backend",
+        "size",
+        "camera",
+        "full_resolution",
+        "rows",
+    ] {
         assert!(v.get(key).is_some(), "bench render --json lacks {key}: {v}");
     }
+    assert!(
+        ["vulkan", "gl", "metal", "dx12"].contains(&v["backend"].as_str().unwrap()),
+        "{v}"
+    );
     assert_eq!(v["size"]["width"], 320);
     assert_eq!(v["size"]["height"], 240);
     let full = &v["full_resolution"];

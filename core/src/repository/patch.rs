@@ -20,6 +20,10 @@
 //! The strip convention is meshoptimizer's (`meshopt_stripify` / `meshopt_unstripify`): the k-th
 //! triangle since the last restart is (s[k], s[k+1], s[k+2]), with the first two swapped when k
 //! is odd; triangles with two equal indices are degenerate (strip joints) and not drawn.
+//! Every segment of three or more indices starts at an even strip position (the encoder
+//! inserts a second restart marker where needed; `odd_segment_start` finds violations): strip
+//! slot k = (s[k], s[k+1], s[k+2]) then has the winding parity of k itself, which is how the
+//! renderer draws a strip as independent triangles without primitive restart.
 
 use std::ops::Range;
 
@@ -243,6 +247,9 @@ pub fn encode_patch(
         patch.triangle_count,
         patch.strip.len()
     );
+    if let Some(k) = odd_segment_start(StripIndices::U32(&patch.strip)) {
+        panic!("a strip segment starts at the odd position {k}");
+    }
 
     let start = out.len();
     let size = patch_bytes(n, patch.strip.len(), attributes);
@@ -323,6 +330,20 @@ impl StripIndices<'_> {
             StripIndices::U32(s) => bytemuck::cast_slice(s),
         }
     }
+}
+
+/// The first position where a segment of three or more indices starts at an odd position, if
+/// any (see the module comment: such a strip cannot be drawn as independent strip slots).
+pub fn odd_segment_start(strip: StripIndices<'_>) -> Option<usize> {
+    let mut start = 0;
+    for k in 0..strip.len() {
+        match strip.get(k) {
+            None => start = k + 1,
+            Some(_) if k == start + 2 && start % 2 == 1 => return Some(start),
+            Some(_) => {}
+        }
+    }
+    None
 }
 
 /// Decodes a strip into triangles (meshoptimizer's `unstripify`).
@@ -428,7 +449,8 @@ impl<'a> PatchView<'a> {
     /// Checks, without panicking on any input: the attribute mask, `patch_offset` 8-aligned,
     /// the range inside the patch blob, `patch_bytes` equal to `patch_bytes(..)`, memory
     /// alignment of the blob (an error, not a copy), zero padding, every strip index
-    /// < `vertex_count` or restart, `triangle_count` ≤ `strip_index_count − 2`, the id range
+    /// < `vertex_count` or restart, every segment starting at an even position,
+    /// `triangle_count` ≤ `strip_index_count − 2`, the id range
     /// inside the id blob holding exactly `vertex_count` ids below `input_vertex_count`.
     /// Cost: one pass over the strip and one over the id stream.
     pub fn parse(
@@ -487,6 +509,12 @@ impl<'a> PatchView<'a> {
             return Err(corrupt(format!(
                 "{} triangles cannot fit in {m} strip indices",
                 tet.triangle_count
+            )));
+        }
+        if let Some(k) = odd_segment_start(strip) {
+            return Err(corrupt(format!(
+                "a strip segment starts at the odd position {k} (every segment must start at an \
+                 even position; a repository built before this rule must be rebuilt)"
             )));
         }
         let ids = tet
@@ -653,8 +681,10 @@ mod tests {
     }
 
     fn sample(n: usize, attributes: u32) -> PatchData {
+        // A second restart keeps the second segment at an even position.
+        let restarts = if n.is_multiple_of(2) { 2 } else { 1 };
         let strip: Vec<u32> = (0..n as u32)
-            .chain([R])
+            .chain(std::iter::repeat_n(R, restarts))
             .chain((0..n.min(3) as u32).rev())
             .collect();
         let triangle_count = decode(&strip).len() as u32;
@@ -893,6 +923,24 @@ mod tests {
             &bytemuck::cast_slice::<u64, u8>(&words)[..bad.len()],
             attributes,
             "strip index 0 is 5",
+        );
+        // A restart at position 0: the segment 1 2 3 4 starts at an odd position.
+        let mut bad = bytes.to_vec();
+        bad[strip_at..strip_at + 2].copy_from_slice(&RESTART_U16.to_le_bytes());
+        let words = aligned(&bad);
+        check(
+            good,
+            &bytemuck::cast_slice::<u64, u8>(&words)[..bad.len()],
+            attributes,
+            "segment starts at the odd position 1",
+        );
+        assert_eq!(
+            odd_segment_start(StripIndices::U32(&[0, 1, 2, R, 3, 4, 5, R, 6, 7])),
+            None
+        );
+        assert_eq!(
+            odd_segment_start(StripIndices::U32(&[0, 1, 2, 3, R, 4, 5, 6])),
+            Some(5)
         );
         // Non-zero padding (5 × 12 + 9 × 2 = 78 bytes, padded to 80).
         let mut bad = bytes.to_vec();

@@ -1,9 +1,16 @@
-//! The wgpu device: adapter choice (by name, or the best one present), the features the
-//! renderer needs and those it uses when present, and a clear error when nothing fits.
+//! The wgpu device: backend and adapter choice (by name, or the best one present), the
+//! capabilities the renderer needs and those it uses when present, and a clear error when
+//! nothing fits.
 //!
-//! Works on lavapipe (Mesa's CPU Vulkan driver, `mesa-vulkan-drivers`), our GPU in CI, and on
-//! real GPUs. `TESSERA_ADAPTER` (or `--adapter`) picks an adapter by a case-insensitive
-//! substring of its name, e.g. `llvmpipe`; wgpu's own `WGPU_BACKEND` limits the backends.
+//! Works on lavapipe (Mesa's CPU Vulkan driver, `mesa-vulkan-drivers`), our GPU in CI, on
+//! wgpu's GL backend (llvmpipe through EGL here) and on real GPUs. `TESSERA_ADAPTER` (or
+//! `--adapter`) picks an adapter by a case-insensitive substring of its name, e.g. `llvmpipe`;
+//! `--backend` (else wgpu's own `WGPU_BACKEND`) limits the backends.
+//!
+//! What the renderer relies on, checked before a device is made (`usable`): compute shaders,
+//! indirect draws and dispatches, storage buffers read by vertex shaders, 10 storage buffers in
+//! one compute stage (the traversal), 256-thread workgroups (the compaction). It needs no
+//! optional feature: no primitive restart, multi-draw, count draw or `first_instance`.
 
 use std::fmt::Write as _;
 
@@ -20,8 +27,16 @@ pub enum DeviceError {
     NoAdapter,
     #[error("no adapter's name contains {wanted:?}; adapters present:\n{present}")]
     NoMatchingAdapter { wanted: String, present: String },
-    #[error("adapter {adapter:?} lacks what tessera needs: {missing}")]
-    Unsupported { adapter: String, missing: String },
+    #[error("no adapter on the {backend} backend; adapters present on any backend:\n{present}")]
+    NoAdapterOnBackend { backend: Backend, present: String },
+    #[error(
+        "adapter {adapter:?} ({backend}) lacks what tessera needs to draw correctly: {missing}"
+    )]
+    Unsupported {
+        adapter: String,
+        backend: Backend,
+        missing: String,
+    },
     #[error("adapter {adapter:?} refused to create a device: {source}")]
     RequestDevice {
         adapter: String,
@@ -30,13 +45,80 @@ pub enum DeviceError {
     },
 }
 
+/// A wgpu backend, as `--backend` names it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Backend {
+    Vulkan,
+    Gl,
+    Metal,
+    Dx12,
+}
+
+impl Backend {
+    pub const ALL: [Backend; 4] = [Backend::Vulkan, Backend::Gl, Backend::Metal, Backend::Dx12];
+
+    /// The name `--backend` takes and reports print ("vulkan", "gl", "metal", "dx12").
+    pub fn name(self) -> &'static str {
+        match self {
+            Backend::Vulkan => "vulkan",
+            Backend::Gl => "gl",
+            Backend::Metal => "metal",
+            Backend::Dx12 => "dx12",
+        }
+    }
+
+    fn backends(self) -> wgpu::Backends {
+        match self {
+            Backend::Vulkan => wgpu::Backends::VULKAN,
+            Backend::Gl => wgpu::Backends::GL,
+            Backend::Metal => wgpu::Backends::METAL,
+            Backend::Dx12 => wgpu::Backends::DX12,
+        }
+    }
+
+    /// The backend of an adapter (`None` for wgpu's no-op and browser backends).
+    pub fn of(backend: wgpu::Backend) -> Option<Backend> {
+        match backend {
+            wgpu::Backend::Vulkan => Some(Backend::Vulkan),
+            wgpu::Backend::Gl => Some(Backend::Gl),
+            wgpu::Backend::Metal => Some(Backend::Metal),
+            wgpu::Backend::Dx12 => Some(Backend::Dx12),
+            _ => None,
+        }
+    }
+}
+
+impl std::fmt::Display for Backend {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl std::str::FromStr for Backend {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Backend, String> {
+        Backend::ALL
+            .into_iter()
+            .find(|b| {
+                b.name().eq_ignore_ascii_case(s)
+                    || (s.eq_ignore_ascii_case("opengl") && *b == Backend::Gl)
+            })
+            .ok_or_else(|| format!("unknown backend {s:?}: expected vulkan, gl, metal or dx12"))
+    }
+}
+
+/// Which device to open.
+#[derive(Clone, Debug, Default)]
+pub struct DeviceOptions {
+    /// A substring of the adapter's name (default: `TESSERA_ADAPTER`, else the best present).
+    pub adapter: Option<String>,
+    /// Only this backend (default: `WGPU_BACKEND`, else every backend).
+    pub backend: Option<Backend>,
+}
+
 /// What the renderer may use beyond the required minimum.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Capabilities {
-    /// `multi_draw_indexed_indirect_count`, where the adapter has it and it honours primitive
-    /// restart (`probe.rs`): the GPU reads the draw count. Without it, every slot of the draw
-    /// list is issued and unused slots draw nothing.
-    pub draw_indirect_count: bool,
     /// GPU timestamps around each frame (`gpu_ms`).
     pub timestamps: bool,
     /// Line polygon mode (wireframe overlay).
@@ -48,6 +130,8 @@ pub struct GpuContext {
     pub device: wgpu::Device,
     pub queue: wgpu::Queue,
     pub info: wgpu::AdapterInfo,
+    /// The backend in use (reports print it: `"backend": "vulkan"`).
+    pub backend: Backend,
     pub limits: wgpu::Limits,
     pub capabilities: Capabilities,
 }
@@ -62,21 +146,47 @@ impl std::fmt::Debug for GpuContext {
     }
 }
 
-/// Features the renderer cannot work without: the traversal writes each draw's simplex index
-/// as its first instance, which the vertex shader reads back.
-const REQUIRED: wgpu::Features = wgpu::Features::INDIRECT_FIRST_INSTANCE;
+/// Storage buffers the traversal binds in its compute stage.
+const TRAVERSAL_STORAGE_BUFFERS: u32 = 10;
 
 impl GpuContext {
     /// Opens the adapter whose name contains `wanted` (case-insensitive), else the one named by
-    /// `TESSERA_ADAPTER`, else the best present (discrete, integrated, virtual, then CPU).
+    /// `TESSERA_ADAPTER`, else the best present (discrete, integrated, virtual, then CPU), on
+    /// the backends `WGPU_BACKEND` allows.
     pub fn new(wanted: Option<&str>) -> Result<GpuContext, DeviceError> {
-        pollster::block_on(Self::new_async(wanted))
+        Self::open(&DeviceOptions {
+            adapter: wanted.map(str::to_string),
+            backend: None,
+        })
     }
 
-    async fn new_async(wanted: Option<&str>) -> Result<GpuContext, DeviceError> {
-        let instance = wgpu::Instance::new(instance_descriptor(false));
-        let adapters = instance.enumerate_adapters(wgpu::Backends::all()).await;
+    /// Opens the device `options` describe (`new`, with a backend that overrides
+    /// `WGPU_BACKEND`).
+    pub fn open(options: &DeviceOptions) -> Result<GpuContext, DeviceError> {
+        pollster::block_on(Self::new_async(options))
+    }
+
+    async fn new_async(options: &DeviceOptions) -> Result<GpuContext, DeviceError> {
+        let wanted = options.adapter.as_deref();
+        let instance = wgpu::Instance::new(instance_descriptor(options.backend));
+        let backends = options
+            .backend
+            .map_or(wgpu::Backends::all(), Backend::backends);
+        let adapters = instance.enumerate_adapters(backends).await;
         if adapters.is_empty() {
+            if let Some(backend) = options.backend {
+                let everywhere = wgpu::Instance::new(instance_descriptor(None))
+                    .enumerate_adapters(wgpu::Backends::all())
+                    .await;
+                return Err(DeviceError::NoAdapterOnBackend {
+                    backend,
+                    present: if everywhere.is_empty() {
+                        "  (none)\n".to_string()
+                    } else {
+                        describe(&everywhere)
+                    },
+                });
+            }
             return Err(DeviceError::NoAdapter);
         }
         let from_env = std::env::var(ADAPTER_ENV).ok().filter(|s| !s.is_empty());
@@ -98,32 +208,21 @@ impl GpuContext {
                 .min_by_key(|a| preference(&a.get_info()))
                 .unwrap_or(&adapters[0]),
         };
-        let mut info = adapter.get_info();
-        // On DX12, wgpu's indirect validation also supplies base_vertex and first_instance to
-        // the shader builtins, which the vertex shader needs: keep it there.
-        let mut adapter = adapter.clone();
-        if info.backend == wgpu::Backend::Dx12 {
-            let dx12 = wgpu::Instance::new(instance_descriptor(true))
-                .enumerate_adapters(wgpu::Backends::DX12)
-                .await;
-            if let Some(same) = dx12.into_iter().find(|a| a.get_info() == info) {
-                adapter = same;
-                info = adapter.get_info();
-            }
-        }
-        usable(&adapter).map_err(|missing| DeviceError::Unsupported {
+        let info = adapter.get_info();
+        let backend = Backend::of(info.backend);
+        usable(adapter).map_err(|missing| DeviceError::Unsupported {
             adapter: info.name.clone(),
+            backend: backend.unwrap_or(Backend::Vulkan),
             missing,
         })?;
+        let backend = backend.expect("usable() accepts the four native backends only");
         let features = adapter.features();
-        let optional = wgpu::Features::MULTI_DRAW_INDIRECT_COUNT
-            | wgpu::Features::TIMESTAMP_QUERY
-            | wgpu::Features::POLYGON_MODE_LINE;
+        let optional = wgpu::Features::TIMESTAMP_QUERY | wgpu::Features::POLYGON_MODE_LINE;
         let limits = adapter.limits();
         let (device, queue) = adapter
             .request_device(&wgpu::DeviceDescriptor {
                 label: Some("tessera"),
-                required_features: REQUIRED | (features & optional),
+                required_features: features & optional,
                 required_limits: limits.clone(),
                 ..Default::default()
             })
@@ -132,29 +231,24 @@ impl GpuContext {
                 adapter: info.name.clone(),
                 source,
             })?;
-        let mut ctx = GpuContext {
+        Ok(GpuContext {
             device,
             queue,
             capabilities: Capabilities {
-                draw_indirect_count: false,
                 timestamps: features.contains(wgpu::Features::TIMESTAMP_QUERY),
                 wireframe: features.contains(wgpu::Features::POLYGON_MODE_LINE),
             },
             info,
+            backend,
             limits,
-        };
-        // The feature bit is not enough: the count path must honour primitive restart.
-        ctx.capabilities.draw_indirect_count = features
-            .contains(wgpu::Features::MULTI_DRAW_INDIRECT_COUNT)
-            && super::probe::count_draws_restart_strips(&ctx);
-        Ok(ctx)
+        })
     }
 
     /// "name (backend, device type)", for reports.
     pub fn adapter_description(&self) -> String {
         format!(
-            "{} ({:?}, {:?})",
-            self.info.name, self.info.backend, self.info.device_type
+            "{} ({}, {:?})",
+            self.info.name, self.backend, self.info.device_type
         )
     }
 
@@ -168,13 +262,46 @@ impl GpuContext {
 /// Ok, or what the adapter lacks.
 fn usable(adapter: &wgpu::Adapter) -> Result<(), String> {
     let mut missing = Vec::new();
-    if !adapter.features().contains(REQUIRED) {
-        missing.push(format!("features {:?}", REQUIRED - adapter.features()));
+    if Backend::of(adapter.get_info().backend).is_none() {
+        missing.push(format!(
+            "a native backend (it is {:?})",
+            adapter.get_info().backend
+        ));
+    }
+    let limits = adapter.limits();
+    for (name, have, need) in [
+        (
+            "max_storage_buffers_per_shader_stage",
+            limits.max_storage_buffers_per_shader_stage,
+            TRAVERSAL_STORAGE_BUFFERS,
+        ),
+        (
+            "max_compute_invocations_per_workgroup",
+            limits.max_compute_invocations_per_workgroup,
+            super::shaders::COMPACT_WORKGROUP,
+        ),
+        (
+            "max_compute_workgroup_size_x",
+            limits.max_compute_workgroup_size_x,
+            super::shaders::COMPACT_WORKGROUP,
+        ),
+        (
+            "max_compute_workgroup_storage_size",
+            limits.max_compute_workgroup_storage_size,
+            4 * super::shaders::COMPACT_WORKGROUP + 4,
+        ),
+    ] {
+        if have < need {
+            missing.push(format!("limit {name} ≥ {need} (it has {have})"));
+        }
     }
     let downlevel = adapter.get_downlevel_capabilities();
     for (flag, name) in [
         (wgpu::DownlevelFlags::COMPUTE_SHADERS, "compute shaders"),
-        (wgpu::DownlevelFlags::INDIRECT_EXECUTION, "indirect draws"),
+        (
+            wgpu::DownlevelFlags::INDIRECT_EXECUTION,
+            "indirect draws and dispatches",
+        ),
         (
             wgpu::DownlevelFlags::VERTEX_STORAGE,
             "storage buffers in vertex shaders",
@@ -191,20 +318,22 @@ fn usable(adapter: &wgpu::Adapter) -> Result<(), String> {
     }
 }
 
-/// The instance: backends and flags from wgpu's environment variables, except that wgpu's
-/// CPU-side validation of indirect draws is off unless `indirect_validation` (or
-/// `WGPU_VALIDATION_INDIRECT_CALL=1`) asks for it. It costs ~0.3 ms a frame on a 15 K-simplex
-/// model (most of the frame's CPU time) and protects against indirect arguments that address
-/// outside the bound buffers; ours come from the traversal over tables and patches the reader
-/// validated at load (strip ranges inside their page, zero-filled unused slots).
-fn instance_descriptor(indirect_validation: bool) -> wgpu::InstanceDescriptor {
+/// The instance: backends and flags from wgpu's environment variables (`backend`, when given,
+/// replaces `WGPU_BACKEND`), except that wgpu's validation of indirect draws is off unless
+/// `WGPU_VALIDATION_INDIRECT_CALL=1` asks for it: it costs CPU time every frame and protects
+/// against indirect arguments that address outside the bound buffers, which a non-indexed
+/// draw with vertex pulling cannot do (WGSL storage reads are bounds-checked).
+fn instance_descriptor(backend: Option<Backend>) -> wgpu::InstanceDescriptor {
     let mut descriptor = wgpu::InstanceDescriptor::new_without_display_handle();
     descriptor.flags = wgpu::InstanceFlags::from_build_config();
-    descriptor.flags.set(
-        wgpu::InstanceFlags::VALIDATION_INDIRECT_CALL,
-        indirect_validation,
-    );
-    descriptor.with_env()
+    descriptor
+        .flags
+        .remove(wgpu::InstanceFlags::VALIDATION_INDIRECT_CALL);
+    let mut descriptor = descriptor.with_env();
+    if let Some(backend) = backend {
+        descriptor.backends = backend.backends();
+    }
+    descriptor
 }
 
 /// Lower is better.

@@ -5,16 +5,18 @@
 //! - `resident`: tables and patch pages in GPU memory, within a byte budget;
 //! - `frame`: the per-frame uniforms and shading modes;
 //! - `full_mesh`: the full-resolution peer (the whole mesh in one indexed draw);
-//! - `probe`: driver behaviour checked by drawing (restart in count draws);
 //! - `shaders`: the WGSL passes of `shaders/`;
 //! - `target`: offscreen colour/depth and read-back; `timing`: GPU timestamps of a frame;
 //! - `traversal`: the top-down stateless traversal, one indirect dispatch per depth;
+//! - `draw_pipelines`: the fill, check and wireframe pipelines of draw.wgsl;
+//! - `compact`: per page, the selected patches' strip-slot prefix sums and one indirect draw;
 //! - `renderer`: traversal + draws, one submit per frame.
 
+pub mod compact;
 pub mod device;
+pub mod draw_pipelines;
 pub mod frame;
 pub mod full_mesh;
-pub mod probe;
 pub mod renderer;
 pub mod resident;
 pub mod shaders;
@@ -23,6 +25,6 @@ pub mod target;
 pub mod timing;
 pub mod traversal;
 
-pub use device::{DeviceError, GpuContext};
+pub use device::{Backend, DeviceError, DeviceOptions, GpuContext};
 pub use frame::{ShadingMode, FLAG_COLOUR};
 pub use renderer::{Frame, FrameRequest, Readback, RenderError, Renderer, RendererOptions};

@@ -1,6 +1,7 @@
-//! The renderer: `new` makes every resource (resident model, pipelines, draw buffers, target),
-//! `render` records one frame — traversal compute pass, then one multi-draw per draw list —
-//! and submits it; the `read_*` calls fetch what a frame left behind (image, selection, GPU
+//! The renderer: `new` makes every resource (resident model, pipelines, selection lists,
+//! target), `render` records one frame — one compute pass (the traversal appends the selected
+//! patches to their page's list, the compaction turns each list into one indirect draw), then
+//! one non-indexed indirect draw per resident page — and submits it; the `read_*` calls fetch what a frame left behind (image, selection, GPU
 //! time). Per-frame CPU work is O(1) in the model: one uniform write and a fixed number of
 //! commands per resident page.
 
@@ -10,11 +11,13 @@ use tessera_core::cull::CullTests;
 use tessera_core::repository::format::Header;
 use tessera_core::repository::reader::Repository;
 
+use super::compact::Compaction;
 use super::device::GpuContext;
+use super::draw_pipelines::{DrawPipelines, Pass};
 use super::frame::{FrameUniforms, ShadingMode};
-use super::resident::{ResidentError, ResidentModel, DRAW_ARGS_BYTES};
+use super::resident::{ResidentError, ResidentModel, DRAW_ARGS_BYTES, ENTRY_BYTES};
 use super::shaders::draw_source;
-use super::target::{read_buffer, RenderTarget, BACKGROUND, COLOR_FORMAT, DEPTH_FORMAT};
+use super::target::{read_buffer, RenderTarget, BACKGROUND};
 use super::timing::FrameTimer;
 use super::traversal::Traversal;
 use crate::camera::Camera;
@@ -98,45 +101,12 @@ pub enum RenderError {
     Resident(#[from] ResidentError),
     #[error("the target size {width}×{height} is not within 1..={max} pixels per side")]
     BadSize { width: u32, height: u32, max: u32 },
-}
-
-/// Draw pipelines for one index width.
-struct DrawPipelines {
-    fill: wgpu::RenderPipeline,
-    check_front: wgpu::RenderPipeline,
-    check_back: wgpu::RenderPipeline,
-    check_front_under: wgpu::RenderPipeline,
-    check_back_under: wgpu::RenderPipeline,
-    wire: Option<wgpu::RenderPipeline>,
-}
-
-/// Which draw pipeline.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Pass {
-    /// Every face, shaded by the frame's mode.
-    Fill,
-    /// The check's first pass: front faces only, grey.
-    CheckFront,
-    /// The check's second pass: back faces only, flag colour where no front face is.
-    CheckBack,
-    /// `CheckFront` and `CheckBack` with clockwise faces counting as front (underside check).
-    CheckFrontUnder,
-    CheckBackUnder,
-    /// Triangle edges over the fill.
-    Wire,
-}
-
-impl DrawPipelines {
-    fn get(&self, pass: Pass) -> Option<&wgpu::RenderPipeline> {
-        match pass {
-            Pass::Fill => Some(&self.fill),
-            Pass::CheckFront => Some(&self.check_front),
-            Pass::CheckBack => Some(&self.check_back),
-            Pass::CheckFrontUnder => Some(&self.check_front_under),
-            Pass::CheckBackUnder => Some(&self.check_back_under),
-            Pass::Wire => self.wire.as_ref(),
-        }
-    }
+    #[error("{got} may_refine words given; the model's {diamonds} diamonds take {expected}")]
+    MayRefineLength {
+        got: usize,
+        expected: usize,
+        diamonds: u32,
+    },
 }
 
 pub struct Renderer {
@@ -146,17 +116,17 @@ pub struct Renderer {
     model: ResidentModel,
     target: RenderTarget,
     uniforms: wgpu::Buffer,
-    draws: wgpu::Buffer,
+    /// The pages' selection lists (`Selected` × entry) and their lengths (u32 × page).
+    selected: wgpu::Buffer,
     counts: wgpu::Buffer,
-    draws_read: wgpu::Buffer,
+    selected_read: wgpu::Buffer,
     counts_read: wgpu::Buffer,
     traversal: Traversal,
+    compaction: Compaction,
     draw_group: wgpu::BindGroup,
     page_groups: Vec<wgpu::BindGroup>,
-    narrow: DrawPipelines,
-    wide: DrawPipelines,
+    pipelines: DrawPipelines,
     timer: Option<FrameTimer>,
-    draw_indirect_count: bool,
     skirts: super::skirts::CheckSkirts,
 }
 
@@ -177,9 +147,9 @@ fn storage_entry(
     }
 }
 
-fn uniform_entry(visibility: wgpu::ShaderStages) -> wgpu::BindGroupLayoutEntry {
+fn uniform_entry(binding: u32, visibility: wgpu::ShaderStages) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
-        binding: 0,
+        binding,
         visibility,
         ty: wgpu::BindingType::Buffer {
             ty: wgpu::BufferBindingType::Uniform,
@@ -242,150 +212,102 @@ impl Renderer {
             std::mem::size_of::<FrameUniforms>() as u64,
             U::UNIFORM | U::COPY_DST,
         );
-        let draws_bytes = model.slot_count.max(1) as u64 * DRAW_ARGS_BYTES;
+        let selected_bytes = model.entry_count.max(1) as u64 * ENTRY_BYTES;
         let counts_bytes = model.lists.len() as u64 * 4;
-        let draws = buffer(
-            "draw list",
-            draws_bytes,
-            U::STORAGE | U::INDIRECT | U::COPY_SRC | U::COPY_DST,
-        );
+        let selected = buffer("selection lists", selected_bytes, U::STORAGE | U::COPY_SRC);
         let counts = buffer(
-            "draw counts",
+            "selection counts",
             counts_bytes,
-            U::STORAGE | U::INDIRECT | U::COPY_SRC | U::COPY_DST,
+            U::STORAGE | U::COPY_SRC | U::COPY_DST,
         );
-        let draws_read = buffer(
-            "draw list read-back",
-            draws_bytes,
+        let selected_read = buffer(
+            "selection lists read-back",
+            selected_bytes,
             U::MAP_READ | U::COPY_DST,
         );
         let counts_read = buffer(
-            "draw counts read-back",
+            "selection counts read-back",
             counts_bytes,
             U::MAP_READ | U::COPY_DST,
         );
 
-        let traversal = Traversal::new(ctx, &model, &uniforms, &draws, &counts);
+        let traversal = Traversal::new(ctx, &model, &uniforms, &selected, &counts);
+        let compaction = Compaction::new(ctx, &model, &selected, &counts);
 
         // Drawing.
         let both = wgpu::ShaderStages::VERTEX_FRAGMENT;
+        let vertex = wgpu::ShaderStages::VERTEX;
         let draw_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("draw"),
             entries: &[
-                uniform_entry(both),
+                uniform_entry(0, both),
                 storage_entry(1, true, both),
-                storage_entry(2, true, both),
+                storage_entry(2, true, vertex),
+                storage_entry(3, true, vertex),
+                storage_entry(4, true, vertex),
             ],
         });
         let page_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("page"),
-            entries: &[storage_entry(0, true, wgpu::ShaderStages::VERTEX)],
+            entries: &[storage_entry(0, true, vertex), uniform_entry(1, vertex)],
         });
         let draw_group = bind_group(
             device,
             "draw",
             &draw_layout,
-            &[&uniforms, &model.tets, &model.locations],
+            &[&uniforms, &model.tets, &model.locations, &selected, &counts],
         );
+        // Each page's (page, first entry), one uniform-offset stride apart.
+        let stride = (ctx.limits.min_uniform_buffer_offset_alignment as u64).max(8);
+        let mut page_draw_bytes = vec![0u8; (stride * model.lists.len() as u64) as usize];
+        for (p, list) in model.lists.iter().enumerate() {
+            let at = p * stride as usize;
+            page_draw_bytes[at..at + 8]
+                .copy_from_slice(bytemuck::cast_slice(&[p as u32, list.first_entry]));
+        }
+        let page_draw = {
+            use wgpu::util::DeviceExt;
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("page draws"),
+                contents: &page_draw_bytes,
+                usage: U::UNIFORM,
+            })
+        };
         let page_groups = model
             .pages
             .iter()
-            .map(|p| bind_group(device, "page", &page_layout, &[&p.buffer]))
+            .enumerate()
+            .map(|(p, page)| {
+                device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("page"),
+                    layout: &page_layout,
+                    entries: &[
+                        wgpu::BindGroupEntry {
+                            binding: 0,
+                            resource: page.buffer.as_entire_binding(),
+                        },
+                        wgpu::BindGroupEntry {
+                            binding: 1,
+                            resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                                buffer: &page_draw,
+                                offset: p as u64 * stride,
+                                size: wgpu::BufferSize::new(8),
+                            }),
+                        },
+                    ],
+                })
+            })
             .collect();
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("draw.wgsl"),
             source: wgpu::ShaderSource::Wgsl(draw_source().into()),
         });
-        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("draw"),
-            bind_group_layouts: &[Some(&draw_layout), Some(&page_layout)],
-            immediate_size: 0,
-        });
-        let pipeline = |format: wgpu::IndexFormat, pass: Pass| {
-            let (entry_point, cull_mode, depth_write, depth_compare) = match pass {
-                // Back faces are drawn: the lit mode shades them too.
-                Pass::Fill => ("fs_main", None, true, wgpu::CompareFunction::GreaterEqual),
-                Pass::CheckFront | Pass::CheckFrontUnder => (
-                    "fs_check_front",
-                    Some(wgpu::Face::Back),
-                    true,
-                    wgpu::CompareFunction::GreaterEqual,
-                ),
-                // Depth 0 "equal" the cleared depth: only where no front face was drawn.
-                Pass::CheckBack | Pass::CheckBackUnder => (
-                    "fs_check_back",
-                    Some(wgpu::Face::Front),
-                    false,
-                    wgpu::CompareFunction::Equal,
-                ),
-                Pass::Wire => ("fs_wire", None, false, wgpu::CompareFunction::GreaterEqual),
-            };
-            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some(entry_point),
-                layout: Some(&layout),
-                vertex: wgpu::VertexState {
-                    module: &module,
-                    entry_point: Some("vs_main"),
-                    compilation_options: Default::default(),
-                    buffers: &[],
-                },
-                primitive: wgpu::PrimitiveState {
-                    topology: wgpu::PrimitiveTopology::TriangleStrip,
-                    strip_index_format: Some(format),
-                    front_face: if matches!(pass, Pass::CheckFrontUnder | Pass::CheckBackUnder) {
-                        wgpu::FrontFace::Cw
-                    } else {
-                        wgpu::FrontFace::Ccw
-                    },
-                    cull_mode,
-                    unclipped_depth: false,
-                    polygon_mode: if pass == Pass::Wire {
-                        wgpu::PolygonMode::Line
-                    } else {
-                        wgpu::PolygonMode::Fill
-                    },
-                    conservative: false,
-                },
-                depth_stencil: Some(wgpu::DepthStencilState {
-                    format: DEPTH_FORMAT,
-                    depth_write_enabled: Some(depth_write),
-                    depth_compare: Some(depth_compare),
-                    stencil: Default::default(),
-                    // Reverse Z: a positive bias pulls the lines towards the eye.
-                    bias: if pass == Pass::Wire {
-                        wgpu::DepthBiasState {
-                            constant: 2,
-                            slope_scale: 1.0,
-                            clamp: 0.0,
-                        }
-                    } else {
-                        Default::default()
-                    },
-                }),
-                multisample: Default::default(),
-                fragment: Some(wgpu::FragmentState {
-                    module: &module,
-                    entry_point: Some(entry_point),
-                    compilation_options: Default::default(),
-                    targets: &[Some(COLOR_FORMAT.into())],
-                }),
-                multiview_mask: None,
-                cache: None,
-            })
-        };
-        let pipelines = |format| DrawPipelines {
-            fill: pipeline(format, Pass::Fill),
-            check_front: pipeline(format, Pass::CheckFront),
-            check_back: pipeline(format, Pass::CheckBack),
-            check_front_under: pipeline(format, Pass::CheckFrontUnder),
-            check_back_under: pipeline(format, Pass::CheckBackUnder),
-            wire: ctx
-                .capabilities
-                .wireframe
-                .then(|| pipeline(format, Pass::Wire)),
-        };
-        let narrow = pipelines(wgpu::IndexFormat::Uint16);
-        let wide = pipelines(wgpu::IndexFormat::Uint32);
+        let pipelines = DrawPipelines::new(
+            device,
+            &[&draw_layout, &page_layout],
+            &module,
+            ctx.capabilities.wireframe,
+        );
         let skirts = super::skirts::CheckSkirts::new(device, &draw_layout, &module);
 
         Ok(Renderer {
@@ -394,17 +316,16 @@ impl Renderer {
             target: RenderTarget::new(ctx, options.width, options.height),
             model,
             uniforms,
-            draws,
+            selected,
             counts,
-            draws_read,
+            selected_read,
             counts_read,
             traversal,
+            compaction,
             draw_group,
             page_groups,
-            narrow,
-            wide,
+            pipelines,
             timer: FrameTimer::new(ctx, "frame timestamps"),
-            draw_indirect_count: ctx.capabilities.draw_indirect_count,
             skirts,
         })
     }
@@ -415,7 +336,23 @@ impl Renderer {
         self.skirts.set(&ctx.device, meshes);
     }
 
-    /// The resident model (sizes, pages, lists).
+    /// Replaces the `may_refine` flags the traversal reads (`tessera_core::cut`: one bit per
+    /// diamond, closed downwards with `close_may_refine`; all set at creation): a diamond whose
+    /// flag is clear does not refine, ρ'(D) = 0.
+    pub fn set_may_refine(&self, ctx: &GpuContext, words: &[u32]) -> Result<(), RenderError> {
+        if self.traversal.set_may_refine(&ctx.queue, words) {
+            Ok(())
+        } else {
+            let diamonds = self.model.diamond_count;
+            Err(RenderError::MayRefineLength {
+                got: words.len(),
+                expected: tessera_core::cut::may_refine_all(diamonds as usize).len(),
+                diamonds,
+            })
+        }
+    }
+
+    /// The resident model (sizes, pages, selection lists).
     pub fn model(&self) -> &ResidentModel {
         &self.model
     }
@@ -450,14 +387,15 @@ impl Renderer {
                 label: Some("frame"),
             });
         encoder.clear_buffer(&self.counts, 0, None);
-        if !self.draw_indirect_count {
-            // Every slot is issued: the ones the traversal leaves alone must draw nothing.
-            encoder.clear_buffer(&self.draws, 0, None);
+        self.traversal.reset(&mut encoder);
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("traverse and compact"),
+                timestamp_writes: self.timer.as_ref().map(FrameTimer::compute_start),
+            });
+            self.traversal.dispatch(&mut pass);
+            self.compaction.dispatch(&mut pass);
         }
-        self.traversal.record(
-            &mut encoder,
-            self.timer.as_ref().map(FrameTimer::compute_start),
-        );
         {
             let background = if request.mode.is_check() {
                 wgpu::Color::BLACK
@@ -478,32 +416,14 @@ impl Renderer {
                 (_, false) => &[Pass::Fill],
             };
             for &which in passes {
-                for (l, list) in self.model.lists.iter().enumerate() {
-                    if list.capacity == 0 {
-                        continue;
-                    }
-                    let (pipelines, format) = if list.wide {
-                        (&self.wide, wgpu::IndexFormat::Uint32)
-                    } else {
-                        (&self.narrow, wgpu::IndexFormat::Uint16)
-                    };
-                    let Some(pipeline) = pipelines.get(which) else {
-                        continue;
-                    };
+                if let Some(pipeline) = self.pipelines.get(which) {
                     pass.set_pipeline(pipeline);
-                    pass.set_bind_group(1, &self.page_groups[list.page], &[]);
-                    pass.set_index_buffer(self.model.pages[list.page].buffer.slice(..), format);
-                    let offset = list.first_slot as u64 * DRAW_ARGS_BYTES;
-                    if self.draw_indirect_count {
-                        pass.multi_draw_indexed_indirect_count(
-                            &self.draws,
-                            offset,
-                            &self.counts,
-                            l as u64 * 4,
-                            list.capacity,
-                        );
-                    } else {
-                        pass.multi_draw_indexed_indirect(&self.draws, offset, list.capacity);
+                    for (p, list) in self.model.lists.iter().enumerate() {
+                        if list.capacity == 0 {
+                            continue;
+                        }
+                        pass.set_bind_group(1, &self.page_groups[p], &[]);
+                        pass.draw_indirect(&self.compaction.draws, p as u64 * DRAW_ARGS_BYTES);
                     }
                 }
                 match which {
@@ -524,7 +444,7 @@ impl Renderer {
         }
         if readback.selection {
             encoder.copy_buffer_to_buffer(&self.counts, 0, &self.counts_read, 0, None);
-            encoder.copy_buffer_to_buffer(&self.draws, 0, &self.draws_read, 0, None);
+            encoder.copy_buffer_to_buffer(&self.selected, 0, &self.selected_read, 0, None);
         }
         if readback.image {
             self.target.copy_out(&mut encoder);
@@ -570,13 +490,14 @@ impl Renderer {
     /// The simplices drawn by the last frame rendered with `Readback::selection`, ascending.
     pub fn read_selection(&self, ctx: &GpuContext) -> Vec<u32> {
         let counts: Vec<u32> = bytemuck::pod_collect_to_vec(&read_buffer(ctx, &self.counts_read));
-        let draws: Vec<u32> = bytemuck::pod_collect_to_vec(&read_buffer(ctx, &self.draws_read));
+        let entries: Vec<u32> =
+            bytemuck::pod_collect_to_vec(&read_buffer(ctx, &self.selected_read));
         let mut selected = Vec::new();
         for (list, &count) in self.model.lists.iter().zip(&counts) {
             let count = count.min(list.capacity);
-            for slot in list.first_slot..list.first_slot + count {
-                // DrawIndexedIndirectArgs: the fifth word is first_instance = the simplex.
-                selected.push(draws[slot as usize * 5 + 4]);
+            for entry in list.first_entry..list.first_entry + count {
+                // `Selected`: the simplex, then its first strip slot.
+                selected.push(entries[entry as usize * 2]);
             }
         }
         selected.sort_unstable();

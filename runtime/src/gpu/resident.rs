@@ -2,9 +2,9 @@
 //!
 //! The diamond and tet tables are uploaded exactly as they are in the file. The patch blob is
 //! uploaded in *pages*, contiguous byte ranges of the blob no larger than one storage binding
-//! (128 MiB on lavapipe); each page is both the vertex-pulling storage buffer and the index
-//! buffer of its patches. The only derived data is one 16-byte `PatchLocation` per simplex:
-//! which draw list its patch belongs to and where its strip and positions start in its page.
+//! (128 MiB on lavapipe); the vertex shader pulls strip indices, positions and attributes from
+//! it. The only derived data is one 16-byte `PatchLocation` per simplex: its page, where that
+//! page's selection list starts, and where its strip and positions start in the page.
 //!
 //! Everything is made once at load; a frame touches none of it on the CPU. The pool has a byte
 //! budget: a model that does not fit is refused with the numbers (streaming pages in and out
@@ -18,34 +18,33 @@ use wgpu::util::DeviceExt;
 
 use super::device::GpuContext;
 
-/// "No draw list": an empty patch.
-pub const NO_LIST: u32 = u32::MAX;
-/// Bytes of one indexed indirect draw (`wgpu::util::DrawIndexedIndirectArgs`).
-pub const DRAW_ARGS_BYTES: u64 = 20;
+/// "No page": an empty patch.
+pub const NO_PAGE: u32 = u32::MAX;
+/// Bytes of one non-indexed indirect draw (`wgpu::util::DrawIndirectArgs`).
+pub const DRAW_ARGS_BYTES: u64 = 16;
+/// Bytes of one selection-list entry (`Selected` in records.wgsl: simplex, first strip slot).
+pub const ENTRY_BYTES: u64 = 8;
 
 /// Where a simplex's patch lives and how it is drawn; mirrors `PatchLocation` in
 /// `shaders/records.wgsl`. One per simplex.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Pod, Zeroable)]
 pub struct PatchLocation {
-    /// Draw list: 2 × page + 1 if the strip has u32 indices; `NO_LIST` for an empty patch.
-    pub list: u32,
-    /// First slot of that list in the draw array.
-    pub first_slot: u32,
-    /// Start of the strip in the page, in indices (2 or 4 bytes).
+    /// Resident page; `NO_PAGE` for an empty patch.
+    pub page: u32,
+    /// First entry of that page's selection list.
+    pub first_entry: u32,
+    /// Start of the strip in the page, in indices (2 bytes, or 4 over 65,535 vertices).
     pub first_index: u32,
-    /// Start of the positions in the page, in 8-byte slots (the draw's base vertex).
-    pub base_vertex: i32,
+    /// Start of the positions in the page, in 8-byte slots.
+    pub base_vertex: u32,
 }
 
-/// One draw list: the patches of one page with one index width.
+/// One page's selection list: the traversal appends the page's selected patches there.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct DrawList {
-    pub page: usize,
-    /// u32 strip indices (patches over 65,535 vertices) instead of u16.
-    pub wide: bool,
-    pub first_slot: u32,
-    /// Patches that may be drawn from this list (its slots).
+pub struct SelectionList {
+    pub first_entry: u32,
+    /// Non-empty patches of the page (the most the list can hold).
     pub capacity: u32,
 }
 
@@ -92,11 +91,12 @@ pub struct ResidentModel {
     /// `PatchLocation` × tet count.
     pub locations: wgpu::Buffer,
     pub pages: Vec<Page>,
-    /// Two per page (u16, u32), in order: list `l` is `lists[l]`.
-    pub lists: Vec<DrawList>,
-    /// Slots of all lists together (draw array length).
-    pub slot_count: u32,
+    /// One per page, in order.
+    pub lists: Vec<SelectionList>,
+    /// Entries of all lists together.
+    pub entry_count: u32,
     pub tet_count: u32,
+    pub diamond_count: u32,
     /// Roots are simplices `0..root_count`.
     pub root_count: u32,
     /// Depths of the simplex tree (longest root-to-leaf chain + 1): the traversal's dispatches.
@@ -143,8 +143,11 @@ impl ResidentModel {
         let location_bytes: &[u8] = bytemuck::cast_slice(&layout.locations);
         let tables = (diamond_bytes.len() + tet_bytes.len() + location_bytes.len()) as u64;
         let patches: u64 = layout.pages.iter().map(|r| r.end - r.start).sum();
-        // Per-frame working buffers: the draw list and the traversal's two queues.
-        let working = layout.slot_count as u64 * DRAW_ARGS_BYTES + 2 * 4 * tets.len() as u64;
+        // Per-frame working buffers: the selection lists, the per-page draws and the
+        // traversal's two queues.
+        let working = layout.entry_count as u64 * ENTRY_BYTES
+            + layout.pages.len() as u64 * DRAW_ARGS_BYTES
+            + 2 * 4 * tets.len() as u64;
         let needed = tables + patches + working;
         if needed > budget_bytes {
             let mib = |b: u64| b as f64 / (1u64 << 20) as f64;
@@ -177,7 +180,7 @@ impl ResidentModel {
                     } else {
                         &blob[range.start as usize..range.end as usize]
                     },
-                    wgpu::BufferUsages::INDEX,
+                    wgpu::BufferUsages::empty(),
                 ),
                 blob_range: range.clone(),
             })
@@ -188,8 +191,9 @@ impl ResidentModel {
             locations: storage("locations", location_bytes, wgpu::BufferUsages::empty()),
             pages,
             lists: layout.lists,
-            slot_count: layout.slot_count,
+            entry_count: layout.entry_count,
             tet_count: tets.len() as u32,
+            diamond_count: repo.diamonds().len() as u32,
             root_count: repo.header().root_tet_count as u32,
             depth_count: tree_depths(repo),
             resident_bytes: needed - working,
@@ -219,8 +223,8 @@ fn tree_depths(repo: &Repository) -> u32 {
 struct PageLayout {
     pages: Vec<std::ops::Range<u64>>,
     locations: Vec<PatchLocation>,
-    lists: Vec<DrawList>,
-    slot_count: u32,
+    lists: Vec<SelectionList>,
+    entry_count: u32,
 }
 
 /// Greedy pages: patches in blob order, a new page whenever the next patch would end beyond
@@ -250,57 +254,50 @@ fn lay_out_pages(repo: &Repository, limit: u64) -> Result<PageLayout, ResidentEr
     if pages.is_empty() {
         pages.push(0..0);
     }
-    // Count each list's patches, then hand out slots list by list.
-    let mut capacity = vec![0u32; 2 * pages.len()];
-    let mut views: Vec<Option<(usize, bool)>> = Vec::with_capacity(tets.len());
+    // Count each page's non-empty patches, then hand out list entries page by page.
+    let mut capacity = vec![0u32; pages.len()];
     for (i, t) in tets.iter().enumerate() {
-        if t.strip_index_count == 0 {
-            views.push(None);
-            continue;
+        if t.strip_index_count != 0 {
+            capacity[page_of[i]] += 1;
         }
-        let wide = t.vertex_count as usize > MAX_U16_PATCH_VERTICES;
-        let list = 2 * page_of[i] + wide as usize;
-        capacity[list] += 1;
-        views.push(Some((list, wide)));
     }
     let mut lists = Vec::with_capacity(capacity.len());
     let mut next = 0u32;
-    for (l, &c) in capacity.iter().enumerate() {
-        lists.push(DrawList {
-            page: l / 2,
-            wide: l % 2 == 1,
-            first_slot: next,
+    for &c in &capacity {
+        lists.push(SelectionList {
+            first_entry: next,
             capacity: c,
         });
         next += c;
     }
     let mut locations = Vec::with_capacity(tets.len());
-    for (i, v) in views.into_iter().enumerate() {
-        let Some((list, wide)) = v else {
+    for (i, t) in tets.iter().enumerate() {
+        if t.strip_index_count == 0 {
             locations.push(PatchLocation {
-                list: NO_LIST,
-                first_slot: 0,
+                page: NO_PAGE,
+                first_entry: 0,
                 first_index: 0,
                 base_vertex: 0,
             });
             continue;
-        };
-        let t = &tets[i];
-        let in_page = t.patch_offset - pages[page_of[i]].start;
+        }
+        let page = page_of[i];
+        let wide = t.vertex_count as usize > MAX_U16_PATCH_VERTICES;
+        let in_page = t.patch_offset - pages[page].start;
         let strip_offset =
             strip_byte_offset(t.vertex_count as usize, repo.header().attributes) as u64;
         let index_bytes = if wide { 4 } else { 2 };
         locations.push(PatchLocation {
-            list: list as u32,
-            first_slot: lists[list].first_slot,
+            page: page as u32,
+            first_entry: lists[page].first_entry,
             first_index: ((in_page + strip_offset) / index_bytes) as u32,
-            base_vertex: (in_page / 8) as i32,
+            base_vertex: (in_page / 8) as u32,
         });
     }
     Ok(PageLayout {
         pages,
         locations,
         lists,
-        slot_count: next,
+        entry_count: next,
     })
 }

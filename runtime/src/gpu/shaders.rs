@@ -11,6 +11,15 @@ pub fn traverse_source() -> String {
     )
 }
 
+/// The compaction pass (`compact`): per page, prefix sums of the selected patches' strip slots
+/// and one non-indexed indirect draw.
+pub fn compact_source() -> String {
+    format!(
+        "{RECORDS}\n{}",
+        include_str!("../../../shaders/compact.wgsl")
+    )
+}
+
 /// The draw pass (`vs_main`, `fs_main`, `fs_wire`).
 pub fn draw_source() -> String {
     format!("{RECORDS}\n{}", include_str!("../../../shaders/draw.wgsl"))
@@ -18,6 +27,8 @@ pub fn draw_source() -> String {
 
 /// Threads per traversal workgroup: `@workgroup_size(64)` in traverse.wgsl.
 pub const TRAVERSE_WORKGROUP: u32 = 64;
+/// Threads per compaction workgroup: `@workgroup_size(256)` in compact.wgsl.
+pub const COMPACT_WORKGROUP: u32 = 256;
 
 #[cfg(test)]
 mod tests {
@@ -26,6 +37,7 @@ mod tests {
     fn shaders_validate() {
         for (name, source) in [
             ("traverse", super::traverse_source()),
+            ("compact", super::compact_source()),
             ("draw", super::draw_source()),
         ] {
             let module = naga::front::wgsl::parse_str(&source)

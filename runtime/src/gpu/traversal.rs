@@ -1,8 +1,10 @@
 //! The traversal pass (`shaders/traverse.wgsl`): stateless and top-down, one indirect dispatch
-//! per depth of the simplex tree. Depth 0 visits the roots; each visited simplex either draws
-//! its patch or queues its two children for the next depth and raises that depth's workgroup
+//! per depth of the simplex tree. Depth 0 visits the roots; each visited simplex either appends
+//! its patch to its page's selection list or queues its two children for the next depth and raises that depth's workgroup
 //! count (`atomicMax` on its indirect arguments). GPU work is proportional to the simplices the
 //! descent reaches (about twice the cut), CPU work to the tree's depth (one dispatch each).
+
+use tessera_core::cut::may_refine_all;
 
 use super::device::GpuContext;
 use super::resident::ResidentModel;
@@ -36,6 +38,9 @@ pub struct Traversal {
     dispatch_template: wgpu::Buffer,
     dispatch_bytes: u64,
     depth_count: u32,
+    /// `may_refine` flag words, one bit per diamond.
+    may_refine: wgpu::Buffer,
+    diamond_count: u32,
 }
 
 fn entry(
@@ -56,13 +61,13 @@ fn entry(
 }
 
 impl Traversal {
-    /// The pipeline and buffers for `model`; `frame` holds the `FrameUniforms`, `draws` and
-    /// `counts` receive the draw lists.
+    /// The pipeline and buffers for `model`; `frame` holds the `FrameUniforms`, `selected` and
+    /// `counts` receive the pages' selection lists and their lengths.
     pub fn new(
         ctx: &GpuContext,
         model: &ResidentModel,
         frame: &wgpu::Buffer,
-        draws: &wgpu::Buffer,
+        selected: &wgpu::Buffer,
         counts: &wgpu::Buffer,
     ) -> Traversal {
         use wgpu::util::DeviceExt;
@@ -81,6 +86,7 @@ impl Traversal {
                 entry(4, storage(false), false),
                 entry(5, storage(false), false),
                 entry(6, storage(false), false),
+                entry(7, storage(true), false),
             ],
         });
         let step_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -143,6 +149,11 @@ impl Traversal {
             dispatch_buffer("traversal dispatches (even depths)"),
             dispatch_buffer("traversal dispatches (odd depths)"),
         ];
+        let may_refine = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("may refine"),
+            contents: bytemuck::cast_slice(&may_refine_all(model.diamond_count as usize)),
+            usage: U::STORAGE | U::COPY_DST,
+        });
         let queue = |label| {
             device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some(label),
@@ -177,9 +188,10 @@ impl Traversal {
                 &model.diamonds,
                 &model.tets,
                 &model.locations,
-                draws,
+                selected,
                 counts,
                 &queued,
+                &may_refine,
             ]
             .iter()
             .enumerate()
@@ -230,16 +242,25 @@ impl Traversal {
             dispatch_template,
             dispatch_bytes,
             depth_count: depths,
+            may_refine,
+            diamond_count: model.diamond_count,
         }
     }
 
-    /// Records the frame's traversal: resets the counters, then one compute pass with one
-    /// indirect dispatch per depth. `draws` counts must have been cleared by the caller.
-    pub fn record(
-        &self,
-        encoder: &mut wgpu::CommandEncoder,
-        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
-    ) {
+    /// Replaces the `may_refine` flags (`tessera_core::cut`: one bit per diamond, closed
+    /// downwards by the caller) for the frames that follow; `false` when `words` is not
+    /// `may_refine_all(diamonds).len()` words long (nothing is written then).
+    pub fn set_may_refine(&self, queue: &wgpu::Queue, words: &[u32]) -> bool {
+        if words.len() != may_refine_all(self.diamond_count as usize).len() {
+            return false;
+        }
+        queue.write_buffer(&self.may_refine, 0, bytemuck::cast_slice(words));
+        true
+    }
+
+    /// Resets the traversal's counters and dispatch arguments (before the compute pass; the
+    /// selection lists' counts are the caller's to clear).
+    pub fn reset(&self, encoder: &mut wgpu::CommandEncoder) {
         encoder.clear_buffer(&self.queued, 0, None);
         for (k, dispatches) in self.dispatches.iter().enumerate() {
             encoder.copy_buffer_to_buffer(
@@ -250,10 +271,10 @@ impl Traversal {
                 self.dispatch_bytes,
             );
         }
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("traverse"),
-            timestamp_writes,
-        });
+    }
+
+    /// Records the traversal's dispatches, one per depth, into `pass`.
+    pub fn dispatch(&self, pass: &mut wgpu::ComputePass<'_>) {
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, &self.tables, &[]);
         for depth in 0..self.depth_count {

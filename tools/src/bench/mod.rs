@@ -228,6 +228,7 @@ pub fn run(args: TradeArgs) -> anyhow::Result<Outcome> {
     let stats = cluster.stats();
     let value = json!({
         "adapter": ctx.adapter_description(),
+        "backend": ctx.backend.name(),
         "repository": repo_path.display().to_string(),
         "source": source_path.display().to_string(),
         "model_triangles": h.input_triangle_count,

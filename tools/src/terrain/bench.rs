@@ -441,6 +441,7 @@ pub fn run(args: TerrainBenchArgs) -> anyhow::Result<Outcome> {
         "views": paths.len(),
         "frames_per_view": args.frames,
         "adapter": ctx.adapter_description(),
+        "backend": ctx.backend.name(),
         "tessera_build_seconds": build_seconds,
         "roam_setup_seconds": roam_setup_seconds,
         "rustic_builds": rustic_builds,
