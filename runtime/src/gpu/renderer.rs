@@ -36,9 +36,10 @@ pub struct RendererOptions {
     pub height: u32,
     /// Bytes the resident model may take on the GPU.
     pub budget_bytes: u64,
-    /// At most this many strip slots per page in the frame's index buffer (`None`: as many as
-    /// the page has, within one storage binding); a frame selecting more is drawn by vertex
-    /// pulling instead (tests force that path with a small value).
+    /// At most this many strip slots per page in the frame's index buffer (`None`:
+    /// `resident::DEFAULT_INDEX_SLOTS`, and never more than the page has or one storage binding
+    /// holds); a frame selecting more is drawn by vertex pulling instead (tests force that path
+    /// with a small value).
     pub index_slots: Option<u64>,
 }
 

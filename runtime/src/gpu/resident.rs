@@ -26,6 +26,10 @@ pub const PAGE_ARGS_BYTES: u64 = 64;
 pub const INDEX_SLOT_BYTES: u64 = 12;
 /// Most slots of one page's index region: 3 × this fits in a u32 draw count.
 pub const MAX_INDEX_SLOTS: u64 = 0x5555_5555;
+/// Default cap of a page's index region: 4 M strip slots (48 MiB), more than a 1080p frame at
+/// τ ≥ 0.5 px selects on the models measured (the dragon's every leaf: 1.45 M slots); a frame
+/// beyond it is drawn by pulling.
+pub const DEFAULT_INDEX_SLOTS: u64 = 1 << 22;
 /// Bytes of one selection-list entry (`Selected` in records.wgsl: simplex, first strip slot).
 pub const ENTRY_BYTES: u64 = 8;
 
@@ -134,7 +138,7 @@ impl ResidentModel {
     /// uploads everything, if it fits in `budget_bytes`.
     ///
     /// Each page's index region holds `min(its slots, one storage binding / 12 B,
-    /// index_slots)` strip slots (`index_slots`: `None` for no further cap).
+    /// index_slots)` strip slots (`index_slots`: `None` for `DEFAULT_INDEX_SLOTS`).
     pub fn upload(
         ctx: &GpuContext,
         repo: &Repository,
@@ -163,7 +167,7 @@ impl ResidentModel {
             let mut capacity = list
                 .slots
                 .min(limit / INDEX_SLOT_BYTES)
-                .min(index_slots.unwrap_or(u64::MAX))
+                .min(index_slots.unwrap_or(DEFAULT_INDEX_SLOTS))
                 .min(MAX_INDEX_SLOTS);
             if start + 3 * capacity > max_indices {
                 capacity = 0;
