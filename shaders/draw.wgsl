@@ -1,4 +1,7 @@
-// Drawing the selected patches of one resident page with one non-indexed indirect draw: 3
+// Drawing the selected patches of one resident page. Usually one indexed draw of the indices
+// expand.wgsl wrote (vs_indexed: the index is the vertex's position slot in the page, its patch
+// found by binary search over the page's patches in base-vertex order). When a frame's slots
+// exceed the page's index region, one non-indexed indirect draw instead (vs_main): 3
 // vertices per strip slot of the page's selected patches (compact.wgsl). Vertex v belongs to
 // slot t = v / 3; a binary search over the page's prefix sums finds the patch and its slot k,
 // whose triangle is (s[k], s[k+1], s[k+2]) with the first two swapped when k is odd (every
@@ -13,10 +16,14 @@
 @group(0) @binding(2) var<storage, read> locations: array<PatchLocation>;    // one per simplex
 @group(0) @binding(3) var<storage, read> selected: array<Selected>;          // the pages' lists
 @group(0) @binding(4) var<storage, read> counts: array<u32>;                 // one per page
+// Per page, at its first entry: its non-empty patches' simplices in base-vertex order.
+@group(0) @binding(5) var<storage, read> page_simplices: array<u32>;
 
 struct PageDraw {
     page: u32,
-    first_entry: u32,   // the page's selection list starts here in `selected`
+    first_entry: u32,   // the page's selection list (and page_simplices) start here
+    patch_count: u32,   // non-empty patches of the page
+    pad: u32,
 }
 
 @group(1) @binding(0) var<storage, read> page: array<u32>;                   // one resident page
@@ -107,22 +114,53 @@ fn vs_main(@builtin(vertex_index) vertex: u32) -> VertexOut {
         return out;
     }
     let local_index = select(select(c, b, corner == 1u), a, corner == 0u);
-    let slot = location.base_vertex + local_index; // the vertex's 8-byte position slot
+    pull_vertex(&out, location.base_vertex, n, local_index);
+    return out;
+}
+
+// Vertex `local_index` of the patch of `n` vertices whose positions start at position slot
+// `base_vertex` of the page: clip position, eye-relative position and attributes.
+fn pull_vertex(out: ptr<function, VertexOut>, base_vertex: u32, n: u32, local_index: u32) {
+    let slot = base_vertex + local_index; // the vertex's 8-byte position slot
     let q = unpack_position(page[2u * slot], page[2u * slot + 1u]);
     let local_position = frame.base.xyz + vec3<f32>(q) * frame.step.xyz;
     let eye_relative = local_position - frame.eye_tau.xyz;
-    out.clip = frame.view_proj * vec4<f32>(eye_relative, 1.0);
-    out.eye_relative = eye_relative;
+    (*out).clip = frame.view_proj * vec4<f32>(eye_relative, 1.0);
+    (*out).eye_relative = eye_relative;
+    (*out).normal = vec3<f32>(0.0);
+    (*out).colour = vec3<f32>(0.82, 0.80, 0.76);
     // The attribute arrays follow the positions, one u32 per vertex each (patch.rs).
-    var word = 2u * (location.base_vertex + n) + local_index;
+    var word = 2u * (base_vertex + n) + local_index;
     let attributes = frame.counts.w;
     if (attributes & ATTR_NORMALS) != 0u {
-        out.normal = oct_decode(page[word]);
+        (*out).normal = oct_decode(page[word]);
         word += n;
     }
     if (attributes & ATTR_COLORS) != 0u {
-        out.colour = unpack4x8unorm(page[word]).rgb;
+        (*out).colour = unpack4x8unorm(page[word]).rgb;
     }
+}
+
+// The indexed draw: `slot` is the vertex's 8-byte position slot in the page.
+@vertex
+fn vs_indexed(@builtin(vertex_index) slot: u32) -> VertexOut {
+    // The page's last patch whose base vertex is <= slot.
+    let first = page_draw.first_entry;
+    var low = 0u;
+    var high = page_draw.patch_count;
+    while high - low > 1u {
+        let middle = (low + high) / 2u;
+        if locations[page_simplices[first + middle]].base_vertex <= slot {
+            low = middle;
+        } else {
+            high = middle;
+        }
+    }
+    let simplex = page_simplices[first + low];
+    let location = locations[simplex];
+    var out: VertexOut;
+    out.simplex = simplex;
+    pull_vertex(&out, location.base_vertex, tets[simplex].vertex_count, slot - location.base_vertex);
     return out;
 }
 

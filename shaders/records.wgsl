@@ -53,13 +53,23 @@ struct Selected {
     first_slot: u32,
 }
 
-// wgpu::util::DrawIndirectArgs, one per page (what the compaction pass writes).
-struct DrawIndirect {
-    vertex_count: u32,
-    instance_count: u32,
-    first_vertex: u32,
-    first_instance: u32,
+// A resident page, for the compaction and expansion passes (tessera_runtime::gpu::compact).
+struct PageInfo {
+    first_entry: u32,       // its selection list's first entry
+    index_capacity: u32,    // strip slots its index region holds
+    first_index: u32,       // the region's start in the index buffer
+    pad: u32,
 }
+
+// What the compaction pass writes per page, 16 words (tessera_runtime::gpu::compact): the
+// vertex-pulling draw (wgpu DrawIndirectArgs) at word 0, the indexed draw
+// (DrawIndexedIndirectArgs) at word 4, the expansion's dispatch at word 9, the selected slots
+// at word 12. Exactly one of the two draws has a non-zero count.
+const PAGE_ARGS_WORDS: u32 = 16u;
+const PULL_DRAW: u32 = 0u;
+const INDEXED_DRAW: u32 = 4u;
+const EXPAND_DISPATCH: u32 = 9u;
+const SELECTED_SLOTS: u32 = 12u;
 
 // Strip slots of a patch with m strip indices: slot k is (s[k], s[k+1], s[k+2]).
 fn strip_slots(m: u32) -> u32 {

@@ -39,9 +39,20 @@ fn device(backend: Backend) -> GpuContext {
 
 /// One lit frame of `repo` at τ = 1 px from `camera`: the image and the selection.
 fn frame(ctx: &GpuContext, repo: &Repository, camera: Camera) -> (image::RgbaImage, Vec<u32>) {
+    frame_with(ctx, repo, camera, None)
+}
+
+/// `frame` with at most `index_slots` strip slots per page in the index buffer.
+fn frame_with(
+    ctx: &GpuContext,
+    repo: &Repository,
+    camera: Camera,
+    index_slots: Option<u64>,
+) -> (image::RgbaImage, Vec<u32>) {
     let options = RendererOptions {
         width: WIDTH,
         height: HEIGHT,
+        index_slots,
         ..Default::default()
     };
     let mut renderer = Renderer::new(ctx, repo, options).expect("the model fits the GPU budget");
@@ -160,4 +171,33 @@ fn the_pixel_check_is_clean_on_gl() {
         report.covered_pixels > report.frames as u64 * (WIDTH * HEIGHT) as u64 / 100,
         "{report:?}"
     );
+}
+
+/// A frame selecting more strip slots than the index buffer holds is drawn by vertex pulling:
+/// the same picture as the indexed draw, on both backends.
+#[test]
+fn the_vertex_pulling_fallback_draws_the_indexed_picture() {
+    let mesh = load_mesh(&testdata("mesh/bunny00.off"))
+        .expect("import")
+        .mesh;
+    let built = build(&mesh, &BuildConfig::default());
+    let h = *built.repo.header();
+    let camera = Camera {
+        width: WIDTH,
+        height: HEIGHT,
+        ..Camera::orbit(h.bbox_min, h.bbox_max, Y_UP, 120.0, 10.0, 2.0)
+    };
+    for backend in [Backend::Vulkan, Backend::Gl] {
+        let ctx = device(backend);
+        let (indexed, indexed_selection) = frame_with(&ctx, &built.repo, camera, None);
+        let (pulled, pulled_selection) = frame_with(&ctx, &built.repo, camera, Some(16));
+        assert_eq!(indexed_selection, pulled_selection, "{backend}");
+        let (psnr, pixels) = model_psnr(&indexed, &pulled);
+        eprintln!("{backend}: indexed vs pulled {psnr:.1} dB over {pixels} model pixels");
+        assert!(
+            pixels > (WIDTH * HEIGHT / 20) as u64,
+            "{backend}: {pixels} model pixels"
+        );
+        assert!(psnr >= 50.0, "{backend}: {psnr:.1} dB");
+    }
 }

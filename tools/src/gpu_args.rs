@@ -43,6 +43,7 @@ impl GpuArgs {
                 width,
                 height,
                 budget_bytes: self.gpu_budget << 20,
+                ..Default::default()
             },
         )
     }

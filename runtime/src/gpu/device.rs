@@ -321,8 +321,9 @@ fn usable(adapter: &wgpu::Adapter) -> Result<(), String> {
 /// The instance: backends and flags from wgpu's environment variables (`backend`, when given,
 /// replaces `WGPU_BACKEND`), except that wgpu's validation of indirect draws is off unless
 /// `WGPU_VALIDATION_INDIRECT_CALL=1` asks for it: it costs CPU time every frame and protects
-/// against indirect arguments that address outside the bound buffers, which a non-indexed
-/// draw with vertex pulling cannot do (WGSL storage reads are bounds-checked).
+/// against indirect arguments that address outside the bound buffers: ours draw no vertex
+/// buffers (vertices are pulled, WGSL storage reads are bounds-checked) and the compaction
+/// keeps every indexed draw inside its page's index region.
 fn instance_descriptor(backend: Option<Backend>) -> wgpu::InstanceDescriptor {
     let mut descriptor = wgpu::InstanceDescriptor::new_without_display_handle();
     descriptor.flags = wgpu::InstanceFlags::from_build_config();

@@ -1,6 +1,6 @@
 //! The draw pipelines of `draw.wgsl`: the lit/shaded fill, the pixel check's two passes (and
-//! their underside variants) and the wireframe overlay, all non-indexed triangle lists (the
-//! vertex shader assembles strip slots itself).
+//! their underside variants) and the wireframe overlay, as triangle lists: one set for the
+//! indexed draw, one for the vertex-pulling draw.
 
 use super::target::{COLOR_FORMAT, DEPTH_FORMAT};
 
@@ -46,11 +46,13 @@ impl DrawPipelines {
 
 impl DrawPipelines {
     /// `layouts`: group 0 (frame, tables, selection lists) and group 1 (page); `module`:
-    /// draw.wgsl; `wireframe`: the adapter has line polygon mode.
+    /// draw.wgsl; `vertex`: its vertex entry point (`vs_indexed` for the indexed draw,
+    /// `vs_main` for vertex pulling); `wireframe`: the adapter has line polygon mode.
     pub fn new(
         device: &wgpu::Device,
         layouts: &[&wgpu::BindGroupLayout; 2],
         module: &wgpu::ShaderModule,
+        vertex: &str,
         wireframe: bool,
     ) -> DrawPipelines {
         let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -82,7 +84,7 @@ impl DrawPipelines {
                 layout: Some(&layout),
                 vertex: wgpu::VertexState {
                     module,
-                    entry_point: Some("vs_main"),
+                    entry_point: Some(vertex),
                     compilation_options: Default::default(),
                     buffers: &[],
                 },

@@ -1,8 +1,9 @@
-//! The renderer: `new` makes every resource (resident model, pipelines, selection lists,
-//! target), `render` records one frame — one compute pass (the traversal appends the selected
-//! patches to their page's list, the compaction turns each list into one indirect draw), then
-//! one non-indexed indirect draw per resident page — and submits it; the `read_*` calls fetch what a frame left behind (image, selection, GPU
-//! time). Per-frame CPU work is O(1) in the model: one uniform write and a fixed number of
+//! The renderer: `new` makes every resource (resident model, pipelines, selection lists, index
+//! regions, target), `render` records one frame — one compute pass (the traversal appends the
+//! selected patches to their page's list, the compaction turns each list into draw arguments,
+//! the expansion writes the indices), then per resident page one indexed indirect draw and its
+//! vertex-pulling fallback, one of them empty — and submits it; the `read_*` calls fetch what
+//! a frame left behind (image, selection, GPU time). Per-frame CPU work is O(1) in the model: one uniform write and a fixed number of
 //! commands per resident page.
 
 use std::time::Instant;
@@ -11,11 +12,13 @@ use tessera_core::cull::CullTests;
 use tessera_core::repository::format::Header;
 use tessera_core::repository::reader::Repository;
 
-use super::compact::Compaction;
+use super::compact::{
+    Compaction, PageDraw, INDEXED_DRAW_OFFSET, PAGE_ARGS_BYTES, PULL_DRAW_OFFSET,
+};
 use super::device::GpuContext;
 use super::draw_pipelines::{DrawPipelines, Pass};
 use super::frame::{FrameUniforms, ShadingMode};
-use super::resident::{ResidentError, ResidentModel, DRAW_ARGS_BYTES, ENTRY_BYTES};
+use super::resident::{ResidentError, ResidentModel, ENTRY_BYTES};
 use super::shaders::draw_source;
 use super::target::{read_buffer, RenderTarget, BACKGROUND};
 use super::timing::FrameTimer;
@@ -33,6 +36,11 @@ pub struct RendererOptions {
     pub height: u32,
     /// Bytes the resident model may take on the GPU.
     pub budget_bytes: u64,
+    /// At most this many strip slots per page in the frame's index buffer (`None`:
+    /// `resident::DEFAULT_INDEX_SLOTS`, and never more than the page has or one storage binding
+    /// holds); a frame selecting more is drawn by vertex pulling instead (tests force that path
+    /// with a small value).
+    pub index_slots: Option<u64>,
 }
 
 impl Default for RendererOptions {
@@ -41,6 +49,7 @@ impl Default for RendererOptions {
             width: 1920,
             height: 1080,
             budget_bytes: DEFAULT_BUDGET_BYTES,
+            index_slots: None,
         }
     }
 }
@@ -125,7 +134,9 @@ pub struct Renderer {
     compaction: Compaction,
     draw_group: wgpu::BindGroup,
     page_groups: Vec<wgpu::BindGroup>,
-    pipelines: DrawPipelines,
+    /// Per pass: the indexed draw (`vs_indexed`) and the vertex-pulling one (`vs_main`).
+    indexed: DrawPipelines,
+    pulled: DrawPipelines,
     timer: Option<FrameTimer>,
     skirts: super::skirts::CheckSkirts,
 }
@@ -197,7 +208,7 @@ impl Renderer {
             });
         }
         let device = &ctx.device;
-        let model = ResidentModel::upload(ctx, repo, options.budget_bytes)?;
+        let model = ResidentModel::upload(ctx, repo, options.budget_bytes, options.index_slots)?;
         let buffer = |label: &str, size: u64, usage: wgpu::BufferUsages| {
             device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some(label),
@@ -232,7 +243,6 @@ impl Renderer {
         );
 
         let traversal = Traversal::new(ctx, &model, &uniforms, &selected, &counts);
-        let compaction = Compaction::new(ctx, &model, &selected, &counts);
 
         // Drawing.
         let both = wgpu::ShaderStages::VERTEX_FRAGMENT;
@@ -245,6 +255,7 @@ impl Renderer {
                 storage_entry(2, true, vertex),
                 storage_entry(3, true, vertex),
                 storage_entry(4, true, vertex),
+                storage_entry(5, true, vertex),
             ],
         });
         let page_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -255,15 +266,27 @@ impl Renderer {
             device,
             "draw",
             &draw_layout,
-            &[&uniforms, &model.tets, &model.locations, &selected, &counts],
+            &[
+                &uniforms,
+                &model.tets,
+                &model.locations,
+                &selected,
+                &counts,
+                &model.page_simplices,
+            ],
         );
-        // Each page's (page, first entry), one uniform-offset stride apart.
-        let stride = (ctx.limits.min_uniform_buffer_offset_alignment as u64).max(8);
+        // Each page's `PageDraw`, one uniform-offset stride apart.
+        let stride = (ctx.limits.min_uniform_buffer_offset_alignment as u64).max(16);
         let mut page_draw_bytes = vec![0u8; (stride * model.lists.len() as u64) as usize];
         for (p, list) in model.lists.iter().enumerate() {
             let at = p * stride as usize;
-            page_draw_bytes[at..at + 8]
-                .copy_from_slice(bytemuck::cast_slice(&[p as u32, list.first_entry]));
+            let draw = PageDraw {
+                page: p as u32,
+                first_entry: list.first_entry,
+                patch_count: list.capacity,
+                pad: 0,
+            };
+            page_draw_bytes[at..at + 16].copy_from_slice(bytemuck::bytes_of(&draw));
         }
         let page_draw = {
             use wgpu::util::DeviceExt;
@@ -291,23 +314,22 @@ impl Renderer {
                             resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
                                 buffer: &page_draw,
                                 offset: p as u64 * stride,
-                                size: wgpu::BufferSize::new(8),
+                                size: wgpu::BufferSize::new(16),
                             }),
                         },
                     ],
                 })
             })
             .collect();
+        let compaction = Compaction::new(ctx, &model, &selected, &counts, (&page_draw, stride));
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("draw.wgsl"),
             source: wgpu::ShaderSource::Wgsl(draw_source().into()),
         });
-        let pipelines = DrawPipelines::new(
-            device,
-            &[&draw_layout, &page_layout],
-            &module,
-            ctx.capabilities.wireframe,
-        );
+        let layouts = [&draw_layout, &page_layout];
+        let wireframe = ctx.capabilities.wireframe;
+        let indexed = DrawPipelines::new(device, &layouts, &module, "vs_indexed", wireframe);
+        let pulled = DrawPipelines::new(device, &layouts, &module, "vs_main", wireframe);
         let skirts = super::skirts::CheckSkirts::new(device, &draw_layout, &module);
 
         Ok(Renderer {
@@ -324,7 +346,8 @@ impl Renderer {
             compaction,
             draw_group,
             page_groups,
-            pipelines,
+            indexed,
+            pulled,
             timer: FrameTimer::new(ctx, "frame timestamps"),
             skirts,
         })
@@ -415,15 +438,28 @@ impl Renderer {
                 (_, true) => &[Pass::Fill, Pass::Wire],
                 (_, false) => &[Pass::Fill],
             };
+            pass.set_index_buffer(self.compaction.indices.slice(..), wgpu::IndexFormat::Uint32);
             for &which in passes {
-                if let Some(pipeline) = self.pipelines.get(which) {
+                // Per page, the GPU left exactly one of the two draws a non-zero count.
+                for (pipelines, indexed) in [(&self.indexed, true), (&self.pulled, false)] {
+                    let Some(pipeline) = pipelines.get(which) else {
+                        continue;
+                    };
                     pass.set_pipeline(pipeline);
                     for (p, list) in self.model.lists.iter().enumerate() {
                         if list.capacity == 0 {
                             continue;
                         }
                         pass.set_bind_group(1, &self.page_groups[p], &[]);
-                        pass.draw_indirect(&self.compaction.draws, p as u64 * DRAW_ARGS_BYTES);
+                        let args = p as u64 * PAGE_ARGS_BYTES;
+                        if indexed {
+                            pass.draw_indexed_indirect(
+                                &self.compaction.args,
+                                args + INDEXED_DRAW_OFFSET,
+                            );
+                        } else {
+                            pass.draw_indirect(&self.compaction.args, args + PULL_DRAW_OFFSET);
+                        }
                     }
                 }
                 match which {

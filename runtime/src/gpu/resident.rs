@@ -20,8 +20,16 @@ use super::device::GpuContext;
 
 /// "No page": an empty patch.
 pub const NO_PAGE: u32 = u32::MAX;
-/// Bytes of one non-indexed indirect draw (`wgpu::util::DrawIndirectArgs`).
-pub const DRAW_ARGS_BYTES: u64 = 16;
+/// Bytes of one page's draw and dispatch arguments (16 u32, `records.wgsl`).
+pub const PAGE_ARGS_BYTES: u64 = 64;
+/// Bytes of one strip slot in the index buffer (three u32 indices).
+pub const INDEX_SLOT_BYTES: u64 = 12;
+/// Most slots of one page's index region: 3 × this fits in a u32 draw count.
+pub const MAX_INDEX_SLOTS: u64 = 0x5555_5555;
+/// Default cap of a page's index region: 4 M strip slots (48 MiB), more than a 1080p frame at
+/// τ ≥ 0.5 px selects on the models measured (the dragon's every leaf: 1.45 M slots); a frame
+/// beyond it is drawn by pulling.
+pub const DEFAULT_INDEX_SLOTS: u64 = 1 << 22;
 /// Bytes of one selection-list entry (`Selected` in records.wgsl: simplex, first strip slot).
 pub const ENTRY_BYTES: u64 = 8;
 
@@ -46,6 +54,13 @@ pub struct SelectionList {
     pub first_entry: u32,
     /// Non-empty patches of the page (the most the list can hold).
     pub capacity: u32,
+    /// Strip slots of all those patches together (the most a frame can draw from the page).
+    pub slots: u64,
+    /// Slots a frame's index buffer region holds for this page (`ResidentModel::upload`): a
+    /// frame whose selected slots fit is drawn indexed, else by vertex pulling.
+    pub index_capacity: u32,
+    /// Where that region starts in the index buffer, in indices.
+    pub first_index: u64,
 }
 
 /// A resident page of the patch blob.
@@ -93,6 +108,11 @@ pub struct ResidentModel {
     pub pages: Vec<Page>,
     /// One per page, in order.
     pub lists: Vec<SelectionList>,
+    /// Per page, its non-empty patches' simplices sorted by `base_vertex`, at the page's
+    /// `first_entry` (the indexed draw's vertex shader finds a vertex's patch there).
+    pub page_simplices: wgpu::Buffer,
+    /// Indices of all pages' index regions together.
+    pub index_count: u64,
     /// Entries of all lists together.
     pub entry_count: u32,
     pub tet_count: u32,
@@ -116,10 +136,14 @@ pub fn page_limit(limits: &wgpu::Limits) -> u64 {
 impl ResidentModel {
     /// Validates every patch (`Repository::validate_patches`), lays the blob out in pages and
     /// uploads everything, if it fits in `budget_bytes`.
+    ///
+    /// Each page's index region holds `min(its slots, one storage binding / 12 B,
+    /// index_slots)` strip slots (`index_slots`: `None` for `DEFAULT_INDEX_SLOTS`).
     pub fn upload(
         ctx: &GpuContext,
         repo: &Repository,
         budget_bytes: u64,
+        index_slots: Option<u64>,
     ) -> Result<ResidentModel, ResidentError> {
         let tets = repo.tets();
         // Dispatch rows of 65,535 workgroups × 64 threads; far beyond any real model.
@@ -132,7 +156,28 @@ impl ResidentModel {
         }
         repo.validate_patches()?;
         let limit = page_limit(&ctx.limits);
-        let layout = lay_out_pages(repo, limit)?;
+        let mut layout = lay_out_pages(repo, limit)?;
+        // Regions start at storage-offset-aligned indices (bound one page at a time), and
+        // all fit one buffer; a page left without a region is always drawn by pulling.
+        let align = (ctx.limits.min_storage_buffer_offset_alignment as u64 / 4).max(1);
+        let max_indices = ctx.limits.max_buffer_size / 4;
+        let mut index_count = 0u64;
+        for list in &mut layout.lists {
+            let start = index_count.next_multiple_of(align);
+            let mut capacity = list
+                .slots
+                .min(limit / INDEX_SLOT_BYTES)
+                .min(index_slots.unwrap_or(DEFAULT_INDEX_SLOTS))
+                .min(MAX_INDEX_SLOTS);
+            if start + 3 * capacity > max_indices {
+                capacity = 0;
+            }
+            list.index_capacity = capacity as u32;
+            list.first_index = start;
+            if capacity > 0 {
+                index_count = start + 3 * capacity;
+            }
+        }
 
         let diamond_bytes: &[u8] = if repo.diamonds().is_empty() {
             &[0; 56]
@@ -145,9 +190,10 @@ impl ResidentModel {
         let patches: u64 = layout.pages.iter().map(|r| r.end - r.start).sum();
         // Per-frame working buffers: the selection lists, the per-page draws and the
         // traversal's two queues.
-        let working = layout.entry_count as u64 * ENTRY_BYTES
-            + layout.pages.len() as u64 * DRAW_ARGS_BYTES
-            + 2 * 4 * tets.len() as u64;
+        let working = layout.entry_count as u64 * (ENTRY_BYTES + 4)
+            + layout.pages.len() as u64 * PAGE_ARGS_BYTES
+            + 2 * 4 * tets.len() as u64
+            + 4 * index_count;
         let needed = tables + patches + working;
         if needed > budget_bytes {
             let mib = |b: u64| b as f64 / (1u64 << 20) as f64;
@@ -191,6 +237,12 @@ impl ResidentModel {
             locations: storage("locations", location_bytes, wgpu::BufferUsages::empty()),
             pages,
             lists: layout.lists,
+            page_simplices: storage(
+                "page simplices",
+                bytemuck::cast_slice(&layout.page_simplices),
+                wgpu::BufferUsages::empty(),
+            ),
+            index_count,
             entry_count: layout.entry_count,
             tet_count: tets.len() as u32,
             diamond_count: repo.diamonds().len() as u32,
@@ -225,6 +277,8 @@ struct PageLayout {
     locations: Vec<PatchLocation>,
     lists: Vec<SelectionList>,
     entry_count: u32,
+    /// `ResidentModel::page_simplices` (at least one entry).
+    page_simplices: Vec<u32>,
 }
 
 /// Greedy pages: patches in blob order, a new page whenever the next patch would end beyond
@@ -256,19 +310,37 @@ fn lay_out_pages(repo: &Repository, limit: u64) -> Result<PageLayout, ResidentEr
     }
     // Count each page's non-empty patches, then hand out list entries page by page.
     let mut capacity = vec![0u32; pages.len()];
+    let mut slots = vec![0u64; pages.len()];
     for (i, t) in tets.iter().enumerate() {
         if t.strip_index_count != 0 {
             capacity[page_of[i]] += 1;
+            slots[page_of[i]] += t.strip_index_count.saturating_sub(2) as u64;
         }
     }
     let mut lists = Vec::with_capacity(capacity.len());
     let mut next = 0u32;
-    for &c in &capacity {
+    for (&c, &s) in capacity.iter().zip(&slots) {
         lists.push(SelectionList {
             first_entry: next,
             capacity: c,
+            slots: s,
+            index_capacity: 0,
+            first_index: 0,
         });
         next += c;
+    }
+    // Blob order is base-vertex order within a page.
+    let mut page_simplices = Vec::with_capacity(next.max(1) as usize);
+    for p in 0..pages.len() {
+        page_simplices.extend(
+            order
+                .iter()
+                .filter(|&&i| page_of[i] == p && tets[i].strip_index_count != 0)
+                .map(|&i| i as u32),
+        );
+    }
+    if page_simplices.is_empty() {
+        page_simplices.push(0);
     }
     let mut locations = Vec::with_capacity(tets.len());
     for (i, t) in tets.iter().enumerate() {
@@ -299,5 +371,6 @@ fn lay_out_pages(repo: &Repository, limit: u64) -> Result<PageLayout, ResidentEr
         locations,
         lists,
         entry_count: next,
+        page_simplices,
     })
 }

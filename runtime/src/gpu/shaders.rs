@@ -12,11 +12,19 @@ pub fn traverse_source() -> String {
 }
 
 /// The compaction pass (`compact`): per page, prefix sums of the selected patches' strip slots
-/// and one non-indexed indirect draw.
+/// and the draw and expansion arguments.
 pub fn compact_source() -> String {
     format!(
         "{RECORDS}\n{}",
         include_str!("../../../shaders/compact.wgsl")
+    )
+}
+
+/// The expansion pass (`expand`): per page, 3 indices per selected strip slot.
+pub fn expand_source() -> String {
+    format!(
+        "{RECORDS}\n{}",
+        include_str!("../../../shaders/expand.wgsl")
     )
 }
 
@@ -38,6 +46,7 @@ mod tests {
         for (name, source) in [
             ("traverse", super::traverse_source()),
             ("compact", super::compact_source()),
+            ("expand", super::expand_source()),
             ("draw", super::draw_source()),
         ] {
             let module = naga::front::wgsl::parse_str(&source)
