@@ -831,6 +831,23 @@ fn bytes_in_memory_import_like_the_file() {
     assert!(m.contains("unsupported file type"), "{m}");
 }
 
+#[test]
+fn ply_face_counts_whose_sum_overflows_are_an_error() {
+    // Two face-like elements declaring u64::MAX records each: their sum overflowed (a panic
+    // with overflow checks) before the missing records were reported.
+    let max = u64::MAX;
+    let header = format!(
+        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
+         property float z\nelement face {max}\nproperty list uchar int vertex_indices\n\
+         element tristrips {max}\nproperty list int int vertex_indices\nend_header\n\
+         0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"
+    );
+    let m = load_mesh_bytes(Path::new("sum.ply"), header.as_bytes())
+        .unwrap_err()
+        .to_string();
+    assert!(m.starts_with("sum.ply: ") && m.contains("truncated"), "{m}");
+}
+
 // ------------------------------------------------------------------------------ welding
 
 #[test]
