@@ -5,9 +5,10 @@ use std::path::Path;
 
 use proptest::prelude::*;
 use tessera_core::repository::format::{
-    compute_checksum, oct_encode_normal, DiamondRecord, Header, TetRecord, ATTR_ALL, ATTR_COLORS,
-    ATTR_NORMALS, ATTR_UVS, CHECKSUM_OFFSET, FORMAT_VERSION, HEADER_SIZE, NO_INDEX,
-    TET_RECORD_SIZE,
+    compute_checksum, oct_encode_normal, patch_checksum, DiamondRecord, Header, SectionEntry,
+    TetRecord, ATTR_ALL, ATTR_COLORS, ATTR_NORMALS, ATTR_UVS, CHECKSUM_OFFSET, FORMAT_VERSION,
+    HEADER_SIZE, NO_INDEX, SECTION_DIAMONDS, SECTION_ENTRY_SIZE, SECTION_FLAG_OPTIONAL,
+    SECTION_IDS, SECTION_PATCHES, SECTION_TETS, TET_RECORD_SIZE,
 };
 use tessera_core::repository::global_ids::encode_global_ids;
 use tessera_core::repository::patch::{
@@ -130,7 +131,8 @@ fn contents(dimension: u32, attributes: u32, big: bool) -> (RepositoryContents, 
             triangle_count: p.triangle_count,
             id_offset: placement.id_offset,
             id_bytes: placement.id_bytes,
-            reserved: 0,
+            // The writer fills it.
+            patch_checksum: 0,
         });
         patches.push(p);
     }
@@ -196,20 +198,45 @@ fn check_round_trip(dimension: u32, attributes: u32, big: bool, dir: &Path) {
     let expected = Header {
         magic: *b"TESSERA\0",
         version: FORMAT_VERSION,
+        section_count: 4,
         diamond_count: 2,
         tet_count: 10,
-        diamond_table_offset: HEADER_SIZE as u64,
-        tet_table_offset: HEADER_SIZE as u64 + 2 * 56,
-        patch_blob_offset: HEADER_SIZE as u64 + 2 * 56 + 10 * 88,
-        patch_blob_bytes: contents.patch_blob.len() as u64,
-        id_blob_offset: HEADER_SIZE as u64 + 2 * 56 + 10 * 88 + contents.patch_blob.len() as u64,
-        id_blob_bytes: contents.id_blob.len() as u64,
         checksum: h.checksum,
         ..contents.header
     };
     assert_eq!(*h, expected);
+    let bytes = std::fs::read(&path).unwrap();
+    let table_end = (HEADER_SIZE + 4 * SECTION_ENTRY_SIZE) as u64;
+    let blob_bytes = contents.patch_blob.len() as u64;
+    let expected_sections = [
+        (SECTION_DIAMONDS, table_end, 2 * 56),
+        (SECTION_TETS, table_end + 2 * 56, 10 * 88),
+        (SECTION_PATCHES, table_end + 2 * 56 + 10 * 88, blob_bytes),
+        (
+            SECTION_IDS,
+            (table_end + 2 * 56 + 10 * 88 + blob_bytes).next_multiple_of(8),
+            contents.id_blob.len() as u64,
+        ),
+    ];
+    for (entry, (kind, offset, size)) in sections_of(&bytes).iter().zip(expected_sections) {
+        assert_eq!(
+            (entry.kind, entry.offset, entry.bytes, entry.flags),
+            (kind, offset, size, 0)
+        );
+    }
     assert_eq!(repo.diamonds(), &contents.diamonds[..]);
-    assert_eq!(repo.tets(), &contents.tets[..]);
+    // The writer filled the patch checksums, nothing else.
+    for (stored, given) in repo.tets().iter().zip(&contents.tets) {
+        let start = given.patch_offset as usize;
+        let patch = &contents.patch_blob[start..start + given.patch_bytes as usize];
+        assert_eq!(
+            *stored,
+            TetRecord {
+                patch_checksum: patch_checksum(patch),
+                ..*given
+            }
+        );
+    }
     assert_eq!(repo.patch_blob(), &contents.patch_blob[..]);
     assert_eq!(repo.id_blob(), &contents.id_blob[..]);
     for (i, original) in patches.iter().enumerate() {
@@ -301,13 +328,87 @@ fn header_of(bytes: &[u8]) -> Header {
     bytemuck::pod_read_unaligned(&bytes[..HEADER_SIZE])
 }
 
-/// Stores the correct checksum (if the image is long enough to hold one).
-fn seal(bytes: &mut [u8]) {
+/// The section table as far as the image holds it (at most 64 entries).
+fn sections_of(bytes: &[u8]) -> Vec<SectionEntry> {
+    let count = (header_of(bytes).section_count as usize).min(64);
+    bytes[HEADER_SIZE..]
+        .chunks_exact(SECTION_ENTRY_SIZE)
+        .take(count)
+        .map(bytemuck::pod_read_unaligned)
+        .collect()
+}
+
+fn write_sections(bytes: &mut [u8], entries: &[SectionEntry]) {
+    let raw: &[u8] = bytemuck::cast_slice(entries);
+    bytes[HEADER_SIZE..HEADER_SIZE + raw.len()].copy_from_slice(raw);
+}
+
+/// The in-file byte range of the first section of `kind`, if it lies inside the image.
+fn section_range(bytes: &[u8], kind: u32) -> Option<std::ops::Range<usize>> {
+    let e = sections_of(bytes).into_iter().find(|e| e.kind == kind)?;
+    let end = e.offset.checked_add(e.bytes)?;
+    (end <= bytes.len() as u64).then_some(e.offset as usize..end as usize)
+}
+
+/// Stores the correct header checksum and the diamond and tet tables' section checksums (if
+/// the image is long enough to hold them); patch checksums and the id blob's are left as
+/// they are.
+fn seal_directory(bytes: &mut [u8]) {
     if bytes.len() < HEADER_SIZE {
         return;
     }
-    let sum = compute_checksum(bytes);
+    let count = (header_of(bytes).section_count as usize).min(64);
+    let table_end = HEADER_SIZE + count * SECTION_ENTRY_SIZE;
+    if bytes.len() < table_end {
+        return;
+    }
+    let mut entries = sections_of(bytes);
+    for e in &mut entries {
+        if let Some(end) = e.offset.checked_add(e.bytes) {
+            if end <= bytes.len() as u64 && matches!(e.kind, SECTION_DIAMONDS | SECTION_TETS) {
+                e.checksum = crc32fast::hash(&bytes[e.offset as usize..end as usize]);
+            }
+        }
+    }
+    write_sections(bytes, &entries);
+    let sum = compute_checksum(&bytes[..table_end]);
     bytes[CHECKSUM_OFFSET..CHECKSUM_OFFSET + 4].copy_from_slice(&sum.to_le_bytes());
+}
+
+/// Stores every checksum a writer would have: each patch's whose range lies in the patch blob,
+/// the id blob's, then the directory's (`seal_directory`).
+fn seal(bytes: &mut [u8]) {
+    if bytes.len() < HEADER_SIZE
+        || bytes.len() < HEADER_SIZE + (header_of(bytes).section_count as usize).min(64) * 32
+    {
+        return;
+    }
+    if let (Some(tets), Some(blob)) = (
+        section_range(bytes, SECTION_TETS),
+        section_range(bytes, SECTION_PATCHES),
+    ) {
+        for at in tets.clone().step_by(TET_RECORD_SIZE) {
+            if at + TET_RECORD_SIZE > tets.end {
+                break;
+            }
+            let mut t: TetRecord = bytemuck::pod_read_unaligned(&bytes[at..at + TET_RECORD_SIZE]);
+            let end = t.patch_offset as u128 + t.patch_bytes as u128;
+            if end <= blob.len() as u128 {
+                let start = blob.start + t.patch_offset as usize;
+                t.patch_checksum = patch_checksum(&bytes[start..start + t.patch_bytes as usize]);
+                bytes[at..at + TET_RECORD_SIZE].copy_from_slice(bytemuck::bytes_of(&t));
+            }
+        }
+    }
+    if let Some(ids) = section_range(bytes, SECTION_IDS) {
+        let sum = crc32fast::hash(&bytes[ids]);
+        let mut entries = sections_of(bytes);
+        for e in entries.iter_mut().filter(|e| e.kind == SECTION_IDS) {
+            e.checksum = sum;
+        }
+        write_sections(bytes, &entries);
+    }
+    seal_directory(bytes);
 }
 
 fn edit_header(bytes: &mut [u8], f: impl FnOnce(&mut Header)) {
@@ -316,8 +417,23 @@ fn edit_header(bytes: &mut [u8], f: impl FnOnce(&mut Header)) {
     bytes[..HEADER_SIZE].copy_from_slice(bytemuck::bytes_of(&h));
 }
 
+/// Edits the section entry of `kind`.
+fn edit_section(bytes: &mut [u8], kind: u32, f: impl FnOnce(&mut SectionEntry)) {
+    let mut entries = sections_of(bytes);
+    f(entries.iter_mut().find(|e| e.kind == kind).unwrap());
+    write_sections(bytes, &entries);
+}
+
+fn section_offset(bytes: &[u8], kind: u32) -> usize {
+    sections_of(bytes)
+        .into_iter()
+        .find(|e| e.kind == kind)
+        .unwrap()
+        .offset as usize
+}
+
 fn edit_tet(bytes: &mut [u8], i: usize, f: impl FnOnce(&mut TetRecord)) {
-    let at = header_of(bytes).tet_table_offset as usize + i * TET_RECORD_SIZE;
+    let at = section_offset(bytes, SECTION_TETS) + i * TET_RECORD_SIZE;
     let mut t: TetRecord = bytemuck::pod_read_unaligned(&bytes[at..at + TET_RECORD_SIZE]);
     f(&mut t);
     bytes[at..at + TET_RECORD_SIZE].copy_from_slice(bytemuck::bytes_of(&t));
@@ -325,7 +441,7 @@ fn edit_tet(bytes: &mut [u8], i: usize, f: impl FnOnce(&mut TetRecord)) {
 
 fn edit_diamond(bytes: &mut [u8], i: usize, f: impl FnOnce(&mut DiamondRecord)) {
     let size = std::mem::size_of::<DiamondRecord>();
-    let at = header_of(bytes).diamond_table_offset as usize + i * size;
+    let at = section_offset(bytes, SECTION_DIAMONDS) + i * size;
     let mut d: DiamondRecord = bytemuck::pod_read_unaligned(&bytes[at..at + size]);
     f(&mut d);
     bytes[at..at + size].copy_from_slice(bytemuck::bytes_of(&d));
@@ -333,11 +449,10 @@ fn edit_diamond(bytes: &mut [u8], i: usize, f: impl FnOnce(&mut DiamondRecord)) 
 
 /// Absolute byte offset of tet `i`'s patch in the image, and the tet.
 fn patch_of(bytes: &[u8], i: usize) -> (usize, TetRecord) {
-    let h = header_of(bytes);
-    let at = h.tet_table_offset as usize + i * TET_RECORD_SIZE;
+    let at = section_offset(bytes, SECTION_TETS) + i * TET_RECORD_SIZE;
     let tet: TetRecord = bytemuck::pod_read_unaligned(&bytes[at..at + TET_RECORD_SIZE]);
     (
-        h.patch_blob_offset as usize + tet.patch_offset as usize,
+        section_offset(bytes, SECTION_PATCHES) + tet.patch_offset as usize,
         tet,
     )
 }
@@ -371,7 +486,6 @@ fn structural_corruption_is_caught_behind_a_valid_checksum() {
         |b| edit_header(b, |h| h.attributes = 8),
         "unknown attribute bits 0x8",
     );
-    check(|b| edit_header(b, |h| h.reserved = 1), "reserved");
     check(
         |b| edit_header(b, |h| h.lattice_bits = 31),
         "lattice bits 31",
@@ -386,63 +500,123 @@ fn structural_corruption_is_caught_behind_a_valid_checksum() {
     // Absurd counts: an error, not an allocation.
     check(
         |b| edit_header(b, |h| h.diamond_count = 1 << 60),
-        "diamond table of 1152921504606846976 × 56 bytes at offset 248 exceeds the file",
-    );
-    check(
-        |b| edit_header(b, |h| h.tet_count = 1 << 60),
-        "tet table of 1152921504606846976",
+        "tables are indexed by u32",
     );
     check(
         |b| edit_header(b, |h| h.tet_count = u64::MAX),
-        "tet table of 18446744073709551615",
+        "tables are indexed by u32",
     );
     check(
-        |b| edit_header(b, |h| h.patch_blob_bytes = 1 << 60),
+        |b| edit_header(b, |h| h.diamond_count = 3),
+        "diamond table is 112 bytes, but 3 records take 3 × 56",
+    );
+    check(
+        |b| edit_header(b, |h| h.tet_count = 1 << 30),
+        "tet table is 880 bytes, but 1073741824 records",
+    );
+    check(
+        |b| edit_header(b, |h| h.input_vertex_count = 1 << 40),
+        "1099511627776 input vertices: global ids are u32",
+    );
+    check(
+        |b| edit_header(b, |h| h.section_count = 3),
+        "3 sections listed, not 4..=64",
+    );
+    check(
+        |b| edit_header(b, |h| h.section_count = 1000),
+        "1000 sections listed",
+    );
+    // Sections: sizes and offsets checked with checked arithmetic, aligned, after the
+    // section table, not overlapping, the file ending with the last.
+    check(
+        |b| edit_section(b, SECTION_PATCHES, |e| e.bytes = 1 << 60),
+        "patch blob of 1152921504606846976 bytes",
+    );
+    check(
+        |b| edit_section(b, SECTION_PATCHES, |e| e.offset = u64::MAX - 7),
         "patch blob of",
     );
     check(
-        |b| edit_header(b, |h| h.patch_blob_offset = u64::MAX - 7),
-        "patch blob of",
-    );
-    // Table offsets: aligned, in order, not overlapping, nothing after the blob.
-    check(
-        |b| edit_header(b, |h| h.diamond_table_offset = 236),
-        "diamond table offset 236 is not a multiple of 8",
+        |b| edit_section(b, SECTION_DIAMONDS, |e| e.offset = 332),
+        "diamond table offset 332 is not a multiple of 8",
     );
     check(
-        |b| edit_header(b, |h| h.diamond_table_offset = 0),
-        "overlaps what precedes it, which ends at 248",
+        |b| edit_section(b, SECTION_DIAMONDS, |e| e.offset = 0),
+        "overlaps the section table, which ends at 328",
     );
     check(
-        |b| edit_header(b, |h| h.tet_table_offset -= 8),
-        "tet table at offset",
+        |b| edit_section(b, SECTION_TETS, |e| e.offset -= 8),
+        "tet table at 432..1312 overlaps diamond table at 328..440",
     );
-    check(|b| b.extend_from_slice(&[0; 8]), "tables end at");
+    check(|b| b.extend_from_slice(&[0; 8]), "sections end at");
     check(
-        |b| edit_header(b, |h| h.id_blob_bytes -= 1),
-        "tables end at",
+        |b| edit_section(b, SECTION_IDS, |e| e.bytes -= 1),
+        "sections end at",
     );
     check(
-        |b| edit_header(b, |h| h.id_blob_bytes = 1 << 60),
+        |b| edit_section(b, SECTION_IDS, |e| e.bytes = 1 << 60),
         "id blob of",
     );
     check(
-        |b| edit_header(b, |h| h.id_blob_offset -= 8),
-        "id blob at offset",
+        |b| edit_section(b, SECTION_PATCHES, |e| e.bytes += 8),
+        "overlaps patch blob",
     );
     check(
-        |b| edit_header(b, |h| h.patch_blob_bytes += 8),
-        "id blob at offset",
+        |b| edit_section(b, SECTION_IDS, |e| e.kind = SECTION_DIAMONDS),
+        "section 3: a second diamond table",
+    );
+    check(
+        |b| edit_section(b, SECTION_IDS, |e| e.kind = 9),
+        "kind 9, which this build does not know and may not skip",
+    );
+    check(
+        |b| {
+            edit_section(b, SECTION_IDS, |e| {
+                e.kind = 9;
+                e.flags = SECTION_FLAG_OPTIONAL;
+            })
+        },
+        "no id blob section",
+    );
+    check(
+        |b| edit_section(b, SECTION_TETS, |e| e.flags = 2),
+        "unknown flags 0x2",
+    );
+    check(
+        |b| edit_section(b, SECTION_TETS, |e| e.reserved = 1),
+        "reserved field 1",
     );
 
     // Diamonds.
     check(
         |b| edit_diamond(b, 1, |d| d.parents[0] = 7),
-        "diamond 1: parent 0 is 7",
+        "diamond 1: parent 0 is 7, not a diamond stored before it",
     );
     check(
         |b| edit_diamond(b, 1, |d| d.parents[0] = 1),
         "diamond 1: parent 0 is 1",
+    );
+    check(
+        |b| {
+            edit_diamond(b, 0, |d| {
+                d.parents[0] = 1;
+                d.parent_count = 1;
+            })
+        },
+        "diamond 0: parent 0 is 1, not a diamond stored before it",
+    );
+    check(
+        |b| edit_diamond(b, 1, |d| d.tet_count = 3),
+        "diamond 1: 3 simplices, but 2 tets belong to it",
+    );
+    check(
+        |b| {
+            edit_diamond(b, 1, |d| {
+                d.parents[0] = NO_INDEX;
+                d.parent_count = 0;
+            })
+        },
+        "tet 2: parent diamond 0 is not a parent of its diamond 1 (parents [])",
     );
     check(
         |b| edit_diamond(b, 1, |d| d.parents[2] = 0),
@@ -505,8 +679,23 @@ fn structural_corruption_is_caught_behind_a_valid_checksum() {
         "tet 2: children 2, 3 not after it",
     );
     check(
-        |b| edit_tet(b, 2, |t| t.first_child = 4),
-        "does not come from its diamond",
+        |b| edit_tet(b, 0, |t| t.first_child = 6),
+        "tet 0: child (parent diamond 1, level 2) does not come from its diamond 0",
+    );
+    // Shared children make a DAG, whose traversals are exponential: refused.
+    check(
+        |b| edit_tet(b, 4, |t| t.first_child = 6),
+        "tet 4: child 6 is also another tet's child: the hierarchy must be a tree",
+    );
+    // A tet nobody points to.
+    check(
+        |b| {
+            edit_tet(b, 4, |t| {
+                t.first_child = NO_INDEX;
+                t.diamond = NO_INDEX;
+            })
+        },
+        "tet 8 is neither a root nor any tet's child",
     );
     check(
         |b| edit_tet(b, 0, |t| t.level = 1),
@@ -544,7 +733,7 @@ fn structural_corruption_is_caught_behind_a_valid_checksum() {
         |b| edit_tet(b, 5, |t| t.triangle_count = t.strip_index_count),
         "cannot fit",
     );
-    // The id range: inside the id blob, at least a byte per id, reserved word zero.
+    // The id range: inside the id blob, at least a byte per id.
     check(
         |b| edit_tet(b, 5, |t| t.id_offset = 1 << 40),
         "tet 5: id range 1099511627776..",
@@ -557,7 +746,6 @@ fn structural_corruption_is_caught_behind_a_valid_checksum() {
         |b| edit_tet(b, 5, |t| t.id_bytes = t.vertex_count - 1),
         "tet 5: 13 ids cannot fit in an id stream of 12 bytes",
     );
-    check(|b| edit_tet(b, 5, |t| t.reserved = 1), "tet 5: reserved");
     // A strip index past the vertex count: `open` accepts the tables, the patch parse catches it.
     let strip_index = |b: &mut Vec<u8>, value: u16| {
         // Tet 3: 9 vertices × (8 bytes of position + 16 of ATTR_ALL attributes).
@@ -588,9 +776,11 @@ fn structural_corruption_is_caught_behind_a_valid_checksum() {
 
 /// Byte offset of tet `i`'s id stream in the image, and the tet.
 fn ids_of(bytes: &[u8], i: usize) -> (usize, TetRecord) {
-    let h = header_of(bytes);
     let (_, tet) = patch_of(bytes, i);
-    (h.id_blob_offset as usize + tet.id_offset as usize, tet)
+    (
+        section_offset(bytes, SECTION_IDS) + tet.id_offset as usize,
+        tet,
+    )
 }
 
 #[test]
@@ -653,14 +843,22 @@ fn wrong_magic_and_version_are_typed() {
             err,
             RepositoryError::WrongVersion {
                 found: 1,
-                expected: 3
+                expected: 4
             }
         ),
         "{err:?}"
     );
     let message = err.to_string();
     assert!(
-        message.contains("version 3") && message.contains("version 1"),
+        message.contains("version 4") && message.contains("version 1"),
+        "{message}"
+    );
+    // A version-3 file (the layout before the section table) gets the same clear error.
+    let mut old = image(3, 0);
+    edit_header(&mut old, |h| h.version = 3);
+    let message = Repository::from_bytes(old).unwrap_err().to_string();
+    assert!(
+        message.contains("version 3 is not supported") && message.contains("tessera build"),
         "{message}"
     );
     // Still WrongVersion with a valid checksum.
@@ -675,6 +873,7 @@ fn wrong_magic_and_version_are_typed() {
 fn every_truncation_is_an_error() {
     let bytes = image(3, ATTR_ALL);
     for len in 0..bytes.len() {
+        // The last section's end is the file's: every cut is caught by `open` alone.
         let result = Repository::from_bytes(bytes[..len].to_vec());
         match result {
             Err(RepositoryError::TooSmall { len: l }) => {
@@ -689,9 +888,11 @@ fn every_truncation_is_an_error() {
     for len in [
         0,
         1,
-        247,
-        248,
-        249,
+        199,
+        200,
+        201,
+        327,
+        328,
         1000,
         big.len() / 2,
         big.len() - 8,
@@ -704,7 +905,7 @@ fn every_truncation_is_an_error() {
     }
     // Through the file system too (an empty file is not mapped at all).
     let dir = tempfile::tempdir().unwrap();
-    for len in [0, 100, 248, big.len() - 1] {
+    for len in [0, 100, 200, big.len() - 1] {
         let path = dir.path().join(format!("t{len}.tsr"));
         std::fs::write(&path, &big[..len]).unwrap();
         assert!(Repository::open(&path).is_err(), "{len}");
@@ -719,11 +920,19 @@ fn every_truncation_is_an_error() {
 #[test]
 fn every_flipped_byte_is_an_error() {
     let bytes = image(2, ATTR_NORMALS | ATTR_UVS);
+    let blobs = section_offset(&bytes, SECTION_PATCHES);
     let mut flipped = bytes.clone();
     for i in 0..bytes.len() {
         for bit in [0x01, 0x80] {
             flipped[i] ^= bit;
-            let result = Repository::from_bytes(flipped.clone());
+            // The directory is checked on open; a blob byte when its patch or id is read.
+            let opened = Repository::from_bytes(flipped.clone());
+            assert_eq!(
+                opened.is_err(),
+                i < blobs,
+                "byte {i}, bit {bit:#x}: {opened:?}"
+            );
+            let result = open_all(flipped.clone());
             assert!(
                 result.is_err(),
                 "flipping bit {bit:#x} of byte {i} was accepted"
@@ -733,6 +942,8 @@ fn every_flipped_byte_is_an_error() {
                     matches!(
                         result,
                         Err(RepositoryError::ChecksumMismatch { .. })
+                            | Err(RepositoryError::SectionChecksumMismatch { .. })
+                            | Err(RepositoryError::PatchChecksumMismatch { .. })
                             | Err(RepositoryError::Corrupt(_))
                     ),
                     "byte {i}: {result:?}"
@@ -741,6 +952,90 @@ fn every_flipped_byte_is_an_error() {
             flipped[i] ^= bit;
         }
     }
+}
+
+#[test]
+fn a_damaged_patch_is_named_and_the_rest_stays_readable() {
+    let mut bytes = image(3, ATTR_ALL);
+    let (start, _) = patch_of(&bytes, 5);
+    bytes[start] ^= 0x10;
+    let repo = Repository::from_bytes(bytes.clone()).unwrap();
+    for i in (0..10).filter(|&i| i != 5) {
+        assert!(repo.patch(i).is_ok(), "tet {i}");
+        assert!(repo.patch_bytes(i).is_ok(), "tet {i}");
+    }
+    for _ in 0..2 {
+        let err = repo.patch_bytes(5).unwrap_err();
+        assert!(
+            matches!(err, RepositoryError::PatchChecksumMismatch { tet: 5, .. }),
+            "{err:?}"
+        );
+        assert!(
+            err.to_string().contains("patch of tet 5 is damaged"),
+            "{err}"
+        );
+    }
+    assert!(repo.validate_patches().is_err());
+
+    // A damaged id stream: the patches still draw, the ids are refused as a whole.
+    let mut bytes = image(3, ATTR_ALL);
+    let (start, _) = ids_of(&bytes, 3);
+    bytes[start + 4] ^= 0x01;
+    let repo = Repository::from_bytes(bytes).unwrap();
+    assert!((0..10).all(|i| repo.patch_bytes(i).is_ok()));
+    let err = repo.patch(0).unwrap_err();
+    assert!(
+        err.to_string().contains("id blob checksum mismatch"),
+        "{err}"
+    );
+    assert!(repo.verify_ids().is_err());
+
+    // A changed directory record behind a valid header checksum.
+    let mut bytes = image(3, ATTR_ALL);
+    edit_tet(&mut bytes, 4, |t| t.radius = 2.0);
+    let err = Repository::from_bytes(bytes).unwrap_err();
+    assert!(
+        err.to_string().contains("tet table checksum mismatch"),
+        "{err}"
+    );
+}
+
+#[test]
+fn optional_sections_are_skipped_and_unknown_required_ones_refused() {
+    // Insert a fifth entry (an optional section of kind 77 holding 8 bytes at the end).
+    let bytes = image(3, ATTR_ALL);
+    let table_end = HEADER_SIZE + 4 * SECTION_ENTRY_SIZE;
+    let mut grown = bytes[..table_end].to_vec();
+    grown.extend_from_slice(&[0; SECTION_ENTRY_SIZE]);
+    grown.extend_from_slice(&bytes[table_end..]);
+    while !grown.len().is_multiple_of(8) {
+        grown.push(0);
+    }
+    let extra_at = grown.len() as u64;
+    grown.extend_from_slice(b"future!!");
+    edit_header(&mut grown, |h| h.section_count = 5);
+    let mut entries = sections_of(&grown);
+    for e in &mut entries[..4] {
+        e.offset += SECTION_ENTRY_SIZE as u64;
+    }
+    entries[4] = SectionEntry {
+        kind: 77,
+        flags: SECTION_FLAG_OPTIONAL,
+        offset: extra_at,
+        bytes: 8,
+        checksum: 0,
+        reserved: 0,
+    };
+    write_sections(&mut grown, &entries);
+    seal(&mut grown);
+    open_all(grown.clone()).unwrap();
+    // The same section without the optional flag comes from a newer writer: refused.
+    let mut entries = sections_of(&grown);
+    entries[4].flags = 0;
+    write_sections(&mut grown, &entries);
+    seal(&mut grown);
+    let message = open_all(grown).unwrap_err().to_string();
+    assert!(message.contains("made by a newer tessera"), "{message}");
 }
 
 #[test]
@@ -792,6 +1087,27 @@ fn failed_rename_leaves_no_temporary_file() {
     // A path with no file name.
     let err = write_repository_file(Path::new("/"), &contents(2, 0, false).0).unwrap_err();
     assert!(matches!(err, RepositoryError::Io { .. }));
+}
+
+#[test]
+fn stale_temporaries_of_killed_writers_are_removed() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("model.tsr");
+    // Linux pids stay below 2^22: this writer is gone. Pid 1 is alive: its write is left alone.
+    let dead = dir.path().join(".model.tsr.tmp-4194305");
+    let live = dir.path().join(".model.tsr.tmp-1");
+    let other = dir.path().join(".other.tsr.tmp-4194305");
+    for p in [&dead, &live, &other] {
+        std::fs::write(p, b"half a repository").unwrap();
+    }
+    write_repository_file(&path, &contents(3, 0, false).0).unwrap();
+    assert!(!dead.exists(), "a dead writer's temporary file stays");
+    assert!(live.exists() && other.exists());
+    Repository::open(&path).unwrap();
+    assert_eq!(
+        tessera_core::repository::remove_stale_temporaries(&path).unwrap(),
+        Vec::<std::path::PathBuf>::new()
+    );
 }
 
 /// A mutation: overwrite one little-endian u32 at a 4-aligned offset with an interesting value

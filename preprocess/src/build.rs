@@ -387,7 +387,7 @@ fn build_in_pool(
                 triangle_count: patch.triangle_count,
                 id_offset: 0, // placed below
                 id_bytes: placement.id_bytes,
-                reserved: 0,
+                patch_checksum: 0,
             };
             (bytes, ids, record)
         })

@@ -12,7 +12,7 @@
 //!   shared vertex must be bit-identical wherever it is stored, or the picture cracks even
 //!   though the ids match).
 
-use std::collections::HashSet;
+use std::collections::{HashMap, HashSet};
 
 use rayon::prelude::*;
 use tessera_core::cut::{diamond_rhos, select_stateless, select_top_down};
@@ -81,23 +81,18 @@ pub fn decode_all_patches(repo: &Repository) -> Result<Vec<Vec<[u32; 3]>>, Repos
 
 /// Global ids whose quantised position is not the same in every patch that stores them.
 pub fn position_mismatches(repo: &Repository) -> Result<usize, RepositoryError> {
-    const UNSEEN: [u32; 3] = [u32::MAX; 3];
-    let mut position = vec![UNSEEN; repo.header().input_vertex_count as usize];
-    let mut mismatched = vec![false; position.len()];
+    // Keyed by the ids the patches hold, not sized by the header's vertex count: a crafted
+    // header cannot make this allocate more than the file's contents.
+    let mut position: HashMap<u32, ([u32; 3], bool)> = HashMap::new();
     for i in 0..repo.tets().len() {
         let patch = repo.patch(i)?;
         for (local, id) in patch.global_ids().enumerate() {
-            // Ids were checked against the input's vertex count when the patch was parsed.
             let q = patch.position(local);
-            let stored = &mut position[id as usize];
-            if *stored == UNSEEN {
-                *stored = q;
-            } else if *stored != q {
-                mismatched[id as usize] = true;
-            }
+            let (stored, mismatched) = position.entry(id).or_insert((q, false));
+            *mismatched |= *stored != q;
         }
     }
-    Ok(mismatched.iter().filter(|&&m| m).count())
+    Ok(position.values().filter(|(_, m)| *m).count())
 }
 
 /// Sorted (edge, use count) of a triangle set.

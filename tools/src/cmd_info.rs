@@ -4,6 +4,7 @@ use std::path::PathBuf;
 
 use clap::Args;
 use serde_json::json;
+use tessera_core::repository::format::section_name;
 use tessera_core::repository::reader::Repository;
 
 use crate::Outcome;
@@ -25,6 +26,12 @@ pub fn run(args: InfoArgs) -> anyhow::Result<Outcome> {
     let patch_triangles: u64 = tets.iter().map(|t| t.triangle_count as u64).sum();
     let depth = tets.iter().map(|t| t.level).max().unwrap_or(0);
     let root_error = repo.diamonds().first().map_or(0.0, |d| d.error);
+    let (patch_blob_bytes, id_blob_bytes) = (repo.patch_blob().len(), repo.id_blob().len());
+    let sections: Vec<_> = repo
+        .sections()
+        .iter()
+        .map(|s| json!({"kind": section_name(s.kind), "offset": s.offset, "bytes": s.bytes}))
+        .collect();
     let value = json!({
         "format_version": h.version,
         "dimension": h.dimension,
@@ -44,8 +51,9 @@ pub fn run(args: InfoArgs) -> anyhow::Result<Outcome> {
         "bbox_min": h.bbox_min,
         "bbox_max": h.bbox_max,
         "repository_bytes": repo.file_bytes(),
-        "patch_blob_bytes": h.patch_blob_bytes,
-        "id_blob_bytes": h.id_blob_bytes,
+        "patch_blob_bytes": patch_blob_bytes,
+        "id_blob_bytes": id_blob_bytes,
+        "sections": sections,
     });
     if args.json {
         println!("{value}");
@@ -67,8 +75,8 @@ pub fn run(args: InfoArgs) -> anyhow::Result<Outcome> {
         println!(
             "  {} bytes: patches {} (GPU), global ids {} (CPU checks)",
             repo.file_bytes(),
-            h.patch_blob_bytes,
-            h.id_blob_bytes
+            patch_blob_bytes,
+            id_blob_bytes
         );
     }
     Ok(Outcome::Ok)

@@ -212,12 +212,24 @@ fn corrupt_repositories_are_rejected_with_exit_two() {
     .status
     .success());
     let bytes = std::fs::read(&repo).unwrap();
+    let opened = tessera_core::repository::Repository::open(&repo).unwrap();
+    let section = |kind| {
+        opened
+            .sections()
+            .iter()
+            .find(|s| s.kind == kind)
+            .unwrap()
+            .offset as usize
+    };
+    let (tets, patches) = (
+        section(tessera_core::repository::format::SECTION_TETS),
+        section(tessera_core::repository::format::SECTION_PATCHES),
+    );
     let cases: Vec<(&str, Vec<u8>)> = vec![
         ("truncated", bytes[..bytes.len() / 2].to_vec()),
         ("flipped", {
             let mut b = bytes.clone();
-            let n = b.len();
-            b[n / 3] ^= 0x40;
+            b[tets + 20] ^= 0x40;
             b
         }),
         ("version", {
@@ -238,6 +250,16 @@ fn corrupt_repositories_are_rejected_with_exit_two() {
             assert!(!stderr.contains("panicked"), "{cmd} {name}: {stderr}");
         }
     }
+    // A damaged patch: `info` reads no patch and succeeds; `check` names the patch.
+    let mut damaged = bytes.clone();
+    damaged[patches + 3] ^= 0x40;
+    let path = dir.path().join("damaged-patch.tsr");
+    std::fs::write(&path, damaged).unwrap();
+    assert!(tessera(&["info", path.to_str().unwrap()]).status.success());
+    let out = tessera(&["check", path.to_str().unwrap()]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("patch of tet 0 is damaged"), "{stderr}");
 }
 
 /// `testdata/mesh/bunny00.off` (75 K triangles), fetched by `tools/fetch-testdata.sh`.

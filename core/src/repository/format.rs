@@ -1,21 +1,37 @@
-//! The on-disk layout of a repository: header, diamond table, tet table, patch blob.
+//! The on-disk layout of a repository (format version 4): a header, a section table, then the
+//! sections it lists.
 //!
 //! ```text
-//! offset 0                     Header (248 bytes)
-//! diamond_table_offset (8-al.) DiamondRecord × diamond_count   (56 bytes each)
-//! tet_table_offset     (8-al.) TetRecord × tet_count           (88 bytes each)
-//! patch_blob_offset    (8-al.) patch blob, patch_blob_bytes    (see `patch.rs`)
-//! id_blob_offset       (8-al.) id blob, id_blob_bytes          (see `global_ids.rs`)
-//! end of file                = id_blob_offset + id_blob_bytes
+//! offset 0             Header (200 bytes; `section_count` entries follow it)
+//! offset 200           SectionEntry × section_count                 (32 bytes each)
+//! then, 8-aligned, in any order the table gives (this writer: in this order):
+//!   SECTION_DIAMONDS   DiamondRecord × diamond_count                (56 bytes each)
+//!   SECTION_TETS       TetRecord × tet_count                        (88 bytes each)
+//!   SECTION_PATCHES    patch blob                                   (see `patch.rs`)
+//!   SECTION_IDS        id blob                                      (see `global_ids.rs`)
+//! end of file        = the end of the last section
 //! ```
+//!
+//! The header and the section table are the *directory's* entry; the diamond and tet tables
+//! are the directory. Opening a repository reads and checks those and nothing else (O(header +
+//! directory)); the blobs are verified piece by piece when first read, so a viewer of a huge
+//! model never touches the patches it does not draw:
+//! - `Header::checksum`: CRC-32 of the header (this field read as 0) and the section table;
+//! - `SectionEntry::checksum`: CRC-32 of the section's bytes for the diamond and tet tables
+//!   (checked on open) and the id blob (checked the first time an id is read); 0 and unused for
+//!   the patch blob, whose patches carry their own checksum (`TetRecord::patch_checksum`,
+//!   checked the first time the patch is read), so one bad patch costs only that patch.
+//!
+//! The section table is the format's extension point: a later version adds a section kind; a
+//! section with `SECTION_FLAG_OPTIONAL` may be skipped by a reader that does not know its kind,
+//! any other unknown kind is refused ("made by a newer tessera").
 //!
 //! The patch blob is what a renderer uploads (positions, attributes, strips); the id blob holds
 //! each patch's global vertex ids, which only the CPU needs (crack checks).
 //!
 //! Everything is little-endian and read zero-copy (bytemuck casts from the memory map), so the
-//! records are `#[repr(C)]` with no implicit padding. Gaps between tables are zero bytes written
-//! by the writer; the reader only requires them to be in order, 8-aligned and non-overlapping.
-//! The checksum (CRC-32, `crc32fast`) covers the whole file with the checksum field read as 0.
+//! records are `#[repr(C)]` with no implicit padding. Gaps between sections are zero bytes
+//! written by the writer; the reader only requires sections to be 8-aligned and not to overlap.
 //!
 //! Positions are quantised on one global grid of 2^21 steps per axis over the bounding box, so a
 //! vertex shared by several patches decodes to bit-identical coordinates in each of them
@@ -33,7 +49,7 @@ pub const MAGIC: [u8; 8] = *b"TESSERA\0";
 
 /// Version written by this build and the only one it reads (`RepositoryError::WrongVersion`
 /// otherwise). Bump on any change to the layout or meaning of a field.
-pub const FORMAT_VERSION: u32 = 3;
+pub const FORMAT_VERSION: u32 = 4;
 
 /// "No such record": unused diamond parent slots, leaf tets' `diamond` and `first_child`, root
 /// tets' `parent_diamond`.
@@ -54,21 +70,41 @@ pub const ATTR_UVS: u32 = 4;
 /// Every attribute bit this version knows; a file with any other bit set is rejected.
 pub const ATTR_ALL: u32 = ATTR_NORMALS | ATTR_COLORS | ATTR_UVS;
 
+/// Section kind: the diamond table (`DiamondRecord`s).
+pub const SECTION_DIAMONDS: u32 = 1;
+/// Section kind: the tet table (`TetRecord`s).
+pub const SECTION_TETS: u32 = 2;
+/// Section kind: the patch blob.
+pub const SECTION_PATCHES: u32 = 3;
+/// Section kind: the global-id blob.
+pub const SECTION_IDS: u32 = 4;
+/// The kinds every version-4 repository has, exactly once each.
+pub const REQUIRED_SECTIONS: [u32; 4] =
+    [SECTION_DIAMONDS, SECTION_TETS, SECTION_PATCHES, SECTION_IDS];
+/// Section flag: a reader that does not know the section's kind may ignore it.
+pub const SECTION_FLAG_OPTIONAL: u32 = 1;
+/// Every section flag this version knows.
+pub const SECTION_FLAGS_ALL: u32 = SECTION_FLAG_OPTIONAL;
+/// Most sections a file may list (bounds the work of opening a crafted file).
+pub const MAX_SECTIONS: u32 = 64;
+
 /// Size of the header on disk, in bytes.
 pub const HEADER_SIZE: usize = std::mem::size_of::<Header>();
+/// Size of one section table entry on disk, in bytes.
+pub const SECTION_ENTRY_SIZE: usize = std::mem::size_of::<SectionEntry>();
 /// Size of one diamond record on disk, in bytes.
 pub const DIAMOND_RECORD_SIZE: usize = std::mem::size_of::<DiamondRecord>();
 /// Size of one tet record on disk, in bytes.
 pub const TET_RECORD_SIZE: usize = std::mem::size_of::<TetRecord>();
 /// Byte offset of `Header::checksum` in the file.
 pub const CHECKSUM_OFFSET: usize = std::mem::offset_of!(Header, checksum);
-/// Alignment of the tables, the patch blob and every patch inside it.
+/// Alignment of the sections and of every patch inside the patch blob.
 pub const TABLE_ALIGN: u64 = 8;
 
-/// Fixed-size file header. Little-endian on disk, at offset 0.
+/// Fixed-size file header. Little-endian on disk, at offset 0; the section table follows it.
 ///
-/// The writer fills `magic`, `version`, the counts, the offsets, `patch_blob_bytes`,
-/// `id_blob_bytes` and `checksum`; the caller fills the rest.
+/// The writer fills `magic`, `version`, `section_count`, the diamond and tet counts and
+/// `checksum`; the caller fills the rest.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct Header {
@@ -81,30 +117,18 @@ pub struct Header {
     /// u32 bit mask of the per-vertex attributes stored in every patch (`ATTR_*`); only the
     /// attributes the input has.
     pub attributes: u32,
-    /// u32, must be 0.
-    pub reserved: u32,
+    /// u32, entries in the section table that follows the header, `4..=MAX_SECTIONS`.
+    pub section_count: u32,
     /// u64, number of `DiamondRecord`s (diamonds the hierarchy splits).
     pub diamond_count: u64,
-    /// u64, number of `TetRecord`s (simplices of the hierarchy).
+    /// u64, number of `TetRecord`s (simplices of the hierarchy), < 2^32.
     pub tet_count: u64,
     /// u64, roots are tets `0..root_tet_count` (≤ `tet_count`).
     pub root_tet_count: u64,
-    /// u64, vertices of the input mesh (statistics).
+    /// u64, vertices of the input mesh; every global id is below it, ≤ 2^32.
     pub input_vertex_count: u64,
     /// u64, triangles of the input mesh (statistics).
     pub input_triangle_count: u64,
-    /// u64, byte offset of the diamond table; multiple of 8, ≥ `HEADER_SIZE`.
-    pub diamond_table_offset: u64,
-    /// u64, byte offset of the tet table; multiple of 8, after the diamond table.
-    pub tet_table_offset: u64,
-    /// u64, byte offset of the patch blob; multiple of 8, after the tet table.
-    pub patch_blob_offset: u64,
-    /// u64, size of the patch blob.
-    pub patch_blob_bytes: u64,
-    /// u64, byte offset of the id blob; multiple of 8, after the patch blob.
-    pub id_blob_offset: u64,
-    /// u64, size of the id blob; the file ends exactly at its end.
-    pub id_blob_bytes: u64,
     /// 3 × f64, model-space point that every f32 centre in the tables is relative to.
     pub origin: [f64; 3],
     /// 3 × f64, model-space bounding box minimum (finite); quantised position 0.
@@ -120,8 +144,27 @@ pub struct Header {
     pub lattice_unit: f64,
     /// u32, the lattice cube has side 2^lattice_bits lattice units; 1..=30.
     pub lattice_bits: u32,
-    /// u32, CRC-32 of the whole file with this field read as 0 (`compute_checksum`).
+    /// u32, CRC-32 of the header (this field read as 0) followed by the section table
+    /// (`compute_checksum`).
     pub checksum: u32,
+}
+
+/// One entry of the section table: where a section lies and how to verify it.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
+pub struct SectionEntry {
+    /// u32, `SECTION_*`; each kind at most once.
+    pub kind: u32,
+    /// u32, `SECTION_FLAG_*` bits.
+    pub flags: u32,
+    /// u64, byte offset from the start of the file; multiple of 8, after the section table.
+    pub offset: u64,
+    /// u64, length in bytes; for a table, exactly its count × its record size.
+    pub bytes: u64,
+    /// u32, CRC-32 of the section's bytes (0 for `SECTION_PATCHES`: per-patch checksums).
+    pub checksum: u32,
+    /// u32, must be 0.
+    pub reserved: u32,
 }
 
 /// One diamond that the hierarchy splits. Leaf diamonds are not stored; their error is 0.
@@ -200,14 +243,16 @@ pub struct TetRecord {
     pub id_offset: u64,
     /// u32, size of the id stream: exactly `vertex_count` canonical varints (`global_ids.rs`).
     pub id_bytes: u32,
-    /// u32, must be 0.
-    pub reserved: u32,
+    /// u32, CRC-32 of the patch's `patch_bytes` bytes at `patch_offset` (padding included;
+    /// `patch_checksum`), checked the first time the patch is read.
+    pub patch_checksum: u32,
 }
 
-const _: () = assert!(HEADER_SIZE == 248 && HEADER_SIZE & 7 == 0);
+const _: () = assert!(HEADER_SIZE == 200 && HEADER_SIZE & 7 == 0);
+const _: () = assert!(SECTION_ENTRY_SIZE == 32);
 const _: () = assert!(DIAMOND_RECORD_SIZE == 56);
 const _: () = assert!(TET_RECORD_SIZE == 88);
-const _: () = assert!(CHECKSUM_OFFSET == 244);
+const _: () = assert!(CHECKSUM_OFFSET == 196);
 
 impl Header {
     /// A header with `magic` and `version` set and every other field zero.
@@ -247,8 +292,9 @@ pub fn align8(x: u64) -> Option<u64> {
         .map(|v| v & !(TABLE_ALIGN - 1))
 }
 
-/// CRC-32 of `bytes` with the 4 bytes at `CHECKSUM_OFFSET` read as zero; the value the header's
-/// `checksum` must hold. Inputs shorter than the header are hashed as they are.
+/// CRC-32 of `bytes` with the 4 bytes at `CHECKSUM_OFFSET` read as zero: the value
+/// `Header::checksum` must hold when `bytes` is the header followed by the section table.
+/// Inputs shorter than the header are hashed as they are.
 pub fn compute_checksum(bytes: &[u8]) -> u32 {
     let mut hasher = crc32fast::Hasher::new();
     if bytes.len() < CHECKSUM_OFFSET + 4 {
@@ -259,6 +305,22 @@ pub fn compute_checksum(bytes: &[u8]) -> u32 {
         hasher.update(&bytes[CHECKSUM_OFFSET + 4..]);
     }
     hasher.finalize()
+}
+
+/// The value `TetRecord::patch_checksum` holds for a patch's bytes.
+pub fn patch_checksum(patch_bytes: &[u8]) -> u32 {
+    crc32fast::hash(patch_bytes)
+}
+
+/// A short name of a section kind, for messages.
+pub fn section_name(kind: u32) -> String {
+    match kind {
+        SECTION_DIAMONDS => "diamond table".into(),
+        SECTION_TETS => "tet table".into(),
+        SECTION_PATCHES => "patch blob".into(),
+        SECTION_IDS => "id blob".into(),
+        other => format!("section kind {other}"),
+    }
 }
 
 /// Model units per quantisation step on each axis: `(bbox_max − bbox_min) / (2^21 − 1)`, 0 on a

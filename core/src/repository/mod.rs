@@ -6,7 +6,8 @@
 //!   restart over local vertices): `encode_patch` and the zero-copy `PatchView`;
 //! - `global_ids`: each patch's global vertex ids, delta + varint coded in their own blob (the
 //!   CPU's checks need them, the GPU does not);
-//! - `writer`: `write_repository[_file]` (temporary file + rename);
+//! - `writer`: `write_repository[_file]` (temporary file, fsync, rename; stale temporaries of
+//!   killed writers removed);
 //! - `reader`: `Repository::open`, which validates every count, offset and index before use.
 //!   A bad file is an error (`RepositoryError`), never a panic or an out-of-bounds read.
 
@@ -22,4 +23,6 @@ pub use patch::{
     encode_patch, patch_bytes, PatchData, PatchPlacement, PatchSource, PatchView, StripIndices,
 };
 pub use reader::{Repository, RepositoryError};
-pub use writer::{write_repository, write_repository_file, RepositoryContents};
+pub use writer::{
+    remove_stale_temporaries, write_repository, write_repository_file, RepositoryContents,
+};

@@ -1,20 +1,30 @@
 //! The validated reader: memory-maps a repository and checks every count, offset, index and
 //! float before handing out zero-copy views of its tables and patches.
 //!
-//! A bad file is an error, never a panic or an out-of-bounds read: the header is checked first
-//! (size, magic, version, dimension, attribute bits, table ranges with checked arithmetic,
-//! alignment, order), then the checksum, then every record. Patch strips are checked when a
-//! patch is parsed (`Repository::patch`), or all at once by `Repository::validate_patches`.
+//! A bad file is an error, never a panic or an out-of-bounds read. Opening reads the header,
+//! the section table and the directory (diamond and tet tables) and nothing else: magic,
+//! version, header fields, the header checksum, section ranges with checked arithmetic
+//! (8-aligned, inside the file, not overlapping), the directory's checksums, then every record
+//! and the hierarchy's structure (a tree of simplices: every non-root simplex is the child of
+//! exactly one, children stored after their parent; diamonds' parents stored before them), all
+//! in time linear in the directory. A patch is verified the first time it is read (its
+//! checksum, then its strip and ids: `Repository::patch`, `Repository::patch_bytes`), the id
+//! blob's checksum the first time an id is read; `Repository::validate_patches` does it all.
 
 use std::fs::File;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::OnceLock;
 
 use memmap2::Mmap;
 
 use super::format::{
-    compute_checksum, DiamondRecord, Header, TetRecord, ATTR_ALL, DIAMOND_RECORD_SIZE,
-    FORMAT_VERSION, HEADER_SIZE, MAGIC, NO_INDEX, TABLE_ALIGN, TET_RECORD_SIZE,
+    compute_checksum, patch_checksum, section_name, DiamondRecord, Header, SectionEntry, TetRecord,
+    ATTR_ALL, DIAMOND_RECORD_SIZE, FORMAT_VERSION, HEADER_SIZE, MAGIC, MAX_SECTIONS, NO_INDEX,
+    REQUIRED_SECTIONS, SECTION_DIAMONDS, SECTION_ENTRY_SIZE, SECTION_FLAGS_ALL,
+    SECTION_FLAG_OPTIONAL, SECTION_IDS, SECTION_PATCHES, SECTION_TETS, TABLE_ALIGN,
+    TET_RECORD_SIZE,
 };
 use super::patch::{patch_bytes_checked, PatchSource, PatchView};
 
@@ -36,12 +46,32 @@ pub enum RepositoryError {
     BadMagic { found: [u8; 8] },
     /// A repository of another format version.
     #[error(
-        "repository format version {found} is not supported: this build reads version {expected}"
+        "repository format version {found} is not supported: this build reads version {expected} \
+         (rebuild the repository from its input with `tessera build`)"
     )]
     WrongVersion { found: u32, expected: u32 },
-    /// The bytes changed since the file was written.
-    #[error("checksum mismatch: header says {stored:#010x}, contents hash to {computed:#010x}")]
+    /// The header or section table changed since the file was written.
+    #[error(
+        "header checksum mismatch: header says {stored:#010x}, header and section table hash to \
+         {computed:#010x}"
+    )]
     ChecksumMismatch { stored: u32, computed: u32 },
+    /// A checksummed section (diamond table, tet table, id blob) changed since it was written.
+    #[error("{section} checksum mismatch: section table says {stored:#010x}, its bytes hash to {computed:#010x}")]
+    SectionChecksumMismatch {
+        section: String,
+        stored: u32,
+        computed: u32,
+    },
+    /// One patch changed since it was written; the rest of the file may still be drawn.
+    #[error(
+        "patch of tet {tet} is damaged: checksum {stored:#010x} stored, {computed:#010x} computed"
+    )]
+    PatchChecksumMismatch {
+        tet: usize,
+        stored: u32,
+        computed: u32,
+    },
     /// Structurally invalid (the message names the record and the problem).
     #[error("corrupt repository: {0}")]
     Corrupt(String),
@@ -71,7 +101,7 @@ impl Storage {
     }
 }
 
-/// An open, validated repository.
+/// An open repository whose directory is validated; patches are verified on first read.
 pub struct Repository {
     storage: Storage,
     header: Header,
@@ -79,6 +109,15 @@ pub struct Repository {
     tets: Range<usize>,
     patch_blob: Range<usize>,
     id_blob: Range<usize>,
+    /// `SectionEntry::checksum` of the id blob, verified once by `ids_verified`.
+    id_blob_checksum: u32,
+    /// The section table as read.
+    sections: Vec<SectionEntry>,
+    /// Outcome of the one check of the id blob's checksum (the computed value on a mismatch).
+    ids_checked: OnceLock<Result<(), u32>>,
+    /// One bit per tet: its patch checksum was verified. Relaxed atomics: a race only verifies
+    /// twice.
+    patch_verified: Vec<AtomicU64>,
 }
 
 impl std::fmt::Debug for Repository {
@@ -90,10 +129,11 @@ impl std::fmt::Debug for Repository {
 }
 
 impl Repository {
-    /// Memory-maps and validates the repository at `path` (header, checksum, every record).
+    /// Memory-maps the repository at `path` and validates its header, section table and
+    /// directory (checksums, every record, the hierarchy's structure).
     ///
-    /// Cost: one CRC-32 pass over the file plus one pass over the tables; patches are checked
-    /// lazily by `patch`. The file must not be modified while the repository is open (the map
+    /// Cost: linear in the directory (header, section table, diamond and tet tables); the
+    /// blobs are not touched: patches are checked when first read (`patch`, `patch_bytes`). The file must not be modified while the repository is open (the map
     /// would change under the validated views).
     pub fn open(path: impl AsRef<Path>) -> Result<Repository, RepositoryError> {
         let path = path.as_ref();
@@ -130,13 +170,24 @@ impl Repository {
             .map_err(|e| corrupt(format!("diamond table cannot be borrowed in place: {e:?}")))?;
         let tets: &[TetRecord] = bytemuck::try_cast_slice(&bytes[layout.tets.clone()])
             .map_err(|e| corrupt(format!("tet table cannot be borrowed in place: {e:?}")))?;
-        check_tables(&layout.header, diamonds, tets)?;
+        let blobs = BlobSizes {
+            patches: layout.patch_blob.len() as u64,
+            ids: layout.id_blob.len() as u64,
+        };
+        check_tables(&layout.header, diamonds, tets, blobs)?;
+        let patch_verified = (0..tets.len().div_ceil(64))
+            .map(|_| AtomicU64::new(0))
+            .collect();
         Ok(Repository {
             header: layout.header,
             diamonds: layout.diamonds,
             tets: layout.tets,
             patch_blob: layout.patch_blob,
             id_blob: layout.id_blob,
+            id_blob_checksum: layout.id_blob_checksum,
+            sections: layout.sections,
+            ids_checked: OnceLock::new(),
+            patch_verified,
             storage,
         })
     }
@@ -144,6 +195,11 @@ impl Repository {
     /// The header.
     pub fn header(&self) -> &Header {
         &self.header
+    }
+
+    /// The section table, as the file lists it.
+    pub fn sections(&self) -> &[SectionEntry] {
+        &self.sections
     }
 
     /// The diamond table, borrowed from the file.
@@ -157,24 +213,74 @@ impl Repository {
         bytemuck::cast_slice(&self.storage.bytes()[self.tets.clone()])
     }
 
-    /// The whole patch blob (every `TetRecord::patch_offset` is relative to its start).
+    /// The whole patch blob (every `TetRecord::patch_offset` is relative to its start), *not
+    /// verified*: readers of single patches use `patch_bytes` or `patch`.
     pub fn patch_blob(&self) -> &[u8] {
         &self.storage.bytes()[self.patch_blob.clone()]
     }
 
-    /// The whole id blob (every `TetRecord::id_offset` is relative to its start).
+    /// The whole id blob (every `TetRecord::id_offset` is relative to its start), *not
+    /// verified*: see `verify_ids`.
     pub fn id_blob(&self) -> &[u8] {
         &self.storage.bytes()[self.id_blob.clone()]
     }
 
-    /// Parses and validates the patch of tet `tet_index` (one pass over its strip and one over
-    /// its id stream).
-    pub fn patch(&self, tet_index: usize) -> Result<PatchView<'_>, RepositoryError> {
+    /// Checks the id blob's checksum (once per open repository; later calls return the first
+    /// outcome). Cost: one pass over the id blob, which only the CPU's checks read.
+    pub fn verify_ids(&self) -> Result<(), RepositoryError> {
+        let outcome = *self.ids_checked.get_or_init(|| {
+            let computed = crc32fast::hash(self.id_blob());
+            if computed == self.id_blob_checksum {
+                Ok(())
+            } else {
+                Err(computed)
+            }
+        });
+        outcome.map_err(|computed| RepositoryError::SectionChecksumMismatch {
+            section: section_name(SECTION_IDS),
+            stored: self.id_blob_checksum,
+            computed,
+        })
+    }
+
+    fn tet(&self, tet_index: usize) -> Result<&TetRecord, RepositoryError> {
         let tets = self.tets();
-        let tet = tets.get(tet_index).ok_or(RepositoryError::NoSuchTet {
+        tets.get(tet_index).ok_or(RepositoryError::NoSuchTet {
             index: tet_index,
             count: tets.len(),
-        })?;
+        })
+    }
+
+    /// The encoded patch of tet `tet_index` (what a renderer uploads), its checksum verified
+    /// the first time it is read: one damaged patch is `PatchChecksumMismatch` naming the tet,
+    /// and the rest of the repository stays readable. Its strip is not parsed (`patch` does).
+    pub fn patch_bytes(&self, tet_index: usize) -> Result<&[u8], RepositoryError> {
+        let tet = self.tet(tet_index)?;
+        // In range: `check_tables` checked every patch range against the blob.
+        let start = tet.patch_offset as usize;
+        let bytes = &self.patch_blob()[start..start + tet.patch_bytes as usize];
+        let (word, bit) = (tet_index / 64, 1u64 << (tet_index % 64));
+        if self.patch_verified[word].load(Ordering::Relaxed) & bit == 0 {
+            let computed = patch_checksum(bytes);
+            if computed != tet.patch_checksum {
+                return Err(RepositoryError::PatchChecksumMismatch {
+                    tet: tet_index,
+                    stored: tet.patch_checksum,
+                    computed,
+                });
+            }
+            self.patch_verified[word].fetch_or(bit, Ordering::Relaxed);
+        }
+        Ok(bytes)
+    }
+
+    /// Parses and validates the patch of tet `tet_index`: its checksum (first read only), then
+    /// one pass over its strip and one over its id stream (the id blob's checksum is verified
+    /// on the first call, see `verify_ids`).
+    pub fn patch(&self, tet_index: usize) -> Result<PatchView<'_>, RepositoryError> {
+        self.patch_bytes(tet_index)?;
+        self.verify_ids()?;
+        let tet = self.tet(tet_index)?;
         let source = PatchSource {
             patch_blob: self.patch_blob(),
             id_blob: self.id_blob(),
@@ -187,7 +293,8 @@ impl Repository {
         })
     }
 
-    /// Parses every patch: after this, `patch` cannot fail. Cost: one pass over both blobs.
+    /// Verifies and parses every patch: after this, `patch` cannot fail. Cost: one pass over
+    /// both blobs.
     pub fn validate_patches(&self) -> Result<(), RepositoryError> {
         (0..self.tets().len()).try_for_each(|i| self.patch(i).map(drop))
     }
@@ -198,16 +305,19 @@ impl Repository {
     }
 }
 
-/// Where the tables lie in a file whose header was checked.
+/// Where the sections lie in a file whose header and section table were checked.
 struct Layout {
     header: Header,
     diamonds: Range<usize>,
     tets: Range<usize>,
     patch_blob: Range<usize>,
     id_blob: Range<usize>,
+    id_blob_checksum: u32,
+    sections: Vec<SectionEntry>,
 }
 
-/// Checks the header and the table ranges of `bytes`, then the checksum.
+/// Checks the header, its checksum and the section table of `bytes`, then the directory's
+/// checksums (the diamond and tet tables; not the blobs).
 fn check_layout(bytes: &[u8]) -> Result<Layout, RepositoryError> {
     let len = bytes.len() as u64;
     if bytes.len() < HEADER_SIZE {
@@ -225,51 +335,56 @@ fn check_layout(bytes: &[u8]) -> Result<Layout, RepositoryError> {
             expected: FORMAT_VERSION,
         });
     }
-    check_header_fields(&header)?;
-    let diamonds = table_range(
-        "diamond table",
-        header.diamond_table_offset,
-        header.diamond_count,
-        DIAMOND_RECORD_SIZE,
-        HEADER_SIZE as u64,
-        len,
-    )?;
-    let tets = table_range(
-        "tet table",
-        header.tet_table_offset,
-        header.tet_count,
-        TET_RECORD_SIZE,
-        diamonds.end as u64,
-        len,
-    )?;
-    let patch_blob = table_range(
-        "patch blob",
-        header.patch_blob_offset,
-        header.patch_blob_bytes,
-        1,
-        tets.end as u64,
-        len,
-    )?;
-    let id_blob = table_range(
-        "id blob",
-        header.id_blob_offset,
-        header.id_blob_bytes,
-        1,
-        patch_blob.end as u64,
-        len,
-    )?;
-    if id_blob.end as u64 != len {
+    let required = REQUIRED_SECTIONS.len() as u32;
+    if !(required..=MAX_SECTIONS).contains(&header.section_count) {
         return Err(corrupt(format!(
-            "file is {len} bytes but its tables end at {}",
-            id_blob.end
+            "{} sections listed, not {required}..={MAX_SECTIONS}",
+            header.section_count
         )));
     }
-    let computed = compute_checksum(bytes);
+    let table_end = HEADER_SIZE + header.section_count as usize * SECTION_ENTRY_SIZE;
+    if bytes.len() < table_end {
+        return Err(corrupt(format!(
+            "file is {len} bytes, too short for the header and its {}-entry section table \
+             ({table_end} bytes)",
+            header.section_count
+        )));
+    }
+    let computed = compute_checksum(&bytes[..table_end]);
     if computed != header.checksum {
         return Err(RepositoryError::ChecksumMismatch {
             stored: header.checksum,
             computed,
         });
+    }
+    check_header_fields(&header)?;
+    let entries: Vec<SectionEntry> = bytes[HEADER_SIZE..table_end]
+        .chunks_exact(SECTION_ENTRY_SIZE)
+        .map(bytemuck::pod_read_unaligned)
+        .collect();
+    let ranges = section_ranges(&header, &entries, table_end as u64, len)?;
+    let find = |kind: u32| {
+        let i = entries.iter().position(|e| e.kind == kind);
+        // Present: `section_ranges` requires every required kind.
+        let i = i.expect("required section checked");
+        (ranges[i].clone(), entries[i].checksum)
+    };
+    let (diamonds, diamond_sum) = find(SECTION_DIAMONDS);
+    let (tets, tet_sum) = find(SECTION_TETS);
+    let (patch_blob, _) = find(SECTION_PATCHES);
+    let (id_blob, id_blob_checksum) = find(SECTION_IDS);
+    for (kind, range, stored) in [
+        (SECTION_DIAMONDS, &diamonds, diamond_sum),
+        (SECTION_TETS, &tets, tet_sum),
+    ] {
+        let computed = crc32fast::hash(&bytes[range.clone()]);
+        if computed != stored {
+            return Err(RepositoryError::SectionChecksumMismatch {
+                section: section_name(kind),
+                stored,
+                computed,
+            });
+        }
     }
     Ok(Layout {
         header,
@@ -277,16 +392,97 @@ fn check_layout(bytes: &[u8]) -> Result<Layout, RepositoryError> {
         tets,
         patch_blob,
         id_blob,
+        id_blob_checksum,
+        sections: entries,
     })
 }
 
-/// Byte range of a table of `count` records at `offset`, which must be 8-aligned, at or after
-/// `after` (the end of what precedes it) and end within `len`.
+/// The byte range of every section entry, checked: known flags, zero reserved field, each
+/// kind at most once, every required kind present, unknown kinds only when optional, tables
+/// exactly their count × record size, 8-aligned, after the section table, inside the file, no
+/// two overlapping, and the file ending where the last section ends.
+fn section_ranges(
+    h: &Header,
+    entries: &[SectionEntry],
+    table_end: u64,
+    len: u64,
+) -> Result<Vec<Range<usize>>, RepositoryError> {
+    let mut ranges = Vec::with_capacity(entries.len());
+    for (i, e) in entries.iter().enumerate() {
+        let name = section_name(e.kind);
+        if e.flags & !SECTION_FLAGS_ALL != 0 || e.reserved != 0 {
+            return Err(corrupt(format!(
+                "section {i} ({name}): unknown flags {:#x} or reserved field {}",
+                e.flags, e.reserved
+            )));
+        }
+        if entries[..i].iter().any(|o| o.kind == e.kind) {
+            return Err(corrupt(format!("section {i}: a second {name}")));
+        }
+        let record = match e.kind {
+            SECTION_DIAMONDS => Some((h.diamond_count, DIAMOND_RECORD_SIZE)),
+            SECTION_TETS => Some((h.tet_count, TET_RECORD_SIZE)),
+            SECTION_PATCHES | SECTION_IDS => None,
+            _ if e.flags & SECTION_FLAG_OPTIONAL != 0 => None,
+            _ => {
+                return Err(corrupt(format!(
+                    "section {i} is of kind {}, which this build does not know and may not \
+                     skip: the repository was made by a newer tessera",
+                    e.kind
+                )))
+            }
+        };
+        if let Some((count, size)) = record {
+            if count.checked_mul(size as u64) != Some(e.bytes) {
+                return Err(corrupt(format!(
+                    "{name} is {} bytes, but {count} records take {count} × {size}",
+                    e.bytes
+                )));
+            }
+        }
+        ranges.push(table_range(&name, e.offset, e.bytes, table_end, len)?);
+    }
+    if let Some(kind) = REQUIRED_SECTIONS
+        .iter()
+        .find(|&&k| !entries.iter().any(|e| e.kind == k))
+    {
+        return Err(corrupt(format!("no {} section", section_name(*kind))));
+    }
+    let mut order: Vec<usize> = (0..ranges.len()).collect();
+    order.sort_by_key(|&i| (ranges[i].start, ranges[i].end));
+    for pair in order.windows(2) {
+        let (a, b) = (&ranges[pair[0]], &ranges[pair[1]]);
+        if b.start < a.end {
+            return Err(corrupt(format!(
+                "{} at {}..{} overlaps {} at {}..{}",
+                section_name(entries[pair[1]].kind),
+                b.start,
+                b.end,
+                section_name(entries[pair[0]].kind),
+                a.start,
+                a.end
+            )));
+        }
+    }
+    let end = ranges
+        .iter()
+        .map(|r| r.end as u64)
+        .max()
+        .unwrap_or(table_end);
+    if end != len {
+        return Err(corrupt(format!(
+            "file is {len} bytes but its sections end at {end}"
+        )));
+    }
+    Ok(ranges)
+}
+
+/// Byte range of a section of `bytes` at `offset`, which must be 8-aligned, at or after `after`
+/// (the end of the section table) and end within `len`.
 fn table_range(
     name: &str,
     offset: u64,
-    count: u64,
-    record_size: usize,
+    bytes: u64,
     after: u64,
     len: u64,
 ) -> Result<Range<usize>, RepositoryError> {
@@ -297,16 +493,23 @@ fn table_range(
     }
     if offset < after {
         return Err(corrupt(format!(
-            "{name} at offset {offset} overlaps what precedes it, which ends at {after}"
+            "{name} at offset {offset} overlaps the section table, which ends at {after}"
         )));
     }
-    match count.checked_mul(record_size as u64).and_then(|b| offset.checked_add(b)) {
+    match offset.checked_add(bytes) {
         // end ≤ len, and len came from a slice length, so both fit in usize.
         Some(end) if end <= len => Ok(offset as usize..end as usize),
         _ => Err(corrupt(format!(
-            "{name} of {count} × {record_size} bytes at offset {offset} exceeds the file of {len} bytes"
+            "{name} of {bytes} bytes at offset {offset} exceeds the file of {len} bytes"
         ))),
     }
+}
+
+/// Sizes of the patch and id blobs, which every patch and id range must fit.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct BlobSizes {
+    pub patches: u64,
+    pub ids: u64,
 }
 
 fn finite<const N: usize>(v: [f32; N]) -> bool {
@@ -325,10 +528,16 @@ pub(crate) fn check_header_fields(h: &Header) -> Result<(), RepositoryError> {
             h.attributes & !ATTR_ALL
         )));
     }
-    if h.reserved != 0 {
+    if h.tet_count >= NO_INDEX as u64 || h.diamond_count >= NO_INDEX as u64 {
         return Err(corrupt(format!(
-            "reserved header field is {}, not 0",
-            h.reserved
+            "{} tets and {} diamonds: tables are indexed by u32, with {NO_INDEX} reserved",
+            h.tet_count, h.diamond_count
+        )));
+    }
+    if h.input_vertex_count > 1 << 32 {
+        return Err(corrupt(format!(
+            "{} input vertices: global ids are u32",
+            h.input_vertex_count
         )));
     }
     if !(1..=30).contains(&h.lattice_bits) {
@@ -372,12 +581,17 @@ pub(crate) fn check_header_fields(h: &Header) -> Result<(), RepositoryError> {
 }
 
 /// Checks every record against the header and the other records (patch and id ranges inside
-/// their blobs; the patches' contents are checked by `PatchView::parse`). `h` must have passed
+/// their blobs; the patches' contents are checked by `PatchView::parse`), and the structure of
+/// the hierarchy, in time and memory linear in the tables: diamonds' parents stored before
+/// them; a diamond's simplices exactly `tet_count` tets, each created by one of the diamond's
+/// parents; every non-root tet the child of exactly one tet (a tree, not a DAG: a crafted
+/// table whose tets share children would make traversals exponential). `h` must have passed
 /// `check_header_fields`, and its counts must match the slices.
 pub(crate) fn check_tables(
     h: &Header,
     diamonds: &[DiamondRecord],
     tets: &[TetRecord],
+    blobs: BlobSizes,
 ) -> Result<(), RepositoryError> {
     debug_assert_eq!(
         (h.diamond_count, h.tet_count),
@@ -400,11 +614,8 @@ pub(crate) fn check_tables(
         }
         for (k, &p) in d.parents.iter().enumerate() {
             if k < d.parent_count as usize {
-                if p as usize >= diamonds.len() || p as usize == i {
-                    return fail(format!(
-                        "parent {k} is {p}, not another of the {} diamonds",
-                        diamonds.len()
-                    ));
+                if p as usize >= i {
+                    return fail(format!("parent {k} is {p}, not a diamond stored before it"));
                 }
             } else if p != NO_INDEX {
                 return fail(format!("unused parent slot {k} is {p}, not NO_INDEX"));
@@ -426,6 +637,9 @@ pub(crate) fn check_tables(
     }
     let diamond_count = diamonds.len() as u64;
     let in_table = |x: u32| x == NO_INDEX || (x as u64) < diamond_count;
+    // Tets per diamond, and whether each tet was already claimed as a child.
+    let mut members = vec![0u32; diamonds.len()];
+    let mut is_child = vec![false; tets.len()];
     for (i, t) in tets.iter().enumerate() {
         let fail = |what: String| Err(corrupt(format!("tet {i}: {what}")));
         if !(finite(t.center) && t.radius.is_finite() && t.radius >= 0.0) {
@@ -461,11 +675,27 @@ pub(crate) fn check_tables(
                 t.diamond, t.first_child
             ));
         }
-        if t.diamond != NO_INDEX && diamonds[t.diamond as usize].level != t.level {
-            return fail(format!(
-                "level {} differs from its diamond's {}",
-                t.level, diamonds[t.diamond as usize].level
-            ));
+        if t.diamond != NO_INDEX {
+            let d = &diamonds[t.diamond as usize];
+            if d.level != t.level {
+                return fail(format!(
+                    "level {} differs from its diamond's {}",
+                    t.level, d.level
+                ));
+            }
+            let created_by_a_parent = match t.parent_diamond {
+                NO_INDEX => d.parent_count == 0,
+                p => d.parents().contains(&p),
+            };
+            if !created_by_a_parent {
+                return fail(format!(
+                    "parent diamond {} is not a parent of its diamond {} (parents {:?})",
+                    t.parent_diamond,
+                    t.diamond,
+                    d.parents()
+                ));
+            }
+            members[t.diamond as usize] += 1;
         }
         if t.first_child != NO_INDEX {
             let c = t.first_child as usize;
@@ -475,6 +705,13 @@ pub(crate) fn check_tables(
                     c as u64 + 1,
                     tets.len()
                 ));
+            }
+            for k in [c, c + 1] {
+                if std::mem::replace(&mut is_child[k], true) {
+                    return fail(format!(
+                        "child {k} is also another tet's child: the hierarchy must be a tree"
+                    ));
+                }
             }
             for child in &tets[c..c + 2] {
                 if child.parent_diamond != t.diamond || Some(child.level) != t.level.checked_add(1)
@@ -493,10 +730,10 @@ pub(crate) fn check_tables(
             ));
         }
         let end = t.patch_offset as u128 + t.patch_bytes as u128;
-        if end > h.patch_blob_bytes as u128 {
+        if end > blobs.patches as u128 {
             return fail(format!(
                 "patch range {}..{end} exceeds patch blob of {} bytes",
-                t.patch_offset, h.patch_blob_bytes
+                t.patch_offset, blobs.patches
             ));
         }
         let expected = patch_bytes_checked(
@@ -511,10 +748,10 @@ pub(crate) fn check_tables(
             ));
         }
         let id_end = t.id_offset as u128 + t.id_bytes as u128;
-        if id_end > h.id_blob_bytes as u128 {
+        if id_end > blobs.ids as u128 {
             return fail(format!(
                 "id range {}..{id_end} exceeds id blob of {} bytes",
-                t.id_offset, h.id_blob_bytes
+                t.id_offset, blobs.ids
             ));
         }
         // Every id takes at least one byte: a cheap bound before the stream is decoded.
@@ -524,15 +761,27 @@ pub(crate) fn check_tables(
                 t.vertex_count, t.id_bytes
             ));
         }
-        if t.reserved != 0 {
-            return fail(format!("reserved field is {}, not 0", t.reserved));
-        }
         if t.triangle_count > t.strip_index_count.saturating_sub(2) {
             return fail(format!(
                 "{} triangles cannot fit in {} strip indices",
                 t.triangle_count, t.strip_index_count
             ));
         }
+    }
+    if let Some(i) = (h.root_tet_count as usize..tets.len()).find(|&i| !is_child[i]) {
+        return Err(corrupt(format!(
+            "tet {i} is neither a root nor any tet's child"
+        )));
+    }
+    if let Some((i, d)) = diamonds
+        .iter()
+        .enumerate()
+        .find(|&(i, d)| members[i] != d.tet_count as u32)
+    {
+        return Err(corrupt(format!(
+            "diamond {i}: {} simplices, but {} tets belong to it",
+            d.tet_count, members[i]
+        )));
     }
     Ok(())
 }

@@ -1,6 +1,8 @@
-//! The writer: lays out header, diamond table, tet table, patch blob and id blob (in that
-//! order, each 8-aligned), fills the header's bookkeeping fields and checksum, and writes the file through
-//! a temporary file and a rename. Mirrors `reader.rs`: whatever it writes, `Repository` opens.
+//! The writer: lays out header, section table, diamond table, tet table, patch blob and id
+//! blob (in that order, each section 8-aligned), fills the header's bookkeeping fields, the
+//! section table, every patch's checksum and the checksums, and writes the file through a
+//! temporary file, fsync and a rename. Mirrors `reader.rs`: whatever it writes, `Repository`
+//! opens.
 
 use std::ffi::OsString;
 use std::fs::{self, File};
@@ -8,21 +10,23 @@ use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
 
 use super::format::{
-    align8, compute_checksum, DiamondRecord, Header, TetRecord, DIAMOND_RECORD_SIZE,
-    FORMAT_VERSION, HEADER_SIZE, MAGIC, TET_RECORD_SIZE,
+    align8, compute_checksum, patch_checksum, DiamondRecord, Header, SectionEntry, TetRecord,
+    DIAMOND_RECORD_SIZE, FORMAT_VERSION, HEADER_SIZE, MAGIC, REQUIRED_SECTIONS, SECTION_DIAMONDS,
+    SECTION_ENTRY_SIZE, SECTION_IDS, SECTION_PATCHES, SECTION_TETS, TET_RECORD_SIZE,
 };
-use super::reader::{check_header_fields, check_tables, RepositoryError};
+use super::reader::{check_header_fields, check_tables, BlobSizes, RepositoryError};
 
 /// Everything a repository holds.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RepositoryContents {
     /// The caller fills dimension, attributes, root_tet_count, input counts, origin, bbox,
-    /// position step and lattice; the writer fills magic, version, diamond/tet counts, offsets,
-    /// blob sizes and checksum (whatever they held is ignored).
+    /// position step and lattice; the writer fills magic, version, section count, diamond/tet
+    /// counts and checksum (whatever they held is ignored).
     pub header: Header,
     /// The diamond table (`Header::diamond_count` = its length).
     pub diamonds: Vec<DiamondRecord>,
-    /// The tet table, roots first (`Header::tet_count` = its length).
+    /// The tet table, roots first (`Header::tet_count` = its length). The writer fills each
+    /// `patch_checksum` (whatever it held is ignored).
     pub tets: Vec<TetRecord>,
     /// The patches, each at its tet's `patch_offset` (see `patch::encode_patch`).
     pub patch_blob: Vec<u8>,
@@ -30,99 +34,187 @@ pub struct RepositoryContents {
     pub id_blob: Vec<u8>,
 }
 
-/// Fills the writer's header fields (checksum 0) and validates the contents as the reader
-/// would, so an invalid repository is never written.
-fn lay_out(contents: &RepositoryContents) -> Result<Header, RepositoryError> {
-    let overflow = || RepositoryError::Corrupt("tables overflow a u64 file offset".into());
+/// What `lay_out` computed: the header and section table as written, and the tets with their
+/// patch checksums.
+struct Laid {
+    header: Header,
+    entries: [SectionEntry; 4],
+    tets: Vec<TetRecord>,
+}
+
+/// Fills the writer's header fields, the section table and the patch checksums, and validates
+/// the contents as the reader would, so an invalid repository is never written.
+fn lay_out(contents: &RepositoryContents) -> Result<Laid, RepositoryError> {
+    let overflow = || RepositoryError::Corrupt("sections overflow a u64 file offset".into());
     let mut h = contents.header;
     h.magic = MAGIC;
     h.version = FORMAT_VERSION;
+    h.section_count = REQUIRED_SECTIONS.len() as u32;
     h.diamond_count = contents.diamonds.len() as u64;
     h.tet_count = contents.tets.len() as u64;
-    h.patch_blob_bytes = contents.patch_blob.len() as u64;
-    h.id_blob_bytes = contents.id_blob.len() as u64;
-    h.diamond_table_offset = align8(HEADER_SIZE as u64).ok_or_else(overflow)?;
-    h.tet_table_offset =
-        align8(h.diamond_table_offset + h.diamond_count * DIAMOND_RECORD_SIZE as u64)
-            .ok_or_else(overflow)?;
-    h.patch_blob_offset =
-        align8(h.tet_table_offset + h.tet_count * TET_RECORD_SIZE as u64).ok_or_else(overflow)?;
-    h.id_blob_offset = h
-        .patch_blob_offset
-        .checked_add(h.patch_blob_bytes)
-        .and_then(align8)
-        .ok_or_else(overflow)?;
-    h.id_blob_offset
-        .checked_add(h.id_blob_bytes)
-        .ok_or_else(overflow)?;
     h.checksum = 0;
     check_header_fields(&h)?;
-    check_tables(&h, &contents.diamonds, &contents.tets)?;
-    Ok(h)
+    let blobs = BlobSizes {
+        patches: contents.patch_blob.len() as u64,
+        ids: contents.id_blob.len() as u64,
+    };
+    // Patch ranges are checked before they are hashed.
+    check_tables(&h, &contents.diamonds, &contents.tets, blobs)?;
+    let mut tets = contents.tets.clone();
+    for t in &mut tets {
+        let start = t.patch_offset as usize;
+        t.patch_checksum =
+            patch_checksum(&contents.patch_blob[start..start + t.patch_bytes as usize]);
+    }
+    let sizes = [
+        (
+            SECTION_DIAMONDS,
+            h.diamond_count * DIAMOND_RECORD_SIZE as u64,
+        ),
+        (SECTION_TETS, h.tet_count * TET_RECORD_SIZE as u64),
+        (SECTION_PATCHES, blobs.patches),
+        (SECTION_IDS, blobs.ids),
+    ];
+    let mut at = (HEADER_SIZE + REQUIRED_SECTIONS.len() * SECTION_ENTRY_SIZE) as u64;
+    let mut entries = [SectionEntry::default(); 4];
+    for (entry, (kind, bytes)) in entries.iter_mut().zip(sizes) {
+        let offset = align8(at).ok_or_else(overflow)?;
+        at = offset.checked_add(bytes).ok_or_else(overflow)?;
+        let checksum = match kind {
+            SECTION_DIAMONDS => crc32fast::hash(bytemuck::cast_slice(&contents.diamonds)),
+            SECTION_TETS => crc32fast::hash(bytemuck::cast_slice(&tets)),
+            SECTION_IDS => crc32fast::hash(&contents.id_blob),
+            _ => 0,
+        };
+        *entry = SectionEntry {
+            kind,
+            flags: 0,
+            offset,
+            bytes,
+            checksum,
+            reserved: 0,
+        };
+    }
+    let mut directory = bytemuck::bytes_of(&h).to_vec();
+    directory.extend_from_slice(bytemuck::cast_slice(&entries));
+    h.checksum = compute_checksum(&directory);
+    Ok(Laid {
+        header: h,
+        entries,
+        tets,
+    })
 }
 
-/// The file, in order, as byte slices (zero padding between tables).
-fn sections<'a>(header: &'a Header, contents: &'a RepositoryContents) -> [&'a [u8]; 9] {
-    const ZEROS: [u8; 8] = [0; 8];
-    let pad = |from: u64, to: u64| &ZEROS[..(to - from) as usize];
-    let diamonds_end =
-        header.diamond_table_offset + header.diamond_count * DIAMOND_RECORD_SIZE as u64;
-    let tets_end = header.tet_table_offset + header.tet_count * TET_RECORD_SIZE as u64;
-    let patches_end = header.patch_blob_offset + header.patch_blob_bytes;
-    [
-        bytemuck::bytes_of(header),
-        pad(HEADER_SIZE as u64, header.diamond_table_offset),
-        bytemuck::cast_slice(&contents.diamonds),
-        pad(diamonds_end, header.tet_table_offset),
-        bytemuck::cast_slice(&contents.tets),
-        pad(tets_end, header.patch_blob_offset),
-        &contents.patch_blob,
-        pad(patches_end, header.id_blob_offset),
-        &contents.id_blob,
-    ]
-}
-
-/// Writes `header` (checksum still 0) and the contents to `w`, returning the byte count.
+/// Writes the laid-out file to `w`, returning the byte count.
 fn write_laid_out<W: Write>(
     mut w: W,
-    mut header: Header,
+    laid: &Laid,
     contents: &RepositoryContents,
 ) -> io::Result<u64> {
-    let mut hasher = crc32fast::Hasher::new();
-    for s in sections(&header, contents) {
-        hasher.update(s);
-    }
-    header.checksum = hasher.finalize();
-    debug_assert_eq!(
-        header.checksum,
-        compute_checksum(&sections(&header, contents).concat()),
-        "streamed checksum vs the reader's"
-    );
-    let mut total = 0u64;
-    for s in sections(&header, contents) {
-        w.write_all(s)?;
-        total += s.len() as u64;
+    const ZEROS: [u8; 8] = [0; 8];
+    w.write_all(bytemuck::bytes_of(&laid.header))?;
+    w.write_all(bytemuck::cast_slice(&laid.entries))?;
+    let mut at = (HEADER_SIZE + laid.entries.len() * SECTION_ENTRY_SIZE) as u64;
+    for entry in &laid.entries {
+        let bytes: &[u8] = match entry.kind {
+            SECTION_DIAMONDS => bytemuck::cast_slice(&contents.diamonds),
+            SECTION_TETS => bytemuck::cast_slice(&laid.tets),
+            SECTION_PATCHES => &contents.patch_blob,
+            _ => &contents.id_blob,
+        };
+        w.write_all(&ZEROS[..(entry.offset - at) as usize])?;
+        w.write_all(bytes)?;
+        at = entry.offset + bytes.len() as u64;
     }
     w.flush()?;
-    debug_assert_eq!(total, header.id_blob_offset + header.id_blob_bytes);
-    Ok(total)
+    Ok(at)
 }
 
 /// Writes a repository to `w` and returns the number of bytes written.
 ///
-/// Fills magic, version, counts, offsets, blob sizes and the checksum, and first runs the
+/// Fills magic, version, counts, the section table, patch checksums and checksums, and first
+/// runs the
 /// reader's header and record checks on the contents: invalid contents (an index out of range,
 /// a patch outside the blob, a NaN radius, …) fail with `ErrorKind::InvalidInput` wrapping the
 /// `RepositoryError`, before anything is written. Patch strips and id streams are not
 /// re-checked (`encode_patch` writes them correctly by construction).
 pub fn write_repository<W: Write>(w: W, contents: &RepositoryContents) -> io::Result<u64> {
-    let header = lay_out(contents).map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e))?;
-    write_laid_out(w, header, contents)
+    let laid = lay_out(contents).map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e))?;
+    write_laid_out(w, &laid, contents)
 }
 
-/// Writes a repository to `path` atomically: to `.{file name}.tmp-{pid}` in the same
-/// directory, synced, then renamed over `path`. On any error the temporary file is removed and
-/// `path` is untouched. Returns the file size.
+/// The temporary name a write of `path` by process `pid` uses: `.{file name}.tmp-{pid}` in the
+/// same directory (hidden, and matched by the repository's `.gitignore`).
+fn temporary_path(path: &Path, pid: u32) -> io::Result<PathBuf> {
+    let file_name = path.file_name().ok_or_else(|| {
+        io::Error::new(
+            io::ErrorKind::InvalidInput,
+            "repository path has no file name",
+        )
+    })?;
+    let mut tmp_name = OsString::from(".");
+    tmp_name.push(file_name);
+    tmp_name.push(format!(".tmp-{pid}"));
+    Ok(match path.parent() {
+        Some(dir) if !dir.as_os_str().is_empty() => dir.join(tmp_name),
+        _ => PathBuf::from(tmp_name),
+    })
+}
+
+/// True when process `pid` may still be running (Linux: `/proc/PID` exists; elsewhere every
+/// process is assumed alive, so nothing of another writer is ever removed).
+fn process_alive(pid: u32) -> bool {
+    if pid == std::process::id() {
+        return true;
+    }
+    if cfg!(target_os = "linux") {
+        Path::new("/proc").join(pid.to_string()).exists()
+    } else {
+        true
+    }
+}
+
+/// Removes what killed writers of `path` left: temporary files `.{file name}.tmp-{pid}` whose
+/// process is gone (a write killed by SIGKILL or a power cut cannot remove its own). A write in
+/// progress by a live process is left alone. Returns the paths removed.
+pub fn remove_stale_temporaries(path: &Path) -> io::Result<Vec<PathBuf>> {
+    let probe = temporary_path(path, 0)?;
+    let prefix = probe
+        .file_name()
+        .and_then(|n| n.to_str())
+        .and_then(|n| n.strip_suffix('0'))
+        .map(str::to_owned);
+    let dir = match probe.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let (Some(prefix), Ok(entries)) = (prefix, fs::read_dir(&dir)) else {
+        return Ok(Vec::new());
+    };
+    let mut removed = Vec::new();
+    for entry in entries {
+        let entry = entry?;
+        let name = entry.file_name();
+        let Some(pid) = name
+            .to_str()
+            .and_then(|n| n.strip_prefix(&prefix))
+            .and_then(|p| p.parse::<u32>().ok())
+        else {
+            continue;
+        };
+        if !process_alive(pid) && entry.file_type()?.is_file() {
+            fs::remove_file(entry.path())?;
+            removed.push(entry.path());
+        }
+    }
+    Ok(removed)
+}
+
+/// Writes a repository to `path` atomically: removes what killed writers of `path` left
+/// (`remove_stale_temporaries`), writes `.{file name}.tmp-{pid}` in the same directory, syncs
+/// it, renames it over `path` and syncs the directory. On any error the temporary file is
+/// removed and `path` is untouched; a SIGKILL at any moment leaves nothing at `path` but a
+/// complete repository (the old one or the new one). Returns the file size.
 ///
 /// Invalid contents fail as in `write_repository` (the `RepositoryError` itself, before any
 /// file is created).
@@ -130,30 +222,16 @@ pub fn write_repository_file(
     path: &Path,
     contents: &RepositoryContents,
 ) -> Result<u64, RepositoryError> {
-    let header = lay_out(contents)?;
+    let laid = lay_out(contents)?;
     let io_error = |path: &Path, source| RepositoryError::Io {
         path: path.to_path_buf(),
         source,
     };
-    let Some(file_name) = path.file_name() else {
-        return Err(io_error(
-            path,
-            io::Error::new(
-                io::ErrorKind::InvalidInput,
-                "repository path has no file name",
-            ),
-        ));
-    };
-    let mut tmp_name = OsString::from(".");
-    tmp_name.push(file_name);
-    tmp_name.push(format!(".tmp-{}", std::process::id()));
-    let tmp: PathBuf = match path.parent() {
-        Some(dir) if !dir.as_os_str().is_empty() => dir.join(tmp_name),
-        _ => PathBuf::from(tmp_name),
-    };
+    let tmp = temporary_path(path, std::process::id()).map_err(|e| io_error(path, e))?;
+    remove_stale_temporaries(path).map_err(|e| io_error(path, e))?;
     let write = || -> io::Result<u64> {
         let mut out = BufWriter::new(File::create(&tmp)?);
-        let bytes = write_laid_out(&mut out, header, contents)?;
+        let bytes = write_laid_out(&mut out, &laid, contents)?;
         out.into_inner()
             .map_err(io::IntoInnerError::into_error)?
             .sync_all()?;
@@ -167,5 +245,12 @@ pub fn write_repository_file(
         let _ = fs::remove_file(&tmp);
         io_error(path, e)
     })?;
+    // The rename is durable once the directory is synced (best effort: not every platform
+    // can open a directory).
+    if let Some(dir) = tmp.parent().filter(|d| !d.as_os_str().is_empty()) {
+        if let Ok(d) = File::open(dir) {
+            let _ = d.sync_all();
+        }
+    }
     Ok(bytes)
 }

@@ -93,7 +93,7 @@ mod tests {
                 triangle_count: patch.triangle_count,
                 id_offset: placement.id_offset,
                 id_bytes: placement.id_bytes,
-                reserved: 0,
+                patch_checksum: 0,
             });
         }
         let header = Header {
