@@ -793,11 +793,32 @@ fn gltf_bytes_refuse_external_buffers_and_bad_accessors() {
             r#""children":[3,3]"#,
             "node reached twice",
         ),
+        // gltf-json's validation indexed the accessors with this before checking it.
+        (
+            r#""POSITION":0"#,
+            r#""POSITION":7"#,
+            "accessor 7 does not exist",
+        ),
     ] {
         assert!(json.contains(from));
         let m = message(&json.replacen(from, to, 1));
         assert!(m.starts_with("tetra.glb: ") && m.contains(fragment), "{m}");
     }
+}
+
+#[test]
+fn glb_declaring_a_length_shorter_than_its_header_is_an_error() {
+    // Found by the gltf fuzzer: the gltf crate computed `length - 12` unchecked.
+    let (json, bin) = tetra_gltf(None);
+    let mut bytes = glb(&json, &bin);
+    bytes[8..12].copy_from_slice(&0u32.to_le_bytes());
+    let m = load_mesh_bytes(Path::new("short.glb"), &bytes)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        m.starts_with("short.glb: ") && m.contains("12-byte header"),
+        "{m}"
+    );
 }
 
 #[test]

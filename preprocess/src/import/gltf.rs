@@ -68,8 +68,43 @@ struct Builder<'a> {
 /// Reads a .gltf or .glb file's bytes; external buffers are looked up relative to `base`, and
 /// refused without one (bytes that come from no directory).
 pub(crate) fn read(bytes: &[u8], base: Option<&Path>) -> Result<RawMesh, K> {
-    let Gltf { document, blob } =
-        Gltf::from_slice(bytes).map_err(|e| err(Location::None, e.to_string()))?;
+    // The gltf crate subtracts the 12-byte header from a GLB's declared length unchecked (an
+    // overflow panic with overflow checks, found by the gltf fuzzer).
+    if let Some(header) = bytes.strip_prefix(b"glTF").and_then(|b| b.get(4..8)) {
+        let length = u32::from_le_bytes(header.try_into().expect("4 bytes"));
+        if length < 12 {
+            return Err(err(
+                Location::None,
+                format!("GLB header declares {length} bytes, less than the 12-byte header"),
+            ));
+        }
+    }
+    let Gltf { document, blob } = Gltf::from_slice_without_validation(bytes)
+        .map_err(|e| err(Location::None, e.to_string()))?;
+    // gltf-json's validation indexes the accessors with a primitive's POSITION index before it
+    // checks that index (an index-out-of-bounds panic, found by the gltf fuzzer): check every
+    // attribute's accessor index first, then validate.
+    let json = document.into_json();
+    for (m, mesh) in json.meshes.iter().enumerate() {
+        for (p, primitive) in mesh.primitives.iter().enumerate() {
+            if let Some(index) = primitive
+                .attributes
+                .values()
+                .find(|index| index.value() >= json.accessors.len())
+            {
+                return Err(err(
+                    Location::Other(format!("mesh {m} primitive {p}")),
+                    format!(
+                        "attribute accessor {} does not exist ({} accessors)",
+                        index.value(),
+                        json.accessors.len()
+                    ),
+                ));
+            }
+        }
+    }
+    let document =
+        ::gltf::Document::from_json(json).map_err(|e| err(Location::None, e.to_string()))?;
     for ext in document.extensions_required() {
         if ext.contains("compression") || ext.starts_with("EXT_meshopt") {
             return Err(K::Unsupported {
