@@ -10,9 +10,14 @@
 //!   placement; and (grids up to [`MESH_CELLS`] samples) its mesh has finite positions and
 //!   indices in range.
 //!
-//! Each returns whether the input was accepted. Unbounded allocations are caught by running the fuzzers with `-malloc_limit_mb`.
+//! `repository` does the same for the repository reader. Each returns whether the input was
+//! accepted. Unbounded allocations are caught by running the fuzzers with `-malloc_limit_mb`.
 
 use std::path::Path;
+
+use tessera_core::cut::{diamond_rhos, select_stateless, select_top_down};
+use tessera_core::metric::{eye_local, ScreenSpaceMetric};
+use tessera_core::repository::Repository;
 
 use crate::dem::{load_dem_bytes, DemOptions, HeightGrid, TerrainOptions};
 use crate::import::load_mesh_bytes;
@@ -36,6 +41,7 @@ pub const TARGETS: &[(&str, Target)] = &[
     ("pgm", pgm),
     ("raw_f32", raw_f32),
     ("json_grid", json_grid),
+    ("repository", repository),
 ];
 
 /// Largest grid (samples) also turned into a mesh and checked.
@@ -103,6 +109,53 @@ pub fn raw_f32(data: &[u8]) -> bool {
 
 pub fn json_grid(data: &[u8]) -> bool {
     dem("fuzz.json", data, &DemOptions::default())
+}
+
+/// The repository reader (`Repository::from_bytes`, the checks `open` runs on a mapped file),
+/// then every patch, the id blob, and the cut at a few tolerances from a few eyes, by the flat
+/// rule and by descent from the roots. A refused file must be refused with a message; an
+/// accepted one must not panic anywhere, and every selected simplex exists.
+pub fn repository(data: &[u8]) -> bool {
+    let repo = match Repository::from_bytes(data.to_vec()) {
+        Ok(repo) => repo,
+        Err(e) => {
+            assert!(!e.to_string().trim().is_empty(), "an empty error message");
+            return false;
+        }
+    };
+    for i in 0..repo.tets().len() {
+        match repo.patch(i) {
+            Ok(patch) => {
+                let n = patch.vertex_count();
+                for t in patch.triangles() {
+                    assert!(t.iter().all(|&v| (v as usize) < n), "tet {i}: {t:?} of {n}");
+                }
+                assert_eq!(patch.global_ids().count(), n, "tet {i}: one id per vertex");
+            }
+            Err(e) => assert!(!e.to_string().trim().is_empty()),
+        }
+    }
+    let _ = repo.verify_ids();
+    let header = repo.header();
+    let (lo, hi) = (header.bbox_min, header.bbox_max);
+    let centre = [0, 1, 2].map(|k| 0.5 * (lo[k] + hi[k]));
+    let size = (0..3).map(|k| hi[k] - lo[k]).fold(1e-3, f64::max);
+    let metric = ScreenSpaceMetric::new(1080, 60.0, 1e-3 * size);
+    let tets = repo.tets();
+    let roots = header.root_tet_count as usize;
+    for offset in [[0.0, 0.0, 3.0], [2.0, -1.0, 0.5], [0.0, 0.0, 0.0]] {
+        let eye = [0, 1, 2].map(|k| centre[k] + offset[k] * size);
+        let rhos = diamond_rhos(repo.diamonds(), eye_local(eye, header.origin), &metric);
+        for tau in [0.0, 1.0, 8.0, 1e9] {
+            for cut in [
+                select_stateless(tets, &rhos, tau),
+                select_top_down(tets, roots, &rhos, tau),
+            ] {
+                assert!(cut.iter().all(|&t| (t as usize) < tets.len()));
+            }
+        }
+    }
+    true
 }
 
 /// Imports `data` as the file `name`; true if it was accepted.
