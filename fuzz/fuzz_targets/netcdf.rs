@@ -4,6 +4,8 @@
 
 use libfuzzer_sys::fuzz_target;
 
+mod asan;
+
 fuzz_target!(|data: &[u8]| {
     tessera_preprocess::fuzzing::netcdf(data);
 });
