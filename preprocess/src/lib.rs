@@ -8,6 +8,7 @@ pub mod build;
 pub mod dem;
 pub mod diamond_square;
 pub mod frame;
+pub mod fuzzing;
 pub mod gen_mesh;
 pub mod hierarchy;
 pub mod import;

@@ -4,7 +4,9 @@
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use tessera_preprocess::import::{load_mesh, weld, ImportErrorKind, ImportReport, RawMesh};
+use tessera_preprocess::import::{
+    load_mesh, load_mesh_bytes, weld, ImportErrorKind, ImportReport, RawMesh,
+};
 use tessera_preprocess::mesh::InputMesh;
 
 // ------------------------------------------------------------------------------------ helpers
@@ -746,6 +748,125 @@ fn gltf_with_external_buffer_and_glb() {
     let (json, bin) = tetra_gltf(None);
     let r2 = load(&write(dir.path(), "tetra.glb", glb(&json, &bin)));
     assert_eq!(r, r2);
+}
+
+#[test]
+fn gltf_bytes_refuse_external_buffers_and_bad_accessors() {
+    let (json, bin) = tetra_gltf(None);
+    let name = Path::new("tetra.glb");
+    let r = load_mesh_bytes(name, &glb(&json, &bin)).unwrap();
+    assert_gltf_tetras(&r);
+    let message = |json: &str| {
+        load_mesh_bytes(name, &glb(json, &bin))
+            .unwrap_err()
+            .to_string()
+    };
+    // From bytes there is no directory to find an external buffer in.
+    let (external, _) = tetra_gltf(Some("tetra.bin"));
+    let m = load_mesh_bytes(Path::new("tetra.gltf"), external.as_bytes())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        m.starts_with("tetra.gltf: ") && m.contains("external file"),
+        "{m}"
+    );
+    // An accessor past its buffer view, of the wrong type, or without elements; a node with
+    // two parents (a small file could otherwise make the walk exponential).
+    for (from, to, fragment) in [
+        (
+            r#""count":12,"type":"SCALAR""#,
+            r#""count":13,"type":"SCALAR""#,
+            "buffer view 2 has 24",
+        ),
+        (
+            r#""componentType":5123"#,
+            r#""componentType":5126"#,
+            "wrong type",
+        ),
+        (
+            r#""count":12,"type":"SCALAR""#,
+            r#""count":0,"type":"SCALAR""#,
+            "no elements",
+        ),
+        (
+            r#""children":[3]"#,
+            r#""children":[3,3]"#,
+            "node reached twice",
+        ),
+        // gltf-json's validation indexed the accessors with this before checking it.
+        (
+            r#""POSITION":0"#,
+            r#""POSITION":7"#,
+            "accessor 7 does not exist",
+        ),
+    ] {
+        assert!(json.contains(from));
+        let m = message(&json.replacen(from, to, 1));
+        assert!(m.starts_with("tetra.glb: ") && m.contains(fragment), "{m}");
+    }
+}
+
+#[test]
+fn glb_declaring_a_length_shorter_than_its_header_is_an_error() {
+    // Found by the gltf fuzzer: the gltf crate computed `length - 12` unchecked.
+    let (json, bin) = tetra_gltf(None);
+    let mut bytes = glb(&json, &bin);
+    bytes[8..12].copy_from_slice(&0u32.to_le_bytes());
+    let m = load_mesh_bytes(Path::new("short.glb"), &bytes)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        m.starts_with("short.glb: ") && m.contains("12-byte header"),
+        "{m}"
+    );
+}
+
+#[test]
+fn bytes_in_memory_import_like_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let (json, bin) = tetra_gltf(None);
+    for (name, bytes) in [
+        ("cube.ply", cube_ply("binary_big_endian")),
+        ("cube.ply.gz", gzip(&cube_ply("ascii"))),
+        ("cube.off", cube_off().into_bytes()),
+        ("tetra.stl", tetra_stl_binary(b"solid x")),
+        ("tetra.stl", tetra_stl_ascii().into_bytes()),
+        ("tetra.glb", glb(&json, &bin)),
+        ("tetra.glb.gz", gzip(&glb(&json, &bin))),
+    ] {
+        let path = write(dir.path(), name, &bytes);
+        assert_eq!(
+            load_mesh_bytes(Path::new(name), &bytes).unwrap(),
+            load(&path),
+            "{name}"
+        );
+    }
+    // Errors name the given name, like a file's.
+    let m = load_mesh_bytes(Path::new("bad.off"), b"OFF\n3 1 0\n0 0 0\n")
+        .unwrap_err()
+        .to_string();
+    assert!(m.starts_with("bad.off: ") && m.contains("truncated"), "{m}");
+    let m = load_mesh_bytes(Path::new("x.xyz"), b"")
+        .unwrap_err()
+        .to_string();
+    assert!(m.contains("unsupported file type"), "{m}");
+}
+
+#[test]
+fn ply_face_counts_whose_sum_overflows_are_an_error() {
+    // Two face-like elements declaring u64::MAX records each: their sum overflowed (a panic
+    // with overflow checks) before the missing records were reported.
+    let max = u64::MAX;
+    let header = format!(
+        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
+         property float z\nelement face {max}\nproperty list uchar int vertex_indices\n\
+         element tristrips {max}\nproperty list int int vertex_indices\nend_header\n\
+         0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"
+    );
+    let m = load_mesh_bytes(Path::new("sum.ply"), header.as_bytes())
+        .unwrap_err()
+        .to_string();
+    assert!(m.starts_with("sum.ply: ") && m.contains("truncated"), "{m}");
 }
 
 // ------------------------------------------------------------------------------ welding

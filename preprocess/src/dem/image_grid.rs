@@ -74,7 +74,13 @@ pub fn read_pgm(bytes: &[u8]) -> Result<HeightGrid, DemErrorKind> {
             .map(|_| token(bytes, &mut at).map(|v| v as f32))
             .collect::<Result<_, _>>()?
     } else {
-        at += 1; // the single whitespace after maxval
+        // A single whitespace byte separates maxval from the samples.
+        if !bytes.get(at).is_some_and(u8::is_ascii_whitespace) {
+            return Err(bad(format!(
+                "PGM: expected one whitespace byte after maxval at byte {at}"
+            )));
+        }
+        at += 1;
         let size = if max > 255 { 2 } else { 1 };
         let n = check_fits(
             "PGM samples",
@@ -135,6 +141,11 @@ mod tests {
             .contains("too large"));
         assert!(read_pgm(b"P5 4000000000 4000000000 255\n\x00").is_err());
         assert!(read_pgm(b"P5 2 2 0\n\x00\x00\x00\x00").is_err());
+        // The file ends right after maxval (found by the pgm fuzzer: it sliced past the end).
+        assert!(read_pgm(b"P5 0\n1 3")
+            .unwrap_err()
+            .to_string()
+            .contains("whitespace"));
         let rgb = image::RgbImage::new(2, 2);
         let mut png = Vec::new();
         rgb.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)

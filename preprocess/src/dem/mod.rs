@@ -97,27 +97,51 @@ impl DemFormat {
 
 /// Reads the height field at `path`, its format chosen by the extension.
 pub fn load_dem(path: &Path, options: &DemOptions) -> Result<HeightGrid, DemError> {
-    let format = DemFormat::from_path(path).ok_or_else(|| {
+    let format = dem_format(path)?;
+    let bytes = std::fs::read(path).map_err(|e| DemError::new(path, DemErrorKind::Io(e)))?;
+    read_dem(format, &bytes, options).map_err(|kind| DemError::new(path, kind))
+}
+
+/// Reads a height field from `bytes` held in memory as if they were the file `name` (format
+/// from its extension): the same readers and checks as [`load_dem`], and errors name `name`.
+pub fn load_dem_bytes(
+    name: &Path,
+    bytes: &[u8],
+    options: &DemOptions,
+) -> Result<HeightGrid, DemError> {
+    let format = dem_format(name)?;
+    read_dem(format, bytes, options).map_err(|kind| DemError::new(name, kind))
+}
+
+/// The format of `path`, or the error naming the extensions read.
+fn dem_format(path: &Path) -> Result<DemFormat, DemError> {
+    DemFormat::from_path(path).ok_or_else(|| {
         DemError::new(
             path,
             DemErrorKind::Format(format!(
                 "not a height-field extension; supported: {DEM_EXTENSIONS}"
             )),
         )
-    })?;
-    let bytes = std::fs::read(path).map_err(|e| DemError::new(path, DemErrorKind::Io(e)))?;
+    })
+}
+
+/// The reader of `format`, then the grid's invariants ([`HeightGrid::validate`]).
+fn read_dem(
+    format: DemFormat,
+    bytes: &[u8],
+    options: &DemOptions,
+) -> Result<HeightGrid, DemErrorKind> {
     let grid = match format {
-        DemFormat::NetCdf => netcdf::read(&bytes, options),
-        DemFormat::Npy => npy::read_npy(&bytes),
-        DemFormat::Npz => npy::read_npz(&bytes, options),
-        DemFormat::GeoTiff => geotiff::read(&bytes),
-        DemFormat::Png => image_grid::read_png(&bytes),
-        DemFormat::Pgm => image_grid::read_pgm(&bytes),
-        DemFormat::RawF32 => raw::read_f32(&bytes, options),
-        DemFormat::JsonGrid => raw::read_json(&bytes),
-    }
-    .map_err(|kind| DemError::new(path, kind))?;
-    grid.validate().map_err(|kind| DemError::new(path, kind))?;
+        DemFormat::NetCdf => netcdf::read(bytes, options),
+        DemFormat::Npy => npy::read_npy(bytes),
+        DemFormat::Npz => npy::read_npz(bytes, options),
+        DemFormat::GeoTiff => geotiff::read(bytes),
+        DemFormat::Png => image_grid::read_png(bytes),
+        DemFormat::Pgm => image_grid::read_pgm(bytes),
+        DemFormat::RawF32 => raw::read_f32(bytes, options),
+        DemFormat::JsonGrid => raw::read_json(bytes),
+    }?;
+    grid.validate()?;
     Ok(grid)
 }
 
@@ -170,6 +194,23 @@ impl HeightGrid {
             return Err(DemErrorKind::Format(format!(
                 "origin {:?} / spacing {:?} must be finite, spacing non-zero",
                 self.origin, self.spacing
+            )));
+        }
+        // Every sample's position, as `to_mesh` computes it (in metres for geographic grids),
+        // is finite: the farthest one in each axis is, and the others lie between it and the
+        // origin.
+        let (origin, step) = self.placement(&TerrainOptions::default());
+        let far = [
+            origin[0] + (self.columns - 1) as f64 * step[0],
+            origin[1] + (self.rows - 1) as f64 * step[1],
+        ];
+        if !finite(origin) || !finite(far) {
+            return Err(DemErrorKind::Format(format!(
+                "origin {:?} / spacing {:?}{}: the grid's far corner lies at {far:?}, not a \
+                 finite position",
+                self.origin,
+                self.spacing,
+                if self.geographic { " degrees" } else { "" }
             )));
         }
         if let Some(i) = self.heights.iter().position(|h| h.is_infinite()) {
@@ -331,6 +372,25 @@ mod tests {
     }
 
     #[test]
+    fn bytes_read_like_the_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let json = br#"{"width": 2, "height": 2, "values": [1, 2, 3, 4], "spacing": 5}"#;
+        let path = dir.path().join("g.json");
+        std::fs::write(&path, json).unwrap();
+        let options = DemOptions::default();
+        let grid = load_dem_bytes(Path::new("g.json"), json, &options).unwrap();
+        assert_eq!(grid, load_dem(&path, &options).unwrap());
+        assert_eq!(grid.spacing, [5.0, 5.0]);
+        let e = load_dem_bytes(Path::new("g.json"), b"{", &options).unwrap_err();
+        assert!(e.to_string().starts_with("g.json: JSON"), "{e}");
+        let e = load_dem_bytes(Path::new("g.xyz"), json, &options).unwrap_err();
+        assert!(
+            e.to_string().contains("not a height-field extension"),
+            "{e}"
+        );
+    }
+
+    #[test]
     fn validation_refuses_what_cannot_be_a_terrain() {
         assert!(HeightGrid::unit(1, 5, vec![0.0; 5]).validate().is_err());
         assert!(HeightGrid::unit(2, 2, vec![0.0; 3]).validate().is_err());
@@ -342,6 +402,17 @@ mod tests {
             .is_err());
         let mut g = HeightGrid::unit(2, 2, vec![0.0; 4]);
         g.spacing = [0.0, 1.0];
+        assert!(g.validate().is_err());
+        // Finite origin and spacing whose far corner is not: beyond f64, or beyond it once
+        // degrees become metres.
+        let mut g = HeightGrid::unit(3, 2, vec![0.0; 6]);
+        g.origin = [1e308, 0.0];
+        g.spacing = [1e308, 1.0];
+        assert!(g.validate().is_err());
+        g.origin = [1e304, 0.0];
+        g.spacing = [1.0, 1.0];
+        assert!(g.validate().is_ok());
+        g.geographic = true;
         assert!(g.validate().is_err());
         assert!(HeightGrid::unit(2, 2, vec![0.0; 4]).validate().is_ok());
     }

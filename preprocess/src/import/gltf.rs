@@ -4,10 +4,12 @@
 //! Normals (`NORMAL`), colours (`COLOR_0`) and texture coordinates (`TEXCOORD_0`) are kept only
 //! if every primitive has them.
 
+use std::io::Read;
 use std::path::Path;
 
-use ::gltf::mesh::Mode;
-use ::gltf::{Gltf, Node};
+use ::gltf::accessor::{DataType, Dimensions};
+use ::gltf::mesh::{Mode, Semantic};
+use ::gltf::{Accessor, Gltf, Node};
 
 use super::error::{ImportErrorKind as K, Location};
 use super::RawMesh;
@@ -58,12 +60,51 @@ struct Builder<'a> {
     all_normals: bool,
     all_colors: bool,
     all_uvs: bool,
+    /// Nodes already visited: a node reached twice (two parents, a cycle) is an error, so a
+    /// small file cannot make the walk exponential.
+    visited: Vec<bool>,
 }
 
-/// Reads a .gltf or .glb file's bytes; external buffers are looked up relative to `base`.
+/// Reads a .gltf or .glb file's bytes; external buffers are looked up relative to `base`, and
+/// refused without one (bytes that come from no directory).
 pub(crate) fn read(bytes: &[u8], base: Option<&Path>) -> Result<RawMesh, K> {
-    let Gltf { document, blob } =
-        Gltf::from_slice(bytes).map_err(|e| err(Location::None, e.to_string()))?;
+    // The gltf crate subtracts the 12-byte header from a GLB's declared length unchecked (an
+    // overflow panic with overflow checks, found by the gltf fuzzer).
+    if let Some(header) = bytes.strip_prefix(b"glTF").and_then(|b| b.get(4..8)) {
+        let length = u32::from_le_bytes(header.try_into().expect("4 bytes"));
+        if length < 12 {
+            return Err(err(
+                Location::None,
+                format!("GLB header declares {length} bytes, less than the 12-byte header"),
+            ));
+        }
+    }
+    let Gltf { document, blob } = Gltf::from_slice_without_validation(bytes)
+        .map_err(|e| err(Location::None, e.to_string()))?;
+    // gltf-json's validation indexes the accessors with a primitive's POSITION index before it
+    // checks that index (an index-out-of-bounds panic, found by the gltf fuzzer): check every
+    // attribute's accessor index first, then validate.
+    let json = document.into_json();
+    for (m, mesh) in json.meshes.iter().enumerate() {
+        for (p, primitive) in mesh.primitives.iter().enumerate() {
+            if let Some(index) = primitive
+                .attributes
+                .values()
+                .find(|index| index.value() >= json.accessors.len())
+            {
+                return Err(err(
+                    Location::Other(format!("mesh {m} primitive {p}")),
+                    format!(
+                        "attribute accessor {} does not exist ({} accessors)",
+                        index.value(),
+                        json.accessors.len()
+                    ),
+                ));
+            }
+        }
+    }
+    let document =
+        ::gltf::Document::from_json(json).map_err(|e| err(Location::None, e.to_string()))?;
     for ext in document.extensions_required() {
         if ext.contains("compression") || ext.starts_with("EXT_meshopt") {
             return Err(K::Unsupported {
@@ -72,10 +113,6 @@ pub(crate) fn read(bytes: &[u8], base: Option<&Path>) -> Result<RawMesh, K> {
             });
         }
     }
-    let base = match base {
-        Some(b) if !b.as_os_str().is_empty() => b,
-        _ => Path::new("."),
-    };
     let buffers = load_buffers(&document, base, blob)
         .map_err(|e| err(Location::None, format!("cannot load buffers: {e}")))?;
     let mut b = Builder {
@@ -87,6 +124,7 @@ pub(crate) fn read(bytes: &[u8], base: Option<&Path>) -> Result<RawMesh, K> {
         all_normals: true,
         all_colors: true,
         all_uvs: true,
+        visited: vec![false; document.nodes().len()],
     };
     match document
         .default_scene()
@@ -119,6 +157,12 @@ impl Builder<'_> {
                 format!("node hierarchy deeper than {MAX_DEPTH} (cycle?)"),
             ));
         }
+        if std::mem::replace(&mut self.visited[node.index()], true) {
+            return Err(err(
+                Location::Other(format!("node {}", node.index())),
+                "node reached twice (it has two parents, or is in a cycle)",
+            ));
+        }
         let local = node.transform().matrix().map(|c| c.map(f64::from));
         let world = mul(parent, &local);
         if let Some(mesh) = node.mesh() {
@@ -149,6 +193,19 @@ impl Builder<'_> {
                 continue;
             }
             let buffers = self.buffers;
+            for (semantic, accessor) in prim.attributes() {
+                let want = match semantic {
+                    Semantic::Positions => Want::Vec3F32,
+                    Semantic::Normals => Want::Vec3F32,
+                    Semantic::Colors(0) => Want::Color,
+                    Semantic::TexCoords(0) => Want::TexCoord,
+                    _ => continue,
+                };
+                check_accessor(&accessor, want, buffers).map_err(|msg| err(at(), msg))?;
+            }
+            if let Some(accessor) = prim.indices() {
+                check_accessor(&accessor, Want::Index, buffers).map_err(|msg| err(at(), msg))?;
+            }
             let reader = prim.reader(|buf| buffers.get(buf.index()).map(|d| &d[..]));
             let Some(positions) = reader.read_positions() else {
                 return Err(err(at(), "no readable POSITION data"));
@@ -239,11 +296,122 @@ impl Builder<'_> {
     }
 }
 
+/// The element type a semantic needs (the gltf crate's readers panic on any other).
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Want {
+    Vec3F32,
+    Color,
+    TexCoord,
+    Index,
+}
+
+/// Checks what the gltf crate's readers assume and do not check (they panic, or read without
+/// bound, otherwise): the accessor has the type its semantic needs and at least one element,
+/// its elements lie within its buffer view and the view within its buffer (sparse indices and
+/// values too), strides are at least an element; and an accessor without a buffer view (zeros
+/// plus sparse values) has no more elements than the buffers have bytes.
+fn check_accessor(accessor: &Accessor, want: Want, buffers: &[Vec<u8>]) -> Result<(), String> {
+    use DataType::{F32, U16, U32, U8};
+    use Dimensions::{Scalar, Vec2, Vec3, Vec4};
+    let (ty, dims) = (accessor.data_type(), accessor.dimensions());
+    let ok = match want {
+        Want::Vec3F32 => ty == F32 && dims == Vec3,
+        Want::Color => matches!(ty, U8 | U16 | F32) && matches!(dims, Vec3 | Vec4),
+        Want::TexCoord => matches!(ty, U8 | U16 | F32) && dims == Vec2,
+        Want::Index => matches!(ty, U8 | U16 | U32) && dims == Scalar,
+    };
+    let name = format!("accessor {}", accessor.index());
+    if !ok {
+        return Err(format!("{name} has the wrong type ({ty:?} {dims:?})"));
+    }
+    let count = accessor.count();
+    if count == 0 {
+        return Err(format!("{name} has no elements"));
+    }
+    let size = accessor.size();
+    match accessor.view() {
+        Some(view) => check_view(&name, &view, accessor.offset(), size, count, buffers)?,
+        None => {
+            let bytes: usize = buffers.iter().map(Vec::len).sum();
+            if count > bytes {
+                return Err(format!(
+                    "{name} has {count} elements and no buffer view, more than the {bytes} \
+                     bytes of buffers"
+                ));
+            }
+        }
+    }
+    if let Some(sparse) = accessor.sparse() {
+        let n = sparse.count();
+        if n == 0 || n > count {
+            return Err(format!("{name}: {n} sparse values for {count} elements"));
+        }
+        let indices = sparse.indices();
+        let index_size = indices.index_type().size();
+        check_view(
+            &format!("{name} sparse indices"),
+            &indices.view(),
+            indices.offset(),
+            index_size,
+            n,
+            buffers,
+        )?;
+        let values = sparse.values();
+        check_view(
+            &format!("{name} sparse values"),
+            &values.view(),
+            values.offset(),
+            size,
+            n,
+            buffers,
+        )?;
+    }
+    Ok(())
+}
+
+/// `count` elements of `size` bytes from `offset` in `view` lie within the view, and the view
+/// within its buffer.
+fn check_view(
+    name: &str,
+    view: &::gltf::buffer::View,
+    offset: usize,
+    size: usize,
+    count: usize,
+    buffers: &[Vec<u8>],
+) -> Result<(), String> {
+    let stride = view.stride().unwrap_or(size);
+    if stride < size {
+        return Err(format!(
+            "{name}: buffer view {} has stride {stride}, less than the element's {size} bytes",
+            view.index()
+        ));
+    }
+    let end = (count as u128 - 1) * stride as u128 + offset as u128 + size as u128;
+    if end > view.length() as u128 {
+        return Err(format!(
+            "{name}: {count} elements from byte {offset} need {end} bytes, buffer view {} has {}",
+            view.index(),
+            view.length()
+        ));
+    }
+    let view_end = view.offset() as u128 + view.length() as u128;
+    let buffer = view.buffer().index();
+    let held = buffers.get(buffer).map_or(0, Vec::len);
+    if view_end > held as u128 {
+        return Err(format!(
+            "buffer view {} ends at byte {view_end}, buffer {buffer} has {held} bytes",
+            view.index()
+        ));
+    }
+    Ok(())
+}
+
 /// The bytes of every buffer: the GLB binary chunk, a `data:` URI (base64), or a file next to
-/// the glTF. (gltf's own `import_buffers` would pull in an image decoder we do not need.)
+/// the glTF (with a `base` directory). (gltf's own `import_buffers` would pull in an image
+/// decoder we do not need.)
 fn load_buffers(
     document: &::gltf::Document,
-    base: &Path,
+    base: Option<&Path>,
     blob: Option<Vec<u8>>,
 ) -> Result<Vec<Vec<u8>>, String> {
     use base64::Engine as _;
@@ -261,8 +429,21 @@ fn load_buffers(
                         .decode(payload)
                         .map_err(|e| format!("buffer {}: bad base64: {e}", buffer.index()))?
                 } else {
+                    let Some(base) = base else {
+                        return Err(format!(
+                            "buffer {} is the external file {uri:?}, and these bytes come from \
+                             no directory",
+                            buffer.index()
+                        ));
+                    };
                     let path = base.join(percent_decode(uri));
-                    std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display()))?
+                    // At most the declared length: a device or a growing file is not read
+                    // without end.
+                    let mut data = Vec::new();
+                    std::fs::File::open(&path)
+                        .and_then(|f| f.take(buffer.length() as u64).read_to_end(&mut data))
+                        .map_err(|e| format!("{}: {e}", path.display()))?;
+                    data
                 }
             }
         };

@@ -63,11 +63,34 @@ impl Input {
         })
     }
 
+    /// Reads bytes held in memory, decompressing on the fly when `gz`: the same reader a file
+    /// gets, for [`load_mesh_bytes`](super::load_mesh_bytes). The buffer starts no larger than
+    /// the bytes need (it grows as a file's does).
+    pub fn from_bytes(bytes: Vec<u8>, gz: bool) -> Self {
+        if gz {
+            let src = Box::new(MultiGzDecoder::new(io::Cursor::new(bytes)));
+            Self::with_buffer(src, true, None, BUF_SIZE)
+        } else {
+            let size = bytes.len();
+            let capacity = (size + 1).clamp(64, BUF_SIZE);
+            Self::with_buffer(
+                Box::new(io::Cursor::new(bytes)),
+                false,
+                Some(size as u64),
+                capacity,
+            )
+        }
+    }
+
     /// Wraps any reader; `size` is its total length if known.
     pub fn new(src: Box<dyn Read>, gz: bool, size: Option<u64>) -> Self {
+        Self::with_buffer(src, gz, size, BUF_SIZE)
+    }
+
+    fn with_buffer(src: Box<dyn Read>, gz: bool, size: Option<u64>, capacity: usize) -> Self {
         Input {
             src,
-            buf: vec![0; BUF_SIZE],
+            buf: vec![0; capacity],
             pos: 0,
             end: 0,
             eof: false,

@@ -80,7 +80,17 @@ impl MeshFormat {
 /// Loads the mesh at `path` (format from the extension, see [`SUPPORTED_EXTENSIONS`]), welds and
 /// cleans it (see [`weld`]). A mesh with no triangles left is an error.
 pub fn load_mesh(path: &Path) -> Result<ImportReport, ImportError> {
-    weld_nonempty(load_raw(path)?).map_err(|kind| kind.at_path(path))
+    finish(load_raw(path)?).map_err(|kind| kind.at_path(path))
+}
+
+/// Loads a mesh from `bytes` held in memory as if they were the file `name` (format from its
+/// extension, `.gz` decompressed): the same readers, checks, welding and cleaning as
+/// [`load_mesh`], and errors name `name`. A glTF's external buffers (`uri` naming a file) are
+/// refused, since there is no directory to look them up in; `data:` URIs and GLB chunks work.
+pub fn load_mesh_bytes(name: &Path, bytes: &[u8]) -> Result<ImportReport, ImportError> {
+    read_raw_bytes(name, bytes)
+        .and_then(finish)
+        .map_err(|kind| kind.at_path(name))
 }
 
 /// Loads a mesh of `format` from `reader` (a pipe, standard input): the same reader and the
@@ -91,24 +101,20 @@ pub fn load_mesh_from_reader(
     format: MeshFormat,
     name: &str,
 ) -> Result<ImportReport, ImportError> {
-    let mut input = Input::new(Box::new(reader), false, None);
     let raw = match format {
-        MeshFormat::Ply => ply::read(&mut input),
-        MeshFormat::Obj => obj::read(&mut input),
-        MeshFormat::Off => off::read(&mut input),
-        MeshFormat::Stl => stl::read(&mut input),
         MeshFormat::Gltf => Err(ImportErrorKind::Unsupported {
             at: Location::None,
             what: "glTF from a stream (give a file)".into(),
         }),
+        _ => read_stream(format, &mut Input::new(Box::new(reader), false, None)),
     };
-    raw.and_then(validate)
-        .and_then(weld_nonempty)
+    raw.and_then(check_raw)
+        .and_then(finish)
         .map_err(|kind| kind.at_path(name))
 }
 
-/// Welds `raw`; a mesh with no triangles left is an error.
-fn weld_nonempty(raw: RawMesh) -> Result<ImportReport, ImportErrorKind> {
+/// Welds and cleans; a mesh with no triangles left is an error.
+fn finish(raw: RawMesh) -> Result<ImportReport, ImportErrorKind> {
     let report = weld(raw);
     if report.mesh.triangles.is_empty() {
         return Err(ImportErrorKind::Empty {
@@ -126,8 +132,9 @@ pub fn load_raw(path: &Path) -> Result<RawMesh, ImportError> {
     read_raw(path).map_err(|kind| kind.at_path(path))
 }
 
-fn read_raw(path: &Path) -> Result<RawMesh, ImportErrorKind> {
-    let Some((format, gz)) = MeshFormat::from_path(path) else {
+/// The format of `path`, or the unsupported-extension error.
+fn format_of(path: &Path) -> Result<(MeshFormat, bool), ImportErrorKind> {
+    MeshFormat::from_path(path).ok_or_else(|| {
         let name = path
             .file_name()
             .map(|n| n.to_string_lossy().into_owned())
@@ -136,8 +143,12 @@ fn read_raw(path: &Path) -> Result<RawMesh, ImportErrorKind> {
             Some(i) => name[i..].to_string(),
             None => "(no extension)".to_string(),
         };
-        return Err(ImportErrorKind::UnsupportedExtension(ext));
-    };
+        ImportErrorKind::UnsupportedExtension(ext)
+    })
+}
+
+fn read_raw(path: &Path) -> Result<RawMesh, ImportErrorKind> {
+    let (format, gz) = format_of(path)?;
     let raw = match format {
         MeshFormat::Gltf => {
             let bytes = if gz {
@@ -145,24 +156,43 @@ fn read_raw(path: &Path) -> Result<RawMesh, ImportErrorKind> {
             } else {
                 std::fs::read(path).map_err(ImportErrorKind::Io)?
             };
-            gltf::read(&bytes, path.parent())?
+            let base = match path.parent() {
+                Some(dir) if !dir.as_os_str().is_empty() => dir,
+                _ => Path::new("."),
+            };
+            gltf::read(&bytes, Some(base))?
         }
-        _ => {
-            let mut input = Input::open(path, gz)?;
-            match format {
-                MeshFormat::Ply => ply::read(&mut input)?,
-                MeshFormat::Obj => obj::read(&mut input)?,
-                MeshFormat::Off => off::read(&mut input)?,
-                MeshFormat::Stl => stl::read(&mut input)?,
-                MeshFormat::Gltf => unreachable!(),
-            }
-        }
+        _ => read_stream(format, &mut Input::open(path, gz)?)?,
     };
-    validate(raw)
+    check_raw(raw)
+}
+
+fn read_raw_bytes(name: &Path, bytes: &[u8]) -> Result<RawMesh, ImportErrorKind> {
+    let (format, gz) = format_of(name)?;
+    let raw = match format {
+        MeshFormat::Gltf if gz => {
+            let bytes = Input::from_bytes(bytes.to_vec(), true).read_to_end()?;
+            gltf::read(&bytes, None)?
+        }
+        MeshFormat::Gltf => gltf::read(bytes, None)?,
+        _ => read_stream(format, &mut Input::from_bytes(bytes.to_vec(), gz))?,
+    };
+    check_raw(raw)
+}
+
+/// The streaming readers (every format but glTF).
+fn read_stream(format: MeshFormat, input: &mut Input) -> Result<RawMesh, ImportErrorKind> {
+    match format {
+        MeshFormat::Ply => ply::read(input),
+        MeshFormat::Obj => obj::read(input),
+        MeshFormat::Off => off::read(input),
+        MeshFormat::Stl => stl::read(input),
+        MeshFormat::Gltf => unreachable!("glTF is read whole, not streamed"),
+    }
 }
 
 /// The readers check as they go (with line numbers); this catches anything they missed.
-fn validate(raw: RawMesh) -> Result<RawMesh, ImportErrorKind> {
+fn check_raw(raw: RawMesh) -> Result<RawMesh, ImportErrorKind> {
     for (i, p) in raw.positions.iter().enumerate() {
         input::check_finite(*p, i as u64, || Location::None)?;
     }

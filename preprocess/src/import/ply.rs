@@ -471,12 +471,13 @@ pub(crate) fn read(input: &mut Input) -> Result<RawMesh, K> {
         colors: layout.colors.then(|| Vec::with_capacity(cap)),
         uvs: layout.uvs.then(|| Vec::with_capacity(cap)),
     };
+    // Saturating: an ASCII header may declare counts whose sum overflows (the records are
+    // then missing, and reading them says so).
     let face_count: u64 = elements
         .iter()
         .zip(&face_prop)
         .filter(|(_, f)| f.is_some())
-        .map(|(e, _)| e.count)
-        .sum();
+        .fold(0, |sum, (e, _)| sum.saturating_add(e.count));
     mesh.triangles.reserve(input.prealloc(face_count, bounded));
 
     let big = format == Format::BinaryBe;

@@ -1,0 +1,281 @@
+//! One function per importer entry point, shared by the cargo-fuzz targets (`fuzz/`) and the
+//! corpus regression test (`tests/fuzz_corpus.rs`): each feeds its bytes through the same code
+//! path a file of that format takes ([`load_mesh_bytes`], [`load_dem_bytes`]) and panics if
+//! what must hold does not:
+//!
+//! - an error names the file and says something;
+//! - an imported mesh has triangles, finite positions, indices in range, no triangle repeating
+//!   a vertex, and one attribute per vertex;
+//! - a height grid holds one height per sample, at least 2 × 2, no infinite height, a finite
+//!   placement; and (grids up to [`MESH_CELLS`] samples) its mesh has finite positions and
+//!   indices in range.
+//!
+//! `repository` does the same for the repository reader. Each returns whether the input was
+//! accepted. Unbounded allocations are caught by running the fuzzers with `-malloc_limit_mb`.
+
+use std::path::Path;
+
+use tessera_core::cut::{diamond_rhos, select_stateless, select_top_down};
+use tessera_core::metric::{eye_local, ScreenSpaceMetric};
+use tessera_core::repository::Repository;
+
+use crate::dem::{load_dem_bytes, DemOptions, HeightGrid, TerrainOptions};
+use crate::import::load_mesh_bytes;
+use crate::mesh::InputMesh;
+
+/// A target's body: true if the input was accepted.
+pub type Target = fn(&[u8]) -> bool;
+
+/// Every target: its name (the fuzz target's and the corpus directory's) and its function.
+pub const TARGETS: &[(&str, Target)] = &[
+    ("ply", ply),
+    ("obj", obj),
+    ("off", off),
+    ("stl", stl),
+    ("gltf", gltf),
+    ("netcdf", netcdf),
+    ("npy", npy),
+    ("npz", npz),
+    ("geotiff", geotiff),
+    ("png", png),
+    ("pgm", pgm),
+    ("raw_f32", raw_f32),
+    ("json_grid", json_grid),
+    ("repository", repository),
+];
+
+/// Largest grid (samples) also turned into a mesh and checked.
+pub const MESH_CELLS: usize = 1 << 16;
+
+pub fn ply(data: &[u8]) -> bool {
+    mesh("fuzz.ply", data)
+}
+
+pub fn obj(data: &[u8]) -> bool {
+    mesh("fuzz.obj", data)
+}
+
+pub fn off(data: &[u8]) -> bool {
+    mesh("fuzz.off", data)
+}
+
+pub fn stl(data: &[u8]) -> bool {
+    mesh("fuzz.stl", data)
+}
+
+/// glTF and GLB (told apart by content, as for a file).
+pub fn gltf(data: &[u8]) -> bool {
+    mesh("fuzz.glb", data)
+}
+
+pub fn netcdf(data: &[u8]) -> bool {
+    dem("fuzz.nc", data, &DemOptions::default())
+}
+
+pub fn npy(data: &[u8]) -> bool {
+    dem("fuzz.npy", data, &DemOptions::default())
+}
+
+pub fn npz(data: &[u8]) -> bool {
+    dem("fuzz.npz", data, &DemOptions::default())
+}
+
+pub fn geotiff(data: &[u8]) -> bool {
+    dem("fuzz.tif", data, &DemOptions::default())
+}
+
+pub fn png(data: &[u8]) -> bool {
+    dem("fuzz.png", data, &DemOptions::default())
+}
+
+pub fn pgm(data: &[u8]) -> bool {
+    dem("fuzz.pgm", data, &DemOptions::default())
+}
+
+/// A raw f32 file needs its size from the command line (`--raw-size`): the first four bytes
+/// are the columns and rows (u16, little-endian), the rest is the file.
+pub fn raw_f32(data: &[u8]) -> bool {
+    let Some((size, file)) = data.split_first_chunk::<4>() else {
+        return false;
+    };
+    let columns = u16::from_le_bytes([size[0], size[1]]) as usize;
+    let rows = u16::from_le_bytes([size[2], size[3]]) as usize;
+    let options = DemOptions {
+        raw_size: Some((columns, rows)),
+        ..Default::default()
+    };
+    dem("fuzz.f32", file, &options)
+}
+
+pub fn json_grid(data: &[u8]) -> bool {
+    dem("fuzz.json", data, &DemOptions::default())
+}
+
+/// The repository reader (`Repository::from_bytes`, the checks `open` runs on a mapped file),
+/// then every patch, the id blob, and the cut at a few tolerances from a few eyes, by the flat
+/// rule and by descent from the roots. A refused file must be refused with a message; an
+/// accepted one must not panic anywhere, and every selected simplex exists.
+pub fn repository(data: &[u8]) -> bool {
+    let repo = match Repository::from_bytes(data.to_vec()) {
+        Ok(repo) => repo,
+        Err(e) => {
+            assert!(!e.to_string().trim().is_empty(), "an empty error message");
+            return false;
+        }
+    };
+    for i in 0..repo.tets().len() {
+        match repo.patch(i) {
+            Ok(patch) => {
+                let n = patch.vertex_count();
+                for t in patch.triangles() {
+                    assert!(t.iter().all(|&v| (v as usize) < n), "tet {i}: {t:?} of {n}");
+                }
+                assert_eq!(patch.global_ids().count(), n, "tet {i}: one id per vertex");
+            }
+            Err(e) => assert!(!e.to_string().trim().is_empty()),
+        }
+    }
+    let _ = repo.verify_ids();
+    let header = repo.header();
+    let (lo, hi) = (header.bbox_min, header.bbox_max);
+    let centre = [0, 1, 2].map(|k| 0.5 * (lo[k] + hi[k]));
+    let size = (0..3).map(|k| hi[k] - lo[k]).fold(1e-3, f64::max);
+    let metric = ScreenSpaceMetric::new(1080, 60.0, 1e-3 * size);
+    let tets = repo.tets();
+    let roots = header.root_tet_count as usize;
+    for offset in [[0.0, 0.0, 3.0], [2.0, -1.0, 0.5], [0.0, 0.0, 0.0]] {
+        let eye = [0, 1, 2].map(|k| centre[k] + offset[k] * size);
+        let rhos = diamond_rhos(repo.diamonds(), eye_local(eye, header.origin), &metric);
+        for tau in [0.0, 1.0, 8.0, 1e9] {
+            for cut in [
+                select_stateless(tets, &rhos, tau),
+                select_top_down(tets, roots, &rhos, tau),
+            ] {
+                assert!(cut.iter().all(|&t| (t as usize) < tets.len()));
+            }
+        }
+    }
+    true
+}
+
+/// Imports `data` as the file `name`; true if it was accepted.
+fn mesh(name: &str, data: &[u8]) -> bool {
+    match load_mesh_bytes(Path::new(name), data) {
+        Ok(report) => {
+            check_mesh(&report.mesh);
+            assert!(
+                !report.mesh.triangles.is_empty(),
+                "an empty mesh was accepted"
+            );
+            assert!(report.raw_vertices >= report.mesh.positions.len());
+            assert!(report.raw_triangles >= report.mesh.triangles.len());
+            true
+        }
+        Err(e) => {
+            check_message(name, &e.to_string());
+            false
+        }
+    }
+}
+
+/// Reads `data` as the height field `name`; true if it was accepted.
+fn dem(name: &str, data: &[u8], options: &DemOptions) -> bool {
+    match load_dem_bytes(Path::new(name), data, options) {
+        Ok(grid) => {
+            check_grid(&grid);
+            true
+        }
+        Err(e) => {
+            check_message(name, &e.to_string());
+            false
+        }
+    }
+}
+
+fn check_message(name: &str, message: &str) {
+    let problem = message
+        .strip_prefix(name)
+        .and_then(|m| m.strip_prefix(": "));
+    assert!(
+        problem.is_some_and(|p| !p.trim().is_empty()),
+        "the error does not name the file and a problem: {message:?}"
+    );
+}
+
+/// What every mesh handed to the build must satisfy.
+fn check_mesh(mesh: &InputMesh) {
+    let n = mesh.positions.len();
+    if let Some((i, p)) = mesh
+        .positions
+        .iter()
+        .enumerate()
+        .find(|(_, p)| !p.iter().all(|x| x.is_finite()))
+    {
+        panic!("vertex {i} of {n} is not finite: {p:?}");
+    }
+    for (j, t) in mesh.triangles.iter().enumerate() {
+        assert!(
+            t.iter().all(|&v| (v as usize) < n),
+            "triangle {j} {t:?} out of range ({n} vertices)"
+        );
+        assert!(
+            t[0] != t[1] && t[1] != t[2] && t[0] != t[2],
+            "triangle {j} {t:?} repeats a vertex"
+        );
+    }
+    for len in [
+        mesh.normals.as_ref().map(Vec::len),
+        mesh.colors.as_ref().map(Vec::len),
+        mesh.uvs.as_ref().map(Vec::len),
+    ]
+    .into_iter()
+    .flatten()
+    {
+        assert_eq!(len, n, "an attribute has {len} entries for {n} vertices");
+    }
+}
+
+fn check_grid(grid: &HeightGrid) {
+    assert!(
+        grid.columns >= 2 && grid.rows >= 2,
+        "a {} × {} grid",
+        grid.columns,
+        grid.rows
+    );
+    assert_eq!(
+        Some(grid.heights.len()),
+        grid.columns.checked_mul(grid.rows)
+    );
+    assert!(
+        grid.heights.iter().all(|h| !h.is_infinite()),
+        "an infinite height"
+    );
+    assert!(grid.valid_samples() > 0, "no valid sample");
+    assert!(
+        grid.origin
+            .iter()
+            .chain(&grid.spacing)
+            .all(|x| x.is_finite()),
+        "origin {:?}, spacing {:?}",
+        grid.origin,
+        grid.spacing
+    );
+    assert!(
+        !grid.spacing.contains(&0.0),
+        "zero spacing {:?}",
+        grid.spacing
+    );
+    if grid.heights.len() <= MESH_CELLS {
+        for options in [
+            TerrainOptions::default(),
+            TerrainOptions {
+                spacing: Some(30.0),
+                vertical_exaggeration: 2.0,
+            },
+        ] {
+            let mesh = grid.to_mesh(&options);
+            assert_eq!(mesh.positions.len(), grid.valid_samples());
+            check_mesh(&mesh);
+        }
+    }
+}
