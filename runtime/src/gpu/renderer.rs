@@ -196,8 +196,28 @@ impl Renderer {
                 max,
             });
         }
-        let device = &ctx.device;
         let model = ResidentModel::upload(ctx, repo, options.budget_bytes)?;
+        Self::with_model(ctx, repo, options, model)
+    }
+
+    /// The renderer over a model already made: the fully resident one (`new`) or the
+    /// streaming pool (`streamer.rs`, whose pages start empty). (Streaming: split out of
+    /// `new`, unchanged otherwise.)
+    pub fn with_model(
+        ctx: &GpuContext,
+        repo: &Repository,
+        options: RendererOptions,
+        model: ResidentModel,
+    ) -> Result<Renderer, RenderError> {
+        let max = ctx.limits.max_texture_dimension_2d;
+        if !(1..=max).contains(&options.width) || !(1..=max).contains(&options.height) {
+            return Err(RenderError::BadSize {
+                width: options.width,
+                height: options.height,
+                max,
+            });
+        }
+        let device = &ctx.device;
         let buffer = |label: &str, size: u64, usage: wgpu::BufferUsages| {
             device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some(label),
