@@ -50,7 +50,17 @@ pub fn fixed_bytes(ctx: &GpuContext, repo: &Repository, options: &RendererOption
     let limit = page_limit(&ctx.limits);
     let base = base_bytes(ctx, repo, options);
     // The lists take a share of each page's bytes: shrink the pool until both fit.
-    let mut pool = options.budget_bytes.saturating_sub(base);
+    // Never more pool than the whole repository needs: every patch (8-aligned) and the
+    // residency's slack (it is given 7/8 of the pool).
+    let everything: u64 = repo
+        .tets()
+        .iter()
+        .map(|t| (t.patch_bytes as u64).next_multiple_of(8))
+        .sum::<u64>()
+        * 8
+        / 7
+        + 64;
+    let mut pool = options.budget_bytes.saturating_sub(base).min(everything);
     for _ in 0..8 {
         let layout = PoolLayout::new(repo.tets(), pool, limit);
         let fixed = base + layout.pages as u64 * per_page_bytes(ctx, &layout);

@@ -45,6 +45,9 @@ pub enum StreamError {
     Roots(tessera_core::repository::RepositoryError),
     #[error(transparent)]
     Render(#[from] RenderError),
+    /// The device failed (lost, out of memory): nothing more can be drawn.
+    #[error("the GPU device failed: {0}")]
+    Device(String),
 }
 
 /// What one streamed frame did.
@@ -96,6 +99,10 @@ pub struct GpuStreamer {
     completed: Arc<AtomicU64>,
     upload_bytes_per_frame: u64,
     first_entries: Vec<u32>,
+    /// Simplices whose patch is in the pool (roots included).
+    resident_patches: usize,
+    /// Set by the device-lost callback.
+    lost: Arc<std::sync::Mutex<Option<String>>>,
     stats: GpuStreamStats,
 }
 
@@ -127,8 +134,22 @@ impl GpuStreamer {
                 roots,
             });
         }
+        let scope = ctx.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
         let model: ResidentModel = pool_model(ctx, &repo, &layout);
         let renderer = Renderer::with_model(ctx, &repo, options, model)?;
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(StreamError::Device(format!(
+                "allocating {} bytes of pool and tables: {e}",
+                fixed + pool_bytes
+            )));
+        }
+        let lost = Arc::new(std::sync::Mutex::new(None));
+        let sink = lost.clone();
+        ctx.device.set_device_lost_callback(move |reason, message| {
+            if let Ok(mut slot) = sink.lock() {
+                *slot = Some(format!("device lost ({reason:?}): {message}"));
+            }
+        });
         let residency = Residency::new(units, budget).map_err(|_| StreamError::BudgetTooSmall {
             budget: options.budget_bytes,
             fixed,
@@ -150,6 +171,8 @@ impl GpuStreamer {
                 .iter()
                 .map(|l| l.first_entry)
                 .collect(),
+            resident_patches: 0,
+            lost,
             stats: GpuStreamStats {
                 gpu_bytes: fixed + pool_bytes,
                 fixed_bytes: fixed,
@@ -173,6 +196,11 @@ impl GpuStreamer {
     /// The residency (flags, states, totals).
     pub fn residency(&self) -> &Residency {
         &self.residency
+    }
+
+    /// Simplices whose patch is in the pool now (roots included).
+    pub fn resident_patches(&self) -> usize {
+        self.resident_patches
     }
 
     /// Streaming totals.
@@ -219,6 +247,7 @@ impl GpuStreamer {
             );
         }
         self.stats.uploaded_bytes += placed.bytes;
+        self.resident_patches += bytes.patches.len();
         Some(placed)
     }
 
@@ -275,7 +304,10 @@ impl GpuStreamer {
         renderer: &mut Renderer,
         request: &FrameRequest,
         readback: Readback,
-    ) -> Result<StreamedGpuFrame, RenderError> {
+    ) -> Result<StreamedGpuFrame, StreamError> {
+        if let Some(message) = self.lost.lock().ok().and_then(|slot| slot.clone()) {
+            return Err(StreamError::Device(message));
+        }
         let uploads = self.land(ctx, renderer)?;
         renderer.render(ctx, request, readback);
         self.submitted += 1;
@@ -304,6 +336,7 @@ impl GpuStreamer {
         for &u in &plan.evict {
             // Drawn at the latest by the frame just submitted.
             if let Some(placed) = self.placed[u as usize].take() {
+                self.resident_patches -= self.residency.units().simplices(u).len();
                 self.retired.push((self.submitted, placed));
             }
         }
