@@ -1,7 +1,7 @@
 //! `render` streams: under a budget far below the repository it settles on a partial cut and
 //! reports what it kept resident; with room for the view it draws the same image as with an
 //! unlimited budget; a budget below the fixed allocations is refused with both numbers
-//! (exit 2).
+//! (exit 2); `check --gpu --gpu-budget` runs the pixel check under partial residency.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -84,6 +84,30 @@ fn render_streams_within_the_budget_and_settles() {
         "{small}"
     );
     assert!(small["triangles"].as_u64().unwrap() < full["triangles"].as_u64().unwrap());
+
+    // The pixel check under partial residency: every streamed frame checked.
+    let out = tessera(&[
+        "check",
+        repo.to_str().unwrap(),
+        "--gpu",
+        "--gpu-budget",
+        "1.1",
+        "--views",
+        "4",
+        "--tolerances",
+        "0.5,1",
+        "--size",
+        "320x200",
+        "--json",
+    ]);
+    let c = json(&out);
+    eprintln!("check under 1.1 MiB: {c}");
+    assert_eq!(c["gpu"]["frames"], 4 * 2 * 4, "{c}");
+    assert_eq!(c["flag_pixels"], 0, "{c}");
+    assert_eq!(c["gpu"]["selection_mismatches"], 0, "{c}");
+    assert!(c["gpu"]["covered_pixels"].as_u64().unwrap() > 0);
+    assert!(c["resident_bytes"].as_u64().unwrap() <= c["budget_bytes"].as_u64().unwrap());
+    assert!(c["pool_bytes"].as_u64().unwrap() * 4 < size, "{c}");
 
     let out = render(&repo, &small_png, "0.5");
     assert_eq!(out.status.code(), Some(2));
