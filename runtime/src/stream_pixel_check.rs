@@ -33,6 +33,7 @@ pub fn check_pixels_streaming(
     let radius = bounding_radius(h.bbox_min, h.bbox_max);
     let centre = [0, 1, 2].map(|i| 0.5 * (h.bbox_min[i] + h.bbox_max[i]));
     let mut report = PixelCheckReport::default();
+    streamer.set_cpu_reference(true);
     for (view, eye) in outside_views(h.bbox_min, h.bbox_max, config.views)
         .into_iter()
         .enumerate()
@@ -90,5 +91,7 @@ pub fn check_pixels_streaming(
             }
         }
     }
+    // A frame whose GPU feedback differs from the reference's counts as a mismatch too.
+    report.selection_mismatches += streamer.stats().feedback_mismatches as usize;
     Ok(report)
 }

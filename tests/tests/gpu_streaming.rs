@@ -2,7 +2,9 @@
 //! of the repository, and over a fly-in every frame — before convergence too — the GPU's
 //! selection equals the CPU streaming reference for the same flags, the pixel check shows no
 //! flag pixel, and every allocation stays within the budget; the settled frame equals the
-//! unlimited one where the view's working set fits; a paused camera at half its working set
+//! unlimited one where the view's working set fits, and the GPU's feedback lists (what
+//! drives the loads) equal the reference's refined and wanted diamonds for every frame read
+//! back; a paused camera at half its working set
 //! stops loading.
 
 use std::sync::Arc;
@@ -131,8 +133,9 @@ struct Rig {
 
 impl Rig {
     fn new(ctx: GpuContext, repo: Arc<Repository>, budget: u64) -> Rig {
-        let (renderer, streamer) =
+        let (renderer, mut streamer) =
             GpuStreamer::new(&ctx, repo.clone(), options(budget), 256 << 10).expect("streamer");
+        streamer.set_cpu_reference(true);
         let full = Renderer::new(&ctx, &repo, options(1 << 40)).expect("fits a large budget");
         Rig {
             ctx,
@@ -196,6 +199,11 @@ impl Rig {
             stats.gpu_bytes <= budget,
             "{label}: {stats:?} over {budget}"
         );
+        assert_eq!(
+            stats.feedback_mismatches, 0,
+            "{label}: the GPU's feedback differs from the CPU reference's"
+        );
+        assert_eq!(stats.feedback_overflow, 0, "{label}");
         streamer.residency().check_invariants().unwrap();
         (f.settled, f.loads, cpu_selection)
     }
@@ -248,6 +256,8 @@ fn streaming_at_a_quarter_of_the_repository_draws_the_cpu_reference_every_frame(
         }
     }
     let settled = settled.expect("the stream settles within 200 frames");
+    let fed = rig.streamer.stats().feedback_frames;
+    assert!(fed > 40, "GPU feedback read back for {fed} frames");
     let eye = pause.eye_local(repo.header().origin);
     let rhos = diamond_rhos(repo.diamonds(), eye, &pause.metric());
     let cull = check_request(pause).cull;

@@ -194,6 +194,8 @@ pub fn run(args: RenderArgs) -> anyhow::Result<Outcome> {
             break;
         }
     }
+    // The written frame also runs the CPU reference (its max ρ/τ for the report).
+    streamer.set_cpu_reference(true);
     let last = streamer
         .frame(
             &ctx,

@@ -13,11 +13,13 @@
 //! - `renderer`: traversal + draws, one submit per frame;
 //! - streaming (GPU memory as a cache of the mapped repository): `stream_pool` (the page pool
 //!   and its allocator), `stream_budget` (every allocation counted, the pool the budget buys),
+//!   `feedback` (the traversal's refined and wanted lists, read back through a ring),
 //!   `streamer` (the per-frame loop: land loads, flags, render, feedback, plan).
 
 pub mod compact;
 pub mod device;
 pub mod draw_pipelines;
+pub mod feedback;
 pub mod frame;
 pub mod full_mesh;
 pub mod renderer;

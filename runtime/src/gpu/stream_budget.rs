@@ -3,7 +3,7 @@
 //!
 //! Fixed (independent of what is resident): the diamond, tet and location tables; the
 //! traversal's two queues, its `may_refine` words, counters, dispatch arguments and step
-//! uniforms; per pool page a selection list (and its read-back copy), a count (and its copy),
+//! uniforms; the feedback lists and their read-back ring; per pool page a selection list (and its read-back copy), a count (and its copy),
 //! an indirect draw, a list start and a page-draw uniform slot; the frame uniforms and
 //! timestamps; the target (colour, depth, read-back). The pool gets what is left, in pages of
 //! at most one storage binding.
@@ -35,7 +35,9 @@ fn base_bytes(ctx: &GpuContext, repo: &Repository, options: &RendererOptions) ->
     let padded_row = (4 * w).next_multiple_of(256);
     let target = 4 * w * h + 4 * w * h + padded_row * h;
     let frame = 4096; // uniforms, timestamps and their read-back
-    tables + traversal + target + frame
+    let feedback =
+        super::feedback::Feedback::bytes(super::streamer::feedback_capacity(repo.tets().len()));
+    tables + traversal + target + frame + feedback
 }
 
 /// Bytes per pool page besides the page itself.

@@ -9,8 +9,8 @@
 //! 3. uploads the `may_refine` words if they changed — after the bytes they point to (same
 //!    queue, write order: every write lands before the frame's commands);
 //! 4. renders and submits the frame with those flags;
-//! 5. feedback: interim, the CPU reference `stream::stream_frame` for the frame's camera and
-//!    flags (O(cut)) gives the refined and wanted diamonds (the GPU lists are the next step);
+//! 5. feedback: the traversal's refined and wanted lists (`feedback.rs`) of the frames read
+//!    back by now — a frame or two late —, deduplicated, go to `Residency::feedback`;
 //!    `Residency::plan` then evicts (flags cleared now, in effect from the next frame's
 //!    upload; space freed by step 1 later) and issues loads to the loader thread.
 //!
@@ -54,7 +54,7 @@ pub enum StreamError {
 #[derive(Clone, Debug)]
 pub struct StreamedGpuFrame {
     /// The CPU reference's view of the frame (selection, refined, wanted) for the flags the
-    /// GPU drew with.
+    /// GPU drew with (empty unless `set_cpu_reference`).
     pub reference: StreamFrame,
     /// The `may_refine` words the frame was drawn with (D / 32 words).
     pub may_refine_words: Vec<u32>,
@@ -82,6 +82,20 @@ pub struct GpuStreamStats {
     pub fragmentation: f64,
     /// Frames a loaded unit waited for pool space, summed.
     pub space_waits: u64,
+    /// Frames whose GPU feedback was read back and used.
+    pub feedback_frames: u64,
+    /// List appends past the capacity (requests lost), summed.
+    pub feedback_overflow: u64,
+    /// With the CPU reference on: frames whose GPU feedback differed from the reference's.
+    pub feedback_mismatches: u64,
+}
+
+/// A frame number and the refined and wanted lists the CPU reference found for it.
+type FeedbackLists = (u64, Vec<(u32, f32)>, Vec<(u32, f32)>);
+
+/// Entries of each feedback list: one per refining simplex at most.
+pub fn feedback_capacity(tets: usize) -> u32 {
+    tets.min(1 << 16) as u32
 }
 
 /// The streaming state of one renderer.
@@ -103,6 +117,13 @@ pub struct GpuStreamer {
     resident_patches: usize,
     /// Set by the device-lost callback.
     lost: Arc<std::sync::Mutex<Option<String>>>,
+    /// Bumped at every flags upload; per frame drawn (renderer's number), the version used.
+    flags_version: u64,
+    versions: VecDeque<(u64, u64)>,
+    /// Compute the CPU reference every frame (`set_cpu_reference`), and per frame drawn its
+    /// refined and wanted lists, to compare with the GPU's when they arrive.
+    cpu_reference: bool,
+    expected: VecDeque<FeedbackLists>,
     stats: GpuStreamStats,
 }
 
@@ -136,7 +157,8 @@ impl GpuStreamer {
         }
         let scope = ctx.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
         let model: ResidentModel = pool_model(ctx, &repo, &layout);
-        let renderer = Renderer::with_model(ctx, &repo, options, model)?;
+        let capacity = feedback_capacity(repo.tets().len());
+        let renderer = Renderer::with_model(ctx, &repo, options, model, capacity)?;
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(StreamError::Device(format!(
                 "allocating {} bytes of pool and tables: {e}",
@@ -173,6 +195,10 @@ impl GpuStreamer {
                 .collect(),
             resident_patches: 0,
             lost,
+            flags_version: 0,
+            versions: VecDeque::new(),
+            cpu_reference: false,
+            expected: VecDeque::new(),
             stats: GpuStreamStats {
                 gpu_bytes: fixed + pool_bytes,
                 fixed_bytes: fixed,
@@ -196,6 +222,13 @@ impl GpuStreamer {
     /// The residency (flags, states, totals).
     pub fn residency(&self) -> &Residency {
         &self.residency
+    }
+
+    /// Also run the CPU reference (`stream::stream_frame`) every frame for the flags drawn:
+    /// `StreamedGpuFrame::reference` is then filled, and the GPU's feedback is compared with
+    /// it (`GpuStreamStats::feedback_mismatches`). Off by default (O(diamonds) per frame).
+    pub fn set_cpu_reference(&mut self, on: bool) {
+        self.cpu_reference = on;
     }
 
     /// Simplices whose patch is in the pool now (roots included).
@@ -292,6 +325,7 @@ impl GpuStreamer {
         // before the frame's commands.
         if self.residency.take_flags_changed() {
             renderer.set_may_refine(ctx, &self.residency.may_refine_words())?;
+            self.flags_version += 1;
         }
         Ok(uploaded)
     }
@@ -317,41 +351,80 @@ impl GpuStreamer {
         });
 
         let may_refine_words = self.residency.may_refine_words();
-        // Interim feedback: the CPU reference for the flags this frame was drawn with.
-        let origin = self.repo.header().origin;
-        let eye = request.camera.eye_local(origin);
-        let rhos = diamond_rhos(self.repo.diamonds(), eye, &request.camera.metric());
-        let reference = stream_frame(
-            self.repo.tets(),
-            self.repo.header().root_tet_count as usize,
-            &rhos,
-            self.residency.may_refine(),
-            request.tau,
-            eye,
-            &request.cull,
-        );
-        self.residency
-            .feedback(&reference.refined, &reference.wanted);
-        let plan = self.residency.plan(self.upload_bytes_per_frame);
-        for &u in &plan.evict {
-            // Drawn at the latest by the frame just submitted.
-            if let Some(placed) = self.placed[u as usize].take() {
-                self.resident_patches -= self.residency.units().simplices(u).len();
-                self.retired.push((self.submitted, placed));
+        let drawn = renderer.frames_submitted();
+        self.versions.push_back((drawn, self.flags_version));
+        // The CPU reference for the flags this frame was drawn with, when asked for (checks).
+        let reference = if self.cpu_reference {
+            let origin = self.repo.header().origin;
+            let eye = request.camera.eye_local(origin);
+            let rhos = diamond_rhos(self.repo.diamonds(), eye, &request.camera.metric());
+            let reference = stream_frame(
+                self.repo.tets(),
+                self.repo.header().root_tet_count as usize,
+                &rhos,
+                self.residency.may_refine(),
+                request.tau,
+                eye,
+                &request.cull,
+            );
+            self.expected
+                .push_back((drawn, reference.refined.clone(), reference.wanted.clone()));
+            reference
+        } else {
+            StreamFrame::default()
+        };
+        // Feedback: the GPU lists of the frames read back by now (a frame or two late).
+        let (mut loads, mut evictions, mut fresh) = (Vec::new(), 0, false);
+        for mut fb in renderer.take_feedback(ctx).map_err(StreamError::Device)? {
+            for list in [&mut fb.refined, &mut fb.wanted] {
+                list.sort_unstable_by_key(|&(d, _)| d);
+                list.dedup_by_key(|&mut (d, _)| d);
             }
+            self.stats.feedback_frames += 1;
+            self.stats.feedback_overflow += fb.overflow as u64;
+            while self.expected.front().is_some_and(|e| e.0 < fb.frame) {
+                self.expected.pop_front();
+            }
+            if let Some(e) = self.expected.front().filter(|e| e.0 == fb.frame) {
+                if e.1 != fb.refined || e.2 != fb.wanted {
+                    self.stats.feedback_mismatches += 1;
+                }
+            }
+            while self.versions.front().is_some_and(|v| v.0 < fb.frame) {
+                self.versions.pop_front();
+            }
+            fresh = self
+                .versions
+                .front()
+                .is_some_and(|&(f, v)| f == fb.frame && v == self.flags_version);
+            self.residency.feedback(&fb.refined, &fb.wanted);
+            let plan = self.residency.plan(self.upload_bytes_per_frame);
+            for &u in &plan.evict {
+                // Drawn at the latest by the frame just submitted.
+                if let Some(placed) = self.placed[u as usize].take() {
+                    self.resident_patches -= self.residency.units().simplices(u).len();
+                    self.retired.push((self.submitted, placed));
+                }
+            }
+            evictions += plan.evict.len();
+            loads.extend(plan.load);
         }
-        for &u in &plan.load {
+        for &u in &loads {
             self.loader
                 .submit(u, self.residency.units().simplices(u).to_vec());
         }
         let stats = self.residency.stats();
+        // Settled: the latest feedback saw the current flags, and asked for nothing more.
+        let settled =
+            fresh && loads.is_empty() && stats.loading_units == 0 && self.ready.is_empty();
+        let plan_loads = loads.len();
         Ok(StreamedGpuFrame {
             reference,
             may_refine_words,
-            loads: plan.load.len(),
-            evictions: plan.evict.len(),
+            loads: plan_loads,
+            evictions,
             uploads,
-            settled: plan.load.is_empty() && stats.loading_units == 0 && self.ready.is_empty(),
+            settled,
             stats,
         })
     }
