@@ -35,8 +35,11 @@ fn base_bytes(ctx: &GpuContext, repo: &Repository, options: &RendererOptions) ->
     let padded_row = (4 * w).next_multiple_of(256);
     let target = 4 * w * h + 4 * w * h + padded_row * h;
     let frame = 4096; // uniforms, timestamps and their read-back
-    let feedback =
-        super::feedback::Feedback::bytes(super::streamer::feedback_capacity(repo.tets().len()));
+    let feedback = super::feedback::Feedback::bytes(super::streamer::feedback_capacity(
+        repo.tets().len(),
+        options.width,
+        options.height,
+    ));
     tables + traversal + target + frame + feedback
 }
 

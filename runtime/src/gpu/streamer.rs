@@ -93,9 +93,13 @@ pub struct GpuStreamStats {
 /// A frame number and the refined and wanted lists the CPU reference found for it.
 type FeedbackLists = (u64, Vec<(u32, f32)>, Vec<(u32, f32)>);
 
-/// Entries of each feedback list: one per refining simplex at most.
-pub fn feedback_capacity(tets: usize) -> u32 {
-    tets.min(1 << 16) as u32
+/// Entries of each feedback list: at most one per simplex, and a share of the target (one per
+/// 64 pixels, at least 4,096): a cut's refined and wanted simplices grow with what the view
+/// shows. A frame whose lists overflowed is not fed to the residency (its refined list is
+/// incomplete, so used units could look unused and be evicted): it requests nothing.
+pub fn feedback_capacity(tets: usize, width: u32, height: u32) -> u32 {
+    let share = (width as usize * height as usize / 64).max(4096);
+    tets.min(share) as u32
 }
 
 /// The streaming state of one renderer.
@@ -157,7 +161,7 @@ impl GpuStreamer {
         }
         let scope = ctx.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
         let model: ResidentModel = pool_model(ctx, &repo, &layout);
-        let capacity = feedback_capacity(repo.tets().len());
+        let capacity = feedback_capacity(repo.tets().len(), options.width, options.height);
         let renderer = Renderer::with_model(ctx, &repo, options, model, capacity)?;
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(StreamError::Device(format!(
@@ -380,8 +384,11 @@ impl GpuStreamer {
                 list.sort_unstable_by_key(|&(d, _)| d);
                 list.dedup_by_key(|&mut (d, _)| d);
             }
-            self.stats.feedback_frames += 1;
             self.stats.feedback_overflow += fb.overflow as u64;
+            if fb.overflow > 0 {
+                continue; // incomplete: requests nothing (feedback_capacity)
+            }
+            self.stats.feedback_frames += 1;
             while self.expected.front().is_some_and(|e| e.0 < fb.frame) {
                 self.expected.pop_front();
             }
