@@ -196,6 +196,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<Outcome> {
     }
     // The written frame also runs the CPU reference (its max ρ/τ for the report).
     streamer.set_cpu_reference(true);
+    let started = std::time::Instant::now();
     let last = streamer
         .frame(
             &ctx,
@@ -207,6 +208,9 @@ pub fn run(args: RenderArgs) -> anyhow::Result<Outcome> {
             },
         )
         .map_err(device_failure)?;
+    // CPU ms of the written frame: recording and submitting it, and the streaming work
+    // (landing units, feedback, plan; the CPU reference of this frame included).
+    let cpu_ms = started.elapsed().as_secs_f64() * 1e3;
     let image = renderer.read_image(&ctx);
     let selection = &renderer.read_selection(&ctx);
     let (triangles, gpu_ms) = (renderer.triangles_of(selection), renderer.read_gpu_ms(&ctx));
@@ -215,7 +219,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<Outcome> {
         selection: selection.clone(),
         triangles,
         gpu_ms,
-        cpu_ms: 0.0,
+        cpu_ms,
     };
     let (stats, gpu) = (last.stats, streamer.stats());
     save_png(&frame.image, &args.output)?;
@@ -227,6 +231,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<Outcome> {
                 "patches": frame.selection.len(),
                 "triangles": frame.triangles,
                 "gpu_ms": frame.gpu_ms,
+                "cpu_ms": frame.cpu_ms,
                 "adapter": ctx.adapter_description(),
                 "backend": ctx.backend.name(),
                 "tolerance": args.tolerance,
