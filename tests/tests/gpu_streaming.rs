@@ -1,5 +1,6 @@
-//! The GPU renderer streaming under a byte budget (`gpu::streamer`): the pool holds a quarter
-//! of the repository, and over a fly-in every frame — before convergence too — the GPU's
+//! The GPU renderer streaming under a byte budget (`gpu::streamer`): a generated 400 k-triangle
+//! mesh under a budget (every allocation) of a quarter of its repository file, and the
+//! armadillo with a pool of a quarter of its patches; over a fly-in every frame — before convergence too — the GPU's
 //! selection equals the CPU streaming reference for the same flags, the pixel check shows no
 //! flag pixel, and every allocation stays within the budget; the settled frame equals the
 //! unlimited one where the view's working set fits, and the GPU's feedback lists (what
@@ -315,4 +316,38 @@ fn a_budget_below_the_fixed_part_is_refused_with_both_numbers() {
         text.contains("65536") && text.contains("fixed allocations"),
         "{text}"
     );
+}
+
+#[test]
+fn a_generated_mesh_four_times_its_budget_streams_with_every_frame_checked() {
+    use tessera_preprocess::gen_mesh::{GenMesh, MeshParams};
+    let mesh = GenMesh::new(MeshParams {
+        triangles: 400_000,
+        seed: 7,
+        shuffle_vertices: false,
+        density_range: 4.0,
+    })
+    .expect("mesh")
+    .to_input_mesh();
+    let b = build(&mesh, &BuildConfig::default());
+    let path = b.dir.path().join("model.tsr");
+    let repo = Arc::new(Repository::open(&path).expect("reopen"));
+    let size = std::fs::metadata(&path).unwrap().len();
+    // Every GPU allocation together: a quarter of the repository file.
+    let budget = size / 4;
+    let ctx = gpu();
+    let mut rig = Rig::new(ctx, repo.clone(), budget);
+    for (i, &camera) in fly_in(&repo, 30).iter().enumerate() {
+        rig.frame(camera, &format!("fly-in frame {i}"));
+    }
+    let stats = rig.streamer.residency().stats();
+    eprintln!(
+        "repository {size} B, budget {budget} B, {:?}, {stats:?}",
+        rig.streamer.stats()
+    );
+    assert!(
+        stats.evictions > 0,
+        "no streaming under pressure: {stats:?}"
+    );
+    assert!(rig.streamer.stats().feedback_frames > 20);
 }
