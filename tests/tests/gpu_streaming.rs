@@ -1,12 +1,12 @@
-//! The GPU renderer streaming under a byte budget (`gpu::streamer`): a generated 400 k-triangle
-//! mesh under a budget (every allocation) of a quarter of its repository file, and the
-//! armadillo with a pool of a quarter of its patches; over a fly-in every frame — before convergence too — the GPU's
-//! selection equals the CPU streaming reference for the same flags, the pixel check shows no
-//! flag pixel, and every allocation stays within the budget; the settled frame equals the
-//! unlimited one where the view's working set fits, and the GPU's feedback lists (what
-//! drives the loads) equal the reference's refined and wanted diamonds for every frame read
-//! back; a paused camera at half its working set
-//! stops loading.
+//! The GPU renderer streaming under a byte budget (`gpu::streamer`): a generated 400 k-
+//! triangle mesh under a budget (every allocation) of a quarter of its repository file, and
+//! the armadillo with a pool of a quarter of its patches. Over a fly-in, every frame (before
+//! convergence too): the GPU's selection equals the CPU streaming reference for the same
+//! flags, the pixel check shows no flag pixel, the image is the fully resident renderer's
+//! for the same flags, the GPU's feedback lists (what drives the loads) equal the
+//! reference's refined and wanted diamonds, and every allocation stays within the budget.
+//! The settled frame equals the unlimited one where the view's working set fits; a paused
+//! camera at half its working set stops loading.
 
 use std::sync::Arc;
 
