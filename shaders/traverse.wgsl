@@ -17,6 +17,10 @@
 // Bit d % 32 of word d / 32: diamond d may refine (tessera_core::cut::may_refine; all set
 // unless streaming forbids some, closed downwards by the loader).
 @group(0) @binding(7) var<storage, read> may_refine: array<u32>;
+// Streaming feedback (runtime/src/gpu/feedback.rs): [0] refined count, [1] wanted count,
+// [2] capacity of each list; refined entries (diamond, bits of rho/tau) from word 4, wanted
+// ones from word 4 + 2 * capacity. Appends past the capacity are counted, not written.
+@group(0) @binding(8) var<storage, read_write> feedback: array<atomic<u32>>;
 
 struct Step {
     depth: u32,
@@ -53,6 +57,33 @@ fn restricted_rho(d: u32) -> f32 {
         return 0.0;
     }
     return rho(diamonds[d]);
+}
+
+// Streaming feedback: appends (d, rho/tau) to list 0 (refined) or 1 (wanted), from simplices
+// inside the view volume only (stream::stream_frame's rule).
+fn report(list: u32, d: u32, priority: f32) {
+    let capacity = atomicLoad(&feedback[2]);
+    let k = atomicAdd(&feedback[list], 1u);
+    if k < capacity {
+        let at = 4u + 2u * (list * capacity + k);
+        atomicStore(&feedback[at], d);
+        atomicStore(&feedback[at + 1u], bitcast<u32>(priority));
+    }
+}
+
+// Streaming feedback from simplex t of diamond d (not a leaf) at tolerance tau.
+fn feed_back(t: TetRecord, d: u32, tau: f32) {
+    let flags = frame.counts.y;
+    let c = vec3<f32>(t.cx - frame.eye_tau.x, t.cy - frame.eye_tau.y, t.cz - frame.eye_tau.z);
+    if (flags & CULL_FRUSTUM) != 0u && !sphere_visible(c, t.radius) {
+        return;
+    }
+    let r = rho(diamonds[d]);
+    if r <= tau {
+        return;
+    }
+    let allowed = ((may_refine[d / 32u] >> (d % 32u)) & 1u) != 0u;
+    report(select(1u, 0u, allowed), d, r / tau);
 }
 
 // tessera_core::cull::ViewVolume::sphere_visible.
@@ -117,6 +148,9 @@ fn traverse(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroup
             i = queue_in[k];
         }
         let t = tets[i];
+        if t.diamond != NO_INDEX {
+            feed_back(t, t.diamond, tau); // streaming (feedback.rs)
+        }
         if t.diamond == NO_INDEX || restricted_rho(t.diamond) <= tau {
             draw(i, t);
         } else {

@@ -14,5 +14,6 @@ pub mod measure;
 pub mod mesh_problem;
 pub mod pixel_check;
 pub mod stream;
+pub mod stream_pixel_check;
 pub mod vec3;
 pub mod views;

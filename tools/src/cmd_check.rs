@@ -1,7 +1,9 @@
 //! `tessera check REPO [--views N] [--tolerances a,b,...] [--gpu] [--json]`
 //!
 //! Always the geometric check (edges by global id); with `--gpu`, also the pixel check on the
-//! GPU (flag colour on back faces, views from outside) and GPU-vs-CPU selection.
+//! GPU (flag colour on back faces, views from outside) and GPU-vs-CPU selection; with
+//! `--gpu-budget`, that check under partial residency (the streaming renderer, every streamed
+//! frame checked against the CPU streaming reference for its flags).
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -11,6 +13,7 @@ use serde_json::json;
 use tessera_core::repository::reader::Repository;
 use tessera_runtime::geometric_check::{check_cuts, decode_all_patches, CheckConfig, CheckReport};
 use tessera_runtime::pixel_check::{check_pixels, PixelCheckConfig, PixelCheckReport};
+use tessera_runtime::stream_pixel_check::check_pixels_streaming;
 
 use crate::Outcome;
 
@@ -55,25 +58,49 @@ pub fn run(args: CheckArgs) -> anyhow::Result<Outcome> {
     let patches = decode_all_patches(&repo)?;
     let report = check_cuts(&repo, &patches, &config);
     let seconds = start.elapsed().as_secs_f64();
+    let mut streaming = None;
     let gpu = if args.gpu {
         let start = Instant::now();
         let ctx = args.device.context()?;
-        let mut renderer = args
-            .device
-            .renderer(&ctx, &repo, (args.size.0, args.size.1))?;
-        let pixels = check_pixels(
-            &ctx,
-            &mut renderer,
-            &repo,
-            &PixelCheckConfig {
-                views: args.views,
-                tolerances: args.tolerances.clone(),
-                up: args
-                    .up
-                    .unwrap_or(crate::cmd_render::default_up(repo.header().dimension)),
-                ..Default::default()
-            },
-        );
+        let config = PixelCheckConfig {
+            views: args.views,
+            tolerances: args.tolerances.clone(),
+            up: args
+                .up
+                .unwrap_or(crate::cmd_render::default_up(repo.header().dimension)),
+            ..Default::default()
+        };
+        // With --gpu-budget: the check under partial residency (the streaming renderer, every
+        // streamed frame checked; `stream_pixel_check`), closed meshes only.
+        let pixels = if args.device.gpu_budget.is_some() {
+            if repo.header().dimension != 3 {
+                anyhow::bail!(
+                    "check --gpu --gpu-budget checks closed meshes under partial residency; \
+                     terrains are checked fully resident (omit --gpu-budget)"
+                );
+            }
+            let shared = std::sync::Arc::new(Repository::open(&args.repository)?);
+            let (mut renderer, mut streamer) =
+                args.device
+                    .streaming(&ctx, shared, (args.size.0, args.size.1))?;
+            let pixels = check_pixels_streaming(&ctx, &mut renderer, &mut streamer, &repo, &config)
+                .map_err(crate::gpu_args::device_failure)?;
+            let (stats, gpu) = (streamer.residency().stats(), streamer.stats());
+            streaming = Some(json!({
+                "resident_bytes": gpu.gpu_bytes,
+                "budget_bytes": args.device.budget_bytes(&ctx),
+                "pool_bytes": gpu.pool_bytes,
+                "resident_patches": streamer.resident_patches(),
+                "loaded_bytes": stats.loaded_bytes,
+                "evictions": stats.evictions,
+            }));
+            pixels
+        } else {
+            let mut renderer = args
+                .device
+                .renderer(&ctx, &repo, (args.size.0, args.size.1))?;
+            check_pixels(&ctx, &mut renderer, &repo, &config)
+        };
         Some((
             pixels,
             start.elapsed().as_secs_f64(),
@@ -90,6 +117,11 @@ pub fn run(args: CheckArgs) -> anyhow::Result<Outcome> {
             value["gpu"]["backend"] = (*backend).into();
             value["backend"] = (*backend).into();
             value["flag_pixels"] = pixels.flag_pixels.into();
+            if let Some(stream) = &streaming {
+                for (k, v) in stream.as_object().into_iter().flatten() {
+                    value[k] = v.clone();
+                }
+            }
         }
         println!("{value}");
     } else {

@@ -7,8 +7,9 @@ use clap::{Args, ValueEnum};
 use serde_json::json;
 use tessera_core::repository::reader::Repository;
 use tessera_runtime::camera::{bounding_radius, Camera, Y_UP, Z_UP};
-use tessera_runtime::gpu::{FrameRequest, ShadingMode};
+use tessera_runtime::gpu::{FrameRequest, Readback, ShadingMode};
 
+use crate::gpu_args::device_failure;
 use crate::output::save_png;
 use crate::Outcome;
 
@@ -55,6 +56,9 @@ pub struct RenderArgs {
     /// Print one JSON object on stdout.
     #[arg(long)]
     pub json: bool,
+    /// Most frames drawn while the stream settles (the last one is written).
+    #[arg(long, default_value_t = 1000)]
+    pub max_frames: u32,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -168,31 +172,66 @@ pub fn run(args: RenderArgs) -> anyhow::Result<Outcome> {
     let h = *repo.header();
     let camera = camera_from_args(&args, h.bbox_min, h.bbox_max, h.dimension)?;
     let ctx = args.gpu.context()?;
-    let mut renderer = args
-        .gpu
-        .renderer(&ctx, &repo, (camera.width, camera.height))?;
+    let shared = std::sync::Arc::new(Repository::open(&args.repository)?);
+    let (mut renderer, mut streamer) =
+        args.gpu
+            .streaming(&ctx, shared, (camera.width, camera.height))?;
     let request = FrameRequest {
         mode: args.mode.into(),
         wireframe: args.wireframe,
         ..FrameRequest::new(camera, args.tolerance)
     };
-    let frame = renderer.render_and_read(&ctx, &request);
-    let (selection, triangles, gpu_ms, cpu_ms) = (
-        &frame.selection,
-        frame.triangles,
-        frame.gpu_ms,
-        frame.cpu_ms,
-    );
+    // Streaming: frames until nothing is issued, loading or waiting (or the cap), then one
+    // more frame, read back and written.
+    let mut frames_to_converge = None;
+    for k in 1..args.max_frames.max(1) {
+        let f = streamer
+            .frame(&ctx, &mut renderer, &request, Readback::default())
+            .map_err(device_failure)?;
+        ctx.wait_idle();
+        if f.settled {
+            frames_to_converge = Some(k);
+            break;
+        }
+    }
+    // The written frame also runs the CPU reference (its max ρ/τ for the report).
+    streamer.set_cpu_reference(true);
+    let started = std::time::Instant::now();
+    let last = streamer
+        .frame(
+            &ctx,
+            &mut renderer,
+            &request,
+            Readback {
+                image: true,
+                selection: true,
+            },
+        )
+        .map_err(device_failure)?;
+    // CPU ms of the written frame: recording and submitting it, and the streaming work
+    // (landing units, feedback, plan; the CPU reference of this frame included).
+    let cpu_ms = started.elapsed().as_secs_f64() * 1e3;
+    let image = renderer.read_image(&ctx);
+    let selection = &renderer.read_selection(&ctx);
+    let (triangles, gpu_ms) = (renderer.triangles_of(selection), renderer.read_gpu_ms(&ctx));
+    let frame = tessera_runtime::gpu::Frame {
+        image,
+        selection: selection.clone(),
+        triangles,
+        gpu_ms,
+        cpu_ms,
+    };
+    let (stats, gpu) = (last.stats, streamer.stats());
     save_png(&frame.image, &args.output)?;
     if args.json {
         println!(
             "{}",
             json!({
                 "output": args.output.display().to_string(),
-                "patches": selection.len(),
-                "triangles": triangles,
-                "gpu_ms": gpu_ms,
-                "cpu_ms": cpu_ms,
+                "patches": frame.selection.len(),
+                "triangles": frame.triangles,
+                "gpu_ms": frame.gpu_ms,
+                "cpu_ms": frame.cpu_ms,
                 "adapter": ctx.adapter_description(),
                 "backend": ctx.backend.name(),
                 "tolerance": args.tolerance,
@@ -200,18 +239,41 @@ pub fn run(args: RenderArgs) -> anyhow::Result<Outcome> {
                 "height": camera.height,
                 "eye": camera.eye,
                 "target": camera.target,
+                "resident_bytes": gpu.gpu_bytes,
+                "budget_bytes": args.gpu.budget_bytes(&ctx),
+                "fixed_bytes": gpu.fixed_bytes,
+                "pool_bytes": gpu.pool_bytes,
+                "resident_patch_bytes": stats.peak_resident_bytes,
+                "resident_patches": streamer.resident_patches(),
+                "loaded_bytes": stats.loaded_bytes,
+                "evictions": stats.evictions,
+                "pending_units": stats.pending_units,
+                "frames_to_converge": frames_to_converge,
+                "pool_fragmentation": gpu.fragmentation,
+                "max_error_over_tau": last.reference.max_error_over_tau,
             })
         );
     } else {
         println!(
-            "{}: {} patches, {} triangles at τ = {} px; GPU {} ms, CPU {:.3} ms on {}",
+            "{}: {} patches, {} triangles at τ = {} px; GPU {} ms on {}; streamed: {} of {} \
+             budget bytes allocated, {} patches resident, {} bytes loaded, {} evictions, {}",
             args.output.display(),
             selection.len(),
-            triangles,
+            frame.triangles,
             args.tolerance,
-            gpu_ms.map_or("n/a".to_string(), |g| format!("{g:.2}")),
-            cpu_ms,
-            ctx.adapter_description()
+            frame
+                .gpu_ms
+                .map_or("n/a".to_string(), |g| format!("{g:.2}")),
+            ctx.adapter_description(),
+            gpu.gpu_bytes,
+            args.gpu.budget_bytes(&ctx),
+            streamer.resident_patches(),
+            stats.loaded_bytes,
+            stats.evictions,
+            frames_to_converge.map_or(
+                format!("not settled after {} frames", args.max_frames),
+                |k| format!("settled after {k} frames")
+            ),
         );
     }
     Ok(Outcome::Ok)

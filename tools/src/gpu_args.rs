@@ -1,9 +1,12 @@
 //! The GPU options every rendering command shares, and what they make.
 
 use clap::Args;
+use std::sync::Arc;
 use tessera_core::repository::reader::Repository;
+
 use tessera_runtime::gpu::{
-    Backend, DeviceOptions, GpuContext, RenderError, Renderer, RendererOptions,
+    Backend, DeviceOptions, GpuContext, GpuStreamer, RenderError, Renderer, RendererOptions,
+    StreamError,
 };
 
 #[derive(Args, Clone, Debug)]
@@ -15,9 +18,25 @@ pub struct GpuArgs {
     /// that lacks what tessera needs is refused with what is missing.
     #[arg(long)]
     pub backend: Option<Backend>,
-    /// GPU memory budget for the resident model, MiB.
-    #[arg(long, default_value_t = 2048)]
-    pub gpu_budget: u64,
+    /// GPU memory budget, MiB (fractions allowed): every allocation of the renderer (tables, page pool, lists,
+    /// staging, uniforms, target). `render` streams patches into it; default: a quarter of
+    /// the host memory on a CPU adapter (lavapipe, llvmpipe), else 2048 (wgpu does not report
+    /// an adapter's memory).
+    #[arg(long)]
+    pub gpu_budget: Option<f64>,
+}
+
+/// A device failure (lost, out of memory, a failed map): exit 3.
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct DeviceFailure(pub String);
+
+/// Total host memory from /proc/meminfo, bytes.
+fn host_memory() -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = text.lines().find(|l| l.starts_with("MemTotal:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib << 10)
 }
 
 impl GpuArgs {
@@ -42,9 +61,50 @@ impl GpuArgs {
             RendererOptions {
                 width,
                 height,
-                budget_bytes: self.gpu_budget << 20,
+                budget_bytes: self.budget_bytes(ctx),
                 ..Default::default()
             },
         )
+    }
+
+    /// The budget in bytes: `--gpu-budget`, else the default rule (the flag's help).
+    pub fn budget_bytes(&self, ctx: &GpuContext) -> u64 {
+        match self.gpu_budget {
+            Some(mib) => (mib.max(0.0) * (1u64 << 20) as f64) as u64,
+            None if ctx.info.device_type == wgpu::DeviceType::Cpu => {
+                host_memory().map_or(2048 << 20, |b| b / 4)
+            }
+            None => 2048 << 20,
+        }
+    }
+
+    /// The streaming renderer of `repo` at `size` (`gpu::streamer`): a page pool within the
+    /// budget, the roots resident, the rest loaded as views need it. A budget too small for
+    /// the fixed allocations and the roots is an error with both numbers (exit 2); a device
+    /// failure is a `DeviceFailure` (exit 3).
+    pub fn streaming(
+        &self,
+        ctx: &GpuContext,
+        repo: Arc<Repository>,
+        (width, height): (u32, u32),
+    ) -> anyhow::Result<(Renderer, GpuStreamer)> {
+        let options = RendererOptions {
+            width,
+            height,
+            budget_bytes: self.budget_bytes(ctx),
+            ..Default::default()
+        };
+        GpuStreamer::new(ctx, repo, options, UPLOAD_BYTES_PER_FRAME).map_err(device_failure)
+    }
+}
+
+/// Bytes of units issued (and uploaded) per frame.
+pub const UPLOAD_BYTES_PER_FRAME: u64 = 4 << 20;
+
+/// A streaming error as the CLI reports it: device failures become `DeviceFailure`.
+pub fn device_failure(e: StreamError) -> anyhow::Error {
+    match e {
+        StreamError::Device(m) => DeviceFailure(m).into(),
+        other => other.into(),
     }
 }

@@ -85,7 +85,12 @@ fn main() -> ExitCode {
         Ok(Outcome::CheckFailed) => ExitCode::from(1),
         Err(e) => {
             eprintln!("error: {}", error_message(&e));
-            ExitCode::from(2)
+            // A device that failed (lost, out of memory) is exit 3; every other error 2.
+            if e.downcast_ref::<gpu_args::DeviceFailure>().is_some() {
+                ExitCode::from(3)
+            } else {
+                ExitCode::from(2)
+            }
         }
     }
 }

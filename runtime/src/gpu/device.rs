@@ -147,7 +147,7 @@ impl std::fmt::Debug for GpuContext {
 }
 
 /// Storage buffers the traversal binds in its compute stage.
-const TRAVERSAL_STORAGE_BUFFERS: u32 = 10;
+const TRAVERSAL_STORAGE_BUFFERS: u32 = 11;
 
 impl GpuContext {
     /// Opens the adapter whose name contains `wanted` (case-insensitive), else the one named by

@@ -10,17 +10,25 @@
 //! - `traversal`: the top-down stateless traversal, one indirect dispatch per depth;
 //! - `draw_pipelines`: the fill, check and wireframe pipelines of draw.wgsl;
 //! - `compact`: per page, the selected patches' strip-slot prefix sums and one indirect draw;
-//! - `renderer`: traversal + draws, one submit per frame.
+//! - `renderer`: traversal + draws, one submit per frame;
+//! - streaming (GPU memory as a cache of the mapped repository): `stream_pool` (the page pool
+//!   and its allocator), `stream_budget` (every allocation counted, the pool the budget buys),
+//!   `feedback` (the traversal's refined and wanted lists, read back through a ring),
+//!   `streamer` (the per-frame loop: land loads, flags, render, feedback, plan).
 
 pub mod compact;
 pub mod device;
 pub mod draw_pipelines;
+pub mod feedback;
 pub mod frame;
 pub mod full_mesh;
 pub mod renderer;
 pub mod resident;
 pub mod shaders;
 pub mod skirts;
+pub mod stream_budget;
+pub mod stream_pool;
+pub mod streamer;
 pub mod target;
 pub mod timing;
 pub mod traversal;
@@ -28,3 +36,4 @@ pub mod traversal;
 pub use device::{Backend, DeviceError, DeviceOptions, GpuContext};
 pub use frame::{ShadingMode, FLAG_COLOUR};
 pub use renderer::{Frame, FrameRequest, Readback, RenderError, Renderer, RendererOptions};
+pub use streamer::{GpuStreamStats, GpuStreamer, StreamError, StreamedGpuFrame};

@@ -17,6 +17,7 @@ use super::compact::{
 };
 use super::device::GpuContext;
 use super::draw_pipelines::{DrawPipelines, Pass};
+use super::feedback::{Feedback, FeedbackFrame};
 use super::frame::{FrameUniforms, ShadingMode};
 use super::resident::{ResidentError, ResidentModel, ENTRY_BYTES};
 use super::shaders::draw_source;
@@ -139,6 +140,10 @@ pub struct Renderer {
     pulled: DrawPipelines,
     timer: Option<FrameTimer>,
     skirts: super::skirts::CheckSkirts,
+    /// Streaming: the traversal's feedback lists and their read-back ring (`feedback.rs`),
+    /// and the frames submitted (numbers the feedback).
+    feedback: Feedback,
+    frames_submitted: u64,
 }
 
 fn storage_entry(
@@ -207,8 +212,30 @@ impl Renderer {
                 max,
             });
         }
-        let device = &ctx.device;
         let model = ResidentModel::upload(ctx, repo, options.budget_bytes, options.index_slots)?;
+        Self::with_model(ctx, repo, options, model, 0)
+    }
+
+    /// The renderer over a model already made: the fully resident one (`new`) or the
+    /// streaming pool (`streamer.rs`, whose pages start empty), with streaming feedback lists
+    /// of `feedback_capacity` entries each (`feedback.rs`; 0 for none). (Streaming: split out
+    /// of `new`, unchanged otherwise.)
+    pub fn with_model(
+        ctx: &GpuContext,
+        repo: &Repository,
+        options: RendererOptions,
+        model: ResidentModel,
+        feedback_capacity: u32,
+    ) -> Result<Renderer, RenderError> {
+        let max = ctx.limits.max_texture_dimension_2d;
+        if !(1..=max).contains(&options.width) || !(1..=max).contains(&options.height) {
+            return Err(RenderError::BadSize {
+                width: options.width,
+                height: options.height,
+                max,
+            });
+        }
+        let device = &ctx.device;
         let buffer = |label: &str, size: u64, usage: wgpu::BufferUsages| {
             device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some(label),
@@ -242,7 +269,8 @@ impl Renderer {
             U::MAP_READ | U::COPY_DST,
         );
 
-        let traversal = Traversal::new(ctx, &model, &uniforms, &selected, &counts);
+        let feedback = Feedback::new(ctx, feedback_capacity); // streaming
+        let traversal = Traversal::new(ctx, &model, &uniforms, &selected, &counts, &feedback.lists);
 
         // Drawing.
         let both = wgpu::ShaderStages::VERTEX_FRAGMENT;
@@ -350,6 +378,8 @@ impl Renderer {
             pulled,
             timer: FrameTimer::new(ctx, "frame timestamps"),
             skirts,
+            feedback,
+            frames_submitted: 0,
         })
     }
 
@@ -410,6 +440,7 @@ impl Renderer {
                 label: Some("frame"),
             });
         encoder.clear_buffer(&self.counts, 0, None);
+        self.feedback.clear(&mut encoder); // streaming
         self.traversal.reset(&mut encoder);
         {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
@@ -419,6 +450,8 @@ impl Renderer {
             self.traversal.dispatch(&mut pass);
             self.compaction.dispatch(&mut pass);
         }
+        self.frames_submitted += 1; // streaming: this frame's feedback, numbered
+        self.feedback.copy_out(&mut encoder, self.frames_submitted);
         {
             let background = if request.mode.is_check() {
                 wgpu::Color::BLACK
@@ -486,7 +519,19 @@ impl Renderer {
             self.target.copy_out(&mut encoder);
         }
         ctx.queue.submit([encoder.finish()]);
+        self.feedback.after_submit(); // streaming
         start.elapsed().as_secs_f64() * 1e3
+    }
+
+    /// Streaming: the feedback of the frames whose lists are readable now, oldest first,
+    /// without waiting (`feedback.rs`); numbered as `frames_submitted` counted them.
+    pub fn take_feedback(&mut self, ctx: &GpuContext) -> Result<Vec<FeedbackFrame>, String> {
+        self.feedback.take(ctx)
+    }
+
+    /// Frames submitted so far.
+    pub fn frames_submitted(&self) -> u64 {
+        self.frames_submitted
     }
 
     /// Renders `request` and reads everything back (blocks until the frame is done).

@@ -254,8 +254,9 @@ impl ResidentModel {
 }
 
 /// Depths of the simplex tree: the reader checked that children come after their parents, so
-/// one pass in table order sees every parent before its children.
-fn tree_depths(repo: &Repository) -> u32 {
+/// one pass in table order sees every parent before its children. (Shared with the streaming
+/// pool, `stream_pool.rs`.)
+pub(crate) fn tree_depths(repo: &Repository) -> u32 {
     let tets = repo.tets();
     let mut depth = vec![0u32; tets.len()];
     let mut deepest = 0;

@@ -69,6 +69,7 @@ impl Traversal {
         frame: &wgpu::Buffer,
         selected: &wgpu::Buffer,
         counts: &wgpu::Buffer,
+        feedback: &wgpu::Buffer, // streaming feedback lists (feedback.rs)
     ) -> Traversal {
         use wgpu::util::DeviceExt;
         use wgpu::BufferBindingType as B;
@@ -87,6 +88,7 @@ impl Traversal {
                 entry(5, storage(false), false),
                 entry(6, storage(false), false),
                 entry(7, storage(true), false),
+                entry(8, storage(false), false),
             ],
         });
         let step_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -192,6 +194,7 @@ impl Traversal {
                 counts,
                 &queued,
                 &may_refine,
+                feedback,
             ]
             .iter()
             .enumerate()

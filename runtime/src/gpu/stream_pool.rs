@@ -1,0 +1,309 @@
+//! The page pool of the streaming renderer: a fixed set of GPU pages, allocated once, into
+//! which whole units (R(D), `stream::units`) are placed as they land and from which they are
+//! freed once no frame in flight can draw them.
+//!
+//! Each page is one storage binding (≤ `resident::page_limit`), bound by the draw exactly as
+//! the fully resident model's pages are; the traversal and the draw do not know the
+//! difference. A unit's patches are placed back to back (each 8-aligned, as the loader lays
+//! them out) in one free range of one page, first fit; every page has a selection list sized
+//! for the most non-empty patches the page can hold (its bytes over the smallest non-empty
+//! patch), and the allocator also refuses a placement that would exceed it, so the
+//! traversal's appends (which do not check capacity) never overflow.
+//!
+//! The tet and diamond tables stay fully resident: paging the directory with the units is a
+//! later step of the out-of-core runtime.
+
+use tessera_core::repository::format::TetRecord;
+use tessera_core::repository::reader::Repository;
+
+use super::device::GpuContext;
+use super::resident::{
+    page_limit, tree_depths, Page, PatchLocation, ResidentModel, SelectionList, NO_PAGE,
+};
+
+/// Where a placed unit lives.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Placement {
+    pub page: u32,
+    /// Byte offset in the page.
+    pub offset: u64,
+    /// Bytes taken (a multiple of 8).
+    pub bytes: u64,
+    /// Non-empty patches (entries of the page's selection list).
+    pub patches: u32,
+}
+
+/// One page's free ranges (sorted, coalesced) and its patch count.
+#[derive(Clone, Debug)]
+struct PageSpace {
+    free: Vec<(u64, u64)>,
+    patches: u32,
+}
+
+/// First-fit allocation of units in fixed pages.
+#[derive(Clone, Debug)]
+pub struct PoolAllocator {
+    page_bytes: u64,
+    patch_capacity: u32,
+    pages: Vec<PageSpace>,
+}
+
+impl PoolAllocator {
+    /// `pages` pages of `page_bytes` bytes (a multiple of 8), each holding at most
+    /// `patch_capacity` non-empty patches.
+    pub fn new(pages: usize, page_bytes: u64, patch_capacity: u32) -> PoolAllocator {
+        PoolAllocator {
+            page_bytes,
+            patch_capacity,
+            pages: vec![
+                PageSpace {
+                    free: vec![(0, page_bytes)],
+                    patches: 0
+                };
+                pages
+            ],
+        }
+    }
+
+    /// Places `bytes` (rounded up to 8) holding `patches` non-empty patches; `None` when no
+    /// page has a free range that large and list room for the patches.
+    pub fn allocate(&mut self, bytes: u64, patches: u32) -> Option<Placement> {
+        let bytes = bytes.next_multiple_of(8).max(8);
+        for (p, page) in self.pages.iter_mut().enumerate() {
+            if page.patches + patches > self.patch_capacity {
+                continue;
+            }
+            if let Some(k) = page.free.iter().position(|&(_, len)| len >= bytes) {
+                let (start, len) = page.free[k];
+                if len == bytes {
+                    page.free.remove(k);
+                } else {
+                    page.free[k] = (start + bytes, len - bytes);
+                }
+                page.patches += patches;
+                return Some(Placement {
+                    page: p as u32,
+                    offset: start,
+                    bytes,
+                    patches,
+                });
+            }
+        }
+        None
+    }
+
+    /// Returns a placement's range to its page (coalescing with its neighbours).
+    pub fn free(&mut self, placed: Placement) {
+        let page = &mut self.pages[placed.page as usize];
+        page.patches -= placed.patches;
+        let k = page.free.partition_point(|&(s, _)| s < placed.offset);
+        page.free.insert(k, (placed.offset, placed.bytes));
+        if k + 1 < page.free.len() && page.free[k].0 + page.free[k].1 == page.free[k + 1].0 {
+            page.free[k].1 += page.free[k + 1].1;
+            page.free.remove(k + 1);
+        }
+        if k > 0 && page.free[k - 1].0 + page.free[k - 1].1 == page.free[k].0 {
+            page.free[k - 1].1 += page.free[k].1;
+            page.free.remove(k);
+        }
+    }
+
+    /// Free bytes over every page.
+    pub fn free_bytes(&self) -> u64 {
+        self.pages
+            .iter()
+            .flat_map(|p| p.free.iter().map(|&(_, len)| len))
+            .sum()
+    }
+
+    /// Fragmentation: 1 − (largest free range / free bytes), 0 when nothing or one range is
+    /// free.
+    pub fn fragmentation(&self) -> f64 {
+        let free = self.free_bytes();
+        let largest = self
+            .pages
+            .iter()
+            .flat_map(|p| p.free.iter().map(|&(_, len)| len))
+            .max()
+            .unwrap_or(0);
+        if free == 0 {
+            0.0
+        } else {
+            1.0 - largest as f64 / free as f64
+        }
+    }
+
+    /// Bytes of every page together.
+    pub fn capacity_bytes(&self) -> u64 {
+        self.page_bytes * self.pages.len() as u64
+    }
+}
+
+/// The pool's shape for a byte budget.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PoolLayout {
+    pub pages: usize,
+    pub page_bytes: u64,
+    /// Selection-list entries per page.
+    pub patch_capacity: u32,
+}
+
+impl PoolLayout {
+    /// Pages of at most `limit` bytes filling `pool_bytes`; lists sized from the smallest
+    /// non-empty patch (8-aligned), capped by the model's non-empty patches.
+    pub fn new(tets: &[TetRecord], pool_bytes: u64, limit: u64) -> PoolLayout {
+        let pages = pool_bytes.div_ceil(limit).max(1) as usize;
+        let page_bytes = (pool_bytes / pages as u64) & !7;
+        let nonempty = tets.iter().filter(|t| t.strip_index_count != 0);
+        let smallest = nonempty
+            .clone()
+            .map(|t| (t.patch_bytes as u64).next_multiple_of(8).max(8))
+            .min()
+            .unwrap_or(8);
+        let count = nonempty.count() as u64;
+        PoolLayout {
+            pages,
+            page_bytes,
+            patch_capacity: (page_bytes / smallest).min(count).max(1) as u32,
+        }
+    }
+
+    /// Bytes of the selection lists (entries) over every page.
+    pub fn entry_bytes(&self) -> u64 {
+        self.pages as u64 * self.patch_capacity as u64 * super::resident::ENTRY_BYTES
+    }
+}
+
+/// The location of a patch placed at byte `at` of page `page` (`resident::lay_out_pages`'s
+/// rule, with the page's start at the unit's placement).
+pub fn location_at(repo: &Repository, t: &TetRecord, page: u32, at: u64) -> PatchLocation {
+    use tessera_core::repository::patch::{strip_byte_offset, MAX_U16_PATCH_VERTICES};
+    if t.strip_index_count == 0 {
+        return PatchLocation {
+            page: NO_PAGE,
+            first_entry: 0,
+            first_index: 0,
+            base_vertex: 0,
+        };
+    }
+    let wide = t.vertex_count as usize > MAX_U16_PATCH_VERTICES;
+    let strip_offset = strip_byte_offset(t.vertex_count as usize, repo.header().attributes) as u64;
+    let index_bytes = if wide { 4 } else { 2 };
+    PatchLocation {
+        page,
+        first_entry: 0, // set by the caller: the page's list start
+        first_index: ((at + strip_offset) / index_bytes) as u32,
+        base_vertex: (at / 8) as u32,
+    }
+}
+
+/// A resident model whose pages are the empty pool: tables as in the file, every location
+/// `NO_PAGE` until its unit lands (the streamer writes them), `layout.pages` pages of
+/// `layout.page_bytes`.
+pub fn pool_model(ctx: &GpuContext, repo: &Repository, layout: &PoolLayout) -> ResidentModel {
+    use wgpu::util::DeviceExt;
+    use wgpu::BufferUsages as U;
+    let device = &ctx.device;
+    let tets = repo.tets();
+    let diamond_bytes: &[u8] = if repo.diamonds().is_empty() {
+        &[0; 56]
+    } else {
+        bytemuck::cast_slice(repo.diamonds())
+    };
+    let init = |label: &str, contents: &[u8], usage: U| {
+        device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some(label),
+            contents,
+            usage,
+        })
+    };
+    let empty = vec![
+        PatchLocation {
+            page: NO_PAGE,
+            first_entry: 0,
+            first_index: 0,
+            base_vertex: 0,
+        };
+        tets.len().max(1)
+    ];
+    debug_assert!(layout.page_bytes <= page_limit(&ctx.limits));
+    let pages = (0..layout.pages)
+        .map(|_| Page {
+            buffer: device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("pool page"),
+                size: layout.page_bytes.max(8),
+                usage: U::STORAGE | U::COPY_DST,
+                mapped_at_creation: false,
+            }),
+            blob_range: 0..0,
+        })
+        .collect();
+    let lists = (0..layout.pages as u32)
+        .map(|p| SelectionList {
+            first_entry: p * layout.patch_capacity,
+            capacity: layout.patch_capacity,
+            // No index region: a pool page's contents change as units come and go, and the
+            // indexed draw's page-simplex table is static, so pool pages are always drawn by
+            // vertex pulling (the draw's fallback path).
+            slots: 0,
+            index_capacity: 0,
+            first_index: 0,
+        })
+        .collect();
+    let tables = (diamond_bytes.len()
+        + std::mem::size_of_val(tets)
+        + std::mem::size_of_val(&empty[..])) as u64;
+    ResidentModel {
+        diamonds: init("diamonds", diamond_bytes, U::STORAGE),
+        tets: init("tets", bytemuck::cast_slice(tets), U::STORAGE),
+        locations: init(
+            "locations",
+            bytemuck::cast_slice(&empty),
+            U::STORAGE | U::COPY_DST,
+        ),
+        pages,
+        lists,
+        page_simplices: device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("page simplices (unused by pulled draws)"),
+            size: 16,
+            usage: U::STORAGE,
+            mapped_at_creation: false,
+        }),
+        index_count: 0,
+        entry_count: layout.pages as u32 * layout.patch_capacity,
+        tet_count: tets.len() as u32,
+        diamond_count: repo.diamonds().len() as u32,
+        root_count: repo.header().root_tet_count as u32,
+        depth_count: tree_depths(repo),
+        resident_bytes: tables + layout.pages as u64 * layout.page_bytes,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn first_fit_reuses_and_coalesces_freed_ranges() {
+        let mut pool = PoolAllocator::new(2, 64, 3);
+        let a = pool.allocate(20, 1).unwrap();
+        let b = pool.allocate(16, 1).unwrap();
+        let c = pool.allocate(24, 1).unwrap();
+        assert_eq!((a.page, a.offset, a.bytes), (0, 0, 24));
+        assert_eq!((b.offset, c.offset), (24, 40));
+        // The list of page 0 is full: the next unit goes to page 1 though bytes are left.
+        let d = pool.allocate(8, 1).unwrap();
+        assert_eq!(d.page, 1);
+        assert!(pool.allocate(64, 1).is_none());
+        pool.free(a);
+        pool.free(b);
+        assert!(pool.fragmentation() > 0.0);
+        let e = pool.allocate(40, 2).unwrap();
+        assert_eq!((e.page, e.offset), (0, 0));
+        pool.free(e);
+        pool.free(c);
+        pool.free(d);
+        assert_eq!(pool.free_bytes(), 128);
+        assert_eq!(pool.fragmentation(), 0.5); // two pages, one free range each
+    }
+}

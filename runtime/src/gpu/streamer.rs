@@ -1,0 +1,438 @@
+//! The streaming renderer's loop: GPU memory as a cache of the mapped repository under a byte
+//! budget. `GpuStreamer::frame` runs one frame on the render thread:
+//!
+//! 1. frees the pool space of evicted units once every frame that could draw them completed
+//!    (`queue.on_submitted_work_done` per submitted frame raises a completed-frame counter);
+//! 2. takes what the `Loader` thread finished, places each unit in the pool (`stream_pool`),
+//!    writes its bytes and its simplices' `PatchLocation`s, then `Residency::complete`s it —
+//!    within the per-frame upload allowance;
+//! 3. uploads the `may_refine` words if they changed — after the bytes they point to (same
+//!    queue, write order: every write lands before the frame's commands);
+//! 4. renders and submits the frame with those flags;
+//! 5. feedback: the traversal's refined and wanted lists (`feedback.rs`) of the frames read
+//!    back by now — a frame or two late —, deduplicated, go to `Residency::feedback`;
+//!    `Residency::plan` then evicts (flags cleared now, in effect from the next frame's
+//!    upload; space freed by step 1 later) and issues loads to the loader thread.
+//!
+//! The roots are placed at creation and pinned.
+
+use std::collections::VecDeque;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
+
+use tessera_core::cut::diamond_rhos;
+use tessera_core::repository::reader::Repository;
+
+use super::device::GpuContext;
+use super::renderer::{FrameRequest, Readback, RenderError, Renderer, RendererOptions};
+use super::resident::{PatchLocation, ResidentModel};
+use super::stream_budget::{fixed_bytes, FixedBytes};
+use super::stream_pool::{location_at, pool_model, Placement, PoolAllocator};
+use crate::stream::loader::{read_unit, UnitBytes};
+use crate::stream::{
+    stream_frame, LoadedUnit, Loader, Residency, ResidencyStats, StreamFrame, UnitTable,
+};
+
+/// Why a streaming renderer cannot be made.
+#[derive(Debug, thiserror::Error)]
+pub enum StreamError {
+    #[error(
+        "the GPU budget of {budget} bytes is too small: the fixed allocations (tables, lists, \
+         queues, target) take {fixed} bytes and the pinned roots {roots} bytes more"
+    )]
+    BudgetTooSmall { budget: u64, fixed: u64, roots: u64 },
+    #[error("reading the roots' patches: {0}")]
+    Roots(tessera_core::repository::RepositoryError),
+    #[error(transparent)]
+    Render(#[from] RenderError),
+    /// The device failed (lost, out of memory): nothing more can be drawn.
+    #[error("the GPU device failed: {0}")]
+    Device(String),
+}
+
+/// What one streamed frame did.
+#[derive(Clone, Debug)]
+pub struct StreamedGpuFrame {
+    /// The CPU reference's view of the frame (selection, refined, wanted) for the flags the
+    /// GPU drew with (empty unless `set_cpu_reference`).
+    pub reference: StreamFrame,
+    /// The `may_refine` words the frame was drawn with (D / 32 words).
+    pub may_refine_words: Vec<u32>,
+    /// Loads issued, evictions planned, units uploaded by this frame.
+    pub loads: usize,
+    pub evictions: usize,
+    pub uploads: usize,
+    /// Nothing issued, nothing loading or waiting for pool space.
+    pub settled: bool,
+    pub stats: ResidencyStats,
+}
+
+/// Streaming totals besides `ResidencyStats`.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct GpuStreamStats {
+    /// Every GPU allocation the renderer makes, by the accounting of `stream_budget`.
+    pub gpu_bytes: u64,
+    /// The fixed part of it (everything but the pool).
+    pub fixed_bytes: u64,
+    /// Bytes of the page pool.
+    pub pool_bytes: u64,
+    /// Bytes written into the pool (units uploaded, roots included).
+    pub uploaded_bytes: u64,
+    /// Pool fragmentation (1 − largest free range / free bytes) now.
+    pub fragmentation: f64,
+    /// Frames a loaded unit waited for pool space, summed.
+    pub space_waits: u64,
+    /// Frames whose GPU feedback was read back and used.
+    pub feedback_frames: u64,
+    /// List appends past the capacity (requests lost), summed.
+    pub feedback_overflow: u64,
+    /// With the CPU reference on: frames whose GPU feedback differed from the reference's.
+    pub feedback_mismatches: u64,
+}
+
+/// A frame number and the refined and wanted lists the CPU reference found for it.
+type FeedbackLists = (u64, Vec<(u32, f32)>, Vec<(u32, f32)>);
+
+/// Entries of each feedback list: at most one per simplex, and a share of the target (one per
+/// 64 pixels, at least 4,096): a cut's refined and wanted simplices grow with what the view
+/// shows. A frame whose lists overflowed is not fed to the residency (its refined list is
+/// incomplete, so used units could look unused and be evicted): it requests nothing.
+pub fn feedback_capacity(tets: usize, width: u32, height: u32) -> u32 {
+    let share = (width as usize * height as usize / 64).max(4096);
+    tets.min(share) as u32
+}
+
+/// The streaming state of one renderer.
+pub struct GpuStreamer {
+    repo: Arc<Repository>,
+    residency: Residency,
+    loader: Loader,
+    pool: PoolAllocator,
+    placed: Vec<Option<Placement>>,
+    /// Units read by the loader, waiting for pool space or the upload allowance.
+    ready: VecDeque<LoadedUnit>,
+    /// Evicted placements and the last frame that could draw them.
+    retired: Vec<(u64, Placement)>,
+    submitted: u64,
+    completed: Arc<AtomicU64>,
+    upload_bytes_per_frame: u64,
+    first_entries: Vec<u32>,
+    /// Simplices whose patch is in the pool (roots included).
+    resident_patches: usize,
+    /// Set by the device-lost callback.
+    lost: Arc<std::sync::Mutex<Option<String>>>,
+    /// Bumped at every flags upload; per frame drawn (renderer's number), the version used.
+    flags_version: u64,
+    versions: VecDeque<(u64, u64)>,
+    /// Compute the CPU reference every frame (`set_cpu_reference`), and per frame drawn its
+    /// refined and wanted lists, to compare with the GPU's when they arrive.
+    cpu_reference: bool,
+    expected: VecDeque<FeedbackLists>,
+    stats: GpuStreamStats,
+}
+
+impl GpuStreamer {
+    /// A renderer over an empty pool sized from `options.budget_bytes` (every allocation
+    /// counted), the roots placed and pinned, every diamond kept from refining until its unit
+    /// lands.
+    pub fn new(
+        ctx: &GpuContext,
+        repo: Arc<Repository>,
+        options: RendererOptions,
+        upload_bytes_per_frame: u64,
+    ) -> Result<(Renderer, GpuStreamer), StreamError> {
+        let units = UnitTable::new(
+            repo.diamonds(),
+            repo.tets(),
+            repo.header().root_tet_count as usize,
+        );
+        let FixedBytes { fixed, layout } = fixed_bytes(ctx, &repo, &options);
+        let roots = units.root_bytes();
+        let pool_bytes = layout.pages as u64 * layout.page_bytes;
+        // Padding (each patch 8-aligned) and fragmentation need slack: the residency gets
+        // seven eighths of the pool.
+        let budget = pool_bytes - pool_bytes / 8;
+        if fixed > options.budget_bytes || roots > budget {
+            return Err(StreamError::BudgetTooSmall {
+                budget: options.budget_bytes,
+                fixed,
+                roots,
+            });
+        }
+        let scope = ctx.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        let model: ResidentModel = pool_model(ctx, &repo, &layout);
+        let capacity = feedback_capacity(repo.tets().len(), options.width, options.height);
+        let renderer = Renderer::with_model(ctx, &repo, options, model, capacity)?;
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(StreamError::Device(format!(
+                "allocating {} bytes of pool and tables: {e}",
+                fixed + pool_bytes
+            )));
+        }
+        let lost = Arc::new(std::sync::Mutex::new(None));
+        let sink = lost.clone();
+        ctx.device.set_device_lost_callback(move |reason, message| {
+            if let Ok(mut slot) = sink.lock() {
+                *slot = Some(format!("device lost ({reason:?}): {message}"));
+            }
+        });
+        let residency = Residency::new(units, budget).map_err(|_| StreamError::BudgetTooSmall {
+            budget: options.budget_bytes,
+            fixed,
+            roots,
+        })?;
+        let mut streamer = GpuStreamer {
+            loader: Loader::new(repo.clone()),
+            placed: vec![None; residency.units().len()],
+            residency,
+            pool: PoolAllocator::new(layout.pages, layout.page_bytes, layout.patch_capacity),
+            ready: VecDeque::new(),
+            retired: Vec::new(),
+            submitted: 0,
+            completed: Arc::new(AtomicU64::new(0)),
+            upload_bytes_per_frame,
+            first_entries: renderer
+                .model()
+                .lists
+                .iter()
+                .map(|l| l.first_entry)
+                .collect(),
+            resident_patches: 0,
+            lost,
+            flags_version: 0,
+            versions: VecDeque::new(),
+            cpu_reference: false,
+            expected: VecDeque::new(),
+            stats: GpuStreamStats {
+                gpu_bytes: fixed + pool_bytes,
+                fixed_bytes: fixed,
+                pool_bytes,
+                ..Default::default()
+            },
+            repo,
+        };
+        let root_simplices: Vec<u32> = streamer.residency.units().roots().to_vec();
+        let bytes = read_unit(&streamer.repo, &root_simplices).map_err(StreamError::Roots)?;
+        if streamer.place(ctx, &renderer, &bytes).is_none() {
+            return Err(StreamError::BudgetTooSmall {
+                budget: options.budget_bytes,
+                fixed,
+                roots,
+            });
+        }
+        Ok((renderer, streamer))
+    }
+
+    /// The residency (flags, states, totals).
+    pub fn residency(&self) -> &Residency {
+        &self.residency
+    }
+
+    /// Also run the CPU reference (`stream::stream_frame`) every frame for the flags drawn:
+    /// `StreamedGpuFrame::reference` is then filled, and the GPU's feedback is compared with
+    /// it (`GpuStreamStats::feedback_mismatches`). Off by default (O(diamonds) per frame).
+    pub fn set_cpu_reference(&mut self, on: bool) {
+        self.cpu_reference = on;
+    }
+
+    /// Simplices whose patch is in the pool now (roots included).
+    pub fn resident_patches(&self) -> usize {
+        self.resident_patches
+    }
+
+    /// Streaming totals.
+    pub fn stats(&self) -> GpuStreamStats {
+        GpuStreamStats {
+            fragmentation: self.pool.fragmentation(),
+            ..self.stats
+        }
+    }
+
+    /// Places `bytes` in the pool and writes them and their locations; `None` when no page
+    /// has room.
+    fn place(
+        &mut self,
+        ctx: &GpuContext,
+        renderer: &Renderer,
+        bytes: &UnitBytes,
+    ) -> Option<Placement> {
+        let tets = self.repo.tets();
+        let nonempty = bytes
+            .patches
+            .iter()
+            .filter(|&&(t, _, _)| tets[t as usize].strip_index_count != 0)
+            .count() as u32;
+        let placed = self.pool.allocate(bytes.bytes.len() as u64, nonempty)?;
+        let page = &renderer.model().pages[placed.page as usize].buffer;
+        let mut data = bytes.bytes.clone();
+        data.resize(data.len().next_multiple_of(4).max(4), 0);
+        ctx.queue.write_buffer(page, placed.offset, &data);
+        for &(t, at, _) in &bytes.patches {
+            let mut location: PatchLocation = location_at(
+                &self.repo,
+                &tets[t as usize],
+                placed.page,
+                placed.offset + at as u64,
+            );
+            if location.page == placed.page {
+                location.first_entry = self.first_entries[placed.page as usize];
+            }
+            ctx.queue.write_buffer(
+                &renderer.model().locations,
+                t as u64 * std::mem::size_of::<PatchLocation>() as u64,
+                bytemuck::bytes_of(&location),
+            );
+        }
+        self.stats.uploaded_bytes += placed.bytes;
+        self.resident_patches += bytes.patches.len();
+        Some(placed)
+    }
+
+    /// Steps 1–3 of the module comment; returns the units uploaded.
+    fn land(&mut self, ctx: &GpuContext, renderer: &Renderer) -> Result<usize, RenderError> {
+        let _ = ctx.device.poll(wgpu::PollType::Poll);
+        let completed = self.completed.load(Ordering::Acquire);
+        let pool = &mut self.pool;
+        self.retired.retain(|&(frame, placed)| {
+            let done = frame <= completed;
+            if done {
+                pool.free(placed);
+            }
+            !done
+        });
+        self.ready.extend(self.loader.finished());
+        let (mut uploaded, mut uploaded_bytes) = (0, 0u64);
+        let mut waiting = VecDeque::new();
+        while let Some(unit) = self.ready.pop_front() {
+            match &unit.result {
+                Err(_) => self.residency.complete(unit.unit, false),
+                Ok(bytes) => {
+                    let over = uploaded > 0
+                        && uploaded_bytes + bytes.bytes.len() as u64 > self.upload_bytes_per_frame;
+                    match (!over).then(|| self.place(ctx, renderer, bytes)).flatten() {
+                        Some(placed) => {
+                            self.placed[unit.unit as usize] = Some(placed);
+                            self.residency.complete(unit.unit, true);
+                            uploaded += 1;
+                            uploaded_bytes += placed.bytes;
+                        }
+                        None => {
+                            self.stats.space_waits += 1;
+                            waiting.push_back(unit);
+                        }
+                    }
+                }
+            }
+        }
+        self.ready = waiting;
+        // The flags after the bytes they point to: both are queue writes, applied in order
+        // before the frame's commands.
+        if self.residency.take_flags_changed() {
+            renderer.set_may_refine(ctx, &self.residency.may_refine_words())?;
+            self.flags_version += 1;
+        }
+        Ok(uploaded)
+    }
+
+    /// One frame: lands what loaded, renders `request` with the resulting flags, feeds back
+    /// and plans (module comment). `readback` as for `Renderer::render`.
+    pub fn frame(
+        &mut self,
+        ctx: &GpuContext,
+        renderer: &mut Renderer,
+        request: &FrameRequest,
+        readback: Readback,
+    ) -> Result<StreamedGpuFrame, StreamError> {
+        if let Some(message) = self.lost.lock().ok().and_then(|slot| slot.clone()) {
+            return Err(StreamError::Device(message));
+        }
+        let uploads = self.land(ctx, renderer)?;
+        renderer.render(ctx, request, readback);
+        self.submitted += 1;
+        let (frame, completed) = (self.submitted, self.completed.clone());
+        ctx.queue.on_submitted_work_done(move || {
+            completed.fetch_max(frame, Ordering::AcqRel);
+        });
+
+        let may_refine_words = self.residency.may_refine_words();
+        let drawn = renderer.frames_submitted();
+        self.versions.push_back((drawn, self.flags_version));
+        // The CPU reference for the flags this frame was drawn with, when asked for (checks).
+        let reference = if self.cpu_reference {
+            let origin = self.repo.header().origin;
+            let eye = request.camera.eye_local(origin);
+            let rhos = diamond_rhos(self.repo.diamonds(), eye, &request.camera.metric());
+            let reference = stream_frame(
+                self.repo.tets(),
+                self.repo.header().root_tet_count as usize,
+                &rhos,
+                self.residency.may_refine(),
+                request.tau,
+                eye,
+                &request.cull,
+            );
+            self.expected
+                .push_back((drawn, reference.refined.clone(), reference.wanted.clone()));
+            reference
+        } else {
+            StreamFrame::default()
+        };
+        // Feedback: the GPU lists of the frames read back by now (a frame or two late).
+        let (mut loads, mut evictions, mut fresh) = (Vec::new(), 0, false);
+        for mut fb in renderer.take_feedback(ctx).map_err(StreamError::Device)? {
+            for list in [&mut fb.refined, &mut fb.wanted] {
+                list.sort_unstable_by_key(|&(d, _)| d);
+                list.dedup_by_key(|&mut (d, _)| d);
+            }
+            self.stats.feedback_overflow += fb.overflow as u64;
+            if fb.overflow > 0 {
+                continue; // incomplete: requests nothing (feedback_capacity)
+            }
+            self.stats.feedback_frames += 1;
+            while self.expected.front().is_some_and(|e| e.0 < fb.frame) {
+                self.expected.pop_front();
+            }
+            if let Some(e) = self.expected.front().filter(|e| e.0 == fb.frame) {
+                if e.1 != fb.refined || e.2 != fb.wanted {
+                    self.stats.feedback_mismatches += 1;
+                }
+            }
+            while self.versions.front().is_some_and(|v| v.0 < fb.frame) {
+                self.versions.pop_front();
+            }
+            fresh = self
+                .versions
+                .front()
+                .is_some_and(|&(f, v)| f == fb.frame && v == self.flags_version);
+            self.residency.feedback(&fb.refined, &fb.wanted);
+            let plan = self.residency.plan(self.upload_bytes_per_frame);
+            for &u in &plan.evict {
+                // Drawn at the latest by the frame just submitted.
+                if let Some(placed) = self.placed[u as usize].take() {
+                    self.resident_patches -= self.residency.units().simplices(u).len();
+                    self.retired.push((self.submitted, placed));
+                }
+            }
+            evictions += plan.evict.len();
+            loads.extend(plan.load);
+        }
+        for &u in &loads {
+            self.loader
+                .submit(u, self.residency.units().simplices(u).to_vec());
+        }
+        let stats = self.residency.stats();
+        // Settled: the latest feedback saw the current flags, and asked for nothing more.
+        let settled =
+            fresh && loads.is_empty() && stats.loading_units == 0 && self.ready.is_empty();
+        let plan_loads = loads.len();
+        Ok(StreamedGpuFrame {
+            reference,
+            may_refine_words,
+            loads: plan_loads,
+            evictions,
+            uploads,
+            settled,
+            stats,
+        })
+    }
+}

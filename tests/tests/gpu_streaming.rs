@@ -1,0 +1,354 @@
+//! The GPU renderer streaming under a byte budget (`gpu::streamer`): a generated 400 k-
+//! triangle mesh under a budget (every allocation) of a quarter of its repository file, and
+//! the armadillo with a pool of a quarter of its patches. Over a fly-in, every frame (before
+//! convergence too): the GPU's selection equals the CPU streaming reference for the same
+//! flags, the pixel check shows no flag pixel, the image is the fully resident renderer's
+//! for the same flags, the GPU's feedback lists (what drives the loads) equal the
+//! reference's refined and wanted diamonds, and every allocation stays within the budget.
+//! The settled frame equals the unlimited one where the view's working set fits; a paused
+//! camera at half its working set stops loading.
+
+use std::sync::Arc;
+
+use tessera_core::cull::CullTests;
+use tessera_core::cut::{diamond_rhos, select_visible};
+use tessera_core::repository::Repository;
+use tessera_preprocess::import::load_mesh;
+use tessera_preprocess::BuildConfig;
+use tessera_runtime::camera::{Camera, Y_UP};
+use tessera_runtime::gpu::stream_budget::fixed_bytes;
+use tessera_runtime::gpu::{
+    FrameRequest, GpuContext, GpuStreamer, Readback, Renderer, RendererOptions, ShadingMode,
+    FLAG_COLOUR,
+};
+use tessera_runtime::stream::{stream_frame, UnitTable};
+use tessera_tests::{build, gpu, testdata, Built};
+
+const TAU: f32 = 1.0;
+const SIZE: (u32, u32) = (240, 160);
+
+fn built(file: &str) -> (Built, Arc<Repository>) {
+    let input = load_mesh(&testdata(file)).expect("import");
+    let b = build(&input.mesh, &BuildConfig::default());
+    let shared = Arc::new(Repository::open(b.dir.path().join("model.tsr")).expect("reopen"));
+    (b, shared)
+}
+
+/// A fly-in: `frames` cameras from 3 radii out to 0.9, turning 120°.
+fn fly_in(repo: &Repository, frames: usize) -> Vec<Camera> {
+    let h = repo.header();
+    (0..frames)
+        .map(|i| {
+            let s = i as f64 / (frames.max(2) - 1) as f64;
+            Camera {
+                width: SIZE.0,
+                height: SIZE.1,
+                ..Camera::orbit(
+                    h.bbox_min,
+                    h.bbox_max,
+                    Y_UP,
+                    30.0 + 120.0 * s,
+                    20.0 - 10.0 * s,
+                    3.0 - 2.1 * s,
+                )
+            }
+        })
+        .collect()
+}
+
+/// The pixel check's frame: front grey, back faces flagged, cone culling off (it would hide
+/// the back faces a crack shows).
+fn check_request(camera: Camera) -> FrameRequest {
+    FrameRequest {
+        cull: CullTests {
+            frustum: Some(camera.view_volume()),
+            cones: false,
+        },
+        mode: ShadingMode::Check,
+        ..FrameRequest::new(camera, TAU)
+    }
+}
+
+fn options(budget_bytes: u64) -> RendererOptions {
+    RendererOptions {
+        width: SIZE.0,
+        height: SIZE.1,
+        budget_bytes,
+        ..Default::default()
+    }
+}
+
+/// A GPU budget whose pool holds `pool` bytes besides the fixed allocations.
+fn budget_for_pool(ctx: &GpuContext, repo: &Repository, pool: u64) -> u64 {
+    fixed_bytes(ctx, repo, &options(pool)).fixed + pool
+}
+
+/// Bytes of the units the unlimited cut of `camera` refines (visible simplices), plus roots.
+fn working_set(repo: &Repository, camera: &Camera) -> u64 {
+    let units = UnitTable::new(
+        repo.diamonds(),
+        repo.tets(),
+        repo.header().root_tet_count as usize,
+    );
+    let eye = camera.eye_local(repo.header().origin);
+    let rhos = diamond_rhos(repo.diamonds(), eye, &camera.metric());
+    let all = vec![true; repo.diamonds().len()];
+    let cull = check_request(*camera).cull;
+    let frame = stream_frame(
+        repo.tets(),
+        repo.header().root_tet_count as usize,
+        &rhos,
+        &all,
+        TAU,
+        eye,
+        &cull,
+    );
+    let mut used = vec![false; units.len()];
+    let mut stack: Vec<u32> = frame.refined.iter().map(|&(d, _)| d).collect();
+    while let Some(d) = stack.pop() {
+        if !std::mem::replace(&mut used[d as usize], true) {
+            stack.extend_from_slice(units.parents(d));
+        }
+    }
+    units.root_bytes()
+        + (0..units.len() as u32)
+            .filter(|&d| used[d as usize])
+            .map(|d| units.bytes(d))
+            .sum::<u64>()
+}
+
+fn drawn(repo: &Repository, selection: &[u32]) -> Vec<u32> {
+    let mut s = selection.to_vec();
+    s.retain(|&i| repo.tets()[i as usize].strip_index_count > 0);
+    s
+}
+
+/// A streaming renderer, the fully resident one and the budget they are checked against.
+struct Rig {
+    ctx: GpuContext,
+    repo: Arc<Repository>,
+    renderer: Renderer,
+    full: Renderer,
+    streamer: GpuStreamer,
+    budget: u64,
+}
+
+impl Rig {
+    fn new(ctx: GpuContext, repo: Arc<Repository>, budget: u64) -> Rig {
+        let (renderer, mut streamer) =
+            GpuStreamer::new(&ctx, repo.clone(), options(budget), 256 << 10).expect("streamer");
+        streamer.set_cpu_reference(true);
+        let full = Renderer::new(&ctx, &repo, options(1 << 40)).expect("fits a large budget");
+        Rig {
+            ctx,
+            repo,
+            renderer,
+            full,
+            streamer,
+            budget,
+        }
+    }
+
+    /// One checked frame: GPU selection = the CPU reference for the same flags, no flag
+    /// pixel, the fully resident renderer's image for the same flags, allocations within the
+    /// budget, residency invariants. Returns (settled, loads, selection).
+    fn frame(&mut self, camera: Camera, label: &str) -> (bool, usize, Vec<u32>) {
+        let Rig {
+            ctx,
+            repo,
+            renderer,
+            full,
+            streamer,
+            budget,
+        } = self;
+        let (ctx, repo, budget) = (&*ctx, &**repo, *budget);
+        let f = streamer
+            .frame(
+                ctx,
+                renderer,
+                &check_request(camera),
+                Readback {
+                    image: true,
+                    selection: true,
+                },
+            )
+            .expect("frame");
+        let gpu_selection = renderer.read_selection(ctx);
+        let cpu_selection = drawn(repo, &f.reference.selection);
+        assert_eq!(
+            gpu_selection, cpu_selection,
+            "{label}: GPU and CPU selections differ"
+        );
+        let image = renderer.read_image(ctx);
+        let flags = image.pixels().filter(|p| p.0 == FLAG_COLOUR).count();
+        assert_eq!(flags, 0, "{label}: flag pixels");
+        // The same flags on the fully resident renderer: the same image, pixel for pixel (the
+        // streamed bytes and locations are the file's).
+        full.set_may_refine(ctx, &f.may_refine_words).unwrap();
+        let reference = full.render_and_read(ctx, &check_request(camera));
+        assert_eq!(
+            reference.selection, gpu_selection,
+            "{label}: fully resident selection"
+        );
+        assert!(
+            reference.image == image,
+            "{label}: the image differs from the fully resident one"
+        );
+        let covered = image.pixels().filter(|p| p.0 != [0, 0, 0, 255]).count();
+        assert!(covered > 0, "{label}: nothing drawn");
+        let stats = streamer.stats();
+        assert!(
+            stats.gpu_bytes <= budget,
+            "{label}: {stats:?} over {budget}"
+        );
+        assert_eq!(
+            stats.feedback_mismatches, 0,
+            "{label}: the GPU's feedback differs from the CPU reference's"
+        );
+        assert_eq!(stats.feedback_overflow, 0, "{label}");
+        streamer.residency().check_invariants().unwrap();
+        (f.settled, f.loads, cpu_selection)
+    }
+}
+
+#[test]
+fn streaming_at_a_quarter_of_the_repository_draws_the_cpu_reference_every_frame() {
+    let (b, repo) = built("mesh/armadillo.off");
+    let ctx = gpu();
+    let blob: u64 = repo.tets().iter().map(|t| t.patch_bytes as u64).sum();
+    // The pool holds a quarter of the repository's patches (the fixed allocations — tables,
+    // lists, the 240 × 160 target — come on top: at this size they are most of the budget).
+    let budget = budget_for_pool(&ctx, &repo, blob / 4);
+    let mut rig = Rig::new(ctx, repo.clone(), budget);
+    let path = fly_in(&b.repo, 40);
+    for (i, &camera) in path.iter().enumerate() {
+        rig.frame(camera, &format!("fly-in frame {i}"));
+    }
+    let stats = rig.streamer.residency().stats();
+    assert!(
+        stats.evictions > 0,
+        "the fly-in did not stream under pressure: {stats:?}"
+    );
+    // Pause at the nearest view of the path whose working set fits the residency.
+    let fits = rig.streamer.residency().budget_bytes();
+    let (k, pause) = path
+        .iter()
+        .enumerate()
+        .rev()
+        .find(|(_, c)| working_set(&repo, c) <= fits)
+        .map(|(k, &c)| (k, c))
+        .expect("some view of the path fits");
+    assert!(
+        k > 0 && working_set(&repo, &path[39]) > fits,
+        "the path should end beyond the budget"
+    );
+    eprintln!(
+        "blob {blob} B, budget {budget} B, pause at view {k} (working set {} B, residency \
+         budget {fits} B), {:?}",
+        working_set(&repo, &pause),
+        rig.streamer.stats()
+    );
+    let mut settled = None;
+    for i in 0..200 {
+        let (done, _, selection) = rig.frame(pause, &format!("paused frame {i}"));
+        if done {
+            eprintln!("settled after {} paused frames", i + 1);
+            settled = Some(selection);
+            break;
+        }
+    }
+    let settled = settled.expect("the stream settles within 200 frames");
+    let fed = rig.streamer.stats().feedback_frames;
+    assert!(fed > 40, "GPU feedback read back for {fed} frames");
+    let eye = pause.eye_local(repo.header().origin);
+    let rhos = diamond_rhos(repo.diamonds(), eye, &pause.metric());
+    let cull = check_request(pause).cull;
+    let unlimited = drawn(&repo, &select_visible(repo.tets(), &rhos, TAU, eye, &cull));
+    assert_eq!(
+        settled, unlimited,
+        "the settled frame is not the unlimited one"
+    );
+}
+
+#[test]
+fn a_paused_camera_at_half_its_working_set_stops_loading() {
+    let (b, repo) = built("mesh/armadillo.off");
+    let ctx = gpu();
+    let camera = fly_in(&b.repo, 40)[39];
+    let need = working_set(&repo, &camera);
+    let roots = UnitTable::new(
+        repo.diamonds(),
+        repo.tets(),
+        repo.header().root_tet_count as usize,
+    )
+    .root_bytes();
+    // The residency gets 7/8 of the pool: a pool of 8/7 × the half working set.
+    let pool = (roots + (need - roots) / 2) * 8 / 7;
+    let budget = budget_for_pool(&ctx, &repo, pool);
+    let mut rig = Rig::new(ctx, repo.clone(), budget);
+    for i in 0..200 {
+        rig.frame(camera, &format!("frame {i}"));
+    }
+    let before = rig.streamer.residency().stats();
+    for i in 200..300 {
+        let (_, loads, _) = rig.frame(camera, &format!("frame {i}"));
+        assert_eq!(loads, 0, "frame {i}: a load in the last 100 frames");
+    }
+    let after = rig.streamer.residency().stats();
+    assert_eq!(
+        after.evictions, before.evictions,
+        "evictions in the last 100 frames"
+    );
+    assert!(
+        after.pending_units > 0,
+        "the view should not fit: {after:?}"
+    );
+}
+
+#[test]
+fn a_budget_below_the_fixed_part_is_refused_with_both_numbers() {
+    let (_b, repo) = built("mesh/armadillo.off");
+    let ctx = gpu();
+    let err = GpuStreamer::new(&ctx, repo, options(1 << 16), 256 << 10)
+        .err()
+        .expect("refused");
+    let text = err.to_string();
+    assert!(
+        text.contains("65536") && text.contains("fixed allocations"),
+        "{text}"
+    );
+}
+
+#[test]
+fn a_generated_mesh_four_times_its_budget_streams_with_every_frame_checked() {
+    use tessera_preprocess::gen_mesh::{GenMesh, MeshParams};
+    let mesh = GenMesh::new(MeshParams {
+        triangles: 400_000,
+        seed: 7,
+        shuffle_vertices: false,
+        density_range: 4.0,
+    })
+    .expect("mesh")
+    .to_input_mesh();
+    let b = build(&mesh, &BuildConfig::default());
+    let path = b.dir.path().join("model.tsr");
+    let repo = Arc::new(Repository::open(&path).expect("reopen"));
+    let size = std::fs::metadata(&path).unwrap().len();
+    // Every GPU allocation together: a quarter of the repository file.
+    let budget = size / 4;
+    let ctx = gpu();
+    let mut rig = Rig::new(ctx, repo.clone(), budget);
+    for (i, &camera) in fly_in(&repo, 30).iter().enumerate() {
+        rig.frame(camera, &format!("fly-in frame {i}"));
+    }
+    let stats = rig.streamer.residency().stats();
+    eprintln!(
+        "repository {size} B, budget {budget} B, {:?}, {stats:?}",
+        rig.streamer.stats()
+    );
+    assert!(
+        stats.evictions > 0,
+        "no streaming under pressure: {stats:?}"
+    );
+    assert!(rig.streamer.stats().feedback_frames > 20);
+}
