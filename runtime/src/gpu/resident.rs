@@ -7,8 +7,8 @@
 //! page's selection list starts, and where its strip and positions start in the page.
 //!
 //! Everything is made once at load; a frame touches none of it on the CPU. The pool has a byte
-//! budget: a model that does not fit is refused with the numbers (streaming pages in and out
-//! by the cut is the next step; pages are the unit it will swap).
+//! budget: a model that does not fit is refused with the numbers. A model streamed under a
+//! budget is not made here but in `stream_pool.rs` (a pool of pages that units come and go in).
 
 use bytemuck::{Pod, Zeroable};
 use tessera_core::repository::format::NO_INDEX;
