@@ -263,6 +263,7 @@ fn check_views(
             cull,
             mode,
             wireframe: false,
+            two_sided: false,
         };
         // How far (Chebyshev pixels) each pixel is from one of the input's own hole pixels.
         let (width, height) = renderer.size();

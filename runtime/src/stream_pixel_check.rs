@@ -55,6 +55,7 @@ pub fn check_pixels_streaming(
                 },
                 mode: ShadingMode::Check,
                 wireframe: false,
+                two_sided: false,
             };
             for _ in 0..FRAMES_PER_VIEW {
                 let frame = streamer.frame(

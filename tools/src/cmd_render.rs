@@ -51,6 +51,10 @@ pub struct RenderArgs {
     /// Overlay the triangle edges (where the adapter has line mode).
     #[arg(long)]
     pub wireframe: bool,
+    /// Draw both sides of every face; also switches normal-cone culling off (by default back
+    /// faces are dropped by the patch cones and by the rasteriser alike).
+    #[arg(long)]
+    pub two_sided: bool,
     #[command(flatten)]
     pub gpu: crate::gpu_args::GpuArgs,
     /// Print one JSON object on stdout.
@@ -176,11 +180,14 @@ pub fn run(args: RenderArgs) -> anyhow::Result<Outcome> {
     let (mut renderer, mut streamer) =
         args.gpu
             .streaming(&ctx, shared, (camera.width, camera.height))?;
-    let request = FrameRequest {
+    let mut request = FrameRequest {
         mode: args.mode.into(),
         wireframe: args.wireframe,
         ..FrameRequest::new(camera, args.tolerance)
     };
+    if args.two_sided {
+        request = request.two_sided();
+    }
     // Streaming: frames until nothing is issued, loading or waiting (or the cap), then one
     // more frame, read back and written.
     let mut frames_to_converge = None;

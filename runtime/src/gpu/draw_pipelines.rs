@@ -7,6 +7,7 @@ use super::target::{COLOR_FORMAT, DEPTH_FORMAT};
 /// The draw pipelines.
 pub struct DrawPipelines {
     fill: wgpu::RenderPipeline,
+    fill_front: wgpu::RenderPipeline,
     check_front: wgpu::RenderPipeline,
     check_back: wgpu::RenderPipeline,
     check_front_under: wgpu::RenderPipeline,
@@ -17,8 +18,14 @@ pub struct DrawPipelines {
 /// Which draw pipeline.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Pass {
-    /// Every face, shaded by the frame's mode.
+    /// Every face, shaded by the frame's mode (two-sided: the frame culls no patch by its
+    /// normal cone either).
     Fill,
+    /// Front faces only, shaded by the frame's mode: the default, one face rule for the
+    /// rasteriser and the patch cones, so a picture does not depend on τ through which
+    /// patches the cones dropped (back faces of kept patches would show where culled
+    /// patches' front faces are missing).
+    FillFront,
     /// The check's first pass: front faces only, grey.
     CheckFront,
     /// The check's second pass: back faces only, flag colour where no front face is.
@@ -35,6 +42,7 @@ impl DrawPipelines {
     pub fn get(&self, pass: Pass) -> Option<&wgpu::RenderPipeline> {
         match pass {
             Pass::Fill => Some(&self.fill),
+            Pass::FillFront => Some(&self.fill_front),
             Pass::CheckFront => Some(&self.check_front),
             Pass::CheckBack => Some(&self.check_back),
             Pass::CheckFrontUnder => Some(&self.check_front_under),
@@ -64,6 +72,12 @@ impl DrawPipelines {
             let (entry_point, cull_mode, depth_write, depth_compare) = match pass {
                 // Back faces are drawn: the lit mode shades them too.
                 Pass::Fill => ("fs_main", None, true, wgpu::CompareFunction::GreaterEqual),
+                Pass::FillFront => (
+                    "fs_main",
+                    Some(wgpu::Face::Back),
+                    true,
+                    wgpu::CompareFunction::GreaterEqual,
+                ),
                 Pass::CheckFront | Pass::CheckFrontUnder => (
                     "fs_check_front",
                     Some(wgpu::Face::Back),
@@ -134,6 +148,7 @@ impl DrawPipelines {
         };
         DrawPipelines {
             fill: pipeline(Pass::Fill),
+            fill_front: pipeline(Pass::FillFront),
             check_front: pipeline(Pass::CheckFront),
             check_back: pipeline(Pass::CheckBack),
             check_front_under: pipeline(Pass::CheckFrontUnder),

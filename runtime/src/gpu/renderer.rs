@@ -66,10 +66,16 @@ pub struct FrameRequest {
     pub mode: ShadingMode,
     /// Overlay the triangle edges (ignored where the adapter has no line mode).
     pub wireframe: bool,
+    /// Draw both sides of every face (the fill passes; the check passes have their own face
+    /// rules). One face rule: a two-sided frame must not cull patches by their normal cones
+    /// (`FrameRequest::two_sided` sets both), and a one-sided frame (the default) drops back
+    /// faces in the rasteriser as the cones do, so the picture does not depend on τ through
+    /// which patches the cones dropped.
+    pub two_sided: bool,
 }
 
 impl FrameRequest {
-    /// Lit, frustum and back-face culling on, no wireframe.
+    /// Lit, one-sided, frustum and normal-cone culling on, no wireframe.
     pub fn new(camera: Camera, tau: f32) -> FrameRequest {
         FrameRequest {
             camera,
@@ -80,6 +86,19 @@ impl FrameRequest {
             },
             mode: ShadingMode::Lit,
             wireframe: false,
+            two_sided: false,
+        }
+    }
+
+    /// Both sides of every face drawn and normal-cone culling off (`render --two-sided`).
+    pub fn two_sided(self) -> FrameRequest {
+        FrameRequest {
+            two_sided: true,
+            cull: CullTests {
+                cones: false,
+                ..self.cull
+            },
+            ..self
         }
     }
 }
@@ -465,11 +484,18 @@ impl Renderer {
                 self.timer.as_ref().map(|t| t.render_end(false)),
             );
             pass.set_bind_group(0, &self.draw_group, &[]);
+            // One face rule (see `FrameRequest::two_sided`).
+            let fill = if request.two_sided {
+                Pass::Fill
+            } else {
+                Pass::FillFront
+            };
+            let fill_and_wire = [fill, Pass::Wire];
             let passes: &[Pass] = match (request.mode, request.wireframe) {
                 (ShadingMode::Check, _) => &[Pass::CheckFront, Pass::CheckBack],
                 (ShadingMode::CheckUnderside, _) => &[Pass::CheckFrontUnder, Pass::CheckBackUnder],
-                (_, true) => &[Pass::Fill, Pass::Wire],
-                (_, false) => &[Pass::Fill],
+                (_, true) => &fill_and_wire,
+                (_, false) => &fill_and_wire[..1],
             };
             pass.set_index_buffer(self.compaction.indices.slice(..), wgpu::IndexFormat::Uint32);
             for &which in passes {
@@ -504,7 +530,7 @@ impl Renderer {
                         self.skirts
                             .draw(&mut pass, true, which == Pass::CheckFrontUnder)
                     }
-                    Pass::Fill | Pass::Wire => {}
+                    Pass::Fill | Pass::FillFront | Pass::Wire => {}
                 }
             }
         }

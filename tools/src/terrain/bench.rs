@@ -415,6 +415,7 @@ pub fn run(args: TerrainBenchArgs) -> anyhow::Result<Outcome> {
                     cull: no_culling,
                     mode: ShadingMode::Lit,
                     wireframe: false,
+                    two_sided: false,
                 };
                 Ok(ours.render(&ctx, &request, Readback::default()))
             })?;
