@@ -36,8 +36,8 @@ fn border_edges(repo: &Repository) -> usize {
 fn facing(repo: &Repository) -> [f64; 3] {
     let mut n = [0.0f64; 3];
     for t in repo.tets().iter().filter(|t| t.first_child == u32::MAX) {
-        for k in 0..3 {
-            n[k] += t.cone_axis[k] as f64 * t.triangle_count as f64;
+        for (sum, axis) in n.iter_mut().zip(t.cone_axis) {
+            *sum += axis as f64 * t.triangle_count as f64;
         }
     }
     let l = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
