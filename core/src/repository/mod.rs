@@ -8,9 +8,11 @@
 //!   CPU's checks need them, the GPU does not);
 //! - `writer`: `write_repository[_file]` (temporary file, fsync, rename; stale temporaries of
 //!   killed writers removed);
+//! - `directory_check`: the header's and the tables' checks, shared by reader and writer;
 //! - `reader`: `Repository::open`, which validates every count, offset and index before use.
 //!   A bad file is an error (`RepositoryError`), never a panic or an out-of-bounds read.
 
+mod directory_check;
 pub mod format;
 pub mod global_ids;
 pub mod patch;

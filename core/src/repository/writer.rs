@@ -9,12 +9,13 @@ use std::fs::{self, File};
 use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
 
+use super::directory_check::{check_header_fields, check_tables, BlobSizes};
 use super::format::{
     align8, compute_checksum, patch_checksum, DiamondRecord, Header, SectionEntry, TetRecord,
     DIAMOND_RECORD_SIZE, FORMAT_VERSION, HEADER_SIZE, MAGIC, REQUIRED_SECTIONS, SECTION_DIAMONDS,
     SECTION_ENTRY_SIZE, SECTION_IDS, SECTION_PATCHES, SECTION_TETS, TET_RECORD_SIZE,
 };
-use super::reader::{check_header_fields, check_tables, BlobSizes, RepositoryError};
+use super::reader::RepositoryError;
 
 /// Everything a repository holds.
 #[derive(Clone, Debug, PartialEq)]
