@@ -60,6 +60,21 @@ pub struct WorstFrame {
     pub eye: [f64; 3],
 }
 
+impl PixelCheckReport {
+    /// Counts one checked frame with `flags` flag pixels (`frame` names it, with those flags).
+    pub(crate) fn add_frame(&mut self, image: &image::RgbaImage, flags: u64, frame: WorstFrame) {
+        self.covered_pixels += image.pixels().filter(|p| p.0 != BACKGROUND).count() as u64;
+        self.frames += 1;
+        self.flag_pixels += flags;
+        if flags > 0 {
+            self.frames_with_flags += 1;
+        }
+        if flags > self.worst.as_ref().map_or(0, |w| w.flag_pixels) {
+            self.worst = Some(frame);
+        }
+    }
+}
+
 /// Totals over every frame.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct PixelCheckReport {
@@ -312,23 +327,19 @@ fn check_views(
                     flags += 1;
                 }
             }
-            report.covered_pixels += image.pixels().filter(|p| p.0 != BACKGROUND).count() as u64;
-            report.frames += 1;
-            report.flag_pixels += flags;
             if mode == ShadingMode::CheckUnderside {
                 report.flag_pixels_from_below += flags;
             }
-            if flags > 0 {
-                report.frames_with_flags += 1;
-            }
-            if flags > report.worst.as_ref().map_or(0, |w| w.flag_pixels) {
-                report.worst = Some(WorstFrame {
+            report.add_frame(
+                &image,
+                flags,
+                WorstFrame {
                     view,
                     tolerance: tau,
                     flag_pixels: flags,
                     eye,
-                });
-            }
+                },
+            );
         }
     }
     report

@@ -74,21 +74,16 @@ pub fn check_pixels_streaming(
                     report.selection_mismatches += 1;
                 }
                 let flags = image.pixels().filter(|p| p.0 == FLAG_COLOUR).count() as u64;
-                report.covered_pixels +=
-                    image.pixels().filter(|p| p.0 != [0, 0, 0, 255]).count() as u64;
-                report.frames += 1;
-                report.flag_pixels += flags;
-                if flags > 0 {
-                    report.frames_with_flags += 1;
-                }
-                if flags > report.worst.as_ref().map_or(0, |w| w.flag_pixels) {
-                    report.worst = Some(WorstFrame {
+                report.add_frame(
+                    &image,
+                    flags,
+                    WorstFrame {
                         view,
                         tolerance: tau,
                         flag_pixels: flags,
                         eye,
-                    });
-                }
+                    },
+                );
             }
         }
     }
