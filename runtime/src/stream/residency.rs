@@ -85,6 +85,9 @@ pub struct Residency {
     priority: Vec<f32>,
     /// Units wanted in the latest frame (deduplicated), not resident nor loading.
     candidates: Vec<u32>,
+    /// The resident units, in no order, and each one's position there.
+    resident: Vec<u32>,
+    resident_at: Vec<u32>,
     budget_bytes: u64,
     frame: u64,
     flags_changed: bool,
@@ -116,6 +119,8 @@ impl Residency {
             touched: vec![0; n],
             priority: vec![0.0; n],
             candidates: Vec::new(),
+            resident: Vec::new(),
+            resident_at: vec![0; n],
             budget_bytes,
             frame: 0,
             flags_changed: true,
@@ -225,7 +230,12 @@ impl Residency {
                 .then(a.cmp(&b))
         });
         // Eviction candidates, best victim last.
-        let mut victims: Vec<u32> = (0..self.state.len() as u32)
+        // Only resident units can be victims: scan those (bounded by the budget), not the
+        // model's every unit, on the render thread's per-frame path.
+        let mut victims: Vec<u32> = self
+            .resident
+            .iter()
+            .copied()
             .filter(|&d| self.evictable(d))
             .collect();
         victims.sort_by(|&a, &b| {
@@ -306,6 +316,11 @@ impl Residency {
     fn evict(&mut self, v: u32) {
         debug_assert!(self.evictable(v));
         self.state[v as usize] = UnitState::Absent;
+        let at = self.resident_at[v as usize] as usize;
+        self.resident.swap_remove(at);
+        if let Some(&moved) = self.resident.get(at) {
+            self.resident_at[moved as usize] = at as u32;
+        }
         self.set_may_refine(v, false);
         for &p in self.units.parents(v) {
             self.live_children[p as usize] -= 1;
@@ -343,6 +358,8 @@ impl Residency {
             return;
         }
         self.state[ui] = UnitState::Resident;
+        self.resident_at[ui] = self.resident.len() as u32;
+        self.resident.push(u);
         self.stats.resident_units += 1;
         let mut stack = vec![u];
         while let Some(d) = stack.pop() {
@@ -387,6 +404,17 @@ impl Residency {
                     self.units.parents(d)
                 ));
             }
+        }
+        let resident = (0..self.state.len() as u32)
+            .filter(|&d| self.state[d as usize] == UnitState::Resident)
+            .count();
+        if resident != self.resident.len()
+            || self.resident.iter().enumerate().any(|(i, &d)| {
+                self.state[d as usize] != UnitState::Resident
+                    || self.resident_at[d as usize] != i as u32
+            })
+        {
+            return Err("the resident list differs from the states".into());
         }
         if live != self.live_children {
             return Err("live-children counts differ from the states".into());
