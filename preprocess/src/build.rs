@@ -127,6 +127,8 @@ pub enum BuildError {
     Config(String),
     #[error(transparent)]
     Repository(#[from] RepositoryError),
+    #[error(transparent)]
+    Conformity(#[from] crate::simplify::ConformityError),
 }
 
 /// What a build did, for `--json` and the benchmark.
@@ -285,7 +287,7 @@ fn build_in_pool(
     // 2. Simplification, diamond by diamond, finest first, borders locked.
     on_stage("simplify");
     let t = Instant::now();
-    let simplified = simplify_hierarchy(mesh, &hierarchy, current, &config.simplify);
+    let simplified = simplify_hierarchy(mesh, &hierarchy, current, &config.simplify)?;
     stage("simplify", t);
 
     // 3. Table order: breadth-first from the roots, so roots come first and siblings are

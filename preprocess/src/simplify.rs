@@ -27,6 +27,8 @@
 //! the global counts. Merging a batch is a sum of count changes (`CurrentMesh::merge`), so the
 //! result depends neither on the order within a batch nor on the number of threads.
 
+mod coincident;
+mod conformity;
 mod current_mesh;
 mod local_edges;
 
@@ -40,6 +42,8 @@ use crate::frame::LatticeFrame;
 use crate::hierarchy::Hierarchy;
 use crate::local_mesh::{local_mesh, LocalMesh};
 use crate::mesh::InputMesh;
+use coincident::cancel_coincident_pairs;
+use conformity::{border_break, BorderBreak};
 use current_mesh::{edge_key, triangle_edges, CountChanges};
 use local_edges::LocalEdges;
 
@@ -65,6 +69,27 @@ struct DiamondResult {
     /// The children's triangles it replaces.
     gathered: Vec<[u32; 3]>,
     effect: MergeEffect,
+    /// Where the output does not keep the gathered set's border (global ids): the build fails.
+    border_break: Option<BorderBreak>,
+}
+
+/// A diamond whose simplification did not keep the border of the region it replaces
+/// (`conformity.rs`): the build stops rather than write a repository with cracks.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error(
+    "conformity broken at diamond {diamond:?} (level {level}): edge ({}, {}) had {} triangles \
+     in the patches it replaces and {} in its new patch, so the border with the rest of the \
+     mesh would open (a simplifier bug)",
+    edge.0, edge.1, gathered_uses, output_uses
+)]
+pub struct ConformityError {
+    /// The diamond's id: its split edge's midpoint on the lattice.
+    pub diamond: tessera_core::leb::DiamondId,
+    pub level: u16,
+    /// The edge, by global vertex id.
+    pub edge: (u32, u32),
+    pub gathered_uses: u32,
+    pub output_uses: u32,
 }
 
 /// What merging a diamond would do to the current mesh it was simplified against.
@@ -117,6 +142,9 @@ pub struct SimplifySettings {
     /// the check accepts a cut border that simplifies an input border loop
     /// (`geometric_check.rs`).
     pub keep_borders: bool,
+    /// Fault injection for the conformity test: meshopt gets no locks, so diamonds may move
+    /// their borders and the build must stop (`ConformityError`). Never set in a real build.
+    pub fault_ignore_locks: bool,
 }
 
 impl Default for SimplifySettings {
@@ -125,6 +153,7 @@ impl Default for SimplifySettings {
             keep: 0.5,
             normal_weight: 0.05,
             keep_borders: true,
+            fault_ignore_locks: false,
         }
     }
 }
@@ -138,13 +167,14 @@ impl Default for SimplifySettings {
 /// Guarantee: after each diamond's merge (in the order of the batches, any order within a
 /// batch), no edge of the current mesh has more than two triangles unless it had that many
 /// before (the input's own non-manifold edges). The output is the same for any number of
-/// threads.
+/// threads. Every diamond's output keeps the border of the region it replaces, or the
+/// simplification stops with the first diamond (in level order) that does not.
 pub fn simplify_hierarchy(
     mesh: &InputMesh,
     hierarchy: &Hierarchy,
     mut current: CurrentMesh,
     settings: &SimplifySettings,
-) -> Simplified {
+) -> Result<Simplified, ConformityError> {
     let frame = &hierarchy.frame;
     let size = frame.model_size();
     let mut positions: Vec<[f32; 3]> = mesh
@@ -194,6 +224,12 @@ pub fn simplify_hierarchy(
             })
             .collect();
         while !pending.is_empty() {
+            if let Some(error) = pending
+                .iter()
+                .find_map(|p| p.result.conformity_error(hierarchy))
+            {
+                return Err(error);
+            }
             let (clean, dirty) = split_batch(pending, &current);
             current.merge(clean.iter().map(|p| &p.result.effect.changes));
             debug_assert!(
@@ -229,10 +265,25 @@ pub fn simplify_hierarchy(
                 .collect();
         }
     }
-    Simplified {
+    Ok(Simplified {
         patches,
         own_error,
         locked_vertices,
+    })
+}
+
+impl DiamondResult {
+    fn conformity_error(&self, hierarchy: &Hierarchy) -> Option<ConformityError> {
+        self.border_break.map(|b| {
+            let diamond = &hierarchy.diamonds[self.diamond];
+            ConformityError {
+                diamond: diamond.id,
+                level: diamond.level,
+                edge: (b.a, b.b),
+                gathered_uses: b.gathered_uses,
+                output_uses: b.output_uses,
+            }
+        })
     }
 }
 
@@ -354,6 +405,9 @@ fn simplify_diamond(
         }
     }
     let locked = lock.iter().filter(|&&l| l).count();
+    if ctx.settings.fault_ignore_locks {
+        lock.fill(false);
+    }
     let (mut simplified, error) = simplify_locked(
         &local.indices,
         &local.global_of,
@@ -365,8 +419,31 @@ fn simplify_diamond(
     // meshopt's absolute error is in model sizes.
     let error = (error as f64 * ctx.size) as f32;
     cancel_coincident_pairs(&mut simplified, &local.indices, interior.len());
+    let output_edges = LocalEdges::count(interior.len(), &simplified);
+    let border_break = border_break(
+        &gathered_edges,
+        &output_edges,
+        &interior,
+        ctx.settings.keep_borders,
+        |a, b, uses| {
+            let key = edge_key(local.global_of[a as usize], local.global_of[b as usize]);
+            current.edge_count(key) > uses
+        },
+    )
+    .map(|b| BorderBreak {
+        a: local.global_of[b.a as usize],
+        b: local.global_of[b.b as usize],
+        ..b
+    });
     let patches = distribute(ctx, diamond, &local, &source, &simplified);
-    let effect = merge_effect(&local, &interior, &gathered_edges, &simplified, current);
+    let effect = merge_effect(
+        &local,
+        &interior,
+        &gathered_edges,
+        &output_edges,
+        &simplified,
+        current,
+    );
     DiamondResult {
         diamond: index,
         patches,
@@ -374,6 +451,7 @@ fn simplify_diamond(
         locked,
         gathered,
         effect,
+        border_break,
     }
 }
 
@@ -444,6 +522,7 @@ fn merge_effect(
     local: &LocalMesh,
     interior: &[bool],
     gathered_edges: &LocalEdges,
+    output_edges: &LocalEdges,
     simplified: &[u32],
     current: &CurrentMesh,
 ) -> MergeEffect {
@@ -456,7 +535,6 @@ fn merge_effect(
         conflicts: Vec::new(),
         shared_growth: Vec::new(),
     };
-    let output_edges = LocalEdges::count(interior.len(), simplified);
     let mut kept = vec![false; gathered_edges.len()];
     for (_, a, b, after) in output_edges.iter() {
         let before = match gathered_edges.find(a, b) {
@@ -509,103 +587,22 @@ fn merge_effect(
 /// Locks a vertex when the rest of the current mesh also uses it (it is not interior), or when
 /// it lies on a non-manifold edge of the gathered set, or (with `keep_borders`) on a border
 /// edge (holes of the scan): all keep every conforming cut's borders where the input has them.
+///
+/// With free borders, an interior vertex on a border edge whose other end is shared is locked
+/// too: collapsing it along its border onto the shared end would drop the triangle it shares
+/// with an edge the rest of the mesh also uses (where a hole's outline meets the region's
+/// border), and the region's border would move (`conformity.rs`).
 fn lock_vertices(gathered_edges: &LocalEdges, interior: &[bool], keep_borders: bool) -> Vec<bool> {
     let mut lock: Vec<bool> = interior.iter().map(|&i| !i).collect();
     for (_, a, b, uses) in gathered_edges.iter() {
-        if uses > 2 || (uses == 1 && keep_borders) {
-            lock[a as usize] = true;
-            lock[b as usize] = true;
+        let (a, b) = (a as usize, b as usize);
+        let border = uses == 1 && (keep_borders || interior[a] != interior[b]);
+        if uses > 2 || border {
+            lock[a] = true;
+            lock[b] = true;
         }
     }
     lock
-}
-
-/// Removes triangles that come in pairs on the same three vertices where the simplification
-/// made them. meshopt's collapses can fold a valence-3 fan into two back-to-back copies of one
-/// triangle: a zero-volume flap that makes its edges non-manifold. Dropping copies two at a
-/// time keeps every edge's use count parity, so borders (odd counts) are untouched.
-///
-/// Copies the gathered set already had (`gathered`, local ids: the input's own duplicate
-/// triangles, which a caller may pass to the build) are the input's and stay: a vertex set
-/// with k copies in `gathered` and m > k in `indices` keeps k + (m − k) mod 2 of them (the
-/// first ones), one with m ≤ k keeps all m. Dropping the input's duplicates in pairs, as this
-/// once did, left their edges with one triangle where the input has three: a crack at every
-/// coarse cut (19,362 cracked edges over 80 bunny cuts with 100 triangles doubled,
-/// `tests/numerical_extremes.rs`).
-fn cancel_coincident_pairs(indices: &mut Vec<u32>, gathered: &[u32], vertex_count: usize) {
-    let runs = coincident_runs(indices, vertex_count);
-    if runs.is_empty() {
-        return; // the common case: no repeated triangle
-    }
-    // How many copies of each repeated vertex set the gathered set had.
-    let mut had: HashMap<[u32; 3], usize> = runs.iter().map(|(k, _)| (*k, 0)).collect();
-    for t in gathered.chunks_exact(3) {
-        if let Some(n) = had.get_mut(&sorted(&[t[0], t[1], t[2]])) {
-            *n += 1;
-        }
-    }
-    let mut drop: Vec<u32> = Vec::new();
-    for (key, run) in &runs {
-        let keep = run.len().min(had[key]);
-        let excess = run.len() - keep;
-        // The run is in triangle order: keep its first `keep + excess % 2`.
-        drop.extend(run.iter().skip(keep + excess % 2));
-    }
-    if drop.is_empty() {
-        return;
-    }
-    drop.sort_unstable();
-    let mut kept = Vec::with_capacity(indices.len());
-    let mut next_drop = drop.iter().peekable();
-    for (t, tri) in indices.chunks_exact(3).enumerate() {
-        if next_drop.peek() == Some(&&(t as u32)) {
-            next_drop.next();
-        } else {
-            kept.extend_from_slice(tri);
-        }
-    }
-    *indices = kept;
-}
-
-/// The vertex sets used by more than one triangle of `indices` (local ids below
-/// `vertex_count`), each with its triangles in order.
-fn coincident_runs(indices: &[u32], vertex_count: usize) -> Vec<([u32; 3], Vec<u32>)> {
-    // Copies share their smallest vertex: bucket the triangles by it (counting sort), then
-    // look for equal vertex sets inside each (small) bucket.
-    let triangles = indices.len() / 3;
-    let mut start = vec![0u32; vertex_count + 1];
-    let sorted_of = |t: usize| sorted(&[indices[3 * t], indices[3 * t + 1], indices[3 * t + 2]]);
-    for t in 0..triangles {
-        start[sorted_of(t)[0] as usize + 1] += 1;
-    }
-    for i in 0..vertex_count {
-        start[i + 1] += start[i];
-    }
-    let mut fill = start.clone();
-    let mut bucketed = vec![0u32; triangles];
-    for t in 0..triangles {
-        let lo = sorted_of(t)[0] as usize;
-        bucketed[fill[lo] as usize] = t as u32;
-        fill[lo] += 1;
-    }
-    let mut runs = Vec::new();
-    let mut bucket: Vec<([u32; 3], u32)> = Vec::new();
-    for lo in 0..vertex_count {
-        let range = start[lo] as usize..start[lo + 1] as usize;
-        if range.len() < 2 {
-            continue;
-        }
-        bucket.clear();
-        bucket.extend(bucketed[range].iter().map(|&t| (sorted_of(t as usize), t)));
-        bucket.sort_unstable();
-        for run in bucket
-            .chunk_by(|a, b| a.0 == b.0)
-            .filter(|run| run.len() > 1)
-        {
-            runs.push((run[0].0, run.iter().map(|&(_, t)| t).collect()));
-        }
-    }
-    runs
 }
 
 /// meshopt simplification to `settings.keep` of the triangles with the given locks; returns
@@ -717,52 +714,4 @@ fn holder(simplices: &[Simplex], prepared: &[PreparedSimplex], b: [f64; 3]) -> u
     (0..simplices.len())
         .min_by(|&x, &y| dist2(centroid(&simplices[x])).total_cmp(&dist2(centroid(&simplices[y]))))
         .unwrap_or(0)
-}
-
-/// A triangle's vertex ids in ascending order: its identity regardless of rotation/winding.
-fn sorted(t: &[u32; 3]) -> [u32; 3] {
-    let mut k = *t;
-    k.sort_unstable();
-    k
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn cancelled(output: &[[u32; 3]], gathered: &[[u32; 3]]) -> Vec<[u32; 3]> {
-        let mut indices: Vec<u32> = output.iter().flatten().copied().collect();
-        let gathered: Vec<u32> = gathered.iter().flatten().copied().collect();
-        cancel_coincident_pairs(&mut indices, &gathered, 8);
-        indices
-            .chunks_exact(3)
-            .map(|t| [t[0], t[1], t[2]])
-            .collect()
-    }
-
-    #[test]
-    fn pairs_the_simplifier_made_are_cancelled() {
-        let base = [[0, 1, 2], [2, 1, 3]];
-        // A flap: two back-to-back copies of a triangle the gathered set did not have.
-        let out = cancelled(&[[0, 1, 2], [4, 5, 6], [6, 5, 4]], &base);
-        assert_eq!(out, vec![[0, 1, 2]]);
-        // Three copies: the first stays (edge use parity kept).
-        let out = cancelled(&[[4, 5, 6], [6, 5, 4], [5, 6, 4]], &base);
-        assert_eq!(out, vec![[4, 5, 6]]);
-    }
-
-    /// The input's own duplicates (the builder accepts them) are kept: dropping them in pairs
-    /// opened a crack at every coarse cut.
-    #[test]
-    fn duplicates_the_input_had_are_kept() {
-        let gathered = [[0, 1, 2], [0, 1, 2], [2, 1, 3], [3, 1, 2]];
-        let out = cancelled(&gathered, &gathered);
-        assert_eq!(out, gathered.to_vec());
-        // One more pair on top of the input's two copies: only the new pair goes.
-        let out = cancelled(&[[0, 1, 2], [0, 1, 2], [1, 2, 0], [2, 0, 1]], &gathered);
-        assert_eq!(out, vec![[0, 1, 2], [0, 1, 2]]);
-        // Fewer copies than the input had: nothing is added or dropped.
-        let out = cancelled(&[[0, 1, 2]], &gathered);
-        assert_eq!(out, vec![[0, 1, 2]]);
-    }
 }

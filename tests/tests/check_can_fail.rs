@@ -192,3 +192,42 @@ fn a_border_vertex_nudged_in_one_patch_is_caught_by_both_checks() {
     assert!(!pixels.is_clean());
     assert_eq!(pixels.selection_mismatches, 0, "only positions changed");
 }
+
+/// The build's conformity assertion (issue 12, `preprocess/src/simplify/conformity.rs`) is not
+/// a rubber stamp either: a simplifier that ignores its locks moves diamond borders, and the
+/// build stops naming the diamond and the edge instead of writing a cracked repository.
+#[test]
+fn a_simplifier_that_ignores_locks_fails_the_build() {
+    let broken = |input: &tessera_preprocess::InputMesh, mut config: BuildConfig| {
+        config.simplify.fault_ignore_locks = true;
+        match build_contents(input, &config, &|_| {}) {
+            Err(tessera_preprocess::BuildError::Conformity(e)) => e,
+            Err(other) => panic!("expected a conformity error, got {other}"),
+            Ok(_) => panic!("a build without locks passed the conformity assertion"),
+        }
+    };
+    let bunny = load_mesh(&testdata("mesh/bunny00.off")).unwrap().mesh;
+    let error = broken(&bunny, BuildConfig::default());
+    let message = error.to_string();
+    assert!(
+        message.contains("conformity broken at diamond"),
+        "{message}"
+    );
+    assert!(
+        message.contains(&format!("level {}", error.level)),
+        "{message}"
+    );
+    assert_ne!(error.gathered_uses % 2, error.output_uses % 2, "{error:?}");
+    // The same input with the simplifier intact builds.
+    assert!(build_contents(&bunny, &BuildConfig::default(), &|_| {}).is_ok());
+
+    // A height field, whose outline chains are free to shorten: the border with the rest of
+    // the mesh is still held.
+    use tessera_preprocess::dem::{load_dem, DemOptions, TerrainOptions};
+    let terrain = load_dem(&testdata("dem/volcano.json"), &DemOptions::default())
+        .unwrap()
+        .to_mesh(&TerrainOptions::default());
+    let config = BuildConfig::for_domain(tessera_preprocess::Domain::HeightField);
+    broken(&terrain, config.clone());
+    assert!(build_contents(&terrain, &config, &|_| {}).is_ok());
+}
