@@ -24,12 +24,15 @@
 //! which changes nothing), and merged in a later batch. A vertex with all its triangles in D's
 //! gathered set (an *interior* vertex) has its edges' counts known locally, and no other
 //! diamond of the level can touch those edges, so only edges between two shared vertices need
-//! the global counts. Merging a batch is a sum of count changes (`CurrentMesh::merge`), so the
-//! result depends neither on the order within a batch nor on the number of threads.
+//! the rest of the mesh's counts: each round asks for exactly those (`query_edges`) and counts
+//! them over the live patches (`edge_census.rs`). Merging a batch is a sum of count changes
+//! (`CurrentMesh::merge`), so the result depends neither on the order within a batch nor on
+//! the number of threads.
 
 mod coincident;
 mod conformity;
 mod current_mesh;
+mod edge_census;
 mod local_edges;
 
 use rustc_hash::{FxHashMap as HashMap, FxHashSet as HashSet};
@@ -45,6 +48,7 @@ use crate::mesh::InputMesh;
 use coincident::cancel_coincident_pairs;
 use conformity::{border_break, BorderBreak};
 use current_mesh::{edge_key, triangle_edges, CountChanges};
+use edge_census::count_edges;
 use local_edges::LocalEdges;
 
 pub use current_mesh::CurrentMesh;
@@ -71,6 +75,8 @@ struct DiamondResult {
     effect: MergeEffect,
     /// Where the output does not keep the gathered set's border (global ids): the build fails.
     border_break: Option<BorderBreak>,
+    /// Where it does not if the rest of the mesh also uses the edge (`conformity.rs`).
+    border_break_if_used_outside: Vec<BorderBreak>,
 }
 
 /// A diamond whose simplification did not keep the border of the region it replaces
@@ -96,12 +102,16 @@ pub struct ConformityError {
 struct MergeEffect {
     /// The count changes.
     changes: CountChanges,
-    /// Edges the merge would give more than two triangles, and more than they have.
-    conflicts: Vec<u64>,
+    /// Edges with an interior endpoint the merge would give more than two triangles, and more
+    /// than they have (their counts are all local).
+    local_conflicts: Vec<u64>,
     /// (edge, growth) of the edges whose use count the merge raises and whose endpoints are
     /// both shared with the rest of the current mesh: the only edges another diamond of the
-    /// level can also change.
+    /// level can also change, and the only ones whose counts need the rest of the mesh.
     shared_growth: Vec<(u64, i32)>,
+    /// All edges the merge would give more than two triangles, and more than they have:
+    /// `local_conflicts` and the shared edges so raised (`DiamondResult::resolve`).
+    conflicts: Vec<u64>,
 }
 
 /// A diamond not merged yet, with the locks its earlier conflicts added.
@@ -200,6 +210,9 @@ pub fn simplify_hierarchy(
             )
         })
         .collect();
+    // The current mesh is the patches of these simplices: the leaves, then each merged
+    // diamond's simplices in place of their children.
+    let mut live: HashSet<SimplexKey> = hierarchy.leaf_triangles.keys().copied().collect();
     let mut own_error = vec![0.0f32; hierarchy.diamonds.len()];
     let mut locked_vertices = 0;
     let mut by_level: Vec<usize> = (0..hierarchy.diamonds.len()).collect();
@@ -224,25 +237,30 @@ pub fn simplify_hierarchy(
             })
             .collect();
         while !pending.is_empty() {
+            // The rest of the mesh's counts of the edges the pending diamonds share with it.
+            let live_list: Vec<SimplexKey> = live.iter().copied().collect();
+            let counts = count_edges(&query_edges(&pending), &live_list, &patches);
+            for p in &mut pending {
+                p.result.resolve(&counts);
+            }
             if let Some(error) = pending
                 .iter()
                 .find_map(|p| p.result.conformity_error(hierarchy))
             {
                 return Err(error);
             }
-            let (clean, dirty) = split_batch(pending, &current);
+            let (clean, dirty) = split_batch(pending, &counts);
             current.merge(clean.iter().map(|p| &p.result.effect.changes));
-            debug_assert!(
-                clean
-                    .iter()
-                    .flat_map(|p| &p.result.effect.changes.edges)
-                    .all(|&(e, d)| d <= 0 || current.edge_count(e) <= 2),
-                "a merge raised an edge above two triangles"
-            );
             for p in clean {
                 let r = p.result;
                 own_error[r.diamond] = r.error;
                 locked_vertices += r.locked;
+                for s in &hierarchy.diamonds[r.diamond].simplices {
+                    for c in s.children() {
+                        live.remove(&c.key);
+                    }
+                    live.insert(s.key);
+                }
                 patches.extend(r.patches);
             }
             // Simplify the others again against the mesh with the batch merged, with more
@@ -272,7 +290,50 @@ pub fn simplify_hierarchy(
     })
 }
 
+/// The edges whose counts in the rest of the mesh the pending diamonds need, sorted.
+fn query_edges(pending: &[Pending]) -> Vec<u64> {
+    let mut query: Vec<u64> = pending
+        .iter()
+        .flat_map(|p| {
+            let r = &p.result;
+            let growth = r.effect.shared_growth.iter().map(|&(e, _)| e);
+            let border = r
+                .border_break_if_used_outside
+                .iter()
+                .map(|b| edge_key(b.a, b.b));
+            growth.chain(border)
+        })
+        .collect();
+    query.sort_unstable();
+    query.dedup();
+    query
+}
+
 impl DiamondResult {
+    /// Completes the conflicts and the conformity check with the current mesh's counts of the
+    /// edges this diamond shares with the rest (`counts`, from `query_edges`).
+    fn resolve(&mut self, counts: &HashMap<u64, u32>) {
+        let count = |e: u64| counts.get(&e).copied().unwrap_or(0);
+        let effect = &mut self.effect;
+        effect.conflicts.clear();
+        effect.conflicts.extend_from_slice(&effect.local_conflicts);
+        // The counts include this diamond's own gathered triangles.
+        effect.conflicts.extend(
+            effect
+                .shared_growth
+                .iter()
+                .filter(|&&(e, growth)| count(e) as i64 + growth as i64 > 2)
+                .map(|&(e, _)| e),
+        );
+        if self.border_break.is_none() {
+            self.border_break = self
+                .border_break_if_used_outside
+                .iter()
+                .find(|b| count(edge_key(b.a, b.b)) > b.gathered_uses)
+                .copied();
+        }
+    }
+
     fn conformity_error(&self, hierarchy: &Hierarchy) -> Option<ConformityError> {
         self.border_break.map(|b| {
             let diamond = &hierarchy.diamonds[self.diamond];
@@ -313,7 +374,7 @@ impl Pending {
 /// diamonds before it (in level order) already raise to two triangles. Only shared edges can
 /// be raised by two diamonds (see the module comment). A diamond counted here may still be
 /// held back for another edge; counting it anyway only holds back more, never too few.
-fn split_batch(pending: Vec<Pending>, current: &CurrentMesh) -> (Vec<Pending>, Vec<HeldBack>) {
+fn split_batch(pending: Vec<Pending>, counts: &HashMap<u64, u32>) -> (Vec<Pending>, Vec<HeldBack>) {
     let mut growth: Vec<(u64, usize, i32)> = pending
         .iter()
         .enumerate()
@@ -334,7 +395,7 @@ fn split_batch(pending: Vec<Pending>, current: &CurrentMesh) -> (Vec<Pending>, V
         .chunk_by(|a, b| a.0 == b.0)
         .filter(|run| run.len() > 1)
     {
-        let mut count = current.edge_count(run[0].0) as i64;
+        let mut count = counts.get(&run[0].0).copied().unwrap_or(0) as i64;
         for &(e, i, d) in run {
             if count + d as i64 > 2 {
                 blocked[i].push(e);
@@ -420,21 +481,17 @@ fn simplify_diamond(
     let error = (error as f64 * ctx.size) as f32;
     cancel_coincident_pairs(&mut simplified, &local.indices, interior.len());
     let output_edges = LocalEdges::count(interior.len(), &simplified);
-    let border_break = border_break(
+    let check = border_break(
         &gathered_edges,
         &output_edges,
         &interior,
         ctx.settings.keep_borders,
-        |a, b, uses| {
-            let key = edge_key(local.global_of[a as usize], local.global_of[b as usize]);
-            current.edge_count(key) > uses
-        },
-    )
-    .map(|b| BorderBreak {
+    );
+    let global = |b: BorderBreak| BorderBreak {
         a: local.global_of[b.a as usize],
         b: local.global_of[b.b as usize],
         ..b
-    });
+    };
     let patches = distribute(ctx, diamond, &local, &source, &simplified);
     let effect = merge_effect(
         &local,
@@ -451,7 +508,12 @@ fn simplify_diamond(
         locked,
         gathered,
         effect,
-        border_break,
+        border_break: check.broken.map(global),
+        border_break_if_used_outside: check
+            .broken_if_used_outside
+            .into_iter()
+            .map(global)
+            .collect(),
     }
 }
 
@@ -530,10 +592,16 @@ fn merge_effect(
     let mut effect = MergeEffect {
         changes: CountChanges {
             vertices: Vec::new(),
-            edges: Vec::new(),
+            tracked_edges: Vec::new(),
         },
-        conflicts: Vec::new(),
+        local_conflicts: Vec::new(),
         shared_growth: Vec::new(),
+        conflicts: Vec::new(),
+    };
+    let mut track = |key: u64, change: i32| {
+        if current.is_tracked(key) {
+            effect.changes.tracked_edges.push((key, change));
+        }
     };
     let mut kept = vec![false; gathered_edges.len()];
     for (_, a, b, after) in output_edges.iter() {
@@ -549,27 +617,21 @@ fn merge_effect(
         }
         let growth = after as i32 - before as i32;
         let key = edge_key(global_of[a as usize], global_of[b as usize]);
-        effect.changes.edges.push((key, growth));
+        track(key, growth);
         if growth > 0 {
-            // An edge with an interior endpoint has all its triangles here.
-            let shared = !interior[a as usize] && !interior[b as usize];
-            let before = if shared {
-                current.edge_count(key)
-            } else {
-                before
-            };
-            if before as i64 + growth as i64 > 2 {
-                effect.conflicts.push(key);
-            }
-            if shared {
+            // An edge with an interior endpoint has all its triangles here; the others' counts
+            // come from the rest of the mesh (`DiamondResult::resolve`).
+            if !interior[a as usize] && !interior[b as usize] {
                 effect.shared_growth.push((key, growth));
+            } else if before as i64 + growth as i64 > 2 {
+                effect.local_conflicts.push(key);
             }
         }
     }
     for (i, a, b, before) in gathered_edges.iter() {
         if !kept[i] {
             let key = edge_key(global_of[a as usize], global_of[b as usize]);
-            effect.changes.edges.push((key, -(before as i32)));
+            track(key, -(before as i32));
         }
     }
     let mut out_uses = vec![0u32; global_of.len()];

@@ -37,18 +37,26 @@ pub(super) struct BorderBreak {
     pub output_uses: u32,
 }
 
-/// The first edge (in `gathered`'s, then `output`'s order) on which `output` does not keep
-/// `gathered`'s border, if any. `interior[v]`: every triangle of the current mesh using local
-/// vertex `v` is in the gathered set; `used_outside(a, b, uses)`: whether the rest of the
-/// current mesh uses edge (a, b), which `gathered` uses `uses` times (asked only with borders
-/// free, for odd edges between two shared vertices).
+/// What `border_break` found.
+#[derive(Debug, Default, PartialEq, Eq)]
+pub(super) struct BorderCheck {
+    /// The first edge (in `gathered`'s, then `output`'s order) on which the output does not
+    /// keep the border whatever the rest of the mesh does.
+    pub broken: Option<BorderBreak>,
+    /// Odd edges between two shared vertices that went even with borders free: a shortened
+    /// input border if nothing else uses the edge, a broken border with the rest of the mesh
+    /// otherwise. Only the rest's counts tell (`edge_census.rs`).
+    pub broken_if_used_outside: Vec<BorderBreak>,
+}
+
+/// Checks that `output` keeps `gathered`'s border. `interior[v]`: every triangle of the
+/// current mesh using local vertex `v` is in the gathered set.
 pub(super) fn border_break(
     gathered: &LocalEdges,
     output: &LocalEdges,
     interior: &[bool],
     keep_borders: bool,
-    used_outside: impl Fn(u32, u32, u32) -> bool,
-) -> Option<BorderBreak> {
+) -> BorderCheck {
     let mut on_border = vec![false; interior.len()];
     for (_, a, b, n) in gathered.iter() {
         if n % 2 == 1 {
@@ -57,37 +65,43 @@ pub(super) fn border_break(
         }
     }
     let shared = |a: u32, b: u32| !interior[a as usize] && !interior[b as usize];
-    let allowed = |a: u32, b: u32, before: u32, after: u32| {
-        if before % 2 == after % 2 {
-            true
-        } else if keep_borders {
-            false
-        } else if before % 2 == 1 {
-            // A shortened chain's edge, never the border with the rest.
-            !shared(a, b) || !used_outside(a, b, before)
-        } else {
-            on_border[a as usize] && on_border[b as usize] // a shortened chain's new edge
-        }
-    };
-    let uses_in =
-        |edges: &LocalEdges, a: u32, b: u32| edges.find(a, b).map_or(0, |i| edges.uses(i));
-    let broken = |a: u32, b: u32, gathered_uses: u32, output_uses: u32| {
-        (!allowed(a, b, gathered_uses, output_uses)).then_some(BorderBreak {
+    let mut check = BorderCheck::default();
+    let mut judge = |a: u32, b: u32, gathered_uses: u32, output_uses: u32| {
+        let edge = BorderBreak {
             a,
             b,
             gathered_uses,
             output_uses,
-        })
+        };
+        let broken = if gathered_uses % 2 == output_uses % 2 {
+            false
+        } else if keep_borders {
+            true
+        } else if gathered_uses % 2 == 1 {
+            // A shortened chain's edge, never the border with the rest.
+            if shared(a, b) {
+                check.broken_if_used_outside.push(edge);
+            }
+            false
+        } else {
+            // A shortened chain's new edge joins two vertices of the old border.
+            !(on_border[a as usize] && on_border[b as usize])
+        };
+        if broken && check.broken.is_none() {
+            check.broken = Some(edge);
+        }
     };
-    gathered
-        .iter()
-        .find_map(|(_, a, b, n)| broken(a, b, n, uses_in(output, a, b)))
-        .or_else(|| {
-            output
-                .iter()
-                .filter(|&(_, a, b, _)| gathered.find(a, b).is_none())
-                .find_map(|(_, a, b, n)| broken(a, b, 0, n))
-        })
+    let uses_in =
+        |edges: &LocalEdges, a: u32, b: u32| edges.find(a, b).map_or(0, |i| edges.uses(i));
+    for (_, a, b, n) in gathered.iter() {
+        judge(a, b, n, uses_in(output, a, b));
+    }
+    for (_, a, b, n) in output.iter() {
+        if gathered.find(a, b).is_none() {
+            judge(a, b, 0, n);
+        }
+    }
+    check
 }
 
 #[cfg(test)]
@@ -105,7 +119,11 @@ mod tests {
     ) -> Option<BorderBreak> {
         let g = LocalEdges::count(interior.len(), gathered);
         let o = LocalEdges::count(interior.len(), output);
-        border_break(&g, &o, interior, keep, |_, _, _| true)
+        // With every odd edge between shared vertices also used by the rest of the mesh.
+        let check = border_break(&g, &o, interior, keep);
+        check
+            .broken
+            .or_else(|| check.broken_if_used_outside.first().copied())
     }
 
     #[test]
@@ -158,6 +176,8 @@ mod tests {
         // else, may shorten.
         let g = LocalEdges::count(4, &SQUARE);
         let o = LocalEdges::count(4, &shortened);
-        assert_eq!(border_break(&g, &o, &shared, false, |_, _, _| false), None);
+        let check = border_break(&g, &o, &shared, false);
+        assert_eq!(check.broken, None);
+        assert_eq!(check.broken_if_used_outside.len(), 2, "{check:?}");
     }
 }

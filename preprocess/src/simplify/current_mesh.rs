@@ -1,17 +1,21 @@
 //! The current mesh (DESIGN.md): the input with every processed diamond merged, kept as use
-//! counts per vertex and per edge, and merged a whole batch of diamonds at a time.
+//! counts per vertex, and merged a whole batch of diamonds at a time.
 //!
-//! The counts are split into shards by ranges of vertex ids (an edge lives with its smaller
-//! endpoint). A merge is a commutative sum of count changes, so every shard applies the changes
-//! that fall in its range independently and in parallel, and the final counts do not depend on
-//! the order or the number of threads. Welded vertex ids follow the input's order, which scans
-//! keep spatially coherent, so one diamond touches few shards, and a shard's table (a few
-//! hundred KiB) stays in cache while it applies its share.
-
-use std::collections::hash_map::Entry;
+//! Edge counts are not kept here: the few the build needs (edges between vertices that a
+//! diamond shares with the rest of the mesh, whose count another diamond can also change) are
+//! counted when asked, by a census of the current mesh's patches (`edge_census.rs`), so memory
+//! does not grow with the mesh's edges and the counts need no global table. The one exception
+//! is the input's own non-manifold edges (more than two triangles), which are few and whose
+//! counts are tracked here, so that every diamond can protect their sheets before simplifying.
+//!
+//! The vertex counts are split into shards by ranges of vertex ids. A merge is a commutative
+//! sum of count changes, so every shard applies the changes that fall in its range
+//! independently and in parallel, and the final counts do not depend on the order or the
+//! number of threads. Welded vertex ids follow the input's order, which scans keep spatially
+//! coherent, so one diamond touches few shards.
 
 use rayon::prelude::*;
-use rustc_hash::{FxHashMap as HashMap, FxHashSet as HashSet};
+use rustc_hash::FxHashMap as HashMap;
 
 use crate::mesh::InputMesh;
 
@@ -28,110 +32,70 @@ pub(super) fn vertex_shard(v: u32) -> u32 {
     v >> SHARD_BITS
 }
 
-/// The shard holding edge `key` (its smaller endpoint's).
-pub(super) fn edge_shard(key: u64) -> u32 {
-    vertex_shard((key >> 32) as u32)
-}
-
-/// Count changes of one merge, each list sorted by shard (see `vertex_shard`, `edge_shard`).
+/// Count changes of one merge.
 pub(super) struct CountChanges {
-    /// (vertex, change of its use count), non-zero changes only.
+    /// (vertex, change of its use count), non-zero changes only, sorted by shard.
     pub vertices: Vec<(u32, i32)>,
-    /// (edge key, change of its use count), non-zero changes only.
-    pub edges: Vec<(u64, i32)>,
+    /// (edge key, change of its use count) of the input's non-manifold edges, non-zero only.
+    pub tracked_edges: Vec<(u64, i32)>,
 }
 
 impl CountChanges {
-    /// Sorts both lists by shard, as `CurrentMesh::merge` needs.
+    /// Sorts the vertex changes by shard, as `CurrentMesh::merge` needs.
     pub fn sort_by_shard(&mut self) {
         self.vertices
             .sort_unstable_by_key(|&(v, _)| vertex_shard(v));
-        self.edges.sort_unstable_by_key(|&(e, _)| edge_shard(e));
     }
 }
 
-/// Use counts of the current mesh's vertices and edges, by shard.
+/// Use counts of the current mesh's vertices, by shard, and of the input's non-manifold edges.
 pub struct CurrentMesh {
-    shards: Vec<Shard>,
-    /// Edges with more than two triangles in the input. The build never raises an edge's count
-    /// above two (see `simplify_hierarchy`), so only these can have more in the current mesh.
-    nonmanifold: HashSet<u64>,
-}
-
-/// The counts of shard `i`: of the vertices from `i << SHARD_BITS` on, and of the edges whose
-/// smaller endpoint is one of them (absent edges have no triangle).
-struct Shard {
-    use_count: Vec<u32>,
-    edges: HashMap<u64, u32>,
+    shards: Vec<Vec<u32>>,
+    /// Current counts of the edges with more than two triangles in the input. The build never
+    /// raises an edge's count above two (see `simplify_hierarchy`), so only these can have
+    /// more in the current mesh.
+    nonmanifold: HashMap<u64, u32>,
 }
 
 impl CurrentMesh {
     /// The input mesh's counts.
     pub fn new(mesh: &InputMesh) -> Self {
         let vertex_count = mesh.positions.len();
-        let shard_count = vertex_count.div_ceil(1 << SHARD_BITS).max(1);
         let mut use_count = vec![0u32; vertex_count];
-        let mut edge_uses = vec![0usize; shard_count];
         for t in &mesh.triangles {
             for &v in t {
                 use_count[v as usize] += 1;
             }
-            for (a, b) in triangle_edges(t) {
-                edge_uses[vertex_shard(a.min(b)) as usize] += 1;
-            }
         }
-        // Interior edges have two uses: half the uses is about the number of edges.
-        let mut shards: Vec<Shard> = use_count
+        let mut shards: Vec<Vec<u32>> = use_count
             .chunks(1 << SHARD_BITS)
-            .zip(&edge_uses)
-            .map(|(counts, &uses)| Shard {
-                use_count: counts.to_vec(),
-                edges: HashMap::with_capacity_and_hasher(uses / 2 + 1, Default::default()),
-            })
+            .map(<[u32]>::to_vec)
             .collect();
-        shards.resize_with(shard_count, || Shard {
-            use_count: Vec::new(),
-            edges: HashMap::default(),
-        });
-        for t in &mesh.triangles {
-            for (a, b) in triangle_edges(t) {
-                let key = edge_key(a, b);
-                *shards[edge_shard(key) as usize]
-                    .edges
-                    .entry(key)
-                    .or_default() += 1;
-            }
+        if shards.is_empty() {
+            shards.push(Vec::new());
         }
-        let nonmanifold = shards
-            .iter()
-            .flat_map(|s| s.edges.iter().filter(|&(_, &n)| n > 2).map(|(&e, _)| e))
-            .collect();
         CurrentMesh {
             shards,
-            nonmanifold,
+            nonmanifold: nonmanifold_edges(mesh),
         }
     }
 
     /// Triangles of the current mesh using vertex `v`.
     #[inline]
     pub(super) fn use_count(&self, v: u32) -> u32 {
-        self.shards[vertex_shard(v) as usize].use_count[(v & ((1 << SHARD_BITS) - 1)) as usize]
+        self.shards[vertex_shard(v) as usize][(v & ((1 << SHARD_BITS) - 1)) as usize]
     }
 
-    /// Triangles of the current mesh using edge `key`.
+    /// Whether `key` is one of the input's non-manifold edges, whose counts are tracked.
     #[inline]
-    pub(super) fn edge_count(&self, key: u64) -> u32 {
-        self.shards[edge_shard(key) as usize]
-            .edges
-            .get(&key)
-            .copied()
-            .unwrap_or(0)
+    pub(super) fn is_tracked(&self, key: u64) -> bool {
+        !self.nonmanifold.is_empty() && self.nonmanifold.contains_key(&key)
     }
 
     /// Whether edge `key` has more than two triangles in the current mesh.
     #[inline]
     pub(super) fn is_nonmanifold(&self, key: u64) -> bool {
-        !self.nonmanifold.is_empty() && self.nonmanifold.contains(&key) && self.edge_count(key) > 2
+        self.nonmanifold.get(&key).is_some_and(|&n| n > 2)
     }
 
     /// Whether any edge may have more than two triangles (false: nothing to protect).
@@ -141,51 +105,31 @@ impl CurrentMesh {
 
     /// Merges a batch of diamonds: adds every change (in parallel, by shard). The result is
     /// the same for any order of the batch.
-    pub(super) fn merge<'a>(&mut self, batch: impl Iterator<Item = &'a CountChanges>) {
-        // For each shard, the runs of every merge's lists that fall in it.
-        let mut runs: Vec<Vec<ShardChanges>> = (0..self.shards.len()).map(|_| Vec::new()).collect();
-        let mut changes = 0;
-        for merge in batch {
-            changes += merge.vertices.len() + merge.edges.len();
-            let mut vertices = &merge.vertices[..];
-            let mut edges = &merge.edges[..];
-            while !vertices.is_empty() || !edges.is_empty() {
-                let shard = vertices
-                    .first()
-                    .map(|&(v, _)| vertex_shard(v))
-                    .into_iter()
-                    .chain(edges.first().map(|&(e, _)| edge_shard(e)))
-                    .min()
-                    .expect("a list is non-empty");
-                let v = vertices.partition_point(|&(v, _)| vertex_shard(v) == shard);
-                let e = edges.partition_point(|&(e, _)| edge_shard(e) == shard);
-                runs[shard as usize].push((&vertices[..v], &edges[..e]));
-                vertices = &vertices[v..];
-                edges = &edges[e..];
+    pub(super) fn merge<'a>(&mut self, batch: impl Iterator<Item = &'a CountChanges> + Clone) {
+        for merge in batch.clone() {
+            for &(e, d) in &merge.tracked_edges {
+                let n = self.nonmanifold.get_mut(&e).expect("a tracked edge");
+                *n = n.checked_add_signed(d).expect(NEGATIVE);
             }
         }
-        let apply = |(shard, runs): (&mut Shard, Vec<ShardChanges>)| {
+        // For each shard, the runs of every merge's list that fall in it.
+        let mut runs: Vec<Vec<VertexRun>> = (0..self.shards.len()).map(|_| Vec::new()).collect();
+        let mut changes = 0;
+        for merge in batch {
+            changes += merge.vertices.len();
+            let mut vertices = &merge.vertices[..];
+            while let Some(&(first, _)) = vertices.first() {
+                let shard = vertex_shard(first);
+                let n = vertices.partition_point(|&(v, _)| vertex_shard(v) == shard);
+                runs[shard as usize].push(&vertices[..n]);
+                vertices = &vertices[n..];
+            }
+        }
+        let apply = |(shard, runs): (&mut Vec<u32>, Vec<VertexRun>)| {
             let mask = (1 << SHARD_BITS) - 1;
-            for (vertices, edges) in runs {
-                for &(v, d) in vertices {
-                    let n = &mut shard.use_count[(v & mask) as usize];
-                    *n = n.checked_add_signed(d).expect(NEGATIVE);
-                }
-                for &(e, d) in edges {
-                    match shard.edges.entry(e) {
-                        Entry::Occupied(mut count) => {
-                            let n = count.get().checked_add_signed(d).expect(NEGATIVE);
-                            if n == 0 {
-                                count.remove();
-                            } else {
-                                *count.get_mut() = n;
-                            }
-                        }
-                        Entry::Vacant(slot) => {
-                            slot.insert(u32::try_from(d).expect(NEGATIVE));
-                        }
-                    }
-                }
+            for &(v, d) in runs.iter().copied().flatten() {
+                let n = &mut shard[(v & mask) as usize];
+                *n = n.checked_add_signed(d).expect(NEGATIVE);
             }
         };
         // Small batches (the re-simplified stragglers) are not worth waking the workers for.
@@ -197,8 +141,23 @@ impl CurrentMesh {
     }
 }
 
-/// The part of one merge's changes that falls in one shard: (vertices, edges).
-type ShardChanges<'a> = (&'a [(u32, i32)], &'a [(u64, i32)]);
+/// The edges with more than two triangles in `mesh`, with their counts: every edge key
+/// sorted (in parallel) and counted in runs.
+fn nonmanifold_edges(mesh: &InputMesh) -> HashMap<u64, u32> {
+    let mut keys: Vec<u64> = mesh
+        .triangles
+        .par_iter()
+        .flat_map_iter(|t| triangle_edges(t).map(|(a, b)| edge_key(a, b)))
+        .collect();
+    keys.par_sort_unstable();
+    keys.chunk_by(|a, b| a == b)
+        .filter(|run| run.len() > 2)
+        .map(|run| (run[0], run.len() as u32))
+        .collect()
+}
+
+/// The part of one merge's vertex changes that falls in one shard.
+type VertexRun<'a> = &'a [(u32, i32)];
 
 const NEGATIVE: &str = "a merge removed a triangle the current mesh does not have";
 
