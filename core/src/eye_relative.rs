@@ -6,7 +6,9 @@
 //! on the CPU, in f64, into an integer cell c (i32) and a remainder f (rounded to f32); the
 //! vertex stage forms
 //!
-//!     eye_relative(q) = (f32(q − c) − f) × step
+//! ```text
+//! eye_relative(q) = (f32(q − c) − f) × step
+//! ```
 //!
 //! with q − c in exact integer arithmetic. Near the eye q − c is small, so the result carries
 //! the precision of a model at the origin whatever the model's extent: on a 40,000 km terrain

@@ -11,7 +11,7 @@ use tessera_core::repository::format::{dequantize_position, quantize_position, u
 use tessera_core::repository::reader::Repository;
 use tessera_core::repository::writer::write_repository;
 use tessera_preprocess::dem::{HeightGrid, TerrainOptions};
-use tessera_preprocess::{build_contents, BuildConfig, Domain};
+use tessera_preprocess::{build_contents, BuildConfig, Domain, InputMesh};
 use tessera_runtime::camera::{Camera, Z_UP};
 use tessera_runtime::gpu::frame::{FrameUniforms, ShadingMode};
 use tessera_runtime::gpu::position_probe::clip_positions;
@@ -25,8 +25,8 @@ const WIDTH: u32 = 1920;
 const HEIGHT: u32 = 1080;
 
 /// A 129² height field 40,000 km across (312.5 km between samples), heights between about
-/// −10 km and +8 km (ETOPO's range), built as a height field.
-fn etopo_scale_repository() -> Repository {
+/// −10 km and +8 km (ETOPO's range).
+fn etopo_scale_mesh() -> InputMesh {
     let heights = (0..SAMPLES * SAMPLES)
         .map(|i| {
             let (r, c) = ((i / SAMPLES) as f64, (i % SAMPLES) as f64);
@@ -34,10 +34,15 @@ fn etopo_scale_repository() -> Repository {
         })
         .collect();
     let grid = HeightGrid::unit(SAMPLES, SAMPLES, heights);
-    let mesh = grid.to_mesh(&TerrainOptions {
+    grid.to_mesh(&TerrainOptions {
         spacing: Some(EXTENT / (SAMPLES - 1) as f64),
         ..Default::default()
-    });
+    })
+}
+
+/// `etopo_scale_mesh` built as a height field.
+fn etopo_scale_repository() -> Repository {
+    let mesh = etopo_scale_mesh();
     let contents = build_contents(
         &mesh,
         &BuildConfig::for_domain(Domain::HeightField),
@@ -48,6 +53,50 @@ fn etopo_scale_repository() -> Repository {
     let mut bytes = Vec::new();
     write_repository(&mut bytes, &contents).unwrap();
     Repository::from_bytes(bytes).unwrap()
+}
+
+#[test]
+fn the_build_reports_its_quantisation_error_and_counts_it() {
+    let mesh = etopo_scale_mesh();
+    let (contents, summary) = build_contents(
+        &mesh,
+        &BuildConfig::for_domain(Domain::HeightField),
+        &|_| {},
+    )
+    .unwrap();
+    let s = summary.position_step;
+    // 21 bits over 40,000 km: 19.07 m a step, 13.5 m half its diagonal (z's step is 9 mm).
+    assert!((19.07..19.08).contains(&s[0]) && s[0] == s[1], "{s:?}");
+    let half_diagonal = 0.5 * (s[0] * s[0] + s[1] * s[1] + s[2] * s[2]).sqrt();
+    assert_eq!(summary.quantisation_error, half_diagonal);
+    eprintln!(
+        "position step {s:?}, quantisation error {:.3} m, root error {:.1} m",
+        summary.quantisation_error, summary.root_error
+    );
+    // Every stored vertex is within it of its input position...
+    let h = &contents.header;
+    let mut worst = 0.0f64;
+    for (p, q) in mesh.positions.iter().zip(
+        mesh.positions
+            .iter()
+            .map(|&p| quantize_position(p, h.bbox_min, h.position_step)),
+    ) {
+        let d = dequantize_position(q, h.bbox_min, h.position_step);
+        worst = worst.max((0..3).map(|i| (d[i] - p[i]).powi(2)).sum::<f64>().sqrt());
+    }
+    assert!(
+        worst <= summary.quantisation_error * (1.0 + 1e-9),
+        "{worst}"
+    );
+    // ... and no split diamond's stored error is below it. (Here the floor, the largest step,
+    // would ensure that alone; that it is added to each own error is pinned by
+    // `saturate::tests::the_quantisation_error_is_added_to_every_own_error`.)
+    let least = contents
+        .diamonds
+        .iter()
+        .map(|d| d.error as f64)
+        .fold(f64::INFINITY, f64::min);
+    assert!(least >= summary.quantisation_error, "{least}");
 }
 
 /// Every distinct stored position of the repository (all patches, all levels).
