@@ -9,7 +9,7 @@
 // repeats an index draws nothing (its three vertices at one point: zero area). Positions
 // and attributes are pulled from the page (packed 63-bit positions on the global grid, then
 // the optional attributes). No primitive restart, no multi-draw, no first_instance.
-// Prepended by records.wgsl.
+// Prepended by records.wgsl and position.wgsl (unpack_position, eye_relative_position).
 
 @group(0) @binding(0) var<uniform> frame: Frame;
 @group(0) @binding(1) var<storage, read> tets: array<TetRecord>;             // one per simplex
@@ -42,11 +42,6 @@ struct VertexOut {
     @location(1) normal: vec3<f32>,
     @location(2) colour: vec3<f32>,
     @location(3) @interpolate(flat) simplex: u32,
-}
-
-// tessera_core::repository::format::unpack_position.
-fn unpack_position(w0: u32, w1: u32) -> vec3<u32> {
-    return vec3<u32>(w0 & 0x1fffffu, (w0 >> 21u) | ((w1 & 0x3ffu) << 11u), (w1 >> 10u) & 0x1fffffu);
 }
 
 // tessera_core::repository::format::oct_decode_normal.
@@ -123,9 +118,8 @@ fn vs_main(@builtin(vertex_index) vertex: u32) -> VertexOut {
 fn pull_vertex(out: ptr<function, VertexOut>, base_vertex: u32, n: u32, local_index: u32) {
     let slot = base_vertex + local_index; // the vertex's 8-byte position slot
     let q = unpack_position(page[2u * slot], page[2u * slot + 1u]);
-    let local_position = frame.base.xyz + vec3<f32>(q) * frame.step.xyz;
-    let eye_relative = local_position - frame.eye_tau.xyz;
-    (*out).clip = frame.view_proj * vec4<f32>(eye_relative, 1.0);
+    let eye_relative = eye_relative_position(vec3<i32>(q)); // position.wgsl
+    (*out).clip = clip_position(eye_relative);
     (*out).eye_relative = eye_relative;
     (*out).normal = vec3<f32>(0.0);
     (*out).colour = vec3<f32>(0.82, 0.80, 0.76);
@@ -236,14 +230,15 @@ fn fs_check_back(in: VertexOut) -> CheckOut {
 
 // The terrain check's skirts: walls from the input's border edges (its outline and the borders
 // of its nodata holes) down below the terrain (views from above) or up above it (from below),
-// drawn in both check passes with fixed positions relative to the repository origin. Their
+// drawn in both check passes, their corners lattice points (the border vertices' own q, and
+// heights below or above the terrain) placed like every vertex (position.wgsl). Their
 // side facing the hole is front: a ray through a hole meets a grey wall or passes beyond the
 // terrain, as it does for the input, instead of seeing the far side of the surface.
 @vertex
-fn vs_skirt(@location(0) local_position: vec3<f32>) -> VertexOut {
-    let eye_relative = local_position - frame.eye_tau.xyz;
+fn vs_skirt(@location(0) q: vec3<i32>) -> VertexOut {
+    let eye_relative = eye_relative_position(q);
     var out: VertexOut;
-    out.clip = frame.view_proj * vec4<f32>(eye_relative, 1.0);
+    out.clip = clip_position(eye_relative);
     out.eye_relative = eye_relative;
     out.normal = vec3<f32>(0.0);
     out.colour = vec3<f32>(0.82, 0.80, 0.76);

@@ -82,11 +82,11 @@ struct Frame {
     planes: array<vec4<f32>, 4>,// inward normals of the left, right, bottom, top planes
     forward_near: vec4<f32>,    // xyz: view direction; w: near cull distance
     metric: vec4<f32>,          // x: K (pixels per unit at distance 1); y: metric near; z: far
-    base: vec4<f32>,            // xyz: bbox_min - origin; position = base + q * step
-    step: vec4<f32>,            // xyz: model units per quantisation step
+    eye_fraction: vec4<f32>,    // xyz: (eye - bbox_min) / step - eye_cell (position.wgsl)
+    step: vec4<f32>,            // xyz: model units per lattice step (a flat axis: see EyeLattice)
     light: vec4<f32>,           // xyz: unit direction towards the light, eye-relative
     counts: vec4<u32>,          // x: simplices; y: cull flags; z: shading mode; w: attributes
-    reserved: vec4<u32>,
+    eye_cell: vec4<i32>,        // xyz: floor((eye - bbox_min) / step), clamped to +-2^23
 }
 
 const CULL_FRUSTUM: u32 = 1u;

@@ -143,6 +143,11 @@ pub struct BuildSummary {
     pub patch_triangles: usize,
     pub locked_vertices: usize,
     pub root_error: f64,
+    /// Model units per position step on each axis (`Header::position_step`).
+    pub position_step: [f64; 3],
+    /// Half the diagonal of one position step: how far a stored vertex may lie from its input
+    /// position. Added to every diamond's own error before saturation.
+    pub quantisation_error: f64,
     pub repository_bytes: u64,
     pub seconds: f64,
     /// (stage, seconds) in order.
@@ -304,10 +309,15 @@ fn build_in_pool(
         Sphere::around_points(tris.iter().flatten().map(|&g| relative(g)))
     };
     let error_floor = step.iter().copied().fold(model_size * 1e-9, f64::max);
+    // Patches are stored on the position lattice: each vertex within half a step per axis of
+    // its input position, while the simplifier measured its error on the input's positions.
+    // A drawn patch is within own(D) + this of the input, so every own error counts it.
+    let quantisation_error = 0.5 * crate::frame::diagonal([0.0; 3], step);
     let saturated = saturate(
         &hierarchy,
         origin,
         &simplified.own_error,
+        quantisation_error,
         &patch_sphere,
         error_floor,
         model_size,
@@ -435,6 +445,8 @@ fn build_in_pool(
         patch_triangles: tets.iter().map(|t| t.triangle_count as usize).sum(),
         locked_vertices: simplified.locked_vertices,
         root_error: diamonds.first().map_or(0.0, |d| d.error as f64),
+        position_step: step,
+        quantisation_error,
         repository_bytes: 0,
         seconds: 0.0,
         stages,

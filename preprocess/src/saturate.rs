@@ -1,5 +1,5 @@
 //! Saturation (seed 001, "Saturation technique"): bottom-up over the diamond DAG,
-//! err(D) = max(own(D), floor, max over split children C of err(C)·(1 + ERROR_MARGIN)) and
+//! err(D) = max(own(D) + quantisation, floor, max over split children C of err(C)·(1 + ERROR_MARGIN)) and
 //! sphere(D) ⊇ D's patches and every child's sphere grown by `radius_margin`, so that
 //! ρ(parent) ≥ ρ(child) holds for every eye even after f32 rounding (DESIGN.md, "Float
 //! robustness"): far eyes are covered by the relative error margin, near eyes by the absolute
@@ -24,12 +24,16 @@ pub struct Saturated {
 }
 
 /// `patch_sphere` gives the bounding sphere of a simplex's patch (relative to the repository
-/// origin); `error_floor` (> 0) keeps every split diamond's error positive, so τ = 0 selects
-/// the leaves; `model_size` scales the radius margin; `origin` is the repository origin.
+/// origin); `quantisation_error` (≥ 0) is added to every own error: the simplifier measures
+/// on the input's positions, the stored patches stand on the position lattice, within that
+/// distance of them; `error_floor` (> 0) keeps every split diamond's error positive, so τ = 0
+/// selects the leaves; `model_size` scales the radius margin; `origin` is the repository
+/// origin.
 pub fn saturate(
     hierarchy: &Hierarchy,
     origin: [f64; 3],
     own_error: &[f32],
+    quantisation_error: f64,
     patch_sphere: &impl Fn(SimplexKey) -> Sphere,
     error_floor: f64,
     model_size: f64,
@@ -47,7 +51,7 @@ pub fn saturate(
     let margin = RADIUS_MARGIN * model_size;
     for i in (0..n).rev() {
         let d = &hierarchy.diamonds[i];
-        let mut e = (own_error[i] as f64).max(error_floor);
+        let mut e = (own_error[i] as f64 + quantisation_error).max(error_floor);
         let mut s = d
             .simplices
             .iter()
@@ -71,4 +75,37 @@ pub fn saturate(
         sphere[i] = s;
     }
     Saturated { error, sphere }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::frame::LatticeFrame;
+    use crate::hierarchy::{build_hierarchy, Construction};
+
+    #[test]
+    fn the_quantisation_error_is_added_to_every_own_error() {
+        let frame = LatticeFrame::around_box([0.0; 3], [1.0; 3], 10, 3);
+        let barycenters: Vec<[f64; 3]> = (0..64)
+            .map(|i| [0, 1, 2].map(|k| ((i * (7 + 5 * k) + 3) % 64) as f64 / 64.0 + 0.004))
+            .collect();
+        let hierarchy = build_hierarchy(frame, &barycenters, Construction::Levels(4));
+        let n = hierarchy.diamonds.len();
+        assert!(n > 4);
+        let own = vec![1.0f32; n];
+        let sphere = |_| Sphere {
+            center: [0.5; 3],
+            radius: 0.5,
+        };
+        let floor = 0.1;
+        let without = saturate(&hierarchy, [0.0; 3], &own, 0.0, &sphere, floor, 1.0);
+        let with = saturate(&hierarchy, [0.0; 3], &own, 0.25, &sphere, floor, 1.0);
+        for (a, b) in without.error.iter().zip(&with.error) {
+            // err = (own + q)·(1 + margin)^k along the deepest chain below: at least own + q.
+            assert!(*b >= 1.25 && *b >= a + 0.25 - 1e-12, "{a} {b}");
+        }
+        // A floor above own + q still wins: it is a floor, not a term.
+        let floored = saturate(&hierarchy, [0.0; 3], &own, 0.25, &sphere, 5.0, 1.0);
+        assert!(floored.error.iter().all(|&e| e >= 5.0));
+    }
 }

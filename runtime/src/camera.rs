@@ -1,9 +1,11 @@
 //! A perspective camera in f64 model space, and everything a frame derives from it in the
 //! eye-relative f32 frame: the view-projection matrix, the culling volume and the error metric.
 //!
-//! Why eye-relative: the GPU subtracts the eye from each vertex (both relative to the
-//! repository origin, small numbers) before the rotation and projection, so a model 1e7 units
-//! from the world origin renders with the precision of one at the origin. The matrix has no
+//! Why eye-relative: the GPU subtracts the eye from each vertex before the rotation and
+//! projection, on the position lattice (`FrameUniforms::eye_cell` / `eye_fraction`,
+//! `tessera_core::eye_relative`: the lattice difference in exact integers), so a model 1e7
+//! units from the world origin, or 4e7 units across, renders near the eye with the precision
+//! of a small one at the origin. The matrix has no
 //! translation; the projection is reverse-Z with an infinite far plane (depth = near / z), whose
 //! f32 depth precision is relative and so holds from 1e-6 to 1e12 units.
 

@@ -10,6 +10,7 @@ use std::time::Instant;
 use anyhow::Context;
 use clap::Args;
 use serde_json::json;
+use tessera_core::repository::format::POSITION_BITS;
 use tessera_preprocess::{build_repository, BuildConfig, BuildSummary, Construction};
 
 use crate::progress::Stages;
@@ -101,6 +102,8 @@ pub fn summary_json(s: &BuildSummary, seconds: f64) -> serde_json::Value {
         "patch_triangles": s.patch_triangles,
         "mean_triangles_per_patch": s.patch_triangles as f64 / s.tetrahedra.max(1) as f64,
         "root_error": s.root_error,
+        "position_step": s.position_step,
+        "quantisation_error": s.quantisation_error,
         "stages": s.stages.iter().map(|(name, t)| json!({"stage": name, "seconds": t})).collect::<Vec<_>>(),
     })
 }
@@ -119,6 +122,11 @@ pub fn print_summary(s: &BuildSummary, seconds: f64, import_seconds: f64) {
         s.patch_triangles,
         s.patch_triangles as f64 / s.tetrahedra.max(1) as f64,
         s.root_error
+    );
+    println!(
+        "positions: {POSITION_BITS} bits per axis, step {:.3e} × {:.3e} × {:.3e}; quantisation error {:.3e} \
+         (counted in every stored error)",
+        s.position_step[0], s.position_step[1], s.position_step[2], s.quantisation_error
     );
     let stages: Vec<String> = s
         .stages

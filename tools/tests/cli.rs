@@ -104,10 +104,20 @@ fn build_info_check_speak_json_and_exit_zero() {
         "depth",
         "seconds",
         "repository_bytes",
+        "position_step",
+        "quantisation_error",
     ] {
         assert!(b.get(key).is_some(), "build --json lacks {key}: {b}");
     }
     assert_eq!(b["input_triangles"], 8 * 1024);
+    // Half the step's diagonal, and counted in the stored errors (the root's among them).
+    let step: Vec<f64> = (0..3)
+        .map(|i| b["position_step"][i].as_f64().unwrap())
+        .collect();
+    let quantisation = b["quantisation_error"].as_f64().unwrap();
+    let half_diagonal = 0.5 * step.iter().map(|s| s * s).sum::<f64>().sqrt();
+    assert!(quantisation > 0.0 && (quantisation - half_diagonal).abs() <= 1e-12 * half_diagonal);
+    assert!(b["root_error"].as_f64().unwrap() >= quantisation, "{b}");
     assert_eq!(
         b["repository_bytes"].as_u64().unwrap(),
         std::fs::metadata(&repo).unwrap().len()

@@ -3,6 +3,7 @@
 
 use bytemuck::{Pod, Zeroable};
 use tessera_core::cull::CullTests;
+use tessera_core::eye_relative::EyeLattice;
 use tessera_core::repository::format::Header;
 
 use crate::camera::Camera;
@@ -54,11 +55,15 @@ pub struct FrameUniforms {
     pub planes: [[f32; 4]; 4],
     pub forward_near: [f32; 4],
     pub metric: [f32; 4],
-    pub base: [f32; 4],
+    /// xyz: the eye's lattice coordinate minus `eye_cell` (`EyeLattice::fraction`).
+    pub eye_fraction: [f32; 4],
+    /// xyz: model units per lattice step (`EyeLattice::unit`).
     pub step: [f32; 4],
     pub light: [f32; 4],
     pub counts: [u32; 4],
-    pub reserved: [u32; 4],
+    /// xyz: the eye's lattice cell (`EyeLattice::cell`); vertices are placed at
+    /// (f32(q − eye_cell) − eye_fraction) × step (`shaders/position.wgsl`).
+    pub eye_cell: [i32; 4],
 }
 
 impl FrameUniforms {
@@ -74,6 +79,7 @@ impl FrameUniforms {
         tet_count: u32,
     ) -> FrameUniforms {
         let eye = camera.eye_local(header.origin);
+        let lattice = EyeLattice::new(camera.eye, header.bbox_min, header.position_step);
         let volume = cull.frustum.unwrap_or_else(|| camera.view_volume());
         let metric = camera.metric();
         let b = camera.basis();
@@ -87,15 +93,35 @@ impl FrameUniforms {
             planes: volume.side_planes.map(|n| v4(n, 0.0)),
             forward_near: v4(volume.forward, volume.near),
             metric: [metric.k, metric.near, volume.far, 0.0],
-            base: v4(
-                [0, 1, 2].map(|i| (header.bbox_min[i] - header.origin[i]) as f32),
-                0.0,
-            ),
-            step: v4(header.position_step.map(|s| s as f32), 0.0),
+            eye_fraction: v4(lattice.fraction, 0.0),
+            step: v4(lattice.unit, 0.0),
             light: v4(light.map(|x| x as f32), 0.0),
             counts: [tet_count, flags, mode.code(), header.attributes],
-            reserved: [0; 4],
+            eye_cell: [lattice.cell[0], lattice.cell[1], lattice.cell[2], 0],
         }
+    }
+}
+
+impl FrameUniforms {
+    /// The eye on the lattice these uniforms carry.
+    pub fn eye_lattice(&self) -> EyeLattice {
+        EyeLattice {
+            cell: [self.eye_cell[0], self.eye_cell[1], self.eye_cell[2]],
+            fraction: [
+                self.eye_fraction[0],
+                self.eye_fraction[1],
+                self.eye_fraction[2],
+            ],
+            unit: [self.step[0], self.step[1], self.step[2]],
+        }
+    }
+
+    /// `clip_position(eye_relative_position(q))` of `shaders/position.wgsl`, in f32 on the CPU
+    /// (the GPU may fuse the matrix product's multiply-adds: its bits may differ by an ulp).
+    pub fn clip_of_lattice_point(&self, q: [i32; 3]) -> [f32; 4] {
+        let r = self.eye_lattice().eye_relative(q);
+        let m = self.view_proj;
+        [0, 1, 2, 3].map(|row| m[0][row] * r[0] + m[1][row] * r[1] + m[2][row] * r[2] + m[3][row])
     }
 }
 

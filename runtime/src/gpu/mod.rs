@@ -3,7 +3,8 @@
 //!
 //! - `device`: adapter choice and the features used;
 //! - `resident`: tables and patch pages in GPU memory, within a byte budget;
-//! - `frame`: the per-frame uniforms and shading modes;
+//! - `frame`: the per-frame uniforms and shading modes; `position_probe`: read-back of the
+//!   clip positions the draw pass computes (position.wgsl), for precision tests;
 //! - `full_mesh`: the full-resolution peer (the whole mesh in one indexed draw);
 //! - `shaders`: the WGSL passes of `shaders/`;
 //! - `target`: offscreen colour/depth and read-back; `timing`: GPU timestamps of a frame;
@@ -22,6 +23,7 @@ pub mod draw_pipelines;
 pub mod feedback;
 pub mod frame;
 pub mod full_mesh;
+pub mod position_probe;
 pub mod renderer;
 pub mod resident;
 pub mod shaders;

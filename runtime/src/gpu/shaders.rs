@@ -3,6 +3,10 @@
 /// Records and uniforms shared by every pass.
 const RECORDS: &str = include_str!("../../../shaders/records.wgsl");
 
+/// Unpacking a stored position and placing it relative to the eye on the lattice, shared by the
+/// draw pass and the position probe.
+const POSITION: &str = include_str!("../../../shaders/position.wgsl");
+
 /// The traversal compute pass (`traverse`).
 pub fn traverse_source() -> String {
     format!(
@@ -30,7 +34,19 @@ pub fn expand_source() -> String {
 
 /// The draw pass (`vs_main`, `fs_main`, `fs_wire`).
 pub fn draw_source() -> String {
-    format!("{RECORDS}\n{}", include_str!("../../../shaders/draw.wgsl"))
+    format!(
+        "{RECORDS}\n{POSITION}\n{}",
+        include_str!("../../../shaders/draw.wgsl")
+    )
+}
+
+/// The position probe (`probe`): the draw pass's position functions over given positions
+/// (`position_probe`).
+pub fn position_probe_source() -> String {
+    format!(
+        "{RECORDS}\n{POSITION}\n{}",
+        include_str!("../../../shaders/position_probe.wgsl")
+    )
 }
 
 /// Threads per traversal workgroup: `@workgroup_size(64)` in traverse.wgsl.
@@ -48,6 +64,7 @@ mod tests {
             ("compact", super::compact_source()),
             ("expand", super::expand_source()),
             ("draw", super::draw_source()),
+            ("position probe", super::position_probe_source()),
         ] {
             let module = naga::front::wgsl::parse_str(&source)
                 .unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(&source)));

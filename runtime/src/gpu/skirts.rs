@@ -8,29 +8,35 @@
 //! the input's (`pixel_check.rs`). Height fields shorten their border chains, so each frame's
 //! walls follow its own cut — but only on the border edges that simplify the input's border
 //! (`border_loops.rs`): a crack gets no wall and stays visible.
+//!
+//! Wall corners are lattice points (i32, the border vertices' own q, and lattice heights below
+//! and above the terrain), placed by the vertex stage like every patch vertex
+//! (`shaders/position.wgsl`): a wall's top edge lands on the same bits as the border edge it
+//! hangs from, whatever the terrain's extent.
 
 use std::collections::HashMap;
 
-use tessera_core::repository::format::dequantize_position;
+use tessera_core::eye_relative::lattice_unit;
 use tessera_core::repository::reader::{Repository, RepositoryError};
 
 use crate::border_loops::BorderLoops;
 
-/// Wall triangles (positions relative to the repository origin), one list per side.
+/// Wall triangles (corners on the position lattice, z possibly outside `[0, 2^21)`), one list
+/// per side.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct SkirtMeshes {
     /// Walls from each border edge down to below the terrain's lowest point.
-    pub down: Vec<[f32; 3]>,
+    pub down: Vec<[i32; 3]>,
     /// Walls from each border edge up to above its highest point.
-    pub up: Vec<[f32; 3]>,
+    pub up: Vec<[i32; 3]>,
 }
 
 /// What the walls of any cut of one repository are made from: the input's border chains and
-/// the heights the walls reach.
+/// the lattice heights the walls reach.
 pub struct SkirtSource {
     loops: BorderLoops,
-    floor: f64,
-    ceiling: f64,
+    floor: i32,
+    ceiling: i32,
 }
 
 impl SkirtSource {
@@ -46,10 +52,16 @@ impl SkirtSource {
         }
         let h = repo.header();
         let depth = (h.bbox_max[2] - h.bbox_min[2]).max(1e-6 * (h.bbox_max[0] - h.bbox_min[0]));
+        // 1 % of the depth below and above, on the lattice: z units of the step (or of the
+        // flat-axis unit), at least one unit beyond the terrain; |z| stays far below 2^23.
+        let unit = lattice_unit(h.position_step)[2];
+        let lattice_z = |z: f64| (z - h.bbox_min[2]) / unit;
         Ok(SkirtSource {
             loops: BorderLoops::new(input.iter()),
-            floor: h.bbox_min[2] - 0.01 * depth,
-            ceiling: h.bbox_max[2] + 0.01 * depth,
+            floor: lattice_z(h.bbox_min[2] - 0.01 * depth).floor().min(-1.0) as i32,
+            ceiling: lattice_z(h.bbox_max[2] + 0.01 * depth)
+                .ceil()
+                .max(lattice_z(h.bbox_max[2]).round() + 1.0) as i32,
         })
     }
 
@@ -61,35 +73,29 @@ impl SkirtSource {
         repo: &Repository,
         selection: &[u32],
     ) -> Result<SkirtMeshes, RepositoryError> {
-        let h = repo.header();
         let mut triangles = Vec::new();
-        let mut position: HashMap<u32, [f64; 3]> = HashMap::new();
+        let mut position: HashMap<u32, [i32; 3]> = HashMap::new();
         for &i in selection {
             let patch = repo.patch(i as usize)?;
             let ids: Vec<u32> = patch.global_ids().collect();
             for (v, &id) in ids.iter().enumerate() {
-                position.entry(id).or_insert_with(|| {
-                    dequantize_position(patch.position(v), h.bbox_min, h.position_step)
-                });
+                position
+                    .entry(id)
+                    .or_insert_with(|| patch.position(v).map(|c| c as i32));
             }
             triangles.extend(patch.triangles().map(|t| t.map(|v| ids[v as usize])));
         }
         let refs: Vec<&[u32; 3]> = triangles.iter().collect();
         let mut border = self.loops.classify(&refs).border;
         border.sort_unstable();
-        let local = |p: [f64; 3]| [0, 1, 2].map(|i| (p[i] - h.origin[i]) as f32);
         let mut meshes = SkirtMeshes::default();
         for (a, b) in border {
             let (a, b) = (position[&a], position[&b]);
             let (a_low, b_low) = ([a[0], a[1], self.floor], [b[0], b[1], self.floor]);
             let (a_high, b_high) = ([a[0], a[1], self.ceiling], [b[0], b[1], self.ceiling]);
             // Counter-clockwise seen from the hole side (the edge's right).
-            meshes
-                .down
-                .extend([a, a_low, b_low, a, b_low, b].map(local));
-            meshes
-                .up
-                .extend([a, b, b_high, a, b_high, a_high].map(local));
+            meshes.down.extend([a, a_low, b_low, a, b_low, b]);
+            meshes.up.extend([a, b, b_high, a, b_high, a_high]);
         }
         Ok(meshes)
     }
@@ -117,7 +123,7 @@ impl CheckSkirts {
             bind_group_layouts: &[Some(draw_layout)],
             immediate_size: 0,
         });
-        let attributes = wgpu::vertex_attr_array![0 => Float32x3];
+        let attributes = wgpu::vertex_attr_array![0 => Sint32x3];
         let pipeline = |front_pass: bool| {
             let (entry, cull, write, compare) = if front_pass {
                 (
@@ -182,7 +188,7 @@ impl CheckSkirts {
     /// Uploads the walls (replacing earlier ones).
     pub fn set(&mut self, device: &wgpu::Device, meshes: &SkirtMeshes) {
         use wgpu::util::DeviceExt;
-        let upload = |label: &str, vertices: &[[f32; 3]]| {
+        let upload = |label: &str, vertices: &[[i32; 3]]| {
             (!vertices.is_empty()).then(|| {
                 let buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                     label: Some(label),
