@@ -24,7 +24,10 @@ pub enum Construction {
 pub struct Hierarchy {
     pub frame: LatticeFrame,
     pub mesh: ConformingMesh,
-    /// The split diamonds, parents before children (the order they were split in).
+    /// The split diamonds in (level, id) order, so parents before children. The order is
+    /// canonical: it does not depend on the order the splits were made in, so a build that
+    /// finds the same splits another way (by buckets, out of core) lists them alike, and the
+    /// simplifier, which merges a level's diamonds in this order, gives the same bytes.
     pub diamonds: Vec<Diamond>,
     /// Input triangle indices held by each leaf (every leaf has an entry, maybe empty).
     pub leaf_triangles: HashMap<SimplexKey, Vec<u32>>,
@@ -85,6 +88,7 @@ pub fn build_hierarchy(
             diamonds.push(d.clone());
         });
     }
+    diamonds.sort_unstable_by_key(|d: &Diamond| (d.level, d.id));
     Hierarchy {
         frame,
         mesh,

@@ -47,7 +47,8 @@ pub fn saturate(
     let n = hierarchy.diamonds.len();
     let mut error = vec![0.0f64; n];
     let mut sphere = vec![Sphere::EMPTY; n];
-    // Children are split after their parents, so the reverse split order visits children first.
+    // Children come after their parents (a level deeper), so the reverse order visits children
+    // first.
     let margin = RADIUS_MARGIN * model_size;
     for i in (0..n).rev() {
         let d = &hierarchy.diamonds[i];
