@@ -7,6 +7,7 @@
 pub mod build;
 pub mod dem;
 pub mod diamond_square;
+pub mod external;
 pub mod frame;
 pub mod fuzzing;
 pub mod gen_mesh;

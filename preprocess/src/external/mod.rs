@@ -1,0 +1,12 @@
+//! Out-of-core building blocks (issue 12): external sorting, meshes staged on disk as flat
+//! record files, and welding them with bounded memory. Every result equals what the
+//! in-memory path computes (tests compare them), so an out-of-core build can give the same
+//! repository bytes.
+
+pub mod sort;
+pub mod staged;
+pub mod weld;
+
+pub use sort::{sort_external, SortStats, Sorted};
+pub use staged::{RawStaged, RawStager, RawVertex, RecordFile, StagedMesh};
+pub use weld::weld_external;

@@ -1,0 +1,272 @@
+//! A mesh staged on disk for the out-of-core build: flat files of fixed-size records in a
+//! temporary directory, written as the input streams in, welded by external sorts
+//! (`weld.rs`), read back in order or by ranges.
+//!
+//! Files (little-endian, records back to back):
+//! `positions` `[f64; 3]` per vertex, `triangles` `[u32; 3]` per triangle, and where the
+//! input has them `normals` `[f32; 3]`, `colors` `[u8; 4]`, `uvs` `[f32; 2]` per vertex. All
+//! files are unnamed temporaries (`tempfile::tempfile_in`): nothing is left behind when the
+//! build ends, fails or is killed.
+
+use std::fs::File;
+use std::io::{self, BufReader, BufWriter, Read, Seek, SeekFrom, Write};
+use std::marker::PhantomData;
+use std::path::{Path, PathBuf};
+
+use bytemuck::Pod;
+
+use crate::mesh::InputMesh;
+
+/// Buffer size of the record readers and writers.
+pub(super) const IO_BUFFER: usize = 1 << 20;
+
+/// A file of fixed-size records, written once then read from the start (any number of times).
+pub struct RecordFile<T: Pod> {
+    file: File,
+    records: u64,
+    _record: PhantomData<T>,
+}
+
+impl<T: Pod> RecordFile<T> {
+    /// A new empty file in `dir`.
+    pub fn create(dir: &Path) -> io::Result<RecordWriter<T>> {
+        let file = tempfile::tempfile_in(dir)?;
+        Ok(RecordWriter {
+            writer: BufWriter::with_capacity(IO_BUFFER, file),
+            records: 0,
+            _record: PhantomData,
+        })
+    }
+
+    /// Number of records.
+    pub fn len(&self) -> u64 {
+        self.records
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.records == 0
+    }
+
+    /// Bytes on disk.
+    pub fn bytes(&self) -> u64 {
+        self.records * std::mem::size_of::<T>() as u64
+    }
+
+    /// Streams every record from the first.
+    pub fn read(&self) -> io::Result<RecordReader<T>> {
+        let mut file = self.file.try_clone()?;
+        file.seek(SeekFrom::Start(0))?;
+        Ok(RecordReader {
+            reader: BufReader::with_capacity(IO_BUFFER, file),
+            left: self.records,
+            _record: PhantomData,
+        })
+    }
+
+    /// Every record, in memory.
+    pub fn read_all(&self) -> io::Result<Vec<T>> {
+        let mut out = Vec::with_capacity(self.records as usize);
+        for r in self.read()? {
+            out.push(r?);
+        }
+        Ok(out)
+    }
+}
+
+/// Appends records to a new `RecordFile`.
+pub struct RecordWriter<T: Pod> {
+    writer: BufWriter<File>,
+    records: u64,
+    _record: PhantomData<T>,
+}
+
+impl<T: Pod> RecordWriter<T> {
+    pub fn push(&mut self, record: &T) -> io::Result<()> {
+        self.records += 1;
+        self.writer.write_all(bytemuck::bytes_of(record))
+    }
+
+    /// The records written so far.
+    pub fn len(&self) -> u64 {
+        self.records
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.records == 0
+    }
+
+    /// Flushes and hands the file over for reading.
+    pub fn finish(self) -> io::Result<RecordFile<T>> {
+        let file = self.writer.into_inner().map_err(|e| e.into_error())?;
+        Ok(RecordFile {
+            file,
+            records: self.records,
+            _record: PhantomData,
+        })
+    }
+}
+
+/// Streams a `RecordFile`'s records.
+pub struct RecordReader<T: Pod> {
+    reader: BufReader<File>,
+    left: u64,
+    _record: PhantomData<T>,
+}
+
+impl<T: Pod> Iterator for RecordReader<T> {
+    type Item = io::Result<T>;
+
+    fn next(&mut self) -> Option<io::Result<T>> {
+        if self.left == 0 {
+            return None;
+        }
+        self.left -= 1;
+        let mut record = T::zeroed();
+        Some(
+            self.reader
+                .read_exact(bytemuck::bytes_of_mut(&mut record))
+                .map(|()| record),
+        )
+    }
+
+    fn size_hint(&self) -> (usize, Option<usize>) {
+        (self.left as usize, Some(self.left as usize))
+    }
+}
+
+/// Per-vertex attribute files, where the input has them.
+pub struct VertexAttributes {
+    pub normals: Option<RecordFile<[f32; 3]>>,
+    pub colors: Option<RecordFile<[u8; 4]>>,
+    pub uvs: Option<RecordFile<[f32; 2]>>,
+}
+
+/// A mesh as read from a file, before welding, staged on disk.
+pub struct RawStaged {
+    pub positions: RecordFile<[f64; 3]>,
+    pub triangles: RecordFile<[u32; 3]>,
+    pub attributes: VertexAttributes,
+}
+
+/// Writes a mesh as it is read: vertices (with the attributes the input declared) and
+/// triangles, in any interleaving.
+pub struct RawStager {
+    dir: PathBuf,
+    positions: RecordWriter<[f64; 3]>,
+    triangles: RecordWriter<[u32; 3]>,
+    normals: Option<RecordWriter<[f32; 3]>>,
+    colors: Option<RecordWriter<[u8; 4]>>,
+    uvs: Option<RecordWriter<[f32; 2]>>,
+}
+
+/// One vertex as an importer reads it.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct RawVertex {
+    pub position: [f64; 3],
+    pub normal: [f32; 3],
+    pub color: [u8; 4],
+    pub uv: [f32; 2],
+}
+
+impl RawStager {
+    /// Stages into `dir`; `normals`, `colors`, `uvs`: which attributes the input has (every
+    /// vertex then carries them).
+    pub fn new(dir: &Path, normals: bool, colors: bool, uvs: bool) -> io::Result<Self> {
+        Ok(RawStager {
+            dir: dir.to_path_buf(),
+            positions: RecordFile::create(dir)?,
+            triangles: RecordFile::create(dir)?,
+            normals: normals.then(|| RecordFile::create(dir)).transpose()?,
+            colors: colors.then(|| RecordFile::create(dir)).transpose()?,
+            uvs: uvs.then(|| RecordFile::create(dir)).transpose()?,
+        })
+    }
+
+    pub fn push_vertex(&mut self, v: &RawVertex) -> io::Result<()> {
+        self.positions.push(&v.position)?;
+        if let Some(n) = &mut self.normals {
+            n.push(&v.normal)?;
+        }
+        if let Some(c) = &mut self.colors {
+            c.push(&v.color)?;
+        }
+        if let Some(u) = &mut self.uvs {
+            u.push(&v.uv)?;
+        }
+        Ok(())
+    }
+
+    pub fn push_triangle(&mut self, t: [u32; 3]) -> io::Result<()> {
+        self.triangles.push(&t)
+    }
+
+    /// The directory it stages into.
+    pub fn dir(&self) -> &Path {
+        &self.dir
+    }
+
+    pub fn finish(self) -> io::Result<RawStaged> {
+        Ok(RawStaged {
+            positions: self.positions.finish()?,
+            triangles: self.triangles.finish()?,
+            attributes: VertexAttributes {
+                normals: self.normals.map(RecordWriter::finish).transpose()?,
+                colors: self.colors.map(RecordWriter::finish).transpose()?,
+                uvs: self.uvs.map(RecordWriter::finish).transpose()?,
+            },
+        })
+    }
+}
+
+/// A welded, cleaned mesh on disk: the out-of-core counterpart of `InputMesh`, with the same
+/// vertex ids and triangle order the in-memory `import::weld` gives.
+pub struct StagedMesh {
+    pub positions: RecordFile<[f64; 3]>,
+    pub triangles: RecordFile<[u32; 3]>,
+    pub attributes: VertexAttributes,
+    /// What welding did, as `import::ImportReport` counts it.
+    pub raw_vertices: u64,
+    pub raw_triangles: u64,
+    pub welded_vertices: u64,
+    pub degenerate_triangles: u64,
+    pub duplicate_triangles: u64,
+    pub unreferenced_vertices: u64,
+}
+
+impl StagedMesh {
+    /// Reads the whole mesh into memory (for tests, and for meshes that fit).
+    pub fn load(&self) -> io::Result<InputMesh> {
+        Ok(InputMesh {
+            positions: self.positions.read_all()?,
+            triangles: self.triangles.read_all()?,
+            normals: self
+                .attributes
+                .normals
+                .as_ref()
+                .map(RecordFile::read_all)
+                .transpose()?,
+            colors: self
+                .attributes
+                .colors
+                .as_ref()
+                .map(RecordFile::read_all)
+                .transpose()?,
+            uvs: self
+                .attributes
+                .uvs
+                .as_ref()
+                .map(RecordFile::read_all)
+                .transpose()?,
+        })
+    }
+
+    /// Bytes of its files.
+    pub fn bytes(&self) -> u64 {
+        let a = &self.attributes;
+        self.positions.bytes()
+            + self.triangles.bytes()
+            + a.normals.as_ref().map_or(0, RecordFile::bytes)
+            + a.colors.as_ref().map_or(0, RecordFile::bytes)
+            + a.uvs.as_ref().map_or(0, RecordFile::bytes)
+    }
+}
