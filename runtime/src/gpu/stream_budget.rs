@@ -10,10 +10,11 @@
 //!
 //! The pools: record slots (`records.rs`: per slot an 88-byte record, a 16-byte location and
 //! one entry in each of the traversal's two queues) and the page pool (patch bytes, in pages
-//! of at most one storage binding). The rest of the budget is split between them in the
-//! model's own proportion — slots for the simplices that the pages' bytes hold on average,
-//! the pages' 1/8 slack included — so both fill at about the same pace; the residency keeps
-//! each within its own budget. Neither is ever larger than the whole model needs.
+//! of at most one storage binding). The rest of the budget is split between them so that the
+//! slots hold as many simplices as the pages' bytes do at the model's level with the smallest
+//! patches per simplex (`model_needs`); the residency keeps each within its own budget (a
+//! view whose units have still smaller patches runs out of slots first and settles coarser,
+//! as it would for bytes). Neither is ever larger than the whole model needs.
 
 use tessera_core::repository::reader::Repository;
 
@@ -87,14 +88,43 @@ fn per_page_bytes(ctx: &GpuContext, layout: &PoolLayout) -> u64 {
 }
 
 /// What the whole model would take: every patch (8-aligned) with the residency's slack (it is
-/// given 7/8 of the pool), and a slot per simplex. Read through the map; nothing allocated.
-fn model_needs(repo: &Repository) -> (u64, u64) {
-    let bytes: u64 = repo
-        .tets()
+/// given 7/8 of the pool), and a slot per simplex; and the patch bytes per simplex that the
+/// slots are provisioned for. Read through the map; nothing allocated.
+///
+/// A view's working set is not the model's average: on the generated meshes the coarse
+/// and middle levels hold 280–700 bytes of patch per simplex (many half-empty simplices) and
+/// the finest 1.5–1.9 KB, against an average of 1.1–1.2 KB, and a close view at τ = 0.5 on the
+/// 2 M-triangle model kept 840 B per resident simplex, on the 20 M one 413 B. Slots
+/// provisioned at the average ran out first there (half the pages unused, 157 units left
+/// wanted on the 2 M model; at half the average, on the 20 M one). So the slots are sized for
+/// the level with the fewest bytes per simplex, but never for less than a quarter of the
+/// average (a guard against a model whose slots would take most of a budget).
+struct ModelNeeds {
+    bytes: u64,
+    simplices: u64,
+    bytes_per_slot: f64,
+}
+
+fn model_needs(repo: &Repository) -> ModelNeeds {
+    let mut per_level = [(0u64, 0u64); 64];
+    for t in repo.tets() {
+        let level = &mut per_level[(t.level as usize).min(63)];
+        level.0 += 1;
+        level.1 += (t.patch_bytes as u64).next_multiple_of(8);
+    }
+    let simplices: u64 = per_level.iter().map(|l| l.0).sum();
+    let bytes: u64 = per_level.iter().map(|l| l.1).sum();
+    let average = bytes as f64 / simplices.max(1) as f64;
+    let densest = per_level
         .iter()
-        .map(|t| (t.patch_bytes as u64).next_multiple_of(8))
-        .sum();
-    (bytes * 8 / 7 + 64, repo.tets().len() as u64)
+        .filter(|l| l.0 > 0)
+        .map(|l| l.1 as f64 / l.0 as f64)
+        .fold(f64::INFINITY, f64::min);
+    ModelNeeds {
+        bytes: bytes * 8 / 7 + 64,
+        simplices,
+        bytes_per_slot: densest.max(average / 4.0).max(8.0),
+    }
 }
 
 /// The fixed part and the pools for `options.budget_bytes` (the pools may be empty or the
@@ -103,11 +133,11 @@ pub fn fixed_bytes(ctx: &GpuContext, repo: &Repository, options: &RendererOption
     let limit = page_limit(&ctx.limits);
     let base = base_bytes(ctx, repo, options);
     let roots = repo.header().root_tet_count;
-    let (all_bytes, all_slots) = model_needs(repo);
+    let needs = model_needs(repo);
+    let (all_bytes, all_slots) = (needs.bytes, needs.simplices);
     let rest = options.budget_bytes.saturating_sub(base);
-    // The model's proportion of slot bytes to pool bytes.
-    let slot_weight = (all_slots * SLOT_BYTES) as f64;
-    let share = slot_weight / (slot_weight + all_bytes as f64);
+    // A slot per `bytes_per_slot` of the residency's 7/8 of the pages.
+    let share = SLOT_BYTES as f64 / (SLOT_BYTES as f64 + needs.bytes_per_slot * 8.0 / 7.0);
     // At least the roots and one pair; never more than the model has (+1 for parity).
     let clamp = |s: u64| s.min(all_slots + 1).max(roots + 2).next_multiple_of(2);
     let slots_for = |bytes: u64| clamp((bytes as f64 * share / SLOT_BYTES as f64) as u64);
