@@ -287,7 +287,9 @@ fn streaming_at_a_quarter_of_the_repository_draws_the_cpu_reference_every_frame(
     }
     let settled = settled.expect("the stream settles within 200 frames");
     let fed = rig.streamer.stats().feedback_frames;
-    assert!(fed > 40, "GPU feedback read back for {fed} frames");
+    // All but a frame or two of the 40-frame fly-in and the pause (feedback comes a frame or
+    // two late).
+    assert!(fed >= 38, "GPU feedback read back for {fed} frames");
     let eye = pause.eye_local(repo.header().origin);
     let rhos = diamond_rhos(repo.diamonds(), eye, &pause.metric());
     let cull = check_request(pause).cull;
@@ -362,8 +364,10 @@ fn a_generated_mesh_four_times_its_budget_streams_with_every_frame_checked() {
     let path = b.dir.path().join("model.tsr");
     let repo = Arc::new(Repository::open(&path).expect("reopen"));
     let size = std::fs::metadata(&path).unwrap().len();
-    // Every GPU allocation together: a quarter of the repository file.
-    let budget = size / 4;
+    // Every GPU allocation together: a sixth of the repository file. (A quarter while the
+    // directory was resident, whose tables took half of what the pool now gets: with the
+    // directory paged, a quarter left the fly-in without an eviction.)
+    let budget = size / 6;
     let ctx = gpu();
     let mut rig = Rig::new(ctx, repo.clone(), budget);
     for (i, &camera) in fly_in(&repo, 30).iter().enumerate() {

@@ -137,9 +137,13 @@ pub struct GpuStreamer {
     resident_patches: usize,
     /// Set by the device-lost callback.
     lost: Arc<std::sync::Mutex<Option<String>>>,
-    /// Bumped at every flags upload; per frame drawn (renderer's number), the version used.
+    /// Bumped at every flags upload; per frame drawn (renderer's number), the version used
+    /// and the view's (bumped when the camera, τ or culling changes: feedback from another
+    /// view does not make this one settled).
     flags_version: u64,
-    versions: VecDeque<(u64, u64)>,
+    versions: VecDeque<(u64, u64, u64)>,
+    view: Option<(crate::camera::Camera, f32, tessera_core::cull::CullTests)>,
+    view_version: u64,
     /// Compute the CPU reference every frame (`set_cpu_reference`), and per frame drawn its
     /// refined and wanted lists, to compare with the GPU's when they arrive.
     cpu_reference: bool,
@@ -224,6 +228,8 @@ impl GpuStreamer {
             lost,
             flags_version: 0,
             versions: VecDeque::new(),
+            view: None,
+            view_version: 0,
             cpu_reference: false,
             expected: VecDeque::new(),
             stats: GpuStreamStats {
@@ -497,7 +503,13 @@ impl GpuStreamer {
             Vec::new()
         };
         let drawn = renderer.frames_submitted();
-        self.versions.push_back((drawn, self.flags_version));
+        let view = Some((request.camera, request.tau, request.cull));
+        if self.view != view {
+            self.view = view;
+            self.view_version += 1;
+        }
+        self.versions
+            .push_back((drawn, self.flags_version, self.view_version));
         // The CPU reference for the flags this frame was drawn with, when asked for (checks).
         let reference = if self.cpu_reference {
             let origin = self.repo.header().origin;
@@ -541,10 +553,9 @@ impl GpuStreamer {
             while self.versions.front().is_some_and(|v| v.0 < fb.frame) {
                 self.versions.pop_front();
             }
-            fresh = self
-                .versions
-                .front()
-                .is_some_and(|&(f, v)| f == fb.frame && v == self.flags_version);
+            fresh = self.versions.front().is_some_and(|&(f, v, w)| {
+                f == fb.frame && v == self.flags_version && w == self.view_version
+            });
             self.residency.feedback(&fb.refined, &fb.wanted);
             let plan = self.residency.plan(self.upload_bytes_per_frame);
             for &u in &plan.evict {
@@ -563,7 +574,8 @@ impl GpuStreamer {
                 .submit(u, self.residency.units().simplices(u).to_vec());
         }
         let stats = self.residency.stats();
-        // Settled: the latest feedback saw the current flags, and asked for nothing more.
+        // Settled: the latest feedback saw the current flags and view, and asked for nothing
+        // more.
         let settled =
             fresh && loads.is_empty() && stats.loading_units == 0 && self.ready.is_empty();
         let plan_loads = loads.len();
