@@ -1,7 +1,9 @@
 // Shared by every pass: the repository records as stored in the file (uploaded as they are),
-// the per-simplex draw location the runtime derives at load, and the per-frame uniforms.
+// the traversal's slot records and per-slot draw locations the runtime derives, and the
+// per-frame uniforms.
 // Rust mirrors: tessera_core::repository::format::{DiamondRecord, TetRecord},
-// tessera_runtime::gpu::resident::PatchLocation, tessera_runtime::gpu::frame::FrameUniforms.
+// tessera_runtime::gpu::records::SlotRecord, tessera_runtime::gpu::resident::PatchLocation,
+// tessera_runtime::gpu::frame::FrameUniforms.
 // Scalars only (no vec3 members), so the WGSL layout is the file's packed layout.
 
 const NO_INDEX: u32 = 0xffffffffu;
@@ -38,7 +40,32 @@ struct TetRecord {
     reserved: u32,
 }
 
-// Where a simplex's patch is resident: 16 bytes, one per simplex.
+// What the traversal reads of a simplex: 88 bytes, one per record slot
+// (tessera_runtime::gpu::records). Fully resident, slot = simplex; streaming, a fixed pool of
+// slots the units' records come and go in. level, vertex_count and strip_index_count sit where
+// TetRecord has them, so the passes that read those (compaction, expansion, draw) bind the
+// slot records as TetRecord.
+struct SlotRecord {
+    cx: f32, cy: f32, cz: f32,      // the simplex's bounding sphere (nested), relative to the origin
+    radius: f32,
+    ax: f32, ay: f32, az: f32,      // normal cone axis
+    cone_cos: f32,
+    diamond: u32,                   // its diamond (global index); NO_INDEX for a leaf
+    simplex: u32,                   // its id in the repository (CPU only)
+    children: u32,                  // slot of its first child (then + 1); NO_INDEX: may not refine
+    level: u32,
+    dcx: f32, dcy: f32,             // its diamond's saturated sphere centre x, y
+    patch_bytes: u32,
+    vertex_count: u32,
+    strip_index_count: u32,
+    triangle_count: u32,
+    dcz: f32,                       // ... centre z
+    dradius: f32,                   // ... radius
+    derror: f32,                    // its diamond's saturated object-space error
+    pad: u32,
+}
+
+// Where a slot's patch is resident: 16 bytes, one per record slot.
 struct PatchLocation {
     page: u32,          // resident page; NO_INDEX if the patch is empty
     first_entry: u32,   // first entry of that page's selection list

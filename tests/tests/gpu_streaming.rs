@@ -1,5 +1,5 @@
 //! The GPU renderer streaming under a byte budget (`gpu::streamer`): a generated 400 k-
-//! triangle mesh under a budget (every allocation) of a quarter of its repository file, and
+//! triangle mesh under a budget (every allocation) of a sixth of its repository file, and
 //! the armadillo with a pool of a quarter of its patches. Over a fly-in, every frame (before
 //! convergence too): the GPU's selection equals the CPU streaming reference for the same
 //! flags, the pixel check shows no flag pixel, the image is the fully resident renderer's
@@ -78,13 +78,29 @@ fn options(budget_bytes: u64) -> RendererOptions {
     }
 }
 
-/// A GPU budget whose pool holds `pool` bytes besides the fixed allocations.
+/// The smallest GPU budget (to 1 KiB) whose page pool holds `pool` bytes: the fixed
+/// allocations and the record slots (which take the model's share of the rest) come on top.
 fn budget_for_pool(ctx: &GpuContext, repo: &Repository, pool: u64) -> u64 {
-    fixed_bytes(ctx, repo, &options(pool)).fixed + pool
+    let pool_of = |budget| fixed_bytes(ctx, repo, &options(budget)).pool_bytes();
+    let (mut low, mut high) = (pool, 4 * pool + (64 << 20));
+    while high - low > 1024 {
+        let middle = (low + high) / 2;
+        if pool_of(middle) >= pool {
+            high = middle;
+        } else {
+            low = middle;
+        }
+    }
+    high
 }
 
 /// Bytes of the units the unlimited cut of `camera` refines (visible simplices), plus roots.
 fn working_set(repo: &Repository, camera: &Camera) -> u64 {
+    working_set_and_records(repo, camera).0
+}
+
+/// The same, and those units' records (simplices), roots included.
+fn working_set_and_records(repo: &Repository, camera: &Camera) -> (u64, u64) {
     let units = UnitTable::new(
         repo.diamonds(),
         repo.tets(),
@@ -110,11 +126,17 @@ fn working_set(repo: &Repository, camera: &Camera) -> u64 {
             stack.extend_from_slice(units.parents(d));
         }
     }
-    units.root_bytes()
-        + (0..units.len() as u32)
-            .filter(|&d| used[d as usize])
-            .map(|d| units.bytes(d))
-            .sum::<u64>()
+    let used: Vec<u32> = (0..units.len() as u32)
+        .filter(|&d| used[d as usize])
+        .collect();
+    (
+        units.root_bytes() + used.iter().map(|&d| units.bytes(d)).sum::<u64>(),
+        units.roots().len() as u64
+            + used
+                .iter()
+                .map(|&d| units.simplices(d).len() as u64)
+                .sum::<u64>(),
+    )
 }
 
 fn drawn(repo: &Repository, selection: &[u32]) -> Vec<u32> {
@@ -229,23 +251,29 @@ fn streaming_at_a_quarter_of_the_repository_draws_the_cpu_reference_every_frame(
         stats.evictions > 0,
         "the fly-in did not stream under pressure: {stats:?}"
     );
-    // Pause at the nearest view of the path whose working set fits the residency.
+    // Pause at the nearest view of the path whose working set fits the residency (bytes and
+    // record slots).
     let fits = rig.streamer.residency().budget_bytes();
+    let fits_records = rig.streamer.residency().budget_records();
+    let fit = |c: &Camera| {
+        let (bytes, records) = working_set_and_records(&repo, c);
+        bytes <= fits && records <= fits_records
+    };
     let (k, pause) = path
         .iter()
         .enumerate()
         .rev()
-        .find(|(_, c)| working_set(&repo, c) <= fits)
+        .find(|(_, c)| fit(c))
         .map(|(k, &c)| (k, c))
         .expect("some view of the path fits");
     assert!(
-        k > 0 && working_set(&repo, &path[39]) > fits,
+        k > 0 && !fit(&path[39]),
         "the path should end beyond the budget"
     );
     eprintln!(
-        "blob {blob} B, budget {budget} B, pause at view {k} (working set {} B, residency \
-         budget {fits} B), {:?}",
-        working_set(&repo, &pause),
+        "blob {blob} B, budget {budget} B, pause at view {k} (working set {:?} B and records, \
+         residency budget {fits} B and {fits_records} records), {:?}",
+        working_set_and_records(&repo, &pause),
         rig.streamer.stats()
     );
     let mut settled = None;
@@ -259,7 +287,9 @@ fn streaming_at_a_quarter_of_the_repository_draws_the_cpu_reference_every_frame(
     }
     let settled = settled.expect("the stream settles within 200 frames");
     let fed = rig.streamer.stats().feedback_frames;
-    assert!(fed > 40, "GPU feedback read back for {fed} frames");
+    // All but a frame or two of the 40-frame fly-in and the pause (feedback comes a frame or
+    // two late).
+    assert!(fed >= 38, "GPU feedback read back for {fed} frames");
     let eye = pause.eye_local(repo.header().origin);
     let rhos = diamond_rhos(repo.diamonds(), eye, &pause.metric());
     let cull = check_request(pause).cull;
@@ -320,7 +350,7 @@ fn a_budget_below_the_fixed_part_is_refused_with_both_numbers() {
 }
 
 #[test]
-fn a_generated_mesh_four_times_its_budget_streams_with_every_frame_checked() {
+fn a_generated_mesh_six_times_its_budget_streams_with_every_frame_checked() {
     use tessera_preprocess::gen_mesh::{GenMesh, MeshParams};
     let mesh = GenMesh::new(MeshParams {
         triangles: 400_000,
@@ -334,8 +364,10 @@ fn a_generated_mesh_four_times_its_budget_streams_with_every_frame_checked() {
     let path = b.dir.path().join("model.tsr");
     let repo = Arc::new(Repository::open(&path).expect("reopen"));
     let size = std::fs::metadata(&path).unwrap().len();
-    // Every GPU allocation together: a quarter of the repository file.
-    let budget = size / 4;
+    // Every GPU allocation together: a sixth of the repository file. (A quarter while the
+    // directory was resident, whose tables took half of what the pool now gets: with the
+    // directory paged, a quarter left the fly-in without an eviction.)
+    let budget = size / 6;
     let ctx = gpu();
     let mut rig = Rig::new(ctx, repo.clone(), budget);
     for (i, &camera) in fly_in(&repo, 30).iter().enumerate() {

@@ -309,3 +309,59 @@ fn a_long_loop_under_pressure_neither_stalls_nor_grows() {
         "the loop never streamed under pressure"
     );
 }
+
+/// The record budget (the GPU's record slots, `gpu::records`) binds like the byte budget: with
+/// bytes unlimited and records for a fraction of the path's units, a fly-in keeps the records
+/// within their budget, evicts to make room for them, keeps the invariants; and the changed
+/// flags the residency reports (what the GPU streamer rewrites as child links) are exactly
+/// the diamonds whose flag differs from the previous frame's.
+#[test]
+fn the_record_budget_binds_and_changed_flags_are_reported_exactly() {
+    use tessera_runtime::stream::{stream_frame, Residency};
+    let b = built("mesh/armadillo.off");
+    let repo = &b.repo;
+    let units = units_of(repo);
+    let path = fly_in(repo, 40);
+    let roots = units.roots().len() as u64;
+    let mut residency = Residency::with_records(units, u64::MAX, roots + 120).unwrap();
+    residency.track_changed_flags();
+    let mut previous = residency.may_refine().to_vec();
+    for (i, camera) in path.iter().enumerate() {
+        let eye = camera.eye_local(repo.header().origin);
+        let rhos = diamond_rhos(repo.diamonds(), eye, &camera.metric());
+        let frame = stream_frame(
+            repo.tets(),
+            repo.header().root_tet_count as usize,
+            &rhos,
+            residency.may_refine(),
+            TAU,
+            eye,
+            &cull_of(camera),
+        );
+        residency.feedback(&frame.refined, &frame.wanted);
+        let plan = residency.plan(u64::MAX);
+        for &u in &plan.load {
+            residency.complete(u, true);
+        }
+        residency.check_invariants().unwrap();
+        let stats = residency.stats();
+        assert!(
+            stats.resident_records <= roots + 120,
+            "frame {i}: {stats:?}"
+        );
+        let now = residency.may_refine().to_vec();
+        let differ: Vec<u32> = (0..now.len() as u32)
+            .filter(|&d| now[d as usize] != previous[d as usize])
+            .collect();
+        let reported: Vec<u32> = residency
+            .take_changed_flags()
+            .into_iter()
+            .filter(|&d| now[d as usize] != previous[d as usize])
+            .collect();
+        assert_eq!(reported, differ, "frame {i}: changed flags");
+        previous = now;
+    }
+    let stats = residency.stats();
+    assert!(stats.evictions > 0, "records never bound: {stats:?}");
+    assert!(stats.pending_units > 0, "{stats:?}");
+}

@@ -89,6 +89,9 @@ pub fn run(args: CheckArgs) -> anyhow::Result<Outcome> {
             streaming = Some(json!({
                 "resident_bytes": gpu.gpu_bytes,
                 "budget_bytes": args.device.budget_bytes(&ctx),
+                "fixed_bytes": gpu.fixed_bytes,
+                "record_slots": gpu.record_slots,
+                "record_bytes": gpu.record_bytes,
                 "pool_bytes": gpu.pool_bytes,
                 "resident_patches": streamer.resident_patches(),
                 "loaded_bytes": stats.loaded_bytes,

@@ -249,6 +249,8 @@ pub fn run(args: RenderArgs) -> anyhow::Result<Outcome> {
                 "resident_bytes": gpu.gpu_bytes,
                 "budget_bytes": args.gpu.budget_bytes(&ctx),
                 "fixed_bytes": gpu.fixed_bytes,
+                "record_slots": gpu.record_slots,
+                "record_bytes": gpu.record_bytes,
                 "pool_bytes": gpu.pool_bytes,
                 "resident_patch_bytes": stats.peak_resident_bytes,
                 "resident_patches": streamer.resident_patches(),

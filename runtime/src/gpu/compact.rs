@@ -169,7 +169,7 @@ impl Compaction {
             device,
             &layout,
             &[
-                model.tets.as_entire_binding(),
+                model.records.as_entire_binding(),
                 counts.as_entire_binding(),
                 page_infos.as_entire_binding(),
                 selected.as_entire_binding(),
@@ -194,7 +194,7 @@ impl Compaction {
             device,
             &tables_layout,
             &[
-                model.tets.as_entire_binding(),
+                model.records.as_entire_binding(),
                 counts.as_entire_binding(),
                 selected.as_entire_binding(),
                 model.locations.as_entire_binding(),

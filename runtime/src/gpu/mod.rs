@@ -2,7 +2,9 @@
 //! target and the renderer that ties them together.
 //!
 //! - `device`: adapter choice and the features used;
-//! - `resident`: tables and patch pages in GPU memory, within a byte budget;
+//! - `resident`: slot records and patch pages in GPU memory, within a byte budget;
+//! - `records`: the traversal's self-contained per-slot records and the streaming pool's
+//!   record slots;
 //! - `frame`: the per-frame uniforms and shading modes; `position_probe`: read-back of the
 //!   clip positions the draw pass computes (position.wgsl), for precision tests;
 //! - `full_mesh`: the full-resolution peer (the whole mesh in one indexed draw);
@@ -24,6 +26,7 @@ pub mod feedback;
 pub mod frame;
 pub mod full_mesh;
 pub mod position_probe;
+pub mod records;
 pub mod renderer;
 pub mod resident;
 pub mod shaders;

@@ -138,10 +138,21 @@ pub enum RenderError {
     },
 }
 
+/// How a read-back selection (record slots) becomes simplices, and their triangle counts.
+enum Directory {
+    /// Fully resident: slot = simplex; triangles of each simplex's patch.
+    Resident { triangle_counts: Vec<u32> },
+    /// Streaming: per slot the simplex whose record it holds (set as units land,
+    /// `set_slot_simplex`); triangle counts read through the map.
+    Streamed {
+        slot_simplices: Vec<u32>,
+        repo: std::sync::Arc<Repository>,
+    },
+}
+
 pub struct Renderer {
     header: Header,
-    /// Triangles of each simplex's patch (for the statistics of a read-back selection).
-    triangle_counts: Vec<u32>,
+    directory: Directory,
     model: ResidentModel,
     target: RenderTarget,
     uniforms: wgpu::Buffer,
@@ -232,19 +243,20 @@ impl Renderer {
             });
         }
         let model = ResidentModel::upload(ctx, repo, options.budget_bytes, options.index_slots)?;
-        Self::with_model(ctx, repo, options, model, 0)
+        Self::with_model(ctx, repo, options, model, 0, None)
     }
 
     /// The renderer over a model already made: the fully resident one (`new`) or the
-    /// streaming pool (`streamer.rs`, whose pages start empty), with streaming feedback lists
-    /// of `feedback_capacity` entries each (`feedback.rs`; 0 for none). (Streaming: split out
-    /// of `new`, unchanged otherwise.)
+    /// streaming pool (`streamer.rs`, whose pages and record slots start empty, `streamed`
+    /// the shared repository), with streaming feedback lists of `feedback_capacity` entries
+    /// each (`feedback.rs`; 0 for none). (Streaming: split out of `new`, unchanged otherwise.)
     pub fn with_model(
         ctx: &GpuContext,
         repo: &Repository,
         options: RendererOptions,
         model: ResidentModel,
         feedback_capacity: u32,
+        streamed: Option<std::sync::Arc<Repository>>,
     ) -> Result<Renderer, RenderError> {
         let max = ctx.limits.max_texture_dimension_2d;
         if !(1..=max).contains(&options.width) || !(1..=max).contains(&options.height) {
@@ -315,7 +327,7 @@ impl Renderer {
             &draw_layout,
             &[
                 &uniforms,
-                &model.tets,
+                &model.records,
                 &model.locations,
                 &selected,
                 &counts,
@@ -379,9 +391,18 @@ impl Renderer {
         let pulled = DrawPipelines::new(device, &layouts, &module, "vs_main", wireframe);
         let skirts = super::skirts::CheckSkirts::new(device, &draw_layout, &module);
 
+        let directory = match streamed {
+            Some(repo) => Directory::Streamed {
+                slot_simplices: vec![u32::MAX; model.slot_count as usize],
+                repo,
+            },
+            None => Directory::Resident {
+                triangle_counts: repo.tets().iter().map(|t| t.triangle_count).collect(),
+            },
+        };
         Ok(Renderer {
             header: *repo.header(),
-            triangle_counts: repo.tets().iter().map(|t| t.triangle_count).collect(),
+            directory,
             target: RenderTarget::new(ctx, options.width, options.height),
             model,
             uniforms,
@@ -581,12 +602,26 @@ impl Renderer {
         }
     }
 
-    /// Triangles of the patches of `selection`.
+    /// Triangles of the patches of `selection` (simplices).
     pub fn triangles_of(&self, selection: &[u32]) -> u64 {
-        selection
-            .iter()
-            .map(|&i| self.triangle_counts[i as usize] as u64)
-            .sum()
+        match &self.directory {
+            Directory::Resident { triangle_counts } => selection
+                .iter()
+                .map(|&i| triangle_counts[i as usize] as u64)
+                .sum(),
+            Directory::Streamed { repo, .. } => selection
+                .iter()
+                .map(|&i| repo.tets()[i as usize].triangle_count as u64)
+                .sum(),
+        }
+    }
+
+    /// Streaming: record slot `slot` now holds simplex `simplex` (the streamer, as a unit
+    /// lands); a fully resident renderer ignores it.
+    pub fn set_slot_simplex(&mut self, slot: u32, simplex: u32) {
+        if let Directory::Streamed { slot_simplices, .. } = &mut self.directory {
+            slot_simplices[slot as usize] = simplex;
+        }
     }
 
     /// The image of the last frame rendered with `Readback::image`.
@@ -594,7 +629,8 @@ impl Renderer {
         self.target.read(ctx)
     }
 
-    /// The simplices drawn by the last frame rendered with `Readback::selection`, ascending.
+    /// The simplices drawn by the last frame rendered with `Readback::selection`, ascending
+    /// (streaming: read before the next frame lands units, which may reuse slots).
     pub fn read_selection(&self, ctx: &GpuContext) -> Vec<u32> {
         let counts: Vec<u32> = bytemuck::pod_collect_to_vec(&read_buffer(ctx, &self.counts_read));
         let entries: Vec<u32> =
@@ -603,8 +639,12 @@ impl Renderer {
         for (list, &count) in self.model.lists.iter().zip(&counts) {
             let count = count.min(list.capacity);
             for entry in list.first_entry..list.first_entry + count {
-                // `Selected`: the simplex, then its first strip slot.
-                selected.push(entries[entry as usize * 2]);
+                // `Selected`: the record slot, then its first strip slot.
+                let slot = entries[entry as usize * 2];
+                selected.push(match &self.directory {
+                    Directory::Resident { .. } => slot,
+                    Directory::Streamed { slot_simplices, .. } => slot_simplices[slot as usize],
+                });
             }
         }
         selected.sort_unstable();

@@ -1,9 +1,10 @@
 //! The resident model: the repository's tables and patches in GPU memory.
 //!
-//! The diamond and tet tables are uploaded exactly as they are in the file. The patch blob is
+//! The traversal reads one `SlotRecord` per simplex (`records.rs`: the tet record with its
+//! diamond's sphere and error, slot = simplex id), made from the file's tables. The patch blob is
 //! uploaded in *pages*, contiguous byte ranges of the blob no larger than one storage binding
 //! (128 MiB on lavapipe); the vertex shader pulls strip indices, positions and attributes from
-//! it. The only derived data is one 16-byte `PatchLocation` per simplex: its page, where that
+//! it. Besides the records, one 16-byte `PatchLocation` per simplex: its page, where that
 //! page's selection list starts, and where its strip and positions start in the page.
 //!
 //! Everything is made once at load; a frame touches none of it on the CPU. The pool has a byte
@@ -11,12 +12,12 @@
 //! budget is not made here but in `stream_pool.rs` (a pool of pages that units come and go in).
 
 use bytemuck::{Pod, Zeroable};
-use tessera_core::repository::format::NO_INDEX;
 use tessera_core::repository::patch::{strip_byte_offset, MAX_U16_PATCH_VERTICES};
 use tessera_core::repository::reader::{Repository, RepositoryError};
 use wgpu::util::DeviceExt;
 
 use super::device::GpuContext;
+use super::records::SlotRecord;
 
 /// "No page": an empty patch.
 pub const NO_PAGE: u32 = u32::MAX;
@@ -30,11 +31,13 @@ pub const MAX_INDEX_SLOTS: u64 = 0x5555_5555;
 /// τ ≥ 0.5 px selects on the models measured (the dragon's every leaf: 1.45 M slots); a frame
 /// beyond it is drawn by pulling.
 pub const DEFAULT_INDEX_SLOTS: u64 = 1 << 22;
+/// Bytes of one `PatchLocation`.
+pub const PATCH_LOCATION_BYTES: u64 = std::mem::size_of::<PatchLocation>() as u64;
 /// Bytes of one selection-list entry (`Selected` in records.wgsl: simplex, first strip slot).
 pub const ENTRY_BYTES: u64 = 8;
 
 /// Where a simplex's patch lives and how it is drawn; mirrors `PatchLocation` in
-/// `shaders/records.wgsl`. One per simplex.
+/// `shaders/records.wgsl`. One per record slot (fully resident: per simplex).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Pod, Zeroable)]
 pub struct PatchLocation {
@@ -99,12 +102,15 @@ pub enum ResidentError {
 
 /// The repository in GPU memory.
 pub struct ResidentModel {
-    /// `DiamondRecord` × diamond count (at least one record, so the binding is never empty).
-    pub diamonds: wgpu::Buffer,
-    /// `TetRecord` × tet count.
-    pub tets: wgpu::Buffer,
-    /// `PatchLocation` × tet count.
+    /// `SlotRecord` × slot count (`records.rs`); the compaction, expansion and draw read them
+    /// as `TetRecord`s (the fields they read are at the same places).
+    pub records: wgpu::Buffer,
+    /// `PatchLocation` × slot count.
     pub locations: wgpu::Buffer,
+    /// Record slots: the simplices when fully resident, the streaming pool's slots otherwise.
+    pub slot_count: u32,
+    /// Streaming: slots are a pool (`records.rs`), flags are the slots' child links.
+    pub streamed: bool,
     pub pages: Vec<Page>,
     /// One per page, in order.
     pub lists: Vec<SelectionList>,
@@ -179,14 +185,10 @@ impl ResidentModel {
             }
         }
 
-        let diamond_bytes: &[u8] = if repo.diamonds().is_empty() {
-            &[0; 56]
-        } else {
-            bytemuck::cast_slice(repo.diamonds())
-        };
-        let tet_bytes: &[u8] = bytemuck::cast_slice(tets);
+        let records = SlotRecord::all(tets, repo.diamonds());
+        let record_bytes: &[u8] = bytemuck::cast_slice(&records);
         let location_bytes: &[u8] = bytemuck::cast_slice(&layout.locations);
-        let tables = (diamond_bytes.len() + tet_bytes.len() + location_bytes.len()) as u64;
+        let tables = (record_bytes.len() + location_bytes.len()) as u64;
         let patches: u64 = layout.pages.iter().map(|r| r.end - r.start).sum();
         // Per-frame working buffers: the selection lists, the per-page draws and the
         // traversal's two queues.
@@ -232,9 +234,10 @@ impl ResidentModel {
             })
             .collect();
         Ok(ResidentModel {
-            diamonds: storage("diamonds", diamond_bytes, wgpu::BufferUsages::empty()),
-            tets: storage("tets", tet_bytes, wgpu::BufferUsages::empty()),
+            records: storage("slot records", record_bytes, wgpu::BufferUsages::empty()),
             locations: storage("locations", location_bytes, wgpu::BufferUsages::empty()),
+            slot_count: tets.len() as u32,
+            streamed: false,
             pages,
             lists: layout.lists,
             page_simplices: storage(
@@ -253,21 +256,19 @@ impl ResidentModel {
     }
 }
 
-/// Depths of the simplex tree: the reader checked that children come after their parents, so
-/// one pass in table order sees every parent before its children. (Shared with the streaming
-/// pool, `stream_pool.rs`.)
+/// Depths of the simplex tree (longest root-to-leaf chain + 1), from the levels: the reader
+/// checked that every non-root simplex descends from a root with one level per step, so this
+/// reads the table through the map and allocates nothing. (Shared with the streaming pool,
+/// `stream_pool.rs`.)
 pub(crate) fn tree_depths(repo: &Repository) -> u32 {
     let tets = repo.tets();
-    let mut depth = vec![0u32; tets.len()];
-    let mut deepest = 0;
-    for (i, t) in tets.iter().enumerate() {
-        if t.first_child != NO_INDEX {
-            let c = t.first_child as usize;
-            depth[c] = depth[i] + 1;
-            depth[c + 1] = depth[i] + 1;
-            deepest = deepest.max(depth[i] + 1);
-        }
-    }
+    let roots = (repo.header().root_tet_count as usize).min(tets.len());
+    let root_level = tets[..roots].iter().map(|t| t.level).min().unwrap_or(0);
+    let deepest = tets
+        .iter()
+        .map(|t| t.level.saturating_sub(root_level))
+        .max()
+        .unwrap_or(0);
     deepest + 1
 }
 

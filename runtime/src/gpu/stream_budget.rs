@@ -1,36 +1,64 @@
 //! The streaming renderer's GPU budget: every allocation the renderer makes, counted from the
-//! same sizes the constructors use, and the page pool that the rest of the budget buys.
+//! same sizes the constructors use, and the two pools that the rest of the budget buys.
 //!
-//! Fixed (independent of what is resident): the diamond, tet and location tables; the
-//! traversal's two queues, its `may_refine` words, counters, dispatch arguments and step
-//! uniforms; the feedback lists and their read-back ring; per pool page a selection list (and its read-back copy), a count (and its copy),
-//! an indirect draw, a list start and a page-draw uniform slot; the frame uniforms and
-//! timestamps; the target (colour, depth, read-back). The pool gets what is left, in pages of
-//! at most one storage binding.
+//! Fixed (independent of the model and of what is resident): the traversal's `may_refine`
+//! word (one: the slots' links are the flags), counters, dispatch arguments and step uniforms;
+//! the feedback lists and their read-back ring; per pool page a selection list (and its
+//! read-back copy), a count (and its copy), an indirect draw, a list start and a page-draw
+//! uniform slot; the frame uniforms and timestamps; the target (colour, depth, read-back).
+//! Nothing here is sized by the model's simplex or diamond count: the directory is paged.
+//!
+//! The pools: record slots (`records.rs`: per slot an 88-byte record, a 16-byte location and
+//! one entry in each of the traversal's two queues) and the page pool (patch bytes, in pages
+//! of at most one storage binding). The rest of the budget is split between them so that the
+//! slots hold as many simplices as the pages' bytes do at the model's level with the smallest
+//! patches per simplex (`model_needs`); the residency keeps each within its own budget (a
+//! view whose units have still smaller patches runs out of slots first and settles coarser,
+//! as it would for bytes). Neither is ever larger than the whole model needs.
 
 use tessera_core::repository::reader::Repository;
 
 use super::device::GpuContext;
+use super::records::SLOT_RECORD_BYTES;
 use super::renderer::RendererOptions;
 use super::resident::{page_limit, ENTRY_BYTES, PAGE_ARGS_BYTES};
 use super::stream_pool::PoolLayout;
 
-/// The fixed bytes and the pool's layout for a budget.
+/// Bytes per record slot: the record, its location and its entry in each traversal queue.
+pub const SLOT_BYTES: u64 = SLOT_RECORD_BYTES + 16 + 2 * 4;
+
+/// The fixed bytes, the record slots and the page pool's layout for a budget.
 #[derive(Clone, Copy, Debug)]
 pub struct FixedBytes {
+    /// Everything but the two pools.
     pub fixed: u64,
+    /// Record slots (roots' included); they take `slots × SLOT_BYTES`.
+    pub slots: u32,
     pub layout: PoolLayout,
 }
 
-/// Bytes of the allocations that do not depend on the pool's pages.
+impl FixedBytes {
+    /// Bytes of the record slots.
+    pub fn record_bytes(&self) -> u64 {
+        self.slots as u64 * SLOT_BYTES
+    }
+
+    /// Bytes of the page pool.
+    pub fn pool_bytes(&self) -> u64 {
+        self.layout.pages as u64 * self.layout.page_bytes
+    }
+
+    /// Every allocation.
+    pub fn total(&self) -> u64 {
+        self.fixed + self.record_bytes() + self.pool_bytes()
+    }
+}
+
+/// Bytes of the allocations that depend neither on the pools nor on the model.
 fn base_bytes(ctx: &GpuContext, repo: &Repository, options: &RendererOptions) -> u64 {
-    let tets = repo.tets().len().max(1) as u64;
-    let diamonds = repo.diamonds().len().max(1) as u64;
     let depths = 64u64; // generous: dispatch arguments and step uniforms per depth
     let uniform_align = (ctx.limits.min_uniform_buffer_offset_alignment as u64).max(256);
-    let tables = 56 * diamonds + 88 * tets + 16 * tets;
-    let traversal =
-        2 * 4 * tets + 4 * diamonds.div_ceil(32) + 4 * depths * 4 + uniform_align * depths;
+    let traversal = 4 + 4 * depths * 4 + uniform_align * depths;
     let (w, h) = (options.width as u64, options.height as u64);
     let padded_row = (4 * w).next_multiple_of(256);
     let target = 4 * w * h + 4 * w * h + padded_row * h;
@@ -43,7 +71,7 @@ fn base_bytes(ctx: &GpuContext, repo: &Repository, options: &RendererOptions) ->
         options.width,
         options.height,
     ));
-    tables + traversal + target + frame + feedback + no_index_regions
+    traversal + target + frame + feedback + no_index_regions
 }
 
 /// Bytes per pool page besides the page itself.
@@ -59,35 +87,84 @@ fn per_page_bytes(ctx: &GpuContext, layout: &PoolLayout) -> u64 {
         + uniform_align
 }
 
-/// The fixed part and the pool for `options.budget_bytes` (the pool may be empty or the fixed
-/// part over budget: the caller refuses those with the numbers).
+/// What the whole model would take: every patch (8-aligned) with the residency's slack (it is
+/// given 7/8 of the pool), and a slot per simplex; and the patch bytes per simplex that the
+/// slots are provisioned for. Read through the map; nothing allocated.
+///
+/// A view's working set is not the model's average: on the generated meshes the coarse
+/// and middle levels hold 280–700 bytes of patch per simplex (many half-empty simplices) and
+/// the finest 1.5–1.9 KB, against an average of 1.1–1.2 KB, and a close view at τ = 0.5 on the
+/// 2 M-triangle model kept 840 B per resident simplex, on the 20 M one 413 B. Slots
+/// provisioned at the average ran out first there (half the pages unused, 157 units left
+/// wanted on the 2 M model; at half the average, on the 20 M one). So the slots are sized for
+/// the level with the fewest bytes per simplex, but never for less than a quarter of the
+/// average (a guard against a model whose slots would take most of a budget).
+struct ModelNeeds {
+    bytes: u64,
+    simplices: u64,
+    bytes_per_slot: f64,
+}
+
+fn model_needs(repo: &Repository) -> ModelNeeds {
+    let mut per_level = [(0u64, 0u64); 64];
+    for t in repo.tets() {
+        let level = &mut per_level[(t.level as usize).min(63)];
+        level.0 += 1;
+        level.1 += (t.patch_bytes as u64).next_multiple_of(8);
+    }
+    let simplices: u64 = per_level.iter().map(|l| l.0).sum();
+    let bytes: u64 = per_level.iter().map(|l| l.1).sum();
+    let average = bytes as f64 / simplices.max(1) as f64;
+    let densest = per_level
+        .iter()
+        .filter(|l| l.0 > 0)
+        .map(|l| l.1 as f64 / l.0 as f64)
+        .fold(f64::INFINITY, f64::min);
+    ModelNeeds {
+        bytes: bytes * 8 / 7 + 64,
+        simplices,
+        bytes_per_slot: densest.max(average / 4.0).max(8.0),
+    }
+}
+
+/// The fixed part and the pools for `options.budget_bytes` (the pools may be empty or the
+/// fixed part over budget: the caller refuses those with the numbers).
 pub fn fixed_bytes(ctx: &GpuContext, repo: &Repository, options: &RendererOptions) -> FixedBytes {
     let limit = page_limit(&ctx.limits);
     let base = base_bytes(ctx, repo, options);
-    // The lists take a share of each page's bytes: shrink the pool until both fit.
-    // Never more pool than the whole repository needs: every patch (8-aligned) and the
-    // residency's slack (it is given 7/8 of the pool).
-    let everything: u64 = repo
-        .tets()
-        .iter()
-        .map(|t| (t.patch_bytes as u64).next_multiple_of(8))
-        .sum::<u64>()
-        * 8
-        / 7
-        + 64;
-    let mut pool = options.budget_bytes.saturating_sub(base).min(everything);
+    let roots = repo.header().root_tet_count;
+    let needs = model_needs(repo);
+    let (all_bytes, all_slots) = (needs.bytes, needs.simplices);
+    let rest = options.budget_bytes.saturating_sub(base);
+    // A slot per `bytes_per_slot` of the residency's 7/8 of the pages.
+    let share = SLOT_BYTES as f64 / (SLOT_BYTES as f64 + needs.bytes_per_slot * 8.0 / 7.0);
+    // At least the roots and one pair; never more than the model has (+1 for parity).
+    let clamp = |s: u64| s.min(all_slots + 1).max(roots + 2).next_multiple_of(2);
+    let slots_for = |bytes: u64| clamp((bytes as f64 * share / SLOT_BYTES as f64) as u64);
+    let mut available = rest;
     for _ in 0..8 {
-        let layout = PoolLayout::new(repo.tets(), pool, limit);
+        let slots = slots_for(available);
+        let pool = available.saturating_sub(slots * SLOT_BYTES).min(all_bytes);
+        // Pages capped at what the model needs: what they leave goes to slots (up to the
+        // model's).
+        let slots = slots.max(clamp((available.saturating_sub(pool) / SLOT_BYTES) & !1));
+        let layout = PoolLayout::new(repo.tets(), pool, limit, slots as u32);
         let fixed = base + layout.pages as u64 * per_page_bytes(ctx, &layout);
-        let total = fixed + layout.pages as u64 * layout.page_bytes;
-        if total <= options.budget_bytes {
-            return FixedBytes { fixed, layout };
+        let candidate = FixedBytes {
+            fixed,
+            slots: slots as u32,
+            layout,
+        };
+        if candidate.total() <= options.budget_bytes {
+            return candidate;
         }
-        pool = pool.saturating_sub(total - options.budget_bytes);
+        available = available.saturating_sub(candidate.total() - options.budget_bytes);
     }
-    let layout = PoolLayout::new(repo.tets(), 0, limit);
+    let slots = slots_for(0);
+    let layout = PoolLayout::new(repo.tets(), 0, limit, slots as u32);
     FixedBytes {
         fixed: base + per_page_bytes(ctx, &layout),
+        slots: slots as u32,
         layout,
     }
 }

@@ -10,15 +10,17 @@
 //! patch), and the allocator also refuses a placement that would exceed it, so the
 //! traversal's appends (which do not check capacity) never overflow.
 //!
-//! The tet and diamond tables stay fully resident: paging the directory with the units is a
-//! later step of the out-of-core runtime.
+//! The directory is paged beside it: the units' simplices get record slots (`records.rs`), so
+//! nothing here is sized by the model's simplex or diamond count.
 
 use tessera_core::repository::format::TetRecord;
 use tessera_core::repository::reader::Repository;
 
 use super::device::GpuContext;
+use super::records::SLOT_RECORD_BYTES;
 use super::resident::{
     page_limit, tree_depths, Page, PatchLocation, ResidentModel, SelectionList, NO_PAGE,
+    PATCH_LOCATION_BYTES,
 };
 
 /// Where a placed unit lives.
@@ -150,8 +152,9 @@ pub struct PoolLayout {
 
 impl PoolLayout {
     /// Pages of at most `limit` bytes filling `pool_bytes`; lists sized from the smallest
-    /// non-empty patch (8-aligned), capped by the model's non-empty patches.
-    pub fn new(tets: &[TetRecord], pool_bytes: u64, limit: u64) -> PoolLayout {
+    /// non-empty patch (8-aligned), capped by the model's non-empty patches and by the record
+    /// slots (`slots`: a resident patch has one).
+    pub fn new(tets: &[TetRecord], pool_bytes: u64, limit: u64, slots: u32) -> PoolLayout {
         let pages = pool_bytes.div_ceil(limit).max(1) as usize;
         let page_bytes = (pool_bytes / pages as u64) & !7;
         let nonempty = tets.iter().filter(|t| t.strip_index_count != 0);
@@ -164,7 +167,7 @@ impl PoolLayout {
         PoolLayout {
             pages,
             page_bytes,
-            patch_capacity: (page_bytes / smallest).min(count).max(1) as u32,
+            patch_capacity: (page_bytes / smallest).min(count).min(slots as u64).max(1) as u32,
         }
     }
 
@@ -197,44 +200,33 @@ pub fn location_at(repo: &Repository, t: &TetRecord, page: u32, at: u64) -> Patc
     }
 }
 
-/// A resident model whose pages are the empty pool: tables as in the file, every location
-/// `NO_PAGE` until its unit lands (the streamer writes them), `layout.pages` pages of
-/// `layout.page_bytes`.
-pub fn pool_model(ctx: &GpuContext, repo: &Repository, layout: &PoolLayout) -> ResidentModel {
-    use wgpu::util::DeviceExt;
+/// A resident model whose pages are the empty pool and whose `slots` record slots are empty:
+/// every record and location is written by the streamer as its unit lands (a slot is read
+/// only once a link or the roots reach it), `layout.pages` pages of `layout.page_bytes`.
+pub fn pool_model(
+    ctx: &GpuContext,
+    repo: &Repository,
+    layout: &PoolLayout,
+    slots: u32,
+) -> ResidentModel {
     use wgpu::BufferUsages as U;
     let device = &ctx.device;
-    let tets = repo.tets();
-    let diamond_bytes: &[u8] = if repo.diamonds().is_empty() {
-        &[0; 56]
-    } else {
-        bytemuck::cast_slice(repo.diamonds())
-    };
-    let init = |label: &str, contents: &[u8], usage: U| {
-        device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+    let buffer = |label: &str, size: u64, usage: U| {
+        device.create_buffer(&wgpu::BufferDescriptor {
             label: Some(label),
-            contents,
+            size: size.max(16),
             usage,
+            mapped_at_creation: false,
         })
     };
-    let empty = vec![
-        PatchLocation {
-            page: NO_PAGE,
-            first_entry: 0,
-            first_index: 0,
-            base_vertex: 0,
-        };
-        tets.len().max(1)
-    ];
     debug_assert!(layout.page_bytes <= page_limit(&ctx.limits));
     let pages = (0..layout.pages)
         .map(|_| Page {
-            buffer: device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("pool page"),
-                size: layout.page_bytes.max(8),
-                usage: U::STORAGE | U::COPY_DST,
-                mapped_at_creation: false,
-            }),
+            buffer: buffer(
+                "pool page",
+                layout.page_bytes.max(8),
+                U::STORAGE | U::COPY_DST,
+            ),
             blob_range: 0..0,
         })
         .collect();
@@ -250,32 +242,30 @@ pub fn pool_model(ctx: &GpuContext, repo: &Repository, layout: &PoolLayout) -> R
             first_index: 0,
         })
         .collect();
-    let tables = (diamond_bytes.len()
-        + std::mem::size_of_val(tets)
-        + std::mem::size_of_val(&empty[..])) as u64;
+    let record_bytes = slots as u64 * (SLOT_RECORD_BYTES + PATCH_LOCATION_BYTES);
     ResidentModel {
-        diamonds: init("diamonds", diamond_bytes, U::STORAGE),
-        tets: init("tets", bytemuck::cast_slice(tets), U::STORAGE),
-        locations: init(
-            "locations",
-            bytemuck::cast_slice(&empty),
+        records: buffer(
+            "slot records",
+            slots as u64 * SLOT_RECORD_BYTES,
             U::STORAGE | U::COPY_DST,
         ),
+        locations: buffer(
+            "slot locations",
+            slots as u64 * PATCH_LOCATION_BYTES,
+            U::STORAGE | U::COPY_DST,
+        ),
+        slot_count: slots,
+        streamed: true,
         pages,
         lists,
-        page_simplices: device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("page simplices (unused by pulled draws)"),
-            size: 16,
-            usage: U::STORAGE,
-            mapped_at_creation: false,
-        }),
+        page_simplices: buffer("page simplices (unused by pulled draws)", 16, U::STORAGE),
         index_count: 0,
         entry_count: layout.pages as u32 * layout.patch_capacity,
-        tet_count: tets.len() as u32,
+        tet_count: repo.tets().len() as u32,
         diamond_count: repo.diamonds().len() as u32,
         root_count: repo.header().root_tet_count as u32,
         depth_count: tree_depths(repo),
-        resident_bytes: tables + layout.pages as u64 * layout.page_bytes,
+        resident_bytes: record_bytes + layout.pages as u64 * layout.page_bytes,
     }
 }
 

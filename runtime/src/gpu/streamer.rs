@@ -3,20 +3,25 @@
 //!
 //! 1. frees the pool space of evicted units once every frame that could draw them completed
 //!    (`queue.on_submitted_work_done` per submitted frame raises a completed-frame counter);
-//! 2. takes what the `Loader` thread finished, places each unit in the pool (`stream_pool`),
-//!    writes its bytes and its simplices' `PatchLocation`s, then `Residency::complete`s it —
-//!    within the per-frame upload allowance;
-//! 3. uploads the `may_refine` words if they changed — after the bytes they point to (same
-//!    queue, write order: every write lands before the frame's commands);
+//! 2. takes what the `Loader` thread finished, places each unit in the pool (`stream_pool`)
+//!    and its simplices in record slots (`records.rs`: one pair of slots per child pair),
+//!    writes its bytes, its simplices' slot records (no child link yet) and `PatchLocation`s,
+//!    then `Residency::complete`s it — within the per-frame upload allowance;
+//! 3. writes the flags that changed as child links: each simplex of a diamond that may now
+//!    refine gets the slot of its children's pair, each of one that may no longer gets
+//!    `NO_INDEX` — after the records they point to (same queue, write order: every write
+//!    lands before the frame's commands), only into slots of units placed now;
 //! 4. renders and submits the frame with those flags;
 //! 5. feedback: the traversal's refined and wanted lists (`feedback.rs`) of the frames read
 //!    back by now — a frame or two late —, deduplicated, go to `Residency::feedback`;
 //!    `Residency::plan` then evicts (flags cleared now, in effect from the next frame's
 //!    upload; space freed by step 1 later) and issues loads to the loader thread.
 //!
-//! The roots are placed at creation and pinned.
+//! The roots are placed at creation and pinned, their records in slots `0..root_count`. No
+//! GPU buffer and no CPU table here is sized by the model's simplex count; per diamond, the
+//! CPU keeps the residency's state (`stream::residency`) and `placed`.
 
-use std::collections::VecDeque;
+use std::collections::{HashMap, VecDeque};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 
@@ -24,21 +29,23 @@ use tessera_core::cut::diamond_rhos;
 use tessera_core::repository::reader::Repository;
 
 use super::device::GpuContext;
+use super::records::{PairSlots, SlotRecord, CHILDREN_OFFSET, SLOT_RECORD_BYTES};
 use super::renderer::{FrameRequest, Readback, RenderError, Renderer, RendererOptions};
-use super::resident::{PatchLocation, ResidentModel};
-use super::stream_budget::{fixed_bytes, FixedBytes};
+use super::resident::{PatchLocation, ResidentModel, PATCH_LOCATION_BYTES};
+use super::stream_budget::fixed_bytes;
 use super::stream_pool::{location_at, pool_model, Placement, PoolAllocator};
 use crate::stream::loader::{read_unit, UnitBytes};
 use crate::stream::{
     stream_frame, LoadedUnit, Loader, Residency, ResidencyStats, StreamFrame, UnitTable,
 };
+use tessera_core::repository::format::NO_INDEX;
 
 /// Why a streaming renderer cannot be made.
 #[derive(Debug, thiserror::Error)]
 pub enum StreamError {
     #[error(
-        "the GPU budget of {budget} bytes is too small: the fixed allocations (tables, lists, \
-         queues, target) take {fixed} bytes and the pinned roots {roots} bytes more"
+        "the GPU budget of {budget} bytes is too small: the fixed allocations (record slots, \
+         lists, queues, target) take {fixed} bytes and the pinned roots {roots} bytes more"
     )]
     BudgetTooSmall { budget: u64, fixed: u64, roots: u64 },
     #[error("reading the roots' patches: {0}")]
@@ -56,7 +63,8 @@ pub struct StreamedGpuFrame {
     /// The CPU reference's view of the frame (selection, refined, wanted) for the flags the
     /// GPU drew with (empty unless `set_cpu_reference`).
     pub reference: StreamFrame,
-    /// The `may_refine` words the frame was drawn with (D / 32 words).
+    /// The `may_refine` words the frame was drawn with (D / 32 words; empty unless
+    /// `set_cpu_reference`: they are O(diamonds)).
     pub may_refine_words: Vec<u32>,
     /// Loads issued, evictions planned, units uploaded by this frame.
     pub loads: usize,
@@ -72,8 +80,12 @@ pub struct StreamedGpuFrame {
 pub struct GpuStreamStats {
     /// Every GPU allocation the renderer makes, by the accounting of `stream_budget`.
     pub gpu_bytes: u64,
-    /// The fixed part of it (everything but the pool).
+    /// The fixed part of it (everything but the record slots and the page pool).
     pub fixed_bytes: u64,
+    /// Record slots (the paged directory, `records.rs`) and their bytes (records, locations,
+    /// traversal queue entries).
+    pub record_slots: u32,
+    pub record_bytes: u64,
     /// Bytes of the page pool.
     pub pool_bytes: u64,
     /// Bytes written into the pool (units uploaded, roots included).
@@ -109,10 +121,14 @@ pub struct GpuStreamer {
     loader: Loader,
     pool: PoolAllocator,
     placed: Vec<Option<Placement>>,
+    /// Record slots, and per placed unit the first slot of each of its child pairs (in the
+    /// order of `UnitTable::simplices`).
+    slots: PairSlots,
+    pairs: HashMap<u32, Vec<u32>>,
     /// Units read by the loader, waiting for pool space or the upload allowance.
     ready: VecDeque<LoadedUnit>,
-    /// Evicted placements and the last frame that could draw them.
-    retired: Vec<(u64, Placement)>,
+    /// Evicted placements and slot pairs, and the last frame that could draw them.
+    retired: Vec<(u64, Placement, Vec<u32>)>,
     submitted: u64,
     completed: Arc<AtomicU64>,
     upload_bytes_per_frame: u64,
@@ -121,9 +137,13 @@ pub struct GpuStreamer {
     resident_patches: usize,
     /// Set by the device-lost callback.
     lost: Arc<std::sync::Mutex<Option<String>>>,
-    /// Bumped at every flags upload; per frame drawn (renderer's number), the version used.
+    /// Bumped at every flags upload; per frame drawn (renderer's number), the version used
+    /// and the view's (bumped when the camera, τ or culling changes: feedback from another
+    /// view does not make this one settled).
     flags_version: u64,
-    versions: VecDeque<(u64, u64)>,
+    versions: VecDeque<(u64, u64, u64)>,
+    view: Option<(crate::camera::Camera, f32, tessera_core::cull::CullTests)>,
+    view_version: u64,
     /// Compute the CPU reference every frame (`set_cpu_reference`), and per frame drawn its
     /// refined and wanted lists, to compare with the GPU's when they arrive.
     cpu_reference: bool,
@@ -146,27 +166,34 @@ impl GpuStreamer {
             repo.tets(),
             repo.header().root_tet_count as usize,
         );
-        let FixedBytes { fixed, layout } = fixed_bytes(ctx, &repo, &options);
+        let sizes = fixed_bytes(ctx, &repo, &options);
+        let layout = sizes.layout;
         let roots = units.root_bytes();
-        let pool_bytes = layout.pages as u64 * layout.page_bytes;
+        let root_count = units.roots().len() as u32;
+        let pool_bytes = sizes.pool_bytes();
         // Padding (each patch 8-aligned) and fragmentation need slack: the residency gets
-        // seven eighths of the pool.
+        // seven eighths of the pool. Record slots come in pairs and do not fragment: the
+        // residency gets every one.
         let budget = pool_bytes - pool_bytes / 8;
-        if fixed > options.budget_bytes || roots > budget {
-            return Err(StreamError::BudgetTooSmall {
-                budget: options.budget_bytes,
-                fixed,
-                roots,
-            });
+        let slots = PairSlots::new(sizes.slots, root_count);
+        let record_budget = root_count as u64 + 2 * slots.pairs() as u64;
+        let too_small = StreamError::BudgetTooSmall {
+            budget: options.budget_bytes,
+            fixed: sizes.fixed + sizes.record_bytes(),
+            roots,
+        };
+        if sizes.total() > options.budget_bytes || roots > budget || root_count > sizes.slots {
+            return Err(too_small);
         }
         let scope = ctx.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
-        let model: ResidentModel = pool_model(ctx, &repo, &layout);
+        let model: ResidentModel = pool_model(ctx, &repo, &layout, sizes.slots);
         let capacity = feedback_capacity(repo.tets().len(), options.width, options.height);
-        let renderer = Renderer::with_model(ctx, &repo, options, model, capacity)?;
+        let mut renderer =
+            Renderer::with_model(ctx, &repo, options, model, capacity, Some(repo.clone()))?;
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(StreamError::Device(format!(
-                "allocating {} bytes of pool and tables: {e}",
-                fixed + pool_bytes
+                "allocating {} bytes of pools and working buffers: {e}",
+                sizes.total()
             )));
         }
         let lost = Arc::new(std::sync::Mutex::new(None));
@@ -176,16 +203,16 @@ impl GpuStreamer {
                 *slot = Some(format!("device lost ({reason:?}): {message}"));
             }
         });
-        let residency = Residency::new(units, budget).map_err(|_| StreamError::BudgetTooSmall {
-            budget: options.budget_bytes,
-            fixed,
-            roots,
-        })?;
+        let mut residency =
+            Residency::with_records(units, budget, record_budget).map_err(|_| too_small)?;
+        residency.track_changed_flags();
         let mut streamer = GpuStreamer {
             loader: Loader::new(repo.clone()),
             placed: vec![None; residency.units().len()],
             residency,
             pool: PoolAllocator::new(layout.pages, layout.page_bytes, layout.patch_capacity),
+            slots,
+            pairs: HashMap::new(),
             ready: VecDeque::new(),
             retired: Vec::new(),
             submitted: 0,
@@ -201,11 +228,15 @@ impl GpuStreamer {
             lost,
             flags_version: 0,
             versions: VecDeque::new(),
+            view: None,
+            view_version: 0,
             cpu_reference: false,
             expected: VecDeque::new(),
             stats: GpuStreamStats {
-                gpu_bytes: fixed + pool_bytes,
-                fixed_bytes: fixed,
+                gpu_bytes: sizes.total(),
+                fixed_bytes: sizes.fixed,
+                record_slots: sizes.slots,
+                record_bytes: sizes.record_bytes(),
                 pool_bytes,
                 ..Default::default()
             },
@@ -213,10 +244,14 @@ impl GpuStreamer {
         };
         let root_simplices: Vec<u32> = streamer.residency.units().roots().to_vec();
         let bytes = read_unit(&streamer.repo, &root_simplices).map_err(StreamError::Roots)?;
-        if streamer.place(ctx, &renderer, &bytes).is_none() {
+        let root_slots: Vec<u32> = (0..root_count).collect();
+        if streamer
+            .place(ctx, &mut renderer, &bytes, &root_slots)
+            .is_none()
+        {
             return Err(StreamError::BudgetTooSmall {
                 budget: options.budget_bytes,
-                fixed,
+                fixed: sizes.fixed + sizes.record_bytes(),
                 roots,
             });
         }
@@ -248,55 +283,158 @@ impl GpuStreamer {
         }
     }
 
-    /// Places `bytes` in the pool and writes them and their locations; `None` when no page
-    /// has room.
+    /// Places `bytes` in the pool and writes them, and each patch's slot record (no child
+    /// link) and location into its slot (`slots[k]` for patch k); `None` when no page has room.
     fn place(
         &mut self,
         ctx: &GpuContext,
-        renderer: &Renderer,
+        renderer: &mut Renderer,
         bytes: &UnitBytes,
+        slots: &[u32],
     ) -> Option<Placement> {
         let tets = self.repo.tets();
+        let diamonds = self.repo.diamonds();
         let nonempty = bytes
             .patches
             .iter()
             .filter(|&&(t, _, _)| tets[t as usize].strip_index_count != 0)
             .count() as u32;
         let placed = self.pool.allocate(bytes.bytes.len() as u64, nonempty)?;
-        let page = &renderer.model().pages[placed.page as usize].buffer;
+        let model = renderer.model();
+        let page = &model.pages[placed.page as usize].buffer;
         let mut data = bytes.bytes.clone();
         data.resize(data.len().next_multiple_of(4).max(4), 0);
         ctx.queue.write_buffer(page, placed.offset, &data);
-        for &(t, at, _) in &bytes.patches {
-            let mut location: PatchLocation = location_at(
-                &self.repo,
-                &tets[t as usize],
-                placed.page,
-                placed.offset + at as u64,
-            );
+        // Records and locations, one write per run of consecutive slots (a pair, or the
+        // roots).
+        let (mut records, mut locations) = (Vec::new(), Vec::new());
+        let mut run_start = 0;
+        for (k, &(t, at, _)) in bytes.patches.iter().enumerate() {
+            let tet = &tets[t as usize];
+            let diamond = (tet.diamond != NO_INDEX).then(|| &diamonds[tet.diamond as usize]);
+            records.push(SlotRecord::new(t, tet, diamond, NO_INDEX));
+            let mut location: PatchLocation =
+                location_at(&self.repo, tet, placed.page, placed.offset + at as u64);
             if location.page == placed.page {
                 location.first_entry = self.first_entries[placed.page as usize];
             }
-            ctx.queue.write_buffer(
-                &renderer.model().locations,
-                t as u64 * std::mem::size_of::<PatchLocation>() as u64,
-                bytemuck::bytes_of(&location),
-            );
+            locations.push(location);
+            let last = k + 1 == slots.len() || slots[k + 1] != slots[k] + 1;
+            if last {
+                let slot = slots[run_start] as u64;
+                ctx.queue.write_buffer(
+                    &model.records,
+                    slot * SLOT_RECORD_BYTES,
+                    bytemuck::cast_slice(&records),
+                );
+                ctx.queue.write_buffer(
+                    &model.locations,
+                    slot * PATCH_LOCATION_BYTES,
+                    bytemuck::cast_slice(&locations),
+                );
+                records.clear();
+                locations.clear();
+                run_start = k + 1;
+            }
+        }
+        for (&(t, _, _), &slot) in bytes.patches.iter().zip(slots) {
+            renderer.set_slot_simplex(slot, t);
         }
         self.stats.uploaded_bytes += placed.bytes;
         self.resident_patches += bytes.patches.len();
         Some(placed)
     }
 
+    /// Places unit `u`: a slot pair per child pair, then its bytes (`place`); `None` (nothing
+    /// taken) when either pool has no room.
+    fn place_unit(
+        &mut self,
+        ctx: &GpuContext,
+        renderer: &mut Renderer,
+        u: u32,
+        bytes: &UnitBytes,
+    ) -> Option<Placement> {
+        let n = bytes.patches.len();
+        debug_assert!(
+            n.is_multiple_of(2),
+            "unit {u}: {n} simplices, not child pairs"
+        );
+        let pairs = self.slots.allocate_pairs(n / 2)?;
+        let slots: Vec<u32> = (0..n).map(|k| pairs[k / 2] + (k % 2) as u32).collect();
+        match self.place(ctx, renderer, bytes, &slots) {
+            Some(placed) => {
+                self.pairs.insert(u, pairs);
+                Some(placed)
+            }
+            None => {
+                for p in pairs {
+                    self.slots.free(p);
+                }
+                None
+            }
+        }
+    }
+
+    /// Step 3: writes the child link of every simplex of diamond `d` that is in a slot now:
+    /// the slot of its children's pair in R(d) when `d` may refine, else `NO_INDEX`. The
+    /// simplices of `d` were created by its parents (the roots when it has none), so they are
+    /// found in the parents' placed units, read through the map.
+    fn write_links(&self, ctx: &GpuContext, renderer: &Renderer, d: u32) {
+        let tets = self.repo.tets();
+        let units = self.residency.units();
+        let on = self.residency.may_refine()[d as usize];
+        let children = if on { self.pairs.get(&d) } else { None };
+        debug_assert!(!on || children.is_some(), "diamond {d} may refine unplaced");
+        let link = |s: u32| -> u32 {
+            let Some(pairs) = children else {
+                return NO_INDEX;
+            };
+            let c = tets[s as usize].first_child;
+            match units.simplices(d).binary_search(&c) {
+                Ok(k) if k % 2 == 0 => pairs[k / 2],
+                _ => NO_INDEX, // not in R(d): the reader's checks rule this out
+            }
+        };
+        let records = &renderer.model().records;
+        let write = |slot: u32, s: u32| {
+            ctx.queue.write_buffer(
+                records,
+                slot as u64 * SLOT_RECORD_BYTES + CHILDREN_OFFSET,
+                bytemuck::bytes_of(&link(s)),
+            );
+        };
+        let parents = units.parents(d);
+        if parents.is_empty() {
+            for &s in units.roots() {
+                if tets[s as usize].diamond == d {
+                    write(s, s);
+                }
+            }
+        }
+        for &p in parents {
+            let Some(pairs) = self.pairs.get(&p) else {
+                continue; // evicted: its slots are not its simplices' any more
+            };
+            for (k, &s) in units.simplices(p).iter().enumerate() {
+                if tets[s as usize].diamond == d {
+                    write(pairs[k / 2] + (k % 2) as u32, s);
+                }
+            }
+        }
+    }
+
     /// Steps 1–3 of the module comment; returns the units uploaded.
-    fn land(&mut self, ctx: &GpuContext, renderer: &Renderer) -> Result<usize, RenderError> {
+    fn land(&mut self, ctx: &GpuContext, renderer: &mut Renderer) -> Result<usize, RenderError> {
         let _ = ctx.device.poll(wgpu::PollType::Poll);
         let completed = self.completed.load(Ordering::Acquire);
-        let pool = &mut self.pool;
-        self.retired.retain(|&(frame, placed)| {
-            let done = frame <= completed;
+        let (pool, slots) = (&mut self.pool, &mut self.slots);
+        self.retired.retain(|(frame, placed, pairs)| {
+            let done = *frame <= completed;
             if done {
-                pool.free(placed);
+                pool.free(*placed);
+                for &p in pairs {
+                    slots.free(p);
+                }
             }
             !done
         });
@@ -309,7 +447,10 @@ impl GpuStreamer {
                 Ok(bytes) => {
                     let over = uploaded > 0
                         && uploaded_bytes + bytes.bytes.len() as u64 > self.upload_bytes_per_frame;
-                    match (!over).then(|| self.place(ctx, renderer, bytes)).flatten() {
+                    let placed = (!over)
+                        .then(|| self.place_unit(ctx, renderer, unit.unit, bytes))
+                        .flatten();
+                    match placed {
                         Some(placed) => {
                             self.placed[unit.unit as usize] = Some(placed);
                             self.residency.complete(unit.unit, true);
@@ -325,10 +466,12 @@ impl GpuStreamer {
             }
         }
         self.ready = waiting;
-        // The flags after the bytes they point to: both are queue writes, applied in order
-        // before the frame's commands.
+        // The flags (child links) after the records they point to: both are queue writes,
+        // applied in order before the frame's commands.
         if self.residency.take_flags_changed() {
-            renderer.set_may_refine(ctx, &self.residency.may_refine_words())?;
+            for d in self.residency.take_changed_flags() {
+                self.write_links(ctx, renderer, d);
+            }
             self.flags_version += 1;
         }
         Ok(uploaded)
@@ -354,9 +497,19 @@ impl GpuStreamer {
             completed.fetch_max(frame, Ordering::AcqRel);
         });
 
-        let may_refine_words = self.residency.may_refine_words();
+        let may_refine_words = if self.cpu_reference {
+            self.residency.may_refine_words()
+        } else {
+            Vec::new()
+        };
         let drawn = renderer.frames_submitted();
-        self.versions.push_back((drawn, self.flags_version));
+        let view = Some((request.camera, request.tau, request.cull));
+        if self.view != view {
+            self.view = view;
+            self.view_version += 1;
+        }
+        self.versions
+            .push_back((drawn, self.flags_version, self.view_version));
         // The CPU reference for the flags this frame was drawn with, when asked for (checks).
         let reference = if self.cpu_reference {
             let origin = self.repo.header().origin;
@@ -400,17 +553,17 @@ impl GpuStreamer {
             while self.versions.front().is_some_and(|v| v.0 < fb.frame) {
                 self.versions.pop_front();
             }
-            fresh = self
-                .versions
-                .front()
-                .is_some_and(|&(f, v)| f == fb.frame && v == self.flags_version);
+            fresh = self.versions.front().is_some_and(|&(f, v, w)| {
+                f == fb.frame && v == self.flags_version && w == self.view_version
+            });
             self.residency.feedback(&fb.refined, &fb.wanted);
             let plan = self.residency.plan(self.upload_bytes_per_frame);
             for &u in &plan.evict {
                 // Drawn at the latest by the frame just submitted.
                 if let Some(placed) = self.placed[u as usize].take() {
                     self.resident_patches -= self.residency.units().simplices(u).len();
-                    self.retired.push((self.submitted, placed));
+                    let pairs = self.pairs.remove(&u).unwrap_or_default();
+                    self.retired.push((self.submitted, placed, pairs));
                 }
             }
             evictions += plan.evict.len();
@@ -421,7 +574,8 @@ impl GpuStreamer {
                 .submit(u, self.residency.units().simplices(u).to_vec());
         }
         let stats = self.residency.stats();
-        // Settled: the latest feedback saw the current flags, and asked for nothing more.
+        // Settled: the latest feedback saw the current flags and view, and asked for nothing
+        // more.
         let settled =
             fresh && loads.is_empty() && stats.loading_units == 0 && self.ready.is_empty();
         let plan_loads = loads.len();

@@ -21,6 +21,10 @@ const DISPATCH_ARGS_BYTES: u64 = 12;
 struct Step {
     depth: u32,
     root_count: u32,
+    /// 1: the `may_refine` words gate refinement (fully resident); 0: the slots' child links
+    /// alone (streaming, `records.rs`).
+    gate_words: u32,
+    pad: u32,
 }
 
 /// The traversal's pipeline and working buffers.
@@ -38,9 +42,11 @@ pub struct Traversal {
     dispatch_template: wgpu::Buffer,
     dispatch_bytes: u64,
     depth_count: u32,
-    /// `may_refine` flag words, one bit per diamond.
+    /// `may_refine` flag words, one bit per diamond (fully resident; one unused word when
+    /// streaming, where the slots' child links are the flags).
     may_refine: wgpu::Buffer,
     diamond_count: u32,
+    streamed: bool,
 }
 
 fn entry(
@@ -81,14 +87,13 @@ impl Traversal {
             label: Some("traverse tables"),
             entries: &[
                 entry(0, B::Uniform, false),
-                entry(1, storage(true), false),
-                entry(2, storage(true), false),
-                entry(3, storage(true), false),
-                entry(4, storage(false), false),
-                entry(5, storage(false), false),
-                entry(6, storage(false), false),
-                entry(7, storage(true), false),
-                entry(8, storage(false), false),
+                entry(1, storage(true), false),  // slot records
+                entry(2, storage(true), false),  // locations
+                entry(3, storage(false), false), // selection lists
+                entry(4, storage(false), false), // their counts
+                entry(5, storage(false), false), // queued per depth
+                entry(6, storage(true), false),  // may_refine words
+                entry(7, storage(false), false), // feedback
             ],
         });
         let step_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -151,15 +156,21 @@ impl Traversal {
             dispatch_buffer("traversal dispatches (even depths)"),
             dispatch_buffer("traversal dispatches (odd depths)"),
         ];
+        let words = if model.streamed {
+            vec![0u32]
+        } else {
+            may_refine_all(model.diamond_count as usize)
+        };
         let may_refine = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("may refine"),
-            contents: bytemuck::cast_slice(&may_refine_all(model.diamond_count as usize)),
+            contents: bytemuck::cast_slice(&words),
             usage: U::STORAGE | U::COPY_DST,
         });
+        // A depth's queue holds at most every slot (a reached simplex is in a slot).
         let queue = |label| {
             device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some(label),
-                size: 4 * (model.tet_count.max(1) as u64),
+                size: 4 * (model.slot_count.max(1) as u64),
                 usage: U::STORAGE,
                 mapped_at_creation: false,
             })
@@ -174,8 +185,11 @@ impl Traversal {
             let step = Step {
                 depth,
                 root_count: model.root_count,
+                gate_words: u32::from(!model.streamed),
+                pad: 0,
             };
-            step_bytes[at..at + 8].copy_from_slice(bytemuck::bytes_of(&step));
+            let bytes = bytemuck::bytes_of(&step);
+            step_bytes[at..at + bytes.len()].copy_from_slice(bytes);
         }
         let steps_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("traversal steps"),
@@ -187,8 +201,7 @@ impl Traversal {
             layout: &tables_layout,
             entries: &[
                 frame,
-                &model.diamonds,
-                &model.tets,
+                &model.records,
                 &model.locations,
                 selected,
                 counts,
@@ -247,14 +260,16 @@ impl Traversal {
             depth_count: depths,
             may_refine,
             diamond_count: model.diamond_count,
+            streamed: model.streamed,
         }
     }
 
     /// Replaces the `may_refine` flags (`tessera_core::cut`: one bit per diamond, closed
     /// downwards by the caller) for the frames that follow; `false` when `words` is not
-    /// `may_refine_all(diamonds).len()` words long (nothing is written then).
+    /// `may_refine_all(diamonds).len()` words long, or when streaming (whose flags are the
+    /// slots' child links: nothing is written then).
     pub fn set_may_refine(&self, queue: &wgpu::Queue, words: &[u32]) -> bool {
-        if words.len() != may_refine_all(self.diamond_count as usize).len() {
+        if self.streamed || words.len() != may_refine_all(self.diamond_count as usize).len() {
             return false;
         }
         queue.write_buffer(&self.may_refine, 0, bytemuck::cast_slice(words));

@@ -19,6 +19,10 @@
 //!
 //! A unit that fails to load (a damaged patch) is broken for good: it never becomes resident,
 //! so the diamond whose split creates the damaged patch never refines.
+//!
+//! Two budgets: bytes (the units' patches) and records (one per simplex of a unit: the GPU's
+//! record slots, `gpu::records`); a load must fit both, and eviction makes room in both. The
+//! CPU streamer leaves records unlimited.
 
 use super::units::UnitTable;
 
@@ -40,6 +44,8 @@ pub enum UnitState {
 pub struct ResidencyStats {
     /// Bytes of resident and loading units plus the pinned roots.
     pub resident_bytes: u64,
+    /// Records (simplices) of resident and loading units plus the pinned roots.
+    pub resident_records: u64,
     /// The most `resident_bytes` ever reached.
     pub peak_resident_bytes: u64,
     /// Units resident now.
@@ -89,15 +95,37 @@ pub struct Residency {
     resident: Vec<u32>,
     resident_at: Vec<u32>,
     budget_bytes: u64,
+    budget_records: u64,
     frame: u64,
     flags_changed: bool,
+    /// Diamonds whose flag changed since `take_changed_flags` (duplicates allowed), when
+    /// `track_changes`.
+    changed: Vec<u32>,
+    track_changes: bool,
     stats: ResidencyStats,
 }
 
 impl Residency {
     /// Every unit absent; the roots' patches pinned. Fails when the roots alone exceed the
-    /// budget (the message gives both sizes).
+    /// budget (the message gives both sizes). Records unlimited.
     pub fn new(units: UnitTable, budget_bytes: u64) -> Result<Residency, String> {
+        Residency::with_records(units, budget_bytes, u64::MAX)
+    }
+
+    /// As `new`, with at most `budget_records` records (simplices) resident or loading, the
+    /// roots' included.
+    pub fn with_records(
+        units: UnitTable,
+        budget_bytes: u64,
+        budget_records: u64,
+    ) -> Result<Residency, String> {
+        let root_records = units.roots().len() as u64;
+        if root_records > budget_records {
+            return Err(format!(
+                "the roots take {root_records} records, more than the budget of \
+                 {budget_records} records"
+            ));
+        }
         if units.root_bytes() > budget_bytes {
             return Err(format!(
                 "the roots' patches take {} bytes, more than the budget of {budget_bytes} bytes",
@@ -107,6 +135,7 @@ impl Residency {
         let n = units.len();
         let stats = ResidencyStats {
             resident_bytes: units.root_bytes(),
+            resident_records: root_records,
             peak_resident_bytes: units.root_bytes(),
             ..Default::default()
         };
@@ -122,8 +151,11 @@ impl Residency {
             resident: Vec::new(),
             resident_at: vec![0; n],
             budget_bytes,
+            budget_records,
             frame: 0,
             flags_changed: true,
+            changed: Vec::new(),
+            track_changes: false,
             stats,
         })
     }
@@ -150,6 +182,25 @@ impl Residency {
     /// True once since the flags last changed (the caller uploads them then).
     pub fn take_flags_changed(&mut self) -> bool {
         std::mem::take(&mut self.flags_changed)
+    }
+
+    /// From now on, record which diamonds' flags change (`take_changed_flags`).
+    pub fn track_changed_flags(&mut self) {
+        self.track_changes = true;
+    }
+
+    /// The diamonds whose flag changed since the last call (with `track_changed_flags`), each
+    /// once, ascending (the caller writes their current flags).
+    pub fn take_changed_flags(&mut self) -> Vec<u32> {
+        let mut changed = std::mem::take(&mut self.changed);
+        changed.sort_unstable();
+        changed.dedup();
+        changed
+    }
+
+    /// The record budget.
+    pub fn budget_records(&self) -> u64 {
+        self.budget_records
     }
 
     /// Where unit `d` is.
@@ -248,6 +299,7 @@ impl Residency {
                 continue;
             }
             let bytes = self.units.bytes(u);
+            let records = self.units.simplices(u).len() as u64;
             if !plan.load.is_empty() && issued_bytes + bytes > upload_bytes {
                 break;
             }
@@ -255,11 +307,13 @@ impl Residency {
             // Make room, never for a request that does not outrank the victim, and only when
             // the room can be made: evicting without loading would only start a cycle.
             let over = (self.stats.resident_bytes + bytes).saturating_sub(self.budget_bytes);
-            if over > 0 {
-                let mut freed = 0u64;
+            let over_records =
+                (self.stats.resident_records + records).saturating_sub(self.budget_records);
+            if over > 0 || over_records > 0 {
+                let (mut freed, mut freed_records) = (0u64, 0u64);
                 let mut chosen = Vec::new();
                 for (k, &v) in victims.iter().enumerate().rev() {
-                    if freed >= over {
+                    if freed >= over && freed_records >= over_records {
                         break;
                     }
                     if !self.evictable(v) {
@@ -269,9 +323,10 @@ impl Residency {
                         break;
                     }
                     freed += self.units.bytes(v);
+                    freed_records += self.units.simplices(v).len() as u64;
                     chosen.push(k);
                 }
-                if freed < over {
+                if freed < over || freed_records < over_records {
                     continue; // does not fit: a smaller candidate may
                 }
                 // `chosen` holds descending positions: removing them in order keeps the rest.
@@ -304,6 +359,7 @@ impl Residency {
             self.live_children[p as usize] += 1;
         }
         self.stats.resident_bytes += bytes;
+        self.stats.resident_records += self.units.simplices(u).len() as u64;
         self.stats.peak_resident_bytes = self
             .stats
             .peak_resident_bytes
@@ -326,6 +382,7 @@ impl Residency {
             self.live_children[p as usize] -= 1;
         }
         self.stats.resident_bytes -= self.units.bytes(v);
+        self.stats.resident_records -= self.units.simplices(v).len() as u64;
         self.stats.resident_units -= 1;
         self.stats.evictions += 1;
     }
@@ -334,6 +391,9 @@ impl Residency {
         if self.may_refine[d as usize] != value {
             self.may_refine[d as usize] = value;
             self.flags_changed = true;
+            if self.track_changes {
+                self.changed.push(d);
+            }
         }
     }
 
@@ -354,6 +414,7 @@ impl Residency {
                 self.live_children[p as usize] -= 1;
             }
             self.stats.resident_bytes -= self.units.bytes(u);
+            self.stats.resident_records -= self.units.simplices(u).len() as u64;
             self.stats.broken_units += 1;
             return;
         }
@@ -382,11 +443,13 @@ impl Residency {
     /// states. Returns the first violation.
     pub fn check_invariants(&self) -> Result<(), String> {
         let mut bytes = self.units.root_bytes();
+        let mut records = self.units.roots().len() as u64;
         let mut live = vec![0u32; self.state.len()];
         for d in 0..self.state.len() as u32 {
             let s = self.state[d as usize];
             if matches!(s, UnitState::Resident | UnitState::Loading) {
                 bytes += self.units.bytes(d);
+                records += self.units.simplices(d).len() as u64;
                 for &p in self.units.parents(d) {
                     live[p as usize] += 1;
                 }
@@ -423,6 +486,12 @@ impl Residency {
             return Err(format!(
                 "resident bytes {} but the states add up to {bytes}",
                 self.stats.resident_bytes
+            ));
+        }
+        if records != self.stats.resident_records || records > self.budget_records {
+            return Err(format!(
+                "resident records {} (budget {}) but the states add up to {records}",
+                self.stats.resident_records, self.budget_records
             ));
         }
         if bytes > self.budget_bytes {
