@@ -148,6 +148,30 @@ pub struct RawStaged {
     pub attributes: VertexAttributes,
 }
 
+impl RawStaged {
+    /// Stages a mesh already in memory.
+    pub fn from_raw(raw: &crate::import::RawMesh, dir: &Path) -> io::Result<RawStaged> {
+        let mut stager = RawStager::new(
+            dir,
+            raw.normals.is_some(),
+            raw.colors.is_some(),
+            raw.uvs.is_some(),
+        )?;
+        for (i, &position) in raw.positions.iter().enumerate() {
+            stager.push_vertex(&RawVertex {
+                position,
+                normal: raw.normals.as_ref().map_or([0.0; 3], |n| n[i]),
+                color: raw.colors.as_ref().map_or([0; 4], |c| c[i]),
+                uv: raw.uvs.as_ref().map_or([0.0; 2], |u| u[i]),
+            })?;
+        }
+        for &t in &raw.triangles {
+            stager.push_triangle(t)?;
+        }
+        stager.finish()
+    }
+}
+
 /// Writes a mesh as it is read: vertices (with the attributes the input declared) and
 /// triangles, in any interleaving.
 pub struct RawStager {

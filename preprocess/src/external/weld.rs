@@ -322,34 +322,15 @@ fn check(error: Option<io::Error>) -> io::Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::external::staged::{RawStager, RawVertex};
+    use crate::external::staged::RawStaged;
     use crate::import::{weld, RawMesh};
     use proptest::prelude::*;
 
     /// Stages `raw`, welds it out of core with `budget`, and checks it against `import::weld`.
     fn same_as_in_memory(raw: &RawMesh, budget: usize) {
         let dir = tempfile::tempdir().unwrap();
-        let mut stager = RawStager::new(
-            dir.path(),
-            raw.normals.is_some(),
-            raw.colors.is_some(),
-            raw.uvs.is_some(),
-        )
-        .unwrap();
-        for (i, &position) in raw.positions.iter().enumerate() {
-            stager
-                .push_vertex(&RawVertex {
-                    position,
-                    normal: raw.normals.as_ref().map_or([0.0; 3], |n| n[i]),
-                    color: raw.colors.as_ref().map_or([0; 4], |c| c[i]),
-                    uv: raw.uvs.as_ref().map_or([0.0; 2], |u| u[i]),
-                })
-                .unwrap();
-        }
-        for &t in &raw.triangles {
-            stager.push_triangle(t).unwrap();
-        }
-        let staged = weld_external(stager.finish().unwrap(), budget, dir.path()).unwrap();
+        let stager = RawStaged::from_raw(raw, dir.path()).unwrap();
+        let staged = weld_external(stager, budget, dir.path()).unwrap();
         let expected = weld(raw.clone());
         assert_eq!(staged.load().unwrap(), expected.mesh);
         let counts = |s: &StagedMesh| {

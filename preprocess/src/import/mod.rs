@@ -113,6 +113,40 @@ pub fn load_mesh_from_reader(
         .map_err(|kind| kind.at_path(name))
 }
 
+/// Stages the mesh at `path` on disk (the out-of-core build's import): streamed once into
+/// record files in `dir`, then welded and cleaned by `external::weld_external` with about
+/// `budget` bytes of memory — the same mesh, ids and counts as [`load_mesh`]. PLY (ASCII,
+/// binary, `.gz`) streams; other formats are read whole first. A mesh with no triangles left
+/// is an error.
+pub fn stage_mesh(
+    path: &Path,
+    dir: &Path,
+    budget: usize,
+) -> Result<crate::external::StagedMesh, ImportError> {
+    let at = |kind: ImportErrorKind| kind.at_path(path);
+    let (format, gz) = format_of(path).map_err(at)?;
+    let raw = match format {
+        MeshFormat::Ply => ply::read_into(&mut Input::open(path, gz).map_err(at)?, |d| {
+            crate::external::RawStager::new(dir, d.normals, d.colors, d.uvs)
+                .map_err(ImportErrorKind::Io)
+        })
+        .and_then(|stager| stager.finish().map_err(ImportErrorKind::Io))
+        .map_err(at)?,
+        _ => crate::external::RawStaged::from_raw(&read_raw(path).map_err(at)?, dir)
+            .map_err(|e| at(ImportErrorKind::Io(e)))?,
+    };
+    let staged =
+        crate::external::weld_external(raw, budget, dir).map_err(|e| at(ImportErrorKind::Io(e)))?;
+    if staged.triangles.is_empty() {
+        return Err(at(ImportErrorKind::Empty {
+            raw_triangles: staged.raw_triangles as usize,
+            degenerate: staged.degenerate_triangles as usize,
+            duplicate: staged.duplicate_triangles as usize,
+        }));
+    }
+    Ok(staged)
+}
+
 /// Welds and cleans; a mesh with no triangles left is an error.
 fn finish(raw: RawMesh) -> Result<ImportReport, ImportErrorKind> {
     let report = weld(raw);

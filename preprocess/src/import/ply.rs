@@ -6,6 +6,57 @@
 use super::error::{show, ImportErrorKind as K, Location};
 use super::input::{check_finite, fan, parse_int, Input};
 use super::RawMesh;
+use crate::external::{RawStager, RawVertex};
+
+/// Where a reader puts what it reads: in memory (`RawMesh`) or on disk (`RawStager`, the
+/// out-of-core build's staging).
+pub(crate) trait MeshSink {
+    fn vertex(&mut self, v: &RawVertex) -> Result<(), K>;
+    fn triangles(&mut self, t: &[[u32; 3]]) -> Result<(), K>;
+}
+
+impl MeshSink for RawMesh {
+    fn vertex(&mut self, v: &RawVertex) -> Result<(), K> {
+        self.positions.push(v.position);
+        if let Some(n) = &mut self.normals {
+            n.push(v.normal);
+        }
+        if let Some(c) = &mut self.colors {
+            c.push(v.color);
+        }
+        if let Some(uv) = &mut self.uvs {
+            uv.push(v.uv);
+        }
+        Ok(())
+    }
+
+    fn triangles(&mut self, t: &[[u32; 3]]) -> Result<(), K> {
+        self.triangles.extend_from_slice(t);
+        Ok(())
+    }
+}
+
+impl MeshSink for RawStager {
+    fn vertex(&mut self, v: &RawVertex) -> Result<(), K> {
+        self.push_vertex(v).map_err(K::Io)
+    }
+
+    fn triangles(&mut self, t: &[[u32; 3]]) -> Result<(), K> {
+        t.iter()
+            .try_for_each(|&t| self.push_triangle(t))
+            .map_err(K::Io)
+    }
+}
+
+/// The attributes a file's vertices carry, and how many vertices and face-like records its
+/// header declares (a hint for preallocation, bounded by the file's size where known).
+pub(crate) struct Declared {
+    pub normals: bool,
+    pub colors: bool,
+    pub uvs: bool,
+    pub vertex_capacity: usize,
+    pub face_capacity: usize,
+}
 
 /// Longest header line accepted.
 const MAX_HEADER_LINE: usize = 64 * 1024;
@@ -285,16 +336,8 @@ enum Slot {
     Uv(usize),
 }
 
-#[derive(Clone, Copy)]
-struct VertexRec {
-    pos: [f64; 3],
-    normal: [f32; 3],
-    color: [u8; 4],
-    uv: [f32; 2],
-}
-
-const EMPTY_REC: VertexRec = VertexRec {
-    pos: [0.0; 3],
+const EMPTY_REC: RawVertex = RawVertex {
+    position: [0.0; 3],
     normal: [0.0; 3],
     color: [0, 0, 0, 255],
     uv: [0.0; 2],
@@ -354,10 +397,10 @@ impl VertexLayout {
     }
 
     #[inline]
-    fn apply(&self, k: usize, v: f64, rec: &mut VertexRec) {
+    fn apply(&self, k: usize, v: f64, rec: &mut RawVertex) {
         match self.slots[k] {
             Slot::Skip => {}
-            Slot::Pos(i) => rec.pos[i] = v,
+            Slot::Pos(i) => rec.position[i] = v,
             Slot::Normal(i) => rec.normal[i] = v as f32,
             Slot::Color(i, ty) => {
                 rec.color[i] = if ty.is_int() {
@@ -378,8 +421,24 @@ enum FaceKind {
     Strips,
 }
 
-/// Reads a PLY file.
+/// Reads a PLY file into memory.
 pub(crate) fn read(input: &mut Input) -> Result<RawMesh, K> {
+    read_into(input, |d| {
+        Ok(RawMesh {
+            positions: Vec::with_capacity(d.vertex_capacity),
+            triangles: Vec::with_capacity(d.face_capacity),
+            normals: d.normals.then(|| Vec::with_capacity(d.vertex_capacity)),
+            colors: d.colors.then(|| Vec::with_capacity(d.vertex_capacity)),
+            uvs: d.uvs.then(|| Vec::with_capacity(d.vertex_capacity)),
+        })
+    })
+}
+
+/// Reads a PLY file into the sink `make_sink` makes once the header is read.
+pub(crate) fn read_into<S: MeshSink>(
+    input: &mut Input,
+    make_sink: impl FnOnce(&Declared) -> Result<S, K>,
+) -> Result<S, K> {
     let (format, elements) = parse_header(input)?;
 
     let mut vertex_el = None;
@@ -463,14 +522,6 @@ pub(crate) fn read(input: &mut Input) -> Result<RawMesh, K> {
         _ => false,
     };
 
-    let cap = input.prealloc(nv, bounded);
-    let mut mesh = RawMesh {
-        positions: Vec::with_capacity(cap),
-        triangles: Vec::new(),
-        normals: layout.normals.then(|| Vec::with_capacity(cap)),
-        colors: layout.colors.then(|| Vec::with_capacity(cap)),
-        uvs: layout.uvs.then(|| Vec::with_capacity(cap)),
-    };
     // Saturating: an ASCII header may declare counts whose sum overflows (the records are
     // then missing, and reading them says so).
     let face_count: u64 = elements
@@ -478,7 +529,13 @@ pub(crate) fn read(input: &mut Input) -> Result<RawMesh, K> {
         .zip(&face_prop)
         .filter(|(_, f)| f.is_some())
         .fold(0, |sum, (e, _)| sum.saturating_add(e.count));
-    mesh.triangles.reserve(input.prealloc(face_count, bounded));
+    let mut mesh = make_sink(&Declared {
+        normals: layout.normals,
+        colors: layout.colors,
+        uvs: layout.uvs,
+        vertex_capacity: input.prealloc(nv, bounded),
+        face_capacity: input.prealloc(face_count, bounded),
+    })?;
 
     let big = format == Format::BinaryBe;
     for (i, el) in elements.iter().enumerate() {
@@ -491,7 +548,7 @@ pub(crate) fn read(input: &mut Input) -> Result<RawMesh, K> {
         if i == vertex_el {
             reader.vertices(&layout, &mut mesh)?;
         } else if let Some((k, kind)) = face_prop[i] {
-            reader.faces(k, kind, nv, &mut mesh.triangles)?;
+            reader.faces(k, kind, nv, &mut mesh)?;
         } else {
             reader.skip()?;
         }
@@ -630,7 +687,7 @@ impl Reader<'_> {
         Ok(())
     }
 
-    fn vertices(&mut self, layout: &VertexLayout, mesh: &mut RawMesh) -> Result<(), K> {
+    fn vertices(&mut self, layout: &VertexLayout, mesh: &mut impl MeshSink) -> Result<(), K> {
         let el = self.el;
         for i in 0..el.count {
             let line = self.start_record(i)?;
@@ -646,23 +703,14 @@ impl Reader<'_> {
             }
             self.end_record(line)?;
             let binary = self.binary;
-            check_finite(rec.pos, i, || {
+            check_finite(rec.position, i, || {
                 if binary {
                     Location::None
                 } else {
                     Location::Line(line)
                 }
             })?;
-            mesh.positions.push(rec.pos);
-            if let Some(n) = &mut mesh.normals {
-                n.push(rec.normal);
-            }
-            if let Some(c) = &mut mesh.colors {
-                c.push(rec.color);
-            }
-            if let Some(uv) = &mut mesh.uvs {
-                uv.push(rec.uv);
-            }
+            mesh.vertex(&rec)?;
         }
         Ok(())
     }
@@ -672,10 +720,11 @@ impl Reader<'_> {
         list: usize,
         kind: FaceKind,
         nv: u64,
-        out: &mut Vec<[u32; 3]>,
+        sink: &mut impl MeshSink,
     ) -> Result<(), K> {
         let el = self.el;
         let mut poly: Vec<u32> = Vec::new();
+        let mut out: Vec<[u32; 3]> = Vec::new();
         for f in 0..el.count {
             let line = self.start_record(f)?;
             for (k, prop) in el.props.iter().enumerate() {
@@ -718,10 +767,12 @@ impl Reader<'_> {
                         });
                     }
                 }
+                out.clear();
                 match kind {
-                    FaceKind::Polygons => fan(&poly, out),
-                    FaceKind::Strips => strips(&poly, out),
+                    FaceKind::Polygons => fan(&poly, &mut out),
+                    FaceKind::Strips => strips(&poly, &mut out),
                 }
+                sink.triangles(&out)?;
             }
             self.end_record(line)?;
         }
