@@ -4,13 +4,15 @@
 //! cargo build --release -p tessera-preprocess --example bucketed_hierarchy
 //! /usr/bin/time -v target/release/examples/bucketed_hierarchy INPUT incore [LEAF]
 //! /usr/bin/time -v target/release/examples/bucketed_hierarchy INPUT bucketed [LEAF] [CAP] [TEMP]
+//! /usr/bin/time -v target/release/examples/bucketed_hierarchy INPUT spooled [LEAF] [CAP] [TEMP]
 //! target/release/examples/bucketed_hierarchy INPUT check [LEAF] [CAP]   # both, compared
 //! ```
 //!
 //! The mesh is loaded first (as `build` does); then the peak RSS is reset (Linux
 //! `/proc/self/clear_refs`), so the figures printed for the construction are its own peak
 //! over the loaded mesh. `incore` computes every barycentre and calls `build_hierarchy`, as
-//! `build` does; `bucketed` streams them from the mesh into `build_hierarchy_bucketed`.
+//! `build` does; `bucketed` streams them from the mesh into `build_hierarchy_bucketed`;
+//! `spooled` streams the mesh once into `SpooledBarycentres` and builds from that.
 //! LEAF defaults to 1024 triangles per leaf, CAP to 65536 per bucket, TEMP to /tmp. With
 //! `NO_PEAK_RESET=1` the peak is not reset: the figures are then the whole process's.
 
@@ -20,7 +22,7 @@ use std::time::Instant;
 use tessera_preprocess::frame::LatticeFrame;
 use tessera_preprocess::hierarchy::{
     build_hierarchy, build_hierarchy_bucketed, build_hierarchy_bucketed_with_stats, BucketBudget,
-    Hierarchy, MeshBarycentres,
+    Hierarchy, MeshBarycentres, SpooledBarycentres,
 };
 use tessera_preprocess::import::load_mesh;
 use tessera_preprocess::Construction;
@@ -39,7 +41,7 @@ fn status_kib(field: &str) -> u64 {
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
-    let usage = "usage: bucketed_hierarchy INPUT incore|bucketed|check [LEAF] [CAP] [TEMP]";
+    let usage = "usage: bucketed_hierarchy INPUT incore|bucketed|spooled|check [LEAF] [CAP] [TEMP]";
     let input = args.get(1).expect(usage);
     let mode = args.get(2).expect(usage).as_str();
     let leaf: usize = args.get(3).map_or(1024, |s| s.parse().expect(usage));
@@ -89,6 +91,20 @@ fn main() {
             };
             let (h, stats) =
                 build_hierarchy_bucketed_with_stats(frame, &source, construction, &budget)
+                    .expect("bucketed construction");
+            println!("{stats:?}");
+            h
+        }
+        "spooled" => {
+            // The mesh streamed once into a temporary file, the passes reading that.
+            let budget = BucketBudget::new(cap, temp);
+            let source = MeshBarycentres {
+                frame: &frame,
+                mesh: &mesh,
+            };
+            let spooled = SpooledBarycentres::new(&source, &budget.temp_dir).expect("spool");
+            let (h, stats) =
+                build_hierarchy_bucketed_with_stats(frame, &spooled, construction, &budget)
                     .expect("bucketed construction");
             println!("{stats:?}");
             h

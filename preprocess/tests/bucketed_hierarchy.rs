@@ -14,7 +14,7 @@ use tessera_preprocess::frame::LatticeFrame;
 use tessera_preprocess::gen_mesh::{GenMesh, MeshParams};
 use tessera_preprocess::hierarchy::{
     build_hierarchy, build_hierarchy_bucketed, build_hierarchy_bucketed_with_stats,
-    BarycentreSource, BucketBudget, BucketStats, Hierarchy, MeshBarycentres,
+    BarycentreSource, BucketBudget, BucketStats, Hierarchy, MeshBarycentres, SpooledBarycentres,
 };
 use tessera_preprocess::import::load_mesh;
 use tessera_preprocess::mesh::InputMesh;
@@ -338,6 +338,8 @@ fn errors_leave_no_temporary_files() {
         } else {
             assert!(err.to_string().contains("disk on fire"), "{err}");
         }
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+        assert!(SpooledBarycentres::new(&Broken { out_of_order }, dir.path()).is_err());
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
     }
     let missing = BucketBudget::new(100, "/nonexistent/tessera-buckets");

@@ -86,6 +86,69 @@ impl BarycentreSource for MeshBarycentres<'_> {
     }
 }
 
+/// A source's barycentres written once, in order, to an unnamed temporary file and streamed
+/// back from it sequentially as often as asked (28 bytes a triangle; the file is gone when
+/// this is dropped, or if the process dies). For sources that are costly to stream again, such
+/// as a mesh whose vertices are not in memory or not in triangle order: the bucketed
+/// construction then reads the source once.
+pub struct SpooledBarycentres {
+    file: File,
+    triangles: u64,
+}
+
+impl SpooledBarycentres {
+    /// Streams `source` once into a temporary file in `temp_dir`.
+    pub fn new(
+        source: &(impl BarycentreSource + ?Sized),
+        temp_dir: &std::path::Path,
+    ) -> io::Result<SpooledBarycentres> {
+        let mut file = tempfile::tempfile_in(temp_dir)?;
+        let mut order = InOrder::default();
+        let mut io_error = None;
+        {
+            let mut out = io::BufWriter::with_capacity(1 << 20, &mut file);
+            source.for_each_barycentre(&mut |t, q| {
+                if io_error.is_some() || !order.accept(t) {
+                    return;
+                }
+                if let Err(e) = write_record(&mut out, t, q) {
+                    io_error = Some(e);
+                }
+            })?;
+            if let Some(e) = io_error {
+                return Err(e);
+            }
+            out.flush()?;
+        }
+        let triangles = order.finish(None)?;
+        Ok(SpooledBarycentres { file, triangles })
+    }
+
+    /// Triangles spooled.
+    pub fn len(&self) -> u64 {
+        self.triangles
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.triangles == 0
+    }
+}
+
+impl BarycentreSource for SpooledBarycentres {
+    fn for_each_barycentre(&self, f: &mut dyn FnMut(u32, [f64; 3])) -> io::Result<()> {
+        let mut file = &self.file;
+        file.seek(SeekFrom::Start(0))?;
+        let mut input = io::BufReader::with_capacity(1 << 20, file);
+        let mut record = [0u8; RECORD_BYTES];
+        for _ in 0..self.triangles {
+            input.read_exact(&mut record)?;
+            let (t, q) = read_record(&record);
+            f(t, q);
+        }
+        Ok(())
+    }
+}
+
 /// How much of the input the bucketed construction may hold at once, and where its
 /// temporary file goes.
 #[derive(Clone, Debug)]
@@ -658,6 +721,21 @@ const MIN_BUFFER_BYTES: usize = 8 << 20;
 /// Bytes of one record: index (u32) and barycentre (3 × f64), little-endian.
 const RECORD_BYTES: usize = 4 + 3 * 8;
 
+fn write_record(out: &mut impl Write, t: u32, q: [f64; 3]) -> io::Result<()> {
+    let mut record = [0u8; RECORD_BYTES];
+    record[0..4].copy_from_slice(&t.to_le_bytes());
+    for (i, x) in q.iter().enumerate() {
+        record[4 + 8 * i..12 + 8 * i].copy_from_slice(&x.to_le_bytes());
+    }
+    out.write_all(&record)
+}
+
+fn read_record(r: &[u8]) -> (u32, [f64; 3]) {
+    let t = u32::from_le_bytes(r[0..4].try_into().unwrap());
+    let q = [0, 1, 2].map(|i| f64::from_le_bytes(r[4 + 8 * i..12 + 8 * i].try_into().unwrap()));
+    (t, q)
+}
+
 /// The buckets' records on disk: one unnamed temporary file of runs, each run a piece of one
 /// bucket's records in input order; a bucket's runs in the order they were written.
 struct BucketStore {
@@ -687,11 +765,7 @@ impl BucketStore {
     }
 
     fn push(&mut self, bucket: usize, t: u32, q: [f64; 3]) -> io::Result<()> {
-        let buffer = &mut self.buffers[bucket];
-        buffer.extend_from_slice(&t.to_le_bytes());
-        for x in q {
-            buffer.extend_from_slice(&x.to_le_bytes());
-        }
+        write_record(&mut self.buffers[bucket], t, q)?;
         self.counts[bucket] += 1;
         self.buffered += RECORD_BYTES;
         if self.buffered >= self.limit {
@@ -742,9 +816,7 @@ impl BucketStore {
             self.file.seek(SeekFrom::Start(offset))?;
             self.file.read_exact(&mut bytes)?;
             for r in bytes.chunks_exact(RECORD_BYTES) {
-                let t = u32::from_le_bytes(r[0..4].try_into().unwrap());
-                let q = [0, 1, 2]
-                    .map(|i| f64::from_le_bytes(r[4 + 8 * i..12 + 8 * i].try_into().unwrap()));
+                let (t, q) = read_record(r);
                 f(t, q);
             }
         }

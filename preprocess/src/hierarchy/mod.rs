@@ -11,7 +11,7 @@ mod bucketed;
 
 pub use bucketed::{
     build_hierarchy_bucketed, build_hierarchy_bucketed_with_stats, BarycentreSource, BucketBudget,
-    BucketStats, MeshBarycentres,
+    BucketStats, MeshBarycentres, SpooledBarycentres,
 };
 
 use rustc_hash::FxHashMap as HashMap;
