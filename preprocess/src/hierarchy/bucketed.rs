@@ -13,9 +13,10 @@
 //! 2. **One distribution pass** appends each triangle's record (index, barycentre) to its
 //!    bucket: a buffer per bucket; when together they pass the budget, the fullest are written
 //!    as runs into one unnamed temporary file until half the budget is left (memory stays
-//!    bounded whatever the number of buckets; the file vanishes when closed, also when the
-//!    process is killed).
-//! 3. **Per bucket**, in key order: load its records (at most the cap) and run the in-core
+//!    bounded whatever the number of buckets; the file has no name, so it vanishes when closed,
+//!    also when the process is killed). Only buckets that need splitting are ever loaded whole, and those
+//!    hold at most the cap.
+//! 3. **Per bucket** that needs a split, in key order: load its records (at most the cap) and run the in-core
 //!    splitting on the leaves inside its cell against the shared mesh. A split inside may force
 //!    splits in other buckets' cells: a bucket not yet processed sees them when it is; a
 //!    processed one is marked for re-reading (a forced split makes children holding at most
@@ -199,16 +200,21 @@ pub struct BucketStats {
 }
 
 /// Builds the hierarchy [`build_hierarchy`] builds from the same barycentres, equal in every
-/// field (split diamonds in (level, id) order, leaves, each leaf's triangles in input order),
-/// without holding the barycentres in memory: at most about `max_bucket_triangles` records
-/// at a time, plus the hierarchy itself (a `u32` per triangle in `leaf_triangles`).
+/// field (split diamonds in (level, id) order with their simplices, parents and children; the
+/// mesh's splits and leaves; each leaf's triangles in input order), without holding the
+/// barycentres in memory. It holds at once: the records of one bucket being split (at most
+/// `max_bucket_triangles`), or the distribution buffers (`buffer_bytes`), or the coarse
+/// passes' counts (a few bytes per `max_bucket_triangles / 4` histogram nodes, at least
+/// 16384 nodes); and the hierarchy it returns (a `u32` per triangle in `leaf_triangles`).
 ///
-/// `source` is streamed `coarse passes + 2` times (the count is in [`BucketStats`]): the
-/// coarse passes, the distribution into buckets on disk, and nothing more, since buckets are
-/// read back from the temporary file in `budget.temp_dir`, which is unnamed and gone on
-/// return, on error, and if the process dies. Errors: the source's, the temporary file's,
-/// and `InvalidData` when the source does not stream indices 0, 1, 2, … in order, the same
-/// count each time.
+/// `source` is streamed `coarse_passes + 1` times ([`BucketStats`]): the coarse counting
+/// passes, then the distribution into buckets on disk; buckets are read back from one
+/// temporary file in `budget.temp_dir` (28 bytes per triangle), which has no name (created
+/// with `O_TMPFILE` where the file system allows it, else unlinked as soon as created), so it
+/// is gone on return, on error, and when the process dies. To read a costly source once, wrap
+/// it in [`SpooledBarycentres`]. Errors: the source's, the temporary file's, and
+/// `InvalidData` when the source does not stream indices 0, 1, 2, … in order, the same count
+/// on every pass.
 pub fn build_hierarchy_bucketed(
     frame: LatticeFrame,
     source: &(impl BarycentreSource + ?Sized),
