@@ -4,6 +4,15 @@
 //! - by leaf size (Algorithms 3/4): split any leaf holding more than `max_triangles`; the
 //!   conforming mesh forces the parent splits that this needs;
 //! - by levels (Algorithm 1): split every leaf down to a fixed level.
+//!
+//! [`build_hierarchy_bucketed`] builds the same hierarchy out of core, through buckets on disk.
+
+mod bucketed;
+
+pub use bucketed::{
+    build_hierarchy_bucketed, build_hierarchy_bucketed_with_stats, BarycentreSource, BucketBudget,
+    BucketStats, MeshBarycentres, SpooledBarycentres,
+};
 
 use rustc_hash::FxHashMap as HashMap;
 

@@ -1,0 +1,838 @@
+//! Hierarchy construction out of core: the same hierarchy as [`build_hierarchy`], built without
+//! ever holding every triangle's barycentre in memory, through buckets on disk (issue 12, first
+//! stage).
+//!
+//! 1. **Coarse passes** find the *buckets*: the leaves of the least conforming refinement whose
+//!    leaves hold at most `max_bucket_triangles` triangles (and that makes only splits the
+//!    final hierarchy also makes). A pass streams the source once and counts, for every leaf
+//!    still possibly over the cap, the triangles of each simplex of the complete subtree a few
+//!    levels below it (a histogram), then splits every counted simplex over the cap, top
+//!    down, with the forced splits the conforming mesh makes; so one pass advances several
+//!    levels. A leaf created by a forced split inherits its parent's count as a bound and is
+//!    counted in the next pass if that bound is over the cap.
+//! 2. **One distribution pass** appends each triangle's record (index, barycentre) to its
+//!    bucket: a buffer per bucket; when together they pass the budget, the fullest are written
+//!    as runs into one unnamed temporary file until half the budget is left (memory stays
+//!    bounded whatever the number of buckets; the file has no name, so it vanishes when closed,
+//!    also when the process is killed). Only buckets that need splitting are ever loaded whole, and those
+//!    hold at most the cap.
+//! 3. **Per bucket** that needs a split, in key order: load its records (at most the cap) and run the in-core
+//!    splitting on the leaves inside its cell against the shared mesh. A split inside may force
+//!    splits in other buckets' cells: a bucket not yet processed sees them when it is; a
+//!    processed one is marked for re-reading (a forced split makes children holding at most
+//!    what their parent holds, so, the parent being within the criterion, they need no split).
+//! 4. **Final assignment**: the leaves of processed, untouched buckets keep the lists found in
+//!    step 3; every other bucket is streamed once more, run by run, and each record descended
+//!    from the bucket's cell to its final leaf.
+//!
+//! Why the result is `build_hierarchy`'s exactly: with `LeafTriangles(max)`, the result of
+//! both is the least conforming LEB refinement in which no splittable leaf holds more than
+//! `max` triangles (conforming refinements are closed under intersection and a leaf of an
+//! intersection is a leaf of one of them, so the least exists); both make only splits every
+//! such refinement makes (a splittable leaf over the cap, or a split forced by one) and stop
+//! when the criterion holds, so both reach that least one, in whatever order. `Levels(l)` is
+//! the complete refinement to level `l`. The coarse criterion (over `max_bucket_triangles`
+//! *and* over the final criterion) only makes splits the final one needs. Leaf lists are in
+//! input order because the source streams in index order, each bucket's runs are read in
+//! the order they were written, and partitioning keeps order. `Hierarchy::diamonds` is sorted
+//! by (level, id). The tests compare both constructions on scans, a height field and
+//! generated meshes of widely varying density, with caps that make many buckets.
+
+use std::fs::File;
+use std::io::{self, Read, Seek, SeekFrom, Write};
+use std::path::PathBuf;
+
+use rustc_hash::FxHashMap as HashMap;
+
+use tessera_core::leb::{Bisector, ConformingMesh, Diamond, Simplex, SimplexKey};
+
+use super::{partition, Construction, Hierarchy, Located};
+use crate::frame::LatticeFrame;
+use crate::mesh::InputMesh;
+
+/// Streams every input triangle's barycentre (lattice coordinates), as often as asked.
+pub trait BarycentreSource {
+    /// Calls `f(index, barycentre)` for every triangle, with indices 0, 1, 2, … in order and
+    /// the same barycentres on every call.
+    fn for_each_barycentre(&self, f: &mut dyn FnMut(u32, [f64; 3])) -> io::Result<()>;
+}
+
+/// Barycentres held in memory (tests, small inputs).
+impl BarycentreSource for [[f64; 3]] {
+    fn for_each_barycentre(&self, f: &mut dyn FnMut(u32, [f64; 3])) -> io::Result<()> {
+        for (t, b) in self.iter().enumerate() {
+            f(t as u32, *b);
+        }
+        Ok(())
+    }
+}
+
+/// The barycentres of an in-memory mesh's triangles, computed on the fly as the build computes
+/// them (`frame.barycentre` of the three corners), so nothing per triangle is kept.
+pub struct MeshBarycentres<'a> {
+    pub frame: &'a LatticeFrame,
+    pub mesh: &'a InputMesh,
+}
+
+impl BarycentreSource for MeshBarycentres<'_> {
+    fn for_each_barycentre(&self, f: &mut dyn FnMut(u32, [f64; 3])) -> io::Result<()> {
+        let positions = &self.mesh.positions;
+        for (t, tri) in self.mesh.triangles.iter().enumerate() {
+            f(
+                t as u32,
+                self.frame.barycentre(tri.map(|v| positions[v as usize])),
+            );
+        }
+        Ok(())
+    }
+}
+
+/// A source's barycentres written once, in order, to an unnamed temporary file and streamed
+/// back from it sequentially as often as asked (28 bytes a triangle; the file is gone when
+/// this is dropped, or if the process dies). For sources that are costly to stream again, such
+/// as a mesh whose vertices are not in memory or not in triangle order: the bucketed
+/// construction then reads the source once.
+pub struct SpooledBarycentres {
+    file: File,
+    triangles: u64,
+}
+
+impl SpooledBarycentres {
+    /// Streams `source` once into a temporary file in `temp_dir`.
+    pub fn new(
+        source: &(impl BarycentreSource + ?Sized),
+        temp_dir: &std::path::Path,
+    ) -> io::Result<SpooledBarycentres> {
+        let mut file = tempfile::tempfile_in(temp_dir)?;
+        let mut order = InOrder::default();
+        let mut io_error = None;
+        {
+            let mut out = io::BufWriter::with_capacity(1 << 20, &mut file);
+            source.for_each_barycentre(&mut |t, q| {
+                if io_error.is_some() || !order.accept(t) {
+                    return;
+                }
+                if let Err(e) = write_record(&mut out, t, q) {
+                    io_error = Some(e);
+                }
+            })?;
+            if let Some(e) = io_error {
+                return Err(e);
+            }
+            out.flush()?;
+        }
+        let triangles = order.finish(None)?;
+        Ok(SpooledBarycentres { file, triangles })
+    }
+
+    /// Triangles spooled.
+    pub fn len(&self) -> u64 {
+        self.triangles
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.triangles == 0
+    }
+}
+
+impl BarycentreSource for SpooledBarycentres {
+    fn for_each_barycentre(&self, f: &mut dyn FnMut(u32, [f64; 3])) -> io::Result<()> {
+        let mut file = &self.file;
+        file.seek(SeekFrom::Start(0))?;
+        let mut input = io::BufReader::with_capacity(1 << 20, file);
+        let mut record = [0u8; RECORD_BYTES];
+        for _ in 0..self.triangles {
+            input.read_exact(&mut record)?;
+            let (t, q) = read_record(&record);
+            f(t, q);
+        }
+        Ok(())
+    }
+}
+
+/// How much of the input the bucketed construction may hold at once, and where its
+/// temporary file goes.
+#[derive(Clone, Debug)]
+pub struct BucketBudget {
+    /// Most triangles a bucket may hold (more only in a bucket that needs no split: where the
+    /// final hierarchy has a leaf with more, one that cannot split or, when this is below the
+    /// leaf cap, one within the cap; such a bucket is never loaded whole). The bucket being
+    /// split takes about 70 bytes per triangle (its records and their per-leaf lists).
+    pub max_bucket_triangles: usize,
+    /// Bytes the distribution buffers may hold together.
+    pub buffer_bytes: usize,
+    /// Directory of the temporary file (28 bytes per triangle; gone on return).
+    pub temp_dir: PathBuf,
+}
+
+impl BucketBudget {
+    /// Buffers for as many records as a bucket holds, and at least 8 MiB.
+    pub fn new(max_bucket_triangles: usize, temp_dir: impl Into<PathBuf>) -> BucketBudget {
+        BucketBudget {
+            max_bucket_triangles,
+            buffer_bytes: (max_bucket_triangles.saturating_mul(RECORD_BYTES)).max(MIN_BUFFER_BYTES),
+            temp_dir: temp_dir.into(),
+        }
+    }
+}
+
+/// What [`build_hierarchy_bucketed`] did, for reports and tests.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct BucketStats {
+    /// Coarse counting passes over the source.
+    pub coarse_passes: usize,
+    /// Buckets (leaves of the coarse mesh), empty ones included.
+    pub buckets: usize,
+    /// Triangles in the fullest bucket.
+    pub largest_bucket: u64,
+    /// Buckets loaded and split further (step 3).
+    pub split_buckets: usize,
+    /// Triangles in the fullest bucket loaded whole (at most `max_bucket_triangles`).
+    pub largest_split_bucket: u64,
+    /// Simplices split outside the bucket being split (forced across a cell's border).
+    pub cross_splits: usize,
+    /// Processed buckets that a later bucket's forced split touched (read again).
+    pub dirty_buckets: usize,
+    /// Runs written to the temporary file.
+    pub runs: usize,
+    /// Bytes written to the temporary file.
+    pub temp_bytes: u64,
+}
+
+/// Builds the hierarchy [`build_hierarchy`] builds from the same barycentres, equal in every
+/// field (split diamonds in (level, id) order with their simplices, parents and children; the
+/// mesh's splits and leaves; each leaf's triangles in input order), without holding the
+/// barycentres in memory. It holds at once: the records of one bucket being split (at most
+/// `max_bucket_triangles`), or the distribution buffers (`buffer_bytes`), or the coarse
+/// passes' counts (a few bytes per `max_bucket_triangles / 4` histogram nodes, at least
+/// 16384 nodes); and the hierarchy it returns (a `u32` per triangle in `leaf_triangles`).
+///
+/// `source` is streamed `coarse_passes + 1` times ([`BucketStats`]): the coarse counting
+/// passes, then the distribution into buckets on disk; buckets are read back from one
+/// temporary file in `budget.temp_dir` (28 bytes per triangle), which has no name (created
+/// with `O_TMPFILE` where the file system allows it, else unlinked as soon as created), so it
+/// is gone on return, on error, and when the process dies. To read a costly source once, wrap
+/// it in [`SpooledBarycentres`]. Errors: the source's, the temporary file's, and
+/// `InvalidData` when the source does not stream indices 0, 1, 2, … in order, the same count
+/// on every pass.
+pub fn build_hierarchy_bucketed(
+    frame: LatticeFrame,
+    source: &(impl BarycentreSource + ?Sized),
+    construction: Construction,
+    budget: &BucketBudget,
+) -> io::Result<Hierarchy> {
+    build_hierarchy_bucketed_with_stats(frame, source, construction, budget).map(|(h, _)| h)
+}
+
+/// [`build_hierarchy_bucketed`], also saying what it did.
+pub fn build_hierarchy_bucketed_with_stats(
+    frame: LatticeFrame,
+    source: &(impl BarycentreSource + ?Sized),
+    construction: Construction,
+    budget: &BucketBudget,
+) -> io::Result<(Hierarchy, BucketStats)> {
+    let cap = budget.max_bucket_triangles.max(1) as u64;
+    let criterion = Criterion(construction);
+    let mut stats = BucketStats::default();
+    let mut mesh = ConformingMesh::new(frame.dim, frame.bits);
+    let mut diamonds: Vec<Diamond> = Vec::new();
+
+    // 1. Coarse passes.
+    let triangles: Option<u64> = coarse_refine(
+        &frame,
+        source,
+        &criterion,
+        cap,
+        &mut mesh,
+        &mut diamonds,
+        &mut stats,
+    )?;
+
+    // 2. Distribution.
+    let mut buckets: Vec<Simplex> = mesh.leaves().copied().collect();
+    buckets.sort_unstable_by_key(|s| s.key);
+    stats.buckets = buckets.len();
+    let mut store = BucketStore::new(budget, buckets.len())?;
+    {
+        let locator = Locator::new(&mesh, mesh.roots());
+        let leaf_bucket: Vec<u32> = {
+            let index: HashMap<SimplexKey, u32> = buckets
+                .iter()
+                .enumerate()
+                .map(|(i, s)| (s.key, i as u32))
+                .collect();
+            locator.leaves.iter().map(|s| index[&s.key]).collect()
+        };
+        let mut io_error = None;
+        let mut order = InOrder::default();
+        source.for_each_barycentre(&mut |t, b| {
+            if io_error.is_some() || !order.accept(t) {
+                return;
+            }
+            let leaf = locator.locate_root(frame.dim, b);
+            if let Err(e) = store.push(leaf_bucket[leaf as usize] as usize, t, b) {
+                io_error = Some(e);
+            }
+        })?;
+        if let Some(e) = io_error {
+            return Err(e);
+        }
+        order.finish(triangles)?;
+        store.flush()?;
+    }
+    stats.largest_bucket = store.counts.iter().copied().max().unwrap_or(0);
+    stats.runs = store.runs.iter().map(Vec::len).sum();
+    stats.temp_bytes = store.end;
+
+    // 3. Per bucket: split inside its cell.
+    let bucket_of: HashMap<SimplexKey, u32> = buckets
+        .iter()
+        .enumerate()
+        .map(|(i, s)| (s.key, i as u32))
+        .collect();
+    let mut bucket_levels: Vec<u16> = buckets.iter().map(|s| s.level()).collect();
+    bucket_levels.sort_unstable();
+    bucket_levels.dedup();
+    let owner = |key: SimplexKey| -> u32 {
+        bucket_levels
+            .iter()
+            .take_while(|&&l| l <= key.level)
+            .find_map(|&l| bucket_of.get(&key.ancestor(l)).copied())
+            .expect("every leaf lies in a bucket's cell")
+    };
+    // Final lists of a processed bucket's leaves, until a forced split touches it.
+    let mut done: Vec<Option<LeafLists>> = vec![None; buckets.len()];
+    let mut processed = vec![false; buckets.len()];
+    for (b, cell) in buckets.iter().enumerate() {
+        let count = store.counts[b] as usize;
+        if !(cell.can_split() && criterion.needs_split(cell, count)) {
+            continue; // no leaf of its cell needs a split (see `Criterion`)
+        }
+        stats.split_buckets += 1;
+        stats.largest_split_bucket = stats.largest_split_bucket.max(count as u64);
+        let records = store.load(b)?;
+        let lists = split_bucket(
+            &mut mesh,
+            cell,
+            records,
+            &criterion,
+            &mut diamonds,
+            &mut |key| {
+                stats.cross_splits += 1;
+                let other = owner(key) as usize;
+                if other != b && processed[other] && done[other].take().is_some() {
+                    stats.dirty_buckets += 1;
+                }
+            },
+        );
+        processed[b] = true;
+        done[b] = Some(lists);
+    }
+
+    // 4. Final assignment.
+    let mut leaf_triangles: HashMap<SimplexKey, Vec<u32>> =
+        mesh.leaves().map(|s| (s.key, Vec::new())).collect();
+    for (b, cell) in buckets.iter().enumerate() {
+        if let Some(lists) = done[b].take() {
+            for (key, list) in lists {
+                *leaf_triangles
+                    .get_mut(&key)
+                    .expect("a processed bucket's leaves are final") = list;
+            }
+            continue;
+        }
+        if store.counts[b] == 0 {
+            continue;
+        }
+        let locator = Locator::new(&mesh, std::slice::from_ref(cell));
+        let mut lists: Vec<Vec<u32>> = vec![Vec::new(); locator.leaves.len()];
+        store.for_each(b, |t, q| lists[locator.locate_from(0, q) as usize].push(t))?;
+        for (leaf, list) in locator.leaves.iter().zip(lists) {
+            leaf_triangles.insert(leaf.key, list);
+        }
+    }
+    drop(store);
+
+    // The criterion holds everywhere (a bug otherwise, not an input problem).
+    for leaf in mesh.leaves() {
+        let n = leaf_triangles[&leaf.key].len();
+        assert!(
+            !(leaf.can_split() && criterion.needs_split(leaf, n)),
+            "bucketed hierarchy: leaf {:?} with {n} triangles was left unsplit",
+            leaf.key
+        );
+    }
+    diamonds.sort_unstable_by_key(|d: &Diamond| (d.level, d.id));
+    Ok((
+        Hierarchy {
+            frame,
+            mesh,
+            diamonds,
+            leaf_triangles,
+        },
+        stats,
+    ))
+}
+
+/// The final hierarchy's split criterion, `build_hierarchy`'s `needs_split`. For both
+/// constructions a leaf that does not need a split has no descendant that does (children hold
+/// at most their parent's triangles and are deeper), which is what lets whole buckets be
+/// skipped and forced splits into finished buckets be left alone.
+struct Criterion(Construction);
+
+impl Criterion {
+    fn needs_split(&self, s: &Simplex, count: usize) -> bool {
+        match self.0 {
+            Construction::LeafTriangles(max) => count > max,
+            Construction::Levels(levels) => s.level() < levels,
+        }
+    }
+
+    /// A coarse split: over the bucket cap and needed by the final hierarchy.
+    fn coarse_split(&self, s: &Simplex, count: u64, cap: u64) -> bool {
+        count > cap && s.can_split() && self.needs_split(s, count.min(usize::MAX as u64) as usize)
+    }
+}
+
+/// Checks that a source streams 0, 1, 2, … and counts it.
+#[derive(Default)]
+struct InOrder {
+    next: u64,
+    broken: bool,
+}
+
+impl InOrder {
+    fn accept(&mut self, t: u32) -> bool {
+        if self.broken || t as u64 != self.next {
+            self.broken = true;
+            return false;
+        }
+        self.next += 1;
+        true
+    }
+
+    fn finish(&self, expected: Option<u64>) -> io::Result<u64> {
+        if self.broken || expected.is_some_and(|n| n != self.next) {
+            return Err(io::Error::new(
+                io::ErrorKind::InvalidData,
+                "bucketed hierarchy: the triangle source must stream indices 0, 1, 2, … in \
+                 order, the same triangles on every pass",
+            ));
+        }
+        Ok(self.next)
+    }
+}
+
+/// Deepest histogram below a counted leaf.
+const MAX_HISTOGRAM_DEPTH: u32 = 12;
+
+/// Step 1: splits `mesh` until no leaf needs a coarse split. Returns the triangle count, if
+/// it made a pass.
+fn coarse_refine(
+    frame: &LatticeFrame,
+    source: &(impl BarycentreSource + ?Sized),
+    criterion: &Criterion,
+    cap: u64,
+    mesh: &mut ConformingMesh,
+    diamonds: &mut Vec<Diamond>,
+    stats: &mut BucketStats,
+) -> io::Result<Option<u64>> {
+    // An upper bound on every leaf's triangle count (exact once counted).
+    let mut bounds: HashMap<SimplexKey, u64> =
+        mesh.roots().iter().map(|r| (r.key, u64::MAX)).collect();
+    let mut triangles = None;
+    // Histogram nodes in all, a few bytes each: well under the bucket's records.
+    let node_budget = (cap / 4).max(1 << 14);
+    loop {
+        let mut active: Vec<Simplex> = mesh
+            .leaves()
+            .filter(|s| criterion.coarse_split(s, bounds[&s.key], cap))
+            .copied()
+            .collect();
+        if active.is_empty() {
+            break;
+        }
+        active.sort_unstable_by_key(|s| s.key);
+        // Depth: enough levels for the bound to fall under the cap if the triangles spread
+        // evenly, plus a cycle of shapes for uneven ones; shallower if the nodes would not fit.
+        let wanted: Vec<u32> = active
+            .iter()
+            .map(|s| {
+                let ratio = bounds[&s.key] / cap;
+                (64 - ratio.leading_zeros() + 3).min(MAX_HISTOGRAM_DEPTH)
+            })
+            .collect();
+        let mut limit = MAX_HISTOGRAM_DEPTH;
+        while limit > 1
+            && wanted
+                .iter()
+                .map(|&d| (2u64 << d.min(limit)) - 1)
+                .sum::<u64>()
+                > node_budget
+        {
+            limit -= 1;
+        }
+        let mut histograms: Vec<Histogram> = active
+            .iter()
+            .zip(&wanted)
+            .map(|(s, &d)| Histogram::new(*s, d.min(limit)))
+            .collect();
+        let locator = Locator::new(mesh, mesh.roots());
+        let mut leaf_histogram = vec![u32::MAX; locator.leaves.len()];
+        {
+            let index: HashMap<SimplexKey, u32> = active
+                .iter()
+                .enumerate()
+                .map(|(i, s)| (s.key, i as u32))
+                .collect();
+            for (l, s) in locator.leaves.iter().enumerate() {
+                if let Some(&h) = index.get(&s.key) {
+                    leaf_histogram[l] = h;
+                }
+            }
+        }
+        let mut order = InOrder::default();
+        source.for_each_barycentre(&mut |t, q| {
+            if !order.accept(t) {
+                return;
+            }
+            let h = leaf_histogram[locator.locate_root(frame.dim, q) as usize];
+            if h != u32::MAX {
+                histograms[h as usize].add(q);
+            }
+        })?;
+        triangles = Some(order.finish(triangles)?);
+        stats.coarse_passes += 1;
+
+        // Exact counts of every histogram simplex, then the splits, top down.
+        let mut exact: HashMap<SimplexKey, u64> = HashMap::default();
+        for h in &histograms {
+            for n in h.nodes.iter().flatten() {
+                exact.insert(n.simplex.key, n.count);
+            }
+            bounds.insert(h.nodes[0].as_ref().unwrap().simplex.key, h.count());
+        }
+        for h in &histograms {
+            let mut stack = vec![0usize];
+            while let Some(i) = stack.pop() {
+                let Some(node) = &h.nodes[i] else { continue };
+                if !criterion.coarse_split(&node.simplex, node.count, cap) {
+                    continue;
+                }
+                let split = mesh.split(node.simplex.split_point(), &mut |d: &Diamond| {
+                    for t in &d.simplices {
+                        let bound = bounds.remove(&t.key).expect("every leaf has a bound");
+                        for c in t.children() {
+                            bounds.insert(c.key, exact.get(&c.key).copied().unwrap_or(bound));
+                        }
+                    }
+                    diamonds.push(d.clone());
+                });
+                assert!(split, "a splittable simplex's diamond splits");
+                if node.bisector.is_some() {
+                    stack.extend([2 * i + 1, 2 * i + 2]);
+                }
+            }
+        }
+    }
+    Ok(triangles)
+}
+
+/// Triangle counts over the complete LEB subtree `depth` levels below a leaf, in heap order
+/// (node `i`'s children are `2i + 1` and `2i + 2`; none below a simplex that cannot split).
+struct Histogram {
+    nodes: Vec<Option<HistogramNode>>,
+}
+
+struct HistogramNode {
+    simplex: Simplex,
+    /// None at the bottom and where the simplex cannot split.
+    bisector: Option<Bisector>,
+    count: u64,
+}
+
+impl Histogram {
+    fn new(leaf: Simplex, depth: u32) -> Histogram {
+        let len = (2usize << depth) - 1;
+        let inner = (1usize << depth) - 1;
+        let mut nodes: Vec<Option<HistogramNode>> = Vec::with_capacity(len);
+        nodes.push(Some(HistogramNode {
+            simplex: leaf,
+            bisector: None,
+            count: 0,
+        }));
+        for i in 0..len {
+            if 2 * i + 2 >= len {
+                break;
+            }
+            let children = match &mut nodes[i] {
+                Some(n) if i < inner && n.simplex.can_split() => {
+                    n.bisector = Some(n.simplex.bisector());
+                    n.simplex.children().map(Some)
+                }
+                _ => [None, None],
+            };
+            for c in children {
+                nodes.push(c.map(|simplex| HistogramNode {
+                    simplex,
+                    bisector: None,
+                    count: 0,
+                }));
+            }
+        }
+        Histogram { nodes }
+    }
+
+    fn add(&mut self, q: [f64; 3]) {
+        let mut i = 0;
+        while let Some(n) = &mut self.nodes[i] {
+            n.count += 1;
+            match &n.bisector {
+                Some(b) => i = 2 * i + 1 + b.child_index_of(q),
+                None => break,
+            }
+        }
+    }
+
+    fn count(&self) -> u64 {
+        self.nodes[0].as_ref().map_or(0, |n| n.count)
+    }
+}
+
+/// Point location in a fixed mesh from given starting simplices (the roots, or a bucket's
+/// cell): the split simplices below them with their bisectors prepared, and their leaves.
+struct Locator {
+    /// Per start: a node index, or a leaf index with `LEAF` set.
+    starts: Vec<u32>,
+    nodes: Vec<LocatorNode>,
+    leaves: Vec<Simplex>,
+}
+
+struct LocatorNode {
+    bisector: Bisector,
+    children: [u32; 2],
+}
+
+const LEAF: u32 = 1 << 31;
+
+impl Locator {
+    fn new(mesh: &ConformingMesh, starts: &[Simplex]) -> Locator {
+        let mut locator = Locator {
+            starts: Vec::with_capacity(starts.len()),
+            nodes: Vec::new(),
+            leaves: Vec::new(),
+        };
+        for s in starts {
+            let r = locator.add(mesh, *s);
+            locator.starts.push(r);
+        }
+        locator
+    }
+
+    fn add(&mut self, mesh: &ConformingMesh, s: Simplex) -> u32 {
+        if mesh.is_leaf(s.key) {
+            self.leaves.push(s);
+            return (self.leaves.len() - 1) as u32 | LEAF;
+        }
+        let i = self.nodes.len();
+        self.nodes.push(LocatorNode {
+            bisector: s.bisector(),
+            children: [0, 0],
+        });
+        let [c0, c1] = s.children();
+        let r0 = self.add(mesh, c0);
+        let r1 = self.add(mesh, c1);
+        self.nodes[i].children = [r0, r1];
+        i as u32
+    }
+
+    /// The leaf holding `q`, from the roots (starts in root order).
+    fn locate_root(&self, dim: u8, q: [f64; 3]) -> u32 {
+        self.locate_from(Simplex::root_index_of(dim, q) as usize, q)
+    }
+
+    fn locate_from(&self, start: usize, q: [f64; 3]) -> u32 {
+        let mut r = self.starts[start];
+        while r & LEAF == 0 {
+            let n = &self.nodes[r as usize];
+            r = n.children[n.bisector.child_index_of(q)];
+        }
+        r & !LEAF
+    }
+}
+
+/// Leaves with their triangles, in input order.
+type LeafLists = Vec<(SimplexKey, Vec<u32>)>;
+
+/// Step 3 for one bucket: `build_hierarchy`'s splitting, on the leaves inside `cell`.
+/// `touched(key)` hears of every split simplex outside the cell (a forced split). Returns the
+/// cell's leaves with their triangles.
+fn split_bucket(
+    mesh: &mut ConformingMesh,
+    cell: &Simplex,
+    records: Vec<(u32, [f64; 3])>,
+    criterion: &Criterion,
+    diamonds: &mut Vec<Diamond>,
+    touched: &mut dyn FnMut(SimplexKey),
+) -> LeafLists {
+    // Earlier buckets' forced splits may have split the cell already.
+    let locator = Locator::new(mesh, std::slice::from_ref(cell));
+    let mut lists: Vec<Vec<Located>> = vec![Vec::new(); locator.leaves.len()];
+    for (triangle, barycenter) in records {
+        lists[locator.locate_from(0, barycenter) as usize].push(Located {
+            barycenter,
+            triangle,
+        });
+    }
+    let mut leaf_triangles: HashMap<SimplexKey, Vec<Located>> = HashMap::default();
+    let mut queue = Vec::new();
+    for (leaf, list) in locator.leaves.iter().zip(lists) {
+        if leaf.can_split() && criterion.needs_split(leaf, list.len()) {
+            queue.push(*leaf);
+        }
+        leaf_triangles.insert(leaf.key, list);
+    }
+    while let Some(s) = queue.pop() {
+        if !mesh.is_leaf(s.key) || !s.can_split() {
+            continue;
+        }
+        mesh.split(s.split_point(), &mut |d: &Diamond| {
+            for t in &d.simplices {
+                let Some(triangles) = leaf_triangles.remove(&t.key) else {
+                    touched(t.key);
+                    continue;
+                };
+                let children = t.children();
+                let parts = partition(triangles, &t.bisector());
+                for (c, part) in children.iter().zip(parts) {
+                    if criterion.needs_split(c, part.len()) && c.can_split() {
+                        queue.push(*c);
+                    }
+                    leaf_triangles.insert(c.key, part);
+                }
+            }
+            diamonds.push(d.clone());
+        });
+    }
+    leaf_triangles
+        .into_iter()
+        .map(|(key, list)| (key, list.iter().map(|l| l.triangle).collect()))
+        .collect()
+}
+
+/// [`BucketBudget::new`]'s smallest distribution buffers in all (with many tiny buckets, runs
+/// of a few records would make reading them back seek-bound).
+const MIN_BUFFER_BYTES: usize = 8 << 20;
+
+/// Bytes of one record: index (u32) and barycentre (3 × f64), little-endian.
+const RECORD_BYTES: usize = 4 + 3 * 8;
+
+fn write_record(out: &mut impl Write, t: u32, q: [f64; 3]) -> io::Result<()> {
+    let mut record = [0u8; RECORD_BYTES];
+    record[0..4].copy_from_slice(&t.to_le_bytes());
+    for (i, x) in q.iter().enumerate() {
+        record[4 + 8 * i..12 + 8 * i].copy_from_slice(&x.to_le_bytes());
+    }
+    out.write_all(&record)
+}
+
+fn read_record(r: &[u8]) -> (u32, [f64; 3]) {
+    let t = u32::from_le_bytes(r[0..4].try_into().unwrap());
+    let q = [0, 1, 2].map(|i| f64::from_le_bytes(r[4 + 8 * i..12 + 8 * i].try_into().unwrap()));
+    (t, q)
+}
+
+/// The buckets' records on disk: one unnamed temporary file of runs, each run a piece of one
+/// bucket's records in input order; a bucket's runs in the order they were written.
+struct BucketStore {
+    file: File,
+    end: u64,
+    /// Per bucket: (offset, bytes) of its runs.
+    runs: Vec<Vec<(u64, u64)>>,
+    counts: Vec<u64>,
+    buffers: Vec<Vec<u8>>,
+    buffered: usize,
+    /// Spill buffers when together they pass this.
+    limit: usize,
+}
+
+impl BucketStore {
+    fn new(budget: &BucketBudget, buckets: usize) -> io::Result<BucketStore> {
+        let file = tempfile::tempfile_in(&budget.temp_dir)?;
+        Ok(BucketStore {
+            file,
+            end: 0,
+            runs: vec![Vec::new(); buckets],
+            counts: vec![0; buckets],
+            buffers: vec![Vec::new(); buckets],
+            buffered: 0,
+            limit: budget.buffer_bytes.max(RECORD_BYTES),
+        })
+    }
+
+    fn push(&mut self, bucket: usize, t: u32, q: [f64; 3]) -> io::Result<()> {
+        write_record(&mut self.buffers[bucket], t, q)?;
+        self.counts[bucket] += 1;
+        self.buffered += RECORD_BYTES;
+        if self.buffered >= self.limit {
+            self.spill(self.limit / 2)?;
+        }
+        Ok(())
+    }
+
+    /// Writes buffers as runs, fullest first, until at most `keep_buffered` bytes stay
+    /// buffered (fullest first: fewer, longer runs than writing every buffer each time). A
+    /// written buffer keeps at most an even share of the limit allocated.
+    fn spill(&mut self, keep_buffered: usize) -> io::Result<()> {
+        let mut order: Vec<usize> = (0..self.buffers.len())
+            .filter(|&b| !self.buffers[b].is_empty())
+            .collect();
+        order.sort_unstable_by_key(|&b| std::cmp::Reverse(self.buffers[b].len()));
+        let keep = self.limit / self.buffers.len().max(1);
+        self.file.seek(SeekFrom::Start(self.end))?;
+        let mut out = io::BufWriter::with_capacity(1 << 16, &mut self.file);
+        for b in order {
+            if self.buffered <= keep_buffered {
+                break;
+            }
+            let buffer = &mut self.buffers[b];
+            out.write_all(buffer)?;
+            self.runs[b].push((self.end, buffer.len() as u64));
+            self.end += buffer.len() as u64;
+            self.buffered -= buffer.len();
+            buffer.clear();
+            if buffer.capacity() > keep {
+                *buffer = Vec::new();
+            }
+        }
+        out.flush()?;
+        Ok(())
+    }
+
+    /// Writes every buffer.
+    fn flush(&mut self) -> io::Result<()> {
+        self.spill(0)
+    }
+
+    /// Calls `f` for each of a bucket's records, in input order, a run at a time.
+    fn for_each(&mut self, bucket: usize, mut f: impl FnMut(u32, [f64; 3])) -> io::Result<()> {
+        let mut bytes = Vec::new();
+        for &(offset, len) in &self.runs[bucket] {
+            bytes.resize(len as usize, 0);
+            self.file.seek(SeekFrom::Start(offset))?;
+            self.file.read_exact(&mut bytes)?;
+            for r in bytes.chunks_exact(RECORD_BYTES) {
+                let (t, q) = read_record(r);
+                f(t, q);
+            }
+        }
+        Ok(())
+    }
+
+    /// A bucket's records, in input order.
+    fn load(&mut self, bucket: usize) -> io::Result<Vec<(u32, [f64; 3])>> {
+        let mut records = Vec::with_capacity(self.counts[bucket] as usize);
+        self.for_each(bucket, |t, q| records.push((t, q)))?;
+        Ok(records)
+    }
+}
