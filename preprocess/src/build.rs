@@ -16,7 +16,10 @@ use tessera_core::repository::writer::{write_repository_file, RepositoryContents
 use tessera_core::repository::RepositoryError;
 
 use crate::frame::LatticeFrame;
-use crate::hierarchy::{build_hierarchy, Construction, Hierarchy};
+use crate::hierarchy::{
+    build_hierarchy, build_hierarchy_bucketed, BucketBudget, Construction, Hierarchy,
+    MeshBarycentres,
+};
 use crate::mesh::InputMesh;
 use crate::saturate::{saturate, RADIUS_MARGIN};
 use crate::simplify::{simplify_hierarchy, CurrentMesh, SimplifySettings};
@@ -46,6 +49,31 @@ pub struct BuildConfig {
     pub domain: Domain,
     /// How each diamond is simplified.
     pub simplify: SimplifySettings,
+    /// A memory budget (`--memory`): the stages that can work out of core do, with their
+    /// temporary files in its directory. The repository is the same bytes with or without it.
+    pub memory: Option<MemoryBudget>,
+}
+
+/// How much memory the out-of-core stages may use, and where their temporary files go (all
+/// unnamed: nothing is left behind, even when the build is killed).
+///
+/// Out of core today: the import of a PLY file (`import::stage_mesh`, done by the caller)
+/// and the hierarchy's construction (`hierarchy::build_hierarchy_bucketed`). Simplification,
+/// saturation and strips still hold the mesh and every patch (ARCHITECTURE.md, "The
+/// out-of-core build").
+#[derive(Clone, Debug, PartialEq)]
+pub struct MemoryBudget {
+    pub bytes: u64,
+    pub temp_dir: std::path::PathBuf,
+}
+
+impl MemoryBudget {
+    /// Triangles a bucket of the hierarchy's construction may hold: a quarter of the budget
+    /// at about 70 bytes per triangle while a bucket is split, and never less than a few
+    /// leaves.
+    pub fn bucket_triangles(&self, leaf_triangles: usize) -> usize {
+        ((self.bytes / 4 / 70) as usize).max(4 * leaf_triangles.max(1))
+    }
 }
 
 /// The space the LEB hierarchy subdivides.
@@ -86,6 +114,7 @@ impl BuildConfig {
             threads: None,
             lattice_bits: 20,
             domain,
+            memory: None,
             simplify: SimplifySettings {
                 keep_borders: domain == Domain::Volume,
                 ..SimplifySettings::default()
@@ -129,6 +158,12 @@ pub enum BuildError {
     Repository(#[from] RepositoryError),
     #[error(transparent)]
     Conformity(#[from] crate::simplify::ConformityError),
+    #[error("temporary files in {dir}: {source}")]
+    Temporary {
+        dir: std::path::PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
 }
 
 /// What a build did, for `--json` and the benchmark.
@@ -276,17 +311,37 @@ fn build_in_pool(
     // 1. Hierarchy: each triangle in the leaf holding its barycentre.
     on_stage("hierarchy");
     let t = Instant::now();
-    let barycenters: Vec<[f64; 3]> = mesh
-        .triangles
-        .par_iter()
-        .map(|tri| frame.barycentre(tri.map(|v| mesh.positions[v as usize])))
-        .collect();
-    // The simplifier's sharing counts are independent of the hierarchy: build both at once.
-    let (hierarchy, current) = rayon::join(
-        || build_hierarchy(frame, &barycenters, config.construction),
-        || CurrentMesh::new(mesh),
-    );
-    drop(barycenters);
+    let (hierarchy, current) = match &config.memory {
+        None => {
+            let barycenters: Vec<[f64; 3]> = mesh
+                .triangles
+                .par_iter()
+                .map(|tri| frame.barycentre(tri.map(|v| mesh.positions[v as usize])))
+                .collect();
+            // The simplifier's sharing counts are independent of the hierarchy: both at once.
+            rayon::join(
+                || build_hierarchy(frame, &barycenters, config.construction),
+                || CurrentMesh::new(mesh),
+            )
+        }
+        Some(memory) => {
+            let leaf = match config.construction {
+                Construction::LeafTriangles(n) => n,
+                Construction::Levels(_) => config.domain.default_leaf_triangles(),
+            };
+            let budget = BucketBudget::new(memory.bucket_triangles(leaf), &memory.temp_dir);
+            let source = MeshBarycentres {
+                frame: &frame,
+                mesh,
+            };
+            let hierarchy = build_hierarchy_bucketed(frame, &source, config.construction, &budget)
+                .map_err(|source| BuildError::Temporary {
+                    dir: memory.temp_dir.clone(),
+                    source,
+                })?;
+            (hierarchy, CurrentMesh::new(mesh))
+        }
+    };
     stage("hierarchy", t);
 
     // 2. Simplification, diamond by diamond, finest first, borders locked.

@@ -20,7 +20,9 @@ pub mod saturate;
 pub mod simplify;
 pub mod strips;
 
-pub use build::{build_contents, build_repository, BuildConfig, BuildError, BuildSummary, Domain};
+pub use build::{
+    build_contents, build_repository, BuildConfig, BuildError, BuildSummary, Domain, MemoryBudget,
+};
 pub use hierarchy::Construction;
 pub use mesh::InputMesh;
 pub use simplify::SimplifySettings;

@@ -1,5 +1,6 @@
 //! `tessera build INPUT|- -o OUT.tsr [--leaf-triangles N | --levels L] [--threads N] [--json]`
-//! `[--heightfield] [--raw-size WxH] [--variable NAME] [--spacing M] [--exaggeration X]`
+//! `[--memory SIZE [--temp DIR]] [--heightfield] [--raw-size WxH] [--variable NAME]`
+//! `[--spacing M] [--exaggeration X]`
 //!
 //! A mesh builds the 3D hierarchy (tetrahedra); a DEM (by extension) or `--heightfield` the 2D
 //! one (right triangles over x, y).`
@@ -11,7 +12,7 @@ use anyhow::Context;
 use clap::Args;
 use serde_json::json;
 use tessera_core::repository::format::POSITION_BITS;
-use tessera_preprocess::{build_repository, BuildConfig, BuildSummary, Construction};
+use tessera_preprocess::{build_repository, BuildConfig, BuildSummary, Construction, MemoryBudget};
 
 use crate::progress::Stages;
 use crate::Outcome;
@@ -33,6 +34,15 @@ pub struct BuildArgs {
     /// Worker threads (default: one per core).
     #[arg(long, value_name = "N")]
     pub threads: Option<usize>,
+    /// Memory budget (`512M`, `2G`): the stages that work out of core stay within it — today
+    /// the import of a mesh file and the hierarchy's construction; simplification and strips
+    /// still hold the mesh (ARCHITECTURE.md). The repository is the same bytes either way.
+    #[arg(long, value_name = "SIZE", value_parser = parse_size)]
+    pub memory: Option<u64>,
+    /// Directory of the temporary files of `--memory` (default: the output's directory). The
+    /// files have no names: nothing is left behind, even when the build is killed.
+    #[arg(long, value_name = "DIR", requires = "memory")]
+    pub temp: Option<PathBuf>,
     /// Print one JSON object on stdout.
     #[arg(long)]
     pub json: bool,
@@ -44,9 +54,31 @@ pub fn run(args: BuildArgs) -> anyhow::Result<Outcome> {
     let stages = Stages::new("build");
     stages.stage("import");
     let start = Instant::now();
-    let input = crate::input::load_input(&args.input, &args.heightfield)?;
+    let memory = match args.memory {
+        None => None,
+        Some(bytes) => {
+            let temp_dir = match &args.temp {
+                Some(dir) => dir.clone(),
+                None => match args.output.parent() {
+                    Some(dir) if !dir.as_os_str().is_empty() => dir.to_path_buf(),
+                    _ => PathBuf::from("."),
+                },
+            };
+            // Fail now, with the directory's name, rather than deep in a stage.
+            tempfile::tempfile_in(&temp_dir).with_context(|| {
+                format!(
+                    "cannot make temporary files in {} (--temp)",
+                    temp_dir.display()
+                )
+            })?;
+            Some(MemoryBudget { bytes, temp_dir })
+        }
+    };
+    let staging = memory.as_ref().map(|m| (m.temp_dir.as_path(), m.bytes));
+    let input = crate::input::load_input_staged(&args.input, &args.heightfield, staging)?;
     let mut config = BuildConfig {
         threads: args.threads,
+        memory: memory.clone(),
         ..BuildConfig::for_domain(input.domain)
     };
     if let Some(n) = args.leaf_triangles {
@@ -68,6 +100,7 @@ pub fn run(args: BuildArgs) -> anyhow::Result<Outcome> {
     if args.json {
         let mut value = summary_json(&summary, seconds);
         value["import_seconds"] = json!(import_seconds);
+        value["memory_budget_bytes"] = json!(args.memory);
         if let Some(stages) = value["stages"].as_array_mut() {
             stages.insert(0, json!({"stage": "import", "seconds": import_seconds}));
         }
@@ -139,4 +172,48 @@ pub fn print_summary(s: &BuildSummary, seconds: f64, import_seconds: f64) {
         seconds,
         stages.join(", ")
     );
+}
+
+/// A byte count: a number with an optional `K`, `M`, `G` or `T` suffix (powers of 1024; a
+/// trailing `B` or `iB` is accepted: `512M`, `512MiB`, `2G`, `1048576`).
+pub fn parse_size(text: &str) -> Result<u64, String> {
+    let t = text.trim();
+    let t = t
+        .strip_suffix("iB")
+        .or_else(|| t.strip_suffix('B'))
+        .unwrap_or(t);
+    let (digits, shift) = match t.chars().last() {
+        Some('K' | 'k') => (&t[..t.len() - 1], 10),
+        Some('M' | 'm') => (&t[..t.len() - 1], 20),
+        Some('G' | 'g') => (&t[..t.len() - 1], 30),
+        Some('T' | 't') => (&t[..t.len() - 1], 40),
+        _ => (t, 0),
+    };
+    let n: u64 = digits
+        .trim()
+        .parse()
+        .map_err(|_| format!("'{text}' is not a size (e.g. 512M, 2G)"))?;
+    let bytes = n
+        .checked_mul(1u64 << shift)
+        .ok_or_else(|| format!("'{text}' is too large"))?;
+    if bytes < 1 << 20 {
+        return Err(format!("'{text}': give at least 1M"));
+    }
+    Ok(bytes)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::parse_size;
+
+    #[test]
+    fn sizes_parse_in_powers_of_1024() {
+        assert_eq!(parse_size("512M"), Ok(512 << 20));
+        assert_eq!(parse_size("2G"), Ok(2 << 30));
+        assert_eq!(parse_size("64MiB"), Ok(64 << 20));
+        assert_eq!(parse_size("1048576"), Ok(1 << 20));
+        assert!(parse_size("12").is_err());
+        assert!(parse_size("lots").is_err());
+        assert!(parse_size("99999999999T").is_err());
+    }
 }

@@ -89,6 +89,17 @@ impl HeightFieldArgs {
 /// Reads `path`: a DEM by extension (2D hierarchy), else a mesh (3D, or 2D with
 /// `--heightfield`); `-` reads a PLY mesh from standard input.
 pub fn load_input(path: &Path, args: &HeightFieldArgs) -> anyhow::Result<LoadedInput> {
+    load_input_staged(path, args, None)
+}
+
+/// [`load_input`]; with `staging` (temporary directory, memory budget in bytes), a mesh file
+/// is imported out of core (`import::stage_mesh`: streamed to disk and welded by external
+/// sorts, the same mesh) before it is read into memory.
+pub fn load_input_staged(
+    path: &Path,
+    args: &HeightFieldArgs,
+    staging: Option<(&Path, u64)>,
+) -> anyhow::Result<LoadedInput> {
     let options = args.terrain_options()?;
     if DemFormat::from_path(path).is_some() {
         let grid = args.load_grid(path)?;
@@ -125,7 +136,7 @@ pub fn load_input(path: &Path, args: &HeightFieldArgs) -> anyhow::Result<LoadedI
     if is_stdin(path) && std::io::stdin().is_terminal() {
         bail!("standard input is a terminal: pipe a PLY mesh into `-`");
     }
-    let report = match read_mesh(path) {
+    let report = match read_mesh(path, staging) {
         Ok(report) => report,
         Err(e) if matches!(e.kind, ImportErrorKind::UnsupportedExtension(_)) => {
             bail!(
@@ -166,12 +177,26 @@ pub fn is_stdin(path: &Path) -> bool {
 
 /// A mesh file, or a PLY (ASCII or binary) on standard input for `-`: the same reader and
 /// welding either way, so the same mesh.
-fn read_mesh(path: &Path) -> Result<ImportReport, ImportError> {
+fn read_mesh(path: &Path, staging: Option<(&Path, u64)>) -> Result<ImportReport, ImportError> {
     if is_stdin(path) {
-        load_mesh_from_reader(std::io::stdin(), MeshFormat::Ply, "standard input")
-    } else {
-        load_mesh(path)
+        return load_mesh_from_reader(std::io::stdin(), MeshFormat::Ply, "standard input");
     }
+    let Some((dir, budget)) = staging else {
+        return load_mesh(path);
+    };
+    let staged = tessera_preprocess::import::stage_mesh(path, dir, budget as usize)?;
+    let mesh = staged
+        .load()
+        .map_err(|e| tessera_preprocess::import::ImportErrorKind::Io(e).at_path(path))?;
+    Ok(ImportReport {
+        mesh,
+        raw_vertices: staged.raw_vertices as usize,
+        raw_triangles: staged.raw_triangles as usize,
+        welded_vertices: staged.welded_vertices as usize,
+        degenerate_triangles: staged.degenerate_triangles as usize,
+        duplicate_triangles: staged.duplicate_triangles as usize,
+        unreferenced_vertices: staged.unreferenced_vertices as usize,
+    })
 }
 
 /// The grid part of `build --json` (null for a mesh).
