@@ -12,7 +12,9 @@
 //! simplices only. A request for D asks for R(A) of every ancestor A of D that is not
 //! resident, with the request's priority; `plan` issues loads by priority (coarsest first on
 //! ties) within a per-frame byte budget, and makes room by evicting units that
-//! - have no resident (or loading) child unit, so no refined descendant loses its parent, and
+//! - have no resident (or loading) child unit, so no refined descendant loses its parent —
+//!   counting children evicted for the same load first: a chain of units goes leaf first,
+//!   so a load larger than every childless unit still finds its room — and
 //! - were not used in the latest frame, least recently used first, or were used with a lower
 //!   priority than the request: a unit is never evicted for a request of lower or equal
 //!   priority, so a paused camera settles and stops loading (no thrash).
@@ -23,6 +25,9 @@
 //! Two budgets: bytes (the units' patches) and records (one per simplex of a unit: the GPU's
 //! record slots, `gpu::records`); a load must fit both, and eviction makes room in both. The
 //! CPU streamer leaves records unlimited.
+
+use std::cmp::Reverse;
+use std::collections::BinaryHeap;
 
 use super::units::UnitTable;
 
@@ -82,6 +87,9 @@ pub struct Residency {
     may_refine: Vec<bool>,
     /// Per unit: child units that are resident or loading (a unit with any is not evictable).
     live_children: Vec<u32>,
+    /// Per unit: live children taken as victims by the choice in progress (0 outside
+    /// `choose_victims`).
+    taken_children: Vec<u32>,
     /// Per unit: the frame it was last used (itself or a descendant refined or wanted by a
     /// visible simplex), 0 = never.
     last_used: Vec<u64>,
@@ -144,6 +152,7 @@ impl Residency {
             state: vec![UnitState::Absent; n],
             may_refine: vec![false; n],
             live_children: vec![0; n],
+            taken_children: vec![0; n],
             last_used: vec![0; n],
             touched: vec![0; n],
             priority: vec![0.0; n],
@@ -280,7 +289,8 @@ impl Residency {
                 .then(self.units.level(a).cmp(&self.units.level(b)))
                 .then(a.cmp(&b))
         });
-        // Eviction candidates, best victim last.
+        // Eviction candidates, best victim last (`choose_victims` adds the parents a load's
+        // victims leave without live children).
         // Only resident units can be victims: scan those (bounded by the budget), not the
         // model's every unit, on the render thread's per-frame path.
         let mut victims: Vec<u32> = self
@@ -289,10 +299,7 @@ impl Residency {
             .copied()
             .filter(|&d| self.evictable(d))
             .collect();
-        victims.sort_by(|&a, &b| {
-            let (ka, kb) = (self.eviction_key(a), self.eviction_key(b));
-            kb.0.total_cmp(&ka.0).then(kb.1.cmp(&ka.1)).then(b.cmp(&a))
-        });
+        victims.sort_by_key(|&d| Reverse(self.victim_order(d)));
         let mut issued_bytes = 0u64;
         for &u in &order {
             if self.state[u as usize] != UnitState::Absent || self.touched[u as usize] != frame {
@@ -310,30 +317,37 @@ impl Residency {
             let over_records =
                 (self.stats.resident_records + records).saturating_sub(self.budget_records);
             if over > 0 || over_records > 0 {
-                let (mut freed, mut freed_records) = (0u64, 0u64);
-                let mut chosen = Vec::new();
-                for (k, &v) in victims.iter().enumerate().rev() {
-                    if freed >= over && freed_records >= over_records {
-                        break;
-                    }
-                    if !self.evictable(v) {
-                        continue; // became a parent of something issued this frame
-                    }
-                    if self.eviction_key(v).0 >= priority {
-                        break;
-                    }
-                    freed += self.units.bytes(v);
-                    freed_records += self.units.simplices(v).len() as u64;
-                    chosen.push(k);
-                }
-                if freed < over || freed_records < over_records {
+                let Some((chosen, freed_parents)) =
+                    self.choose_victims(&victims, priority, over, over_records)
+                else {
                     continue; // does not fit: a smaller candidate may
-                }
+                };
+                // Children before parents: the listed victims were evictable already, each
+                // freed parent follows the children that freed it (choice order).
+                let listed: Vec<u32> = chosen.iter().map(|&k| victims[k]).collect();
                 // `chosen` holds descending positions: removing them in order keeps the rest.
-                for k in chosen {
-                    let v = victims.remove(k);
+                for &k in &chosen {
+                    victims.remove(k);
+                }
+                let first = plan.evict.len();
+                for v in listed.into_iter().chain(freed_parents) {
                     self.evict(v);
                     plan.evict.push(v);
+                }
+                // The parents these evictions left without live children are victims for the
+                // next candidates (`evictable` is rechecked: one may become a parent of a
+                // load).
+                let mut childless: Vec<u32> = plan.evict[first..]
+                    .iter()
+                    .flat_map(|&v| self.units.parents(v).iter().copied())
+                    .filter(|&p| self.evictable(p))
+                    .collect();
+                childless.sort_unstable();
+                childless.dedup();
+                for p in childless {
+                    let key = self.victim_order(p);
+                    let at = victims.partition_point(|&x| self.victim_order(x) > key);
+                    victims.insert(at, p);
                 }
             }
             self.issue(u, bytes);
@@ -347,6 +361,82 @@ impl Residency {
             .count();
         self.candidates = order;
         plan
+    }
+
+    /// `eviction_key(d)` as one totally ordered value, `d` last on ties: the smallest is the
+    /// best victim.
+    fn victim_order(&self, d: u32) -> (i32, u64, u32) {
+        let (priority, last_used) = self.eviction_key(d);
+        // `f32::total_cmp`'s order as an integer.
+        let bits = priority.to_bits() as i32;
+        (bits ^ ((((bits >> 31) as u32) >> 1) as i32), last_used, d)
+    }
+
+    /// The victims that make room for a load of priority `priority` that is `over` bytes and
+    /// `over_records` records over the budget, or `None` when no choice can (then nothing may
+    /// be evicted). Victims are units whose eviction key is below `priority`, taken best
+    /// first: the evictable units of `victims` (best last), and each resident unit once
+    /// every one of its live children is taken (children first, so no refined descendant
+    /// loses its parent; a unit with a loading child is never taken). Without the second
+    /// kind, a load larger than every childless unit of lower priority would wait for good
+    /// whenever evicting those and the parents they leave childless makes its room. Returns
+    /// positions in `victims` (descending) and the parents taken, in the order taken.
+    fn choose_victims(
+        &mut self,
+        victims: &[u32],
+        priority: f32,
+        over: u64,
+        over_records: u64,
+    ) -> Option<(Vec<usize>, Vec<u32>)> {
+        let (mut freed, mut freed_records) = (0u64, 0u64);
+        let mut chosen = Vec::new();
+        let mut parents = Vec::new();
+        // Parents whose live children are all taken, best first.
+        let mut ready: BinaryHeap<Reverse<(i32, u64, u32)>> = BinaryHeap::new();
+        // Units whose `taken_children` count was raised (reset before returning).
+        let mut counted: Vec<u32> = Vec::new();
+        let mut next = victims.len();
+        while freed < over || freed_records < over_records {
+            while next > 0 && !self.evictable(victims[next - 1]) {
+                next -= 1; // became a parent of something issued this frame
+            }
+            let listed = (next > 0).then(|| self.victim_order(victims[next - 1]));
+            let parent = ready.peek().map(|r| r.0);
+            let (v, from_list) = match (listed, parent) {
+                (Some(l), Some(p)) if p < l => (p.2, false),
+                (Some(l), _) => (l.2, true),
+                (None, Some(p)) => (p.2, false),
+                (None, None) => break,
+            };
+            if self.eviction_key(v).0 >= priority {
+                break;
+            }
+            freed += self.units.bytes(v);
+            freed_records += self.units.simplices(v).len() as u64;
+            if from_list {
+                next -= 1;
+                chosen.push(next);
+            } else {
+                ready.pop();
+                parents.push(v);
+            }
+            for i in 0..self.units.parents(v).len() {
+                let p = self.units.parents(v)[i] as usize;
+                if self.taken_children[p] == 0 {
+                    counted.push(p as u32);
+                }
+                self.taken_children[p] += 1;
+                if self.taken_children[p] == self.live_children[p]
+                    && self.state[p] == UnitState::Resident
+                {
+                    ready.push(Reverse(self.victim_order(p as u32)));
+                }
+            }
+        }
+        for p in counted {
+            self.taken_children[p as usize] = 0;
+        }
+        (freed >= over && freed_records >= over_records).then_some((chosen, parents))
     }
 
     fn evictable(&self, d: u32) -> bool {
