@@ -12,7 +12,7 @@
 // Prepended by records.wgsl and position.wgsl (unpack_position, eye_relative_position).
 
 @group(0) @binding(0) var<uniform> frame: Frame;
-@group(0) @binding(1) var<storage, read> tets: array<TetRecord>;             // one per simplex
+@group(0) @binding(1) var<storage, read> tets: array<SlotRecord>;            // one per record slot
 @group(0) @binding(2) var<storage, read> locations: array<PatchLocation>;    // one per simplex
 @group(0) @binding(3) var<storage, read> selected: array<Selected>;          // the pages' lists
 @group(0) @binding(4) var<storage, read> counts: array<u32>;                 // one per page
@@ -187,7 +187,7 @@ fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
     let mode = frame.counts.z;
     var base = in.colour;
     if mode == MODE_PATCHES {
-        base = palette(in.simplex);
+        base = palette(tets[in.simplex].simplex); // the simplex's id: stable across reloads
     } else if mode == MODE_LEVELS {
         base = palette(tets[in.simplex].level * 7919u + 1u);
     }

@@ -51,7 +51,7 @@ struct SlotRecord {
     ax: f32, ay: f32, az: f32,      // normal cone axis
     cone_cos: f32,
     diamond: u32,                   // its diamond (global index); NO_INDEX for a leaf
-    simplex: u32,                   // its id in the repository (CPU only)
+    simplex: u32,                   // its id in the repository (read-back; patch colours)
     children: u32,                  // slot of its first child (then + 1); NO_INDEX: may not refine
     level: u32,
     dcx: f32, dcy: f32,             // its diamond's saturated sphere centre x, y

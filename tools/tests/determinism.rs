@@ -24,22 +24,23 @@ fn build(input: &Path, output: &Path, threads: usize) -> Vec<u8> {
 }
 
 fn build_with(input: &Path, output: &Path, flags: &[&str]) -> Vec<u8> {
+    let (input, output) = (input.to_str().unwrap(), output.to_str().unwrap());
+    tessera(&[&["build", input, "-o", output], flags].concat());
+    std::fs::read(output).unwrap()
+}
+
+/// Runs `tessera ARGS`, which must succeed.
+fn tessera(args: &[&str]) {
     let out = Command::new(env!("CARGO_BIN_EXE_tessera"))
-        .args([
-            "build",
-            input.to_str().unwrap(),
-            "-o",
-            output.to_str().unwrap(),
-        ])
-        .args(flags)
+        .args(args)
         .output()
         .expect("run tessera");
     assert!(
         out.status.success(),
-        "{}",
+        "tessera {}: {}",
+        args.join(" "),
         String::from_utf8_lossy(&out.stderr)
     );
-    std::fs::read(output).unwrap()
 }
 
 #[test]
@@ -66,22 +67,17 @@ fn thread_count_does_not_change_a_byte() {
 fn a_memory_budget_does_not_change_a_byte() {
     let dir = tempfile::tempdir().unwrap();
     let generated = dir.path().join("g2m.ply");
-    let out = Command::new(env!("CARGO_BIN_EXE_tessera"))
-        .args([
-            "gen",
-            "mesh",
-            "--triangles",
-            "2000000",
-            "--shuffle-vertices",
-        ])
-        .args(["--density-range", "1000", "-o", generated.to_str().unwrap()])
-        .output()
-        .expect("run tessera");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    tessera(&[
+        "gen",
+        "mesh",
+        "--triangles",
+        "2000000",
+        "--shuffle-vertices",
+        "--density-range",
+        "1000",
+        "-o",
+        generated.to_str().unwrap(),
+    ]);
     let temp = dir.path().join("temp");
     std::fs::create_dir(&temp).unwrap();
     let cases: [(std::path::PathBuf, &[&str]); 4] = [
