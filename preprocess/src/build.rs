@@ -339,7 +339,13 @@ fn build_in_pool(
                     dir: memory.temp_dir.clone(),
                     source,
                 })?;
-            (hierarchy, CurrentMesh::new(mesh))
+            let current =
+                CurrentMesh::new_within(mesh, memory.bytes as usize / 4, &memory.temp_dir)
+                    .map_err(|source| BuildError::Temporary {
+                        dir: memory.temp_dir.clone(),
+                        source,
+                    })?;
+            (hierarchy, current)
         }
     };
     stage("hierarchy", t);

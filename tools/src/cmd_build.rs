@@ -52,7 +52,9 @@ pub struct BuildArgs {
 
 pub fn run(args: BuildArgs) -> anyhow::Result<Outcome> {
     let stages = Stages::new("build");
+    let peaks = crate::peak_rss::StagePeaks::new();
     stages.stage("import");
+    peaks.start("import");
     let start = Instant::now();
     let memory = match args.memory {
         None => None,
@@ -93,9 +95,13 @@ pub fn run(args: BuildArgs) -> anyhow::Result<Outcome> {
     } else {
         args.input.display().to_string()
     };
-    let summary = build_repository(&input.mesh, &config, &args.output, &|s| stages.stage(s))
-        .with_context(|| format!("building {name}"))?;
+    let summary = build_repository(&input.mesh, &config, &args.output, &|s| {
+        stages.stage(s);
+        peaks.start(s);
+    })
+    .with_context(|| format!("building {name}"))?;
     stages.finish();
+    let stage_peaks = peaks.finish();
     let seconds = start.elapsed().as_secs_f64();
     if args.json {
         let mut value = summary_json(&summary, seconds);
@@ -103,8 +109,21 @@ pub fn run(args: BuildArgs) -> anyhow::Result<Outcome> {
         value["memory_budget_bytes"] = json!(args.memory);
         if let Some(stages) = value["stages"].as_array_mut() {
             stages.insert(0, json!({"stage": "import", "seconds": import_seconds}));
+            // Each stage's own peak resident memory (see `StagePeaks`).
+            for stage in stages.iter_mut() {
+                let name = stage["stage"].as_str().unwrap_or_default().to_string();
+                if let Some((_, peak)) = stage_peaks.iter().find(|(s, _)| *s == name) {
+                    stage["peak_rss_bytes"] = json!(peak);
+                }
+            }
         }
-        value["peak_rss_bytes"] = json!(crate::peak_rss::peak_rss_bytes());
+        let overall = stage_peaks
+            .iter()
+            .map(|&(_, p)| p)
+            .chain(crate::peak_rss::peak_rss_bytes())
+            .max();
+        value["peak_rss_bytes"] = json!(overall);
+        value["stage_peaks_are_per_stage"] = json!(peaks.reset);
         value["output"] = json!(args.output.display().to_string());
         value["domain"] = json!(match input.domain {
             tessera_preprocess::Domain::Volume => "volume",

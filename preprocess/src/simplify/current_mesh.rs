@@ -60,6 +60,42 @@ pub struct CurrentMesh {
 impl CurrentMesh {
     /// The input mesh's counts.
     pub fn new(mesh: &InputMesh) -> Self {
+        Self::with_edges(mesh, nonmanifold_edges(mesh))
+    }
+
+    /// The input mesh's counts, its non-manifold edges found by an external sort of its edge
+    /// keys within `budget` bytes (temporary files in `temp_dir`): the same counts as `new`.
+    pub fn new_within(
+        mesh: &InputMesh,
+        budget: usize,
+        temp_dir: &std::path::Path,
+    ) -> std::io::Result<Self> {
+        let keys = mesh
+            .triangles
+            .iter()
+            .flat_map(|t| triangle_edges(t).map(|(a, b)| edge_key(a, b)));
+        let mut nonmanifold = HashMap::default();
+        let mut run: Option<(u64, u32)> = None;
+        for key in crate::external::sort_external(keys, budget, temp_dir)? {
+            let key = key?;
+            run = match run {
+                Some((k, n)) if k == key => Some((k, n + 1)),
+                Some((k, n)) => {
+                    if n > 2 {
+                        nonmanifold.insert(k, n);
+                    }
+                    Some((key, 1))
+                }
+                None => Some((key, 1)),
+            };
+        }
+        if let Some((k, n)) = run.filter(|&(_, n)| n > 2) {
+            nonmanifold.insert(k, n);
+        }
+        Ok(Self::with_edges(mesh, nonmanifold))
+    }
+
+    fn with_edges(mesh: &InputMesh, nonmanifold: HashMap<u64, u32>) -> Self {
         let vertex_count = mesh.positions.len();
         let mut use_count = vec![0u32; vertex_count];
         for t in &mesh.triangles {
@@ -76,7 +112,7 @@ impl CurrentMesh {
         }
         CurrentMesh {
             shards,
-            nonmanifold: nonmanifold_edges(mesh),
+            nonmanifold,
         }
     }
 
