@@ -12,9 +12,12 @@ pub fn peak_rss_bytes() -> Option<u64> {
 /// Linux), so each figure is that stage's own peak. Where the reset is not possible the
 /// figures are the peak so far (`reset` says which).
 pub struct StagePeaks {
-    state: std::sync::Mutex<(Option<String>, Vec<(String, u64)>)>,
+    state: std::sync::Mutex<PeakState>,
     pub reset: bool,
 }
+
+/// The stage running (if any) and the (stage, peak bytes) of those ended.
+type PeakState = (Option<String>, Vec<(String, u64)>);
 
 impl StagePeaks {
     pub fn new() -> Self {
