@@ -26,6 +26,7 @@ fn device(backend: Backend) -> GpuContext {
     let ctx = GpuContext::open(&DeviceOptions {
         adapter: None,
         backend: Some(backend),
+        limits: None,
     })
     .unwrap_or_else(|e| {
         panic!(

@@ -309,7 +309,9 @@ fn a_model_over_the_budget_is_refused_with_the_numbers() {
     .expect("1.5 MB of patches do not fit in 100 kB");
     let message = err.to_string();
     assert!(
-        message.contains("MiB") && message.contains("budget") && message.contains("streaming"),
+        message.contains("MiB")
+            && message.contains("budget")
+            && message.contains("which stream it"),
         "{message}"
     );
 }

@@ -18,8 +18,8 @@ use tessera_preprocess::BuildConfig;
 use tessera_runtime::camera::{Camera, Y_UP};
 use tessera_runtime::gpu::stream_budget::fixed_bytes;
 use tessera_runtime::gpu::{
-    FrameRequest, GpuContext, GpuStreamer, Readback, Renderer, RendererOptions, ShadingMode,
-    FLAG_COLOUR,
+    DeviceOptions, FrameRequest, GpuContext, GpuStreamer, Readback, Renderer, RendererOptions,
+    ShadingMode, FLAG_COLOUR,
 };
 use tessera_runtime::stream::{stream_frame, UnitTable};
 use tessera_tests::{build, gpu, testdata, Built};
@@ -383,4 +383,70 @@ fn a_generated_mesh_six_times_its_budget_streams_with_every_frame_checked() {
         "no streaming under pressure: {stats:?}"
     );
     assert!(rig.streamer.stats().feedback_frames > 20);
+}
+
+/// Buffers are sized against the adapter's limits (issue 11, item 5). With the storage-binding
+/// limit lowered to 512 KiB (a smaller GPU emulated through `DeviceOptions::limits`), the fully
+/// resident renderer refuses the model naming the limit and the buffer, and the streaming one
+/// keeps its record slots within one binding and draws what the CPU reference selects, with
+/// no flag pixel, frame after frame.
+#[test]
+fn a_small_binding_limit_is_refused_by_name_or_streamed_within() {
+    let (_b, repo) = built("mesh/dragon_vrip.ply.gz");
+    let mut limits = gpu().limits.clone();
+    let limit = 512u64 << 10;
+    limits.max_storage_buffer_binding_size = limit;
+    let ctx = GpuContext::open(&DeviceOptions {
+        limits: Some(limits),
+        ..Default::default()
+    })
+    .expect("a device with lower limits");
+    let records = repo.tets().len() as u64 * 88;
+    assert!(
+        records > limit,
+        "the test needs more records ({records} B) than one binding"
+    );
+    let error = Renderer::new(&ctx, &repo, options(1 << 40))
+        .err()
+        .expect("the whole repository's records exceed one binding");
+    let message = error.to_string();
+    assert!(
+        message.contains("max_storage_buffer_binding_size") && message.contains("slot records"),
+        "{message}"
+    );
+    let (mut renderer, mut streamer) =
+        GpuStreamer::new(&ctx, repo.clone(), options(16 << 20), 256 << 10)
+            .expect("streaming within the binding limit");
+    streamer.set_cpu_reference(true);
+    let mut drawn_any = false;
+    for (i, camera) in fly_in(&repo, 40).into_iter().enumerate() {
+        let f = streamer
+            .frame(
+                &ctx,
+                &mut renderer,
+                &check_request(camera),
+                Readback {
+                    image: true,
+                    selection: true,
+                },
+            )
+            .expect("frame");
+        let gpu_selection = renderer.read_selection(&ctx);
+        assert_eq!(
+            gpu_selection,
+            drawn(&repo, &f.reference.selection),
+            "frame {i}"
+        );
+        let image = renderer.read_image(&ctx);
+        assert_eq!(
+            image.pixels().filter(|p| p.0 == FLAG_COLOUR).count(),
+            0,
+            "frame {i}"
+        );
+        drawn_any |= !gpu_selection.is_empty();
+        let stats = streamer.stats();
+        // The records are one binding: 88 bytes a slot.
+        assert!(stats.record_slots as u64 * 88 <= limit, "{stats:?}");
+    }
+    assert!(drawn_any);
 }

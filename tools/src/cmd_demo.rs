@@ -110,6 +110,7 @@ impl DemoArgs {
         tessera_runtime::gpu::DeviceOptions {
             adapter: self.adapter.clone(),
             backend: self.backend,
+            limits: None,
         }
     }
 }

@@ -45,6 +45,7 @@ impl GpuArgs {
         Ok(GpuContext::open(&DeviceOptions {
             adapter: self.adapter.clone(),
             backend: self.backend,
+            limits: None,
         })?)
     }
 

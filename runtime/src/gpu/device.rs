@@ -114,6 +114,9 @@ pub struct DeviceOptions {
     pub adapter: Option<String>,
     /// Only this backend (default: `WGPU_BACKEND`, else every backend).
     pub backend: Option<Backend>,
+    /// Limits to request instead of the adapter's (each at most the adapter's): a smaller
+    /// GPU emulated, for tests of what the renderer does at the limits.
+    pub limits: Option<wgpu::Limits>,
 }
 
 /// What the renderer may use beyond the required minimum.
@@ -156,7 +159,7 @@ impl GpuContext {
     pub fn new(wanted: Option<&str>) -> Result<GpuContext, DeviceError> {
         Self::open(&DeviceOptions {
             adapter: wanted.map(str::to_string),
-            backend: None,
+            ..Default::default()
         })
     }
 
@@ -218,7 +221,7 @@ impl GpuContext {
         let backend = backend.expect("usable() accepts the four native backends only");
         let features = adapter.features();
         let optional = wgpu::Features::TIMESTAMP_QUERY | wgpu::Features::POLYGON_MODE_LINE;
-        let limits = adapter.limits();
+        let limits = options.limits.clone().unwrap_or_else(|| adapter.limits());
         let (device, queue) = adapter
             .request_device(&wgpu::DeviceDescriptor {
                 label: Some("tessera"),

@@ -79,9 +79,9 @@ pub enum ResidentError {
     #[error(
         "the model needs {needed_mib:.1} MiB of GPU memory ({tables_mib:.1} MiB of tables and \
          working buffers, \
-         {patches_mib:.1} MiB of patches) but the budget is {budget_mib:.1} MiB; raise it \
-         (--gpu-budget) or build with fewer levels: streaming patches in and out is not \
-         implemented yet"
+         {patches_mib:.1} MiB of patches) but the budget is {budget_mib:.1} MiB: this command \
+         uploads the whole repository; raise --gpu-budget, or use `render` or `check --gpu \
+         --gpu-budget MIB`, which stream it"
     )]
     OverBudget {
         needed_mib: f64,
@@ -94,6 +94,16 @@ pub enum ResidentError {
          ({limit} bytes)"
     )]
     PatchTooLarge { tet: usize, bytes: u64, limit: u64 },
+    #[error(
+        "the {buffer} take {bytes} bytes, more than the adapter's \
+         max_storage_buffer_binding_size ({limit} bytes) lets one binding hold: this command \
+         uploads the whole repository; `render` and `check --gpu --gpu-budget MIB` stream it"
+    )]
+    BindingTooLarge {
+        buffer: &'static str,
+        bytes: u64,
+        limit: u64,
+    },
     #[error("the model has {count} simplices; the traversal addresses at most {max}")]
     TooManySimplices { count: usize, max: usize },
     #[error(transparent)]
@@ -196,6 +206,22 @@ impl ResidentModel {
             + layout.pages.len() as u64 * PAGE_ARGS_BYTES
             + 2 * 4 * tets.len() as u64
             + 4 * index_count;
+        // Each of these is one storage binding.
+        let limit = page_limit(&ctx.limits);
+        for (buffer, bytes) in [
+            ("slot records", record_bytes.len() as u64),
+            ("patch locations", location_bytes.len() as u64),
+            ("traversal queues", 4 * tets.len() as u64),
+            ("selection lists", layout.entry_count as u64 * ENTRY_BYTES),
+        ] {
+            if bytes > limit {
+                return Err(ResidentError::BindingTooLarge {
+                    buffer,
+                    bytes,
+                    limit,
+                });
+            }
+        }
         let needed = tables + patches + working;
         if needed > budget_bytes {
             let mib = |b: u64| b as f64 / (1u64 << 20) as f64;

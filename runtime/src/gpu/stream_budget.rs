@@ -138,8 +138,16 @@ pub fn fixed_bytes(ctx: &GpuContext, repo: &Repository, options: &RendererOption
     let rest = options.budget_bytes.saturating_sub(base);
     // A slot per `bytes_per_slot` of the residency's 7/8 of the pages.
     let share = SLOT_BYTES as f64 / (SLOT_BYTES as f64 + needs.bytes_per_slot * 8.0 / 7.0);
-    // At least the roots and one pair; never more than the model has (+1 for parity).
-    let clamp = |s: u64| s.min(all_slots + 1).max(roots + 2).next_multiple_of(2);
+    // At least the roots and one pair; never more than the model has (+1 for parity), nor
+    // than one storage binding of records holds (the records are one binding; locations and
+    // queue entries are smaller). Roots alone over that binding: the streamer refuses.
+    let max_slots = (limit / SLOT_RECORD_BYTES) & !1;
+    let clamp = |s: u64| {
+        s.min(all_slots + 1)
+            .max(roots + 2)
+            .next_multiple_of(2)
+            .min(max_slots)
+    };
     let slots_for = |bytes: u64| clamp((bytes as f64 * share / SLOT_BYTES as f64) as u64);
     let mut available = rest;
     for _ in 0..8 {

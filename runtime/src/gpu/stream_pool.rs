@@ -152,8 +152,10 @@ pub struct PoolLayout {
 
 impl PoolLayout {
     /// Pages of at most `limit` bytes filling `pool_bytes`; lists sized from the smallest
-    /// non-empty patch (8-aligned), capped by the model's non-empty patches and by the record
-    /// slots (`slots`: a resident patch has one).
+    /// non-empty patch (8-aligned), capped by the model's non-empty patches, by the record
+    /// slots (`slots`: a resident patch has one) and by one storage binding (`limit`) for
+    /// every page's list together (the traversal binds them as one array; the allocator then
+    /// places fewer patches in a page).
     pub fn new(tets: &[TetRecord], pool_bytes: u64, limit: u64, slots: u32) -> PoolLayout {
         let pages = pool_bytes.div_ceil(limit).max(1) as usize;
         let page_bytes = (pool_bytes / pages as u64) & !7;
@@ -167,7 +169,11 @@ impl PoolLayout {
         PoolLayout {
             pages,
             page_bytes,
-            patch_capacity: (page_bytes / smallest).min(count).min(slots as u64).max(1) as u32,
+            patch_capacity: (page_bytes / smallest)
+                .min(count)
+                .min(slots as u64)
+                .min(limit / super::resident::ENTRY_BYTES / pages as u64)
+                .max(1) as u32,
         }
     }
 

@@ -48,6 +48,16 @@ pub enum StreamError {
          lists, queues, target) take {fixed} bytes and the pinned roots {roots} bytes more"
     )]
     BudgetTooSmall { budget: u64, fixed: u64, roots: u64 },
+    #[error(
+        "the model's {roots} roots need {bytes} bytes of {what} in one binding, more than the \
+         adapter's max_storage_buffer_binding_size ({limit} bytes)"
+    )]
+    RootsOverBindingLimit {
+        roots: u32,
+        what: &'static str,
+        bytes: u64,
+        limit: u64,
+    },
     #[error("reading the roots' patches: {0}")]
     Roots(tessera_core::repository::RepositoryError),
     #[error(transparent)]
@@ -177,6 +187,19 @@ impl GpuStreamer {
         let budget = pool_bytes - pool_bytes / 8;
         let slots = PairSlots::new(sizes.slots, root_count);
         let record_budget = root_count as u64 + 2 * slots.pairs() as u64;
+        let binding = super::resident::page_limit(&ctx.limits);
+        let root_records = (root_count as u64 + 2) * super::records::SLOT_RECORD_BYTES;
+        // The records are one binding, and a unit (the roots are one) lands whole in a page.
+        for (what, bytes) in [("records", root_records), ("patches", roots)] {
+            if bytes > binding {
+                return Err(StreamError::RootsOverBindingLimit {
+                    roots: root_count,
+                    what,
+                    bytes,
+                    limit: binding,
+                });
+            }
+        }
         let too_small = StreamError::BudgetTooSmall {
             budget: options.budget_bytes,
             fixed: sizes.fixed + sizes.record_bytes(),
