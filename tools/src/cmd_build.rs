@@ -53,6 +53,7 @@ pub struct BuildArgs {
 pub fn run(args: BuildArgs) -> anyhow::Result<Outcome> {
     let stages = Stages::new("build");
     let peaks = crate::peak_rss::StagePeaks::new();
+    tessera_preprocess::external::temp_usage::reset_peak();
     stages.stage("import");
     peaks.start("import");
     let start = Instant::now();
@@ -107,6 +108,8 @@ pub fn run(args: BuildArgs) -> anyhow::Result<Outcome> {
         let mut value = summary_json(&summary, seconds);
         value["import_seconds"] = json!(import_seconds);
         value["memory_budget_bytes"] = json!(args.memory);
+        // The most the out-of-core stages' temporary files held at once (0 without --memory).
+        value["temp_bytes_peak"] = json!(tessera_preprocess::external::temp_usage::peak());
         if let Some(stages) = value["stages"].as_array_mut() {
             stages.insert(0, json!({"stage": "import", "seconds": import_seconds}));
             // Each stage's own peak resident memory (see `StagePeaks`).

@@ -5,6 +5,7 @@
 
 pub mod sort;
 pub mod staged;
+pub mod temp_usage;
 pub mod weld;
 
 pub use sort::{sort_external, SortStats, Sorted};

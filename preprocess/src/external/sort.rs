@@ -20,6 +20,8 @@ use std::path::Path;
 use bytemuck::Pod;
 use rayon::prelude::*;
 
+use super::temp_usage::Charge;
+
 /// Bytes of read buffer given to each run while merging (a smaller budget merges in more
 /// passes).
 const MERGE_BUFFER: usize = 64 * 1024;
@@ -81,14 +83,20 @@ where
             let mut file = tempfile::tempfile_in(temp_dir)?;
             let mut writer = BufWriter::with_capacity(MERGE_BUFFER, &mut file);
             let mut records = 0;
-            for record in Merge::<T>::new(group.to_vec())? {
+            let mut charge = Charge::new();
+            for record in Merge::<T>::new(group.iter().map(Run::share).collect())? {
                 writer.write_all(bytemuck::bytes_of(&record?))?;
                 records += 1;
+                charge.grow(size as u64);
             }
             writer.flush()?;
             drop(writer);
             stats.bytes_written += records * size as u64;
-            merged.push(Run { file, records });
+            merged.push(Run {
+                file,
+                records,
+                charge,
+            });
         }
         runs = merged;
     }
@@ -130,20 +138,24 @@ impl<T: Pod + Ord> Iterator for Sorted<T> {
     }
 }
 
-/// A sorted run in an unnamed temporary file.
+/// A sorted run in an unnamed temporary file (its bytes charged to the temporary totals
+/// while the owning `Run` lives).
 struct Run {
     file: File,
     records: u64,
+    charge: Charge,
 }
 
-impl Clone for Run {
-    fn clone(&self) -> Self {
+impl Run {
+    /// Another handle to the same run, for reading; the charge stays with this one.
+    fn share(&self) -> Run {
         Run {
             file: self
                 .file
                 .try_clone()
                 .expect("duplicating a temporary file's handle"),
             records: self.records,
+            charge: Charge::new(),
         }
     }
 }
@@ -154,9 +166,12 @@ fn write_run<T: Pod>(records: &[T], temp_dir: &Path, stats: &mut SortStats) -> i
     file.write_all(bytes)?;
     stats.runs += 1;
     stats.bytes_written += bytes.len() as u64;
+    let mut charge = Charge::new();
+    charge.grow(bytes.len() as u64);
     Ok(Run {
         file,
         records: records.len() as u64,
+        charge,
     })
 }
 
@@ -209,6 +224,8 @@ impl<T: Pod + Ord> Iterator for Merge<T> {
 struct RunReader<T> {
     reader: BufReader<File>,
     left: u64,
+    /// The run's bytes stay charged while it is read.
+    _charge: Charge,
     _record: PhantomData<T>,
 }
 
@@ -218,6 +235,7 @@ impl<T: Pod> RunReader<T> {
         Ok(RunReader {
             reader: BufReader::with_capacity(MERGE_BUFFER, run.file),
             left: run.records,
+            _charge: run.charge,
             _record: PhantomData,
         })
     }

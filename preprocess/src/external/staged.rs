@@ -15,6 +15,7 @@ use std::path::{Path, PathBuf};
 
 use bytemuck::Pod;
 
+use super::temp_usage::Charge;
 use crate::mesh::InputMesh;
 
 /// Buffer size of the record readers and writers.
@@ -24,6 +25,7 @@ pub(super) const IO_BUFFER: usize = 1 << 20;
 pub struct RecordFile<T: Pod> {
     file: File,
     records: u64,
+    _charge: Charge,
     _record: PhantomData<T>,
 }
 
@@ -34,6 +36,7 @@ impl<T: Pod> RecordFile<T> {
         Ok(RecordWriter {
             writer: BufWriter::with_capacity(IO_BUFFER, file),
             records: 0,
+            charge: Charge::new(),
             _record: PhantomData,
         })
     }
@@ -77,12 +80,14 @@ impl<T: Pod> RecordFile<T> {
 pub struct RecordWriter<T: Pod> {
     writer: BufWriter<File>,
     records: u64,
+    charge: Charge,
     _record: PhantomData<T>,
 }
 
 impl<T: Pod> RecordWriter<T> {
     pub fn push(&mut self, record: &T) -> io::Result<()> {
         self.records += 1;
+        self.charge.grow(std::mem::size_of::<T>() as u64);
         self.writer.write_all(bytemuck::bytes_of(record))
     }
 
@@ -101,6 +106,7 @@ impl<T: Pod> RecordWriter<T> {
         Ok(RecordFile {
             file,
             records: self.records,
+            _charge: self.charge,
             _record: PhantomData,
         })
     }

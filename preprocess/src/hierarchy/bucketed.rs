@@ -95,6 +95,7 @@ impl BarycentreSource for MeshBarycentres<'_> {
 pub struct SpooledBarycentres {
     file: File,
     triangles: u64,
+    _charge: crate::external::temp_usage::Charge,
 }
 
 impl SpooledBarycentres {
@@ -122,7 +123,13 @@ impl SpooledBarycentres {
             out.flush()?;
         }
         let triangles = order.finish(None)?;
-        Ok(SpooledBarycentres { file, triangles })
+        let mut charge = crate::external::temp_usage::Charge::new();
+        charge.grow(triangles * RECORD_BYTES as u64);
+        Ok(SpooledBarycentres {
+            file,
+            triangles,
+            _charge: charge,
+        })
     }
 
     /// Triangles spooled.
@@ -747,6 +754,8 @@ fn read_record(r: &[u8]) -> (u32, [f64; 3]) {
 struct BucketStore {
     file: File,
     end: u64,
+    /// The file's bytes, in the build's temporary totals.
+    charge: crate::external::temp_usage::Charge,
     /// Per bucket: (offset, bytes) of its runs.
     runs: Vec<Vec<(u64, u64)>>,
     counts: Vec<u64>,
@@ -762,6 +771,7 @@ impl BucketStore {
         Ok(BucketStore {
             file,
             end: 0,
+            charge: Default::default(),
             runs: vec![Vec::new(); buckets],
             counts: vec![0; buckets],
             buffers: vec![Vec::new(); buckets],
@@ -799,6 +809,7 @@ impl BucketStore {
             out.write_all(buffer)?;
             self.runs[b].push((self.end, buffer.len() as u64));
             self.end += buffer.len() as u64;
+            self.charge.grow(buffer.len() as u64);
             self.buffered -= buffer.len();
             buffer.clear();
             if buffer.capacity() > keep {
