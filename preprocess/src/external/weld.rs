@@ -28,6 +28,13 @@ pub fn weld_external(raw: RawStaged, budget: usize, dir: &Path) -> io::Result<St
     let half = budget / 2;
     let raw_vertices = raw.positions.len();
     let raw_triangles = raw.triangles.len();
+    // The raw triangles are consumed by the first mapping pass (freed then); the positions
+    // and attributes are read again at the end.
+    let RawStaged {
+        positions: raw_positions,
+        triangles: raw_triangle_file,
+        attributes,
+    } = raw;
     if raw_vertices > u32::MAX as u64 {
         return Err(io::Error::other(format!(
             "{raw_vertices} vertices: at most {} are supported",
@@ -39,7 +46,7 @@ pub fn weld_external(raw: RawStaged, budget: usize, dir: &Path) -> io::Result<St
     //    sorted back into index order.
     let by_index = {
         let mut error = None;
-        let keys = ok_values(raw.positions.read()?, &mut error)
+        let keys = ok_values(raw_positions.read()?, &mut error)
             .enumerate()
             .map(|(i, p)| PositionKey {
                 bits: p.map(canonical_bits),
@@ -73,7 +80,7 @@ pub fn weld_external(raw: RawStaged, budget: usize, dir: &Path) -> io::Result<St
 
     // 2. Corners to representatives, a window at a time; then degenerate triangles dropped.
     let window = (half / 4).max(MIN_WINDOW);
-    let mut triangles = copy(&raw.triangles, dir)?;
+    let mut triangles = raw_triangle_file;
     let mut start = 0u64;
     let mut reps = representative.read()?;
     while start < raw_vertices {
@@ -207,9 +214,9 @@ pub fn weld_external(raw: RawStaged, budget: usize, dir: &Path) -> io::Result<St
     drop(work);
 
     // The kept vertices' positions and attributes, in one pass each.
-    let a = &raw.attributes;
+    let a = &attributes;
     Ok(StagedMesh {
-        positions: pick(&raw.positions, &referenced, dir)?,
+        positions: pick(&raw_positions, &referenced, dir)?,
         triangles: welded,
         attributes: VertexAttributes {
             normals: a
@@ -289,14 +296,6 @@ fn pick<T: Pod>(
             Some(Err(_)) => return Err(wanted.next().expect("peeked").expect_err("an error")),
             _ => {}
         }
-    }
-    out.finish()
-}
-
-fn copy<T: Pod>(from: &RecordFile<T>, dir: &Path) -> io::Result<RecordFile<T>> {
-    let mut out = RecordFile::<T>::create(dir)?;
-    for r in from.read()? {
-        out.push(&r?)?;
     }
     out.finish()
 }
