@@ -9,6 +9,7 @@ use rustc_hash::FxHashMap as HashMap;
 
 use tessera_core::bounds::Sphere;
 use tessera_core::leb::{DiamondId, SimplexKey};
+use tessera_core::repository::format::{TetRecord, NO_INDEX};
 
 use crate::hierarchy::Hierarchy;
 
@@ -76,6 +77,56 @@ pub fn saturate(
         sphere[i] = s;
     }
     Saturated { error, sphere }
+}
+
+/// Makes every simplex's sphere contain its patch and, grown by `margin` (so containment
+/// survives f32 rounding), both children's spheres: a simplex's sphere then bounds every patch
+/// of its subtree, so a traversal may cull a simplex before refining it (nothing below an
+/// invisible sphere is visible) and streaming requests only what a view can show. Children
+/// come after their parents in the table, so one reverse pass nests them (and one forward
+/// pass places empty subtrees at their parent's centre).
+pub fn nest_simplex_spheres(tets: &mut [TetRecord], spheres: &mut [Sphere], margin: f64) {
+    for i in (0..tets.len()).rev() {
+        let c = tets[i].first_child;
+        if c != NO_INDEX {
+            let c = c as usize;
+            spheres[i] = spheres[i]
+                .merge(&spheres[c].inflated(margin))
+                .merge(&spheres[c + 1].inflated(margin));
+        }
+        (tets[i].center, tets[i].radius) = spheres[i].to_f32();
+    }
+    // A subtree with no triangle gets a point at its parent's centre: inside the parent's
+    // sphere like any other child, so culling stays monotone down the tree.
+    for i in 0..tets.len() {
+        let c = tets[i].first_child;
+        if c != NO_INDEX {
+            for c in [c as usize, c as usize + 1] {
+                if spheres[c].is_empty() {
+                    tets[c].center = tets[i].center;
+                }
+            }
+        }
+    }
+    // The f32 spheres nest too (the margin dwarfs f32 rounding): checked here, where a broken
+    // invariant would otherwise travel silently into the repository and cull visible patches.
+    let f64s = |c: [f32; 3]| c.map(f64::from);
+    for (i, t) in tets
+        .iter()
+        .enumerate()
+        .filter(|(_, t)| t.first_child != NO_INDEX)
+    {
+        for c in [t.first_child as usize, t.first_child as usize + 1] {
+            let child = &tets[c];
+            let reach = tessera_core::bounds::distance(f64s(t.center), f64s(child.center))
+                + child.radius as f64;
+            assert!(
+                spheres[c].is_empty() || reach <= t.radius as f64,
+                "simplex {i}'s sphere does not contain its child {c}'s ({reach} > {})",
+                t.radius
+            );
+        }
+    }
 }
 
 #[cfg(test)]

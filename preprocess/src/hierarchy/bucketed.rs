@@ -38,124 +38,17 @@
 //! by (level, id). The tests compare both constructions on scans, a height field and
 //! generated meshes of widely varying density, with caps that make many buckets.
 
-use std::fs::File;
-use std::io::{self, Read, Seek, SeekFrom, Write};
+use std::io;
 use std::path::PathBuf;
 
 use rustc_hash::FxHashMap as HashMap;
 
 use tessera_core::leb::{Bisector, ConformingMesh, Diamond, Simplex, SimplexKey};
 
+use super::barycentres::{BarycentreSource, InOrder, RECORD_BYTES};
+use super::bucket_store::BucketStore;
 use super::{partition, Construction, Hierarchy, Located};
 use crate::frame::LatticeFrame;
-use crate::mesh::InputMesh;
-
-/// Streams every input triangle's barycentre (lattice coordinates), as often as asked.
-pub trait BarycentreSource {
-    /// Calls `f(index, barycentre)` for every triangle, with indices 0, 1, 2, … in order and
-    /// the same barycentres on every call.
-    fn for_each_barycentre(&self, f: &mut dyn FnMut(u32, [f64; 3])) -> io::Result<()>;
-}
-
-/// Barycentres held in memory (tests, small inputs).
-impl BarycentreSource for [[f64; 3]] {
-    fn for_each_barycentre(&self, f: &mut dyn FnMut(u32, [f64; 3])) -> io::Result<()> {
-        for (t, b) in self.iter().enumerate() {
-            f(t as u32, *b);
-        }
-        Ok(())
-    }
-}
-
-/// The barycentres of an in-memory mesh's triangles, computed on the fly as the build computes
-/// them (`frame.barycentre` of the three corners), so nothing per triangle is kept.
-pub struct MeshBarycentres<'a> {
-    pub frame: &'a LatticeFrame,
-    pub mesh: &'a InputMesh,
-}
-
-impl BarycentreSource for MeshBarycentres<'_> {
-    fn for_each_barycentre(&self, f: &mut dyn FnMut(u32, [f64; 3])) -> io::Result<()> {
-        let positions = &self.mesh.positions;
-        for (t, tri) in self.mesh.triangles.iter().enumerate() {
-            f(
-                t as u32,
-                self.frame.barycentre(tri.map(|v| positions[v as usize])),
-            );
-        }
-        Ok(())
-    }
-}
-
-/// A source's barycentres written once, in order, to an unnamed temporary file and streamed
-/// back from it sequentially as often as asked (28 bytes a triangle; the file is gone when
-/// this is dropped, or if the process dies). For sources that are costly to stream again, such
-/// as a mesh whose vertices are not in memory or not in triangle order: the bucketed
-/// construction then reads the source once.
-pub struct SpooledBarycentres {
-    file: File,
-    triangles: u64,
-    _charge: crate::external::temp_usage::Charge,
-}
-
-impl SpooledBarycentres {
-    /// Streams `source` once into a temporary file in `temp_dir`.
-    pub fn new(
-        source: &(impl BarycentreSource + ?Sized),
-        temp_dir: &std::path::Path,
-    ) -> io::Result<SpooledBarycentres> {
-        let mut file = tempfile::tempfile_in(temp_dir)?;
-        let mut order = InOrder::default();
-        let mut io_error = None;
-        {
-            let mut out = io::BufWriter::with_capacity(1 << 20, &mut file);
-            source.for_each_barycentre(&mut |t, q| {
-                if io_error.is_some() || !order.accept(t) {
-                    return;
-                }
-                if let Err(e) = write_record(&mut out, t, q) {
-                    io_error = Some(e);
-                }
-            })?;
-            if let Some(e) = io_error {
-                return Err(e);
-            }
-            out.flush()?;
-        }
-        let triangles = order.finish(None)?;
-        let mut charge = crate::external::temp_usage::Charge::new();
-        charge.grow(triangles * RECORD_BYTES as u64);
-        Ok(SpooledBarycentres {
-            file,
-            triangles,
-            _charge: charge,
-        })
-    }
-
-    /// Triangles spooled.
-    pub fn len(&self) -> u64 {
-        self.triangles
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.triangles == 0
-    }
-}
-
-impl BarycentreSource for SpooledBarycentres {
-    fn for_each_barycentre(&self, f: &mut dyn FnMut(u32, [f64; 3])) -> io::Result<()> {
-        let mut file = &self.file;
-        file.seek(SeekFrom::Start(0))?;
-        let mut input = io::BufReader::with_capacity(1 << 20, file);
-        let mut record = [0u8; RECORD_BYTES];
-        for _ in 0..self.triangles {
-            input.read_exact(&mut record)?;
-            let (t, q) = read_record(&record);
-            f(t, q);
-        }
-        Ok(())
-    }
-}
 
 /// How much of the input the bucketed construction may hold at once, and where its
 /// temporary file goes.
@@ -398,35 +291,6 @@ impl Criterion {
     /// A coarse split: over the bucket cap and needed by the final hierarchy.
     fn coarse_split(&self, s: &Simplex, count: u64, cap: u64) -> bool {
         count > cap && s.can_split() && self.needs_split(s, count.min(usize::MAX as u64) as usize)
-    }
-}
-
-/// Checks that a source streams 0, 1, 2, … and counts it.
-#[derive(Default)]
-struct InOrder {
-    next: u64,
-    broken: bool,
-}
-
-impl InOrder {
-    fn accept(&mut self, t: u32) -> bool {
-        if self.broken || t as u64 != self.next {
-            self.broken = true;
-            return false;
-        }
-        self.next += 1;
-        true
-    }
-
-    fn finish(&self, expected: Option<u64>) -> io::Result<u64> {
-        if self.broken || expected.is_some_and(|n| n != self.next) {
-            return Err(io::Error::new(
-                io::ErrorKind::InvalidData,
-                "bucketed hierarchy: the triangle source must stream indices 0, 1, 2, … in \
-                 order, the same triangles on every pass",
-            ));
-        }
-        Ok(self.next)
     }
 }
 
@@ -730,120 +594,3 @@ fn split_bucket(
 /// [`BucketBudget::new`]'s smallest distribution buffers in all (with many tiny buckets, runs
 /// of a few records would make reading them back seek-bound).
 const MIN_BUFFER_BYTES: usize = 8 << 20;
-
-/// Bytes of one record: index (u32) and barycentre (3 × f64), little-endian.
-const RECORD_BYTES: usize = 4 + 3 * 8;
-
-fn write_record(out: &mut impl Write, t: u32, q: [f64; 3]) -> io::Result<()> {
-    let mut record = [0u8; RECORD_BYTES];
-    record[0..4].copy_from_slice(&t.to_le_bytes());
-    for (i, x) in q.iter().enumerate() {
-        record[4 + 8 * i..12 + 8 * i].copy_from_slice(&x.to_le_bytes());
-    }
-    out.write_all(&record)
-}
-
-fn read_record(r: &[u8]) -> (u32, [f64; 3]) {
-    let t = u32::from_le_bytes(r[0..4].try_into().unwrap());
-    let q = [0, 1, 2].map(|i| f64::from_le_bytes(r[4 + 8 * i..12 + 8 * i].try_into().unwrap()));
-    (t, q)
-}
-
-/// The buckets' records on disk: one unnamed temporary file of runs, each run a piece of one
-/// bucket's records in input order; a bucket's runs in the order they were written.
-struct BucketStore {
-    file: File,
-    end: u64,
-    /// The file's bytes, in the build's temporary totals.
-    charge: crate::external::temp_usage::Charge,
-    /// Per bucket: (offset, bytes) of its runs.
-    runs: Vec<Vec<(u64, u64)>>,
-    counts: Vec<u64>,
-    buffers: Vec<Vec<u8>>,
-    buffered: usize,
-    /// Spill buffers when together they pass this.
-    limit: usize,
-}
-
-impl BucketStore {
-    fn new(budget: &BucketBudget, buckets: usize) -> io::Result<BucketStore> {
-        let file = tempfile::tempfile_in(&budget.temp_dir)?;
-        Ok(BucketStore {
-            file,
-            end: 0,
-            charge: Default::default(),
-            runs: vec![Vec::new(); buckets],
-            counts: vec![0; buckets],
-            buffers: vec![Vec::new(); buckets],
-            buffered: 0,
-            limit: budget.buffer_bytes.max(RECORD_BYTES),
-        })
-    }
-
-    fn push(&mut self, bucket: usize, t: u32, q: [f64; 3]) -> io::Result<()> {
-        write_record(&mut self.buffers[bucket], t, q)?;
-        self.counts[bucket] += 1;
-        self.buffered += RECORD_BYTES;
-        if self.buffered >= self.limit {
-            self.spill(self.limit / 2)?;
-        }
-        Ok(())
-    }
-
-    /// Writes buffers as runs, fullest first, until at most `keep_buffered` bytes stay
-    /// buffered (fullest first: fewer, longer runs than writing every buffer each time). A
-    /// written buffer keeps at most an even share of the limit allocated.
-    fn spill(&mut self, keep_buffered: usize) -> io::Result<()> {
-        let mut order: Vec<usize> = (0..self.buffers.len())
-            .filter(|&b| !self.buffers[b].is_empty())
-            .collect();
-        order.sort_unstable_by_key(|&b| std::cmp::Reverse(self.buffers[b].len()));
-        let keep = self.limit / self.buffers.len().max(1);
-        self.file.seek(SeekFrom::Start(self.end))?;
-        let mut out = io::BufWriter::with_capacity(1 << 16, &mut self.file);
-        for b in order {
-            if self.buffered <= keep_buffered {
-                break;
-            }
-            let buffer = &mut self.buffers[b];
-            out.write_all(buffer)?;
-            self.runs[b].push((self.end, buffer.len() as u64));
-            self.end += buffer.len() as u64;
-            self.charge.grow(buffer.len() as u64);
-            self.buffered -= buffer.len();
-            buffer.clear();
-            if buffer.capacity() > keep {
-                *buffer = Vec::new();
-            }
-        }
-        out.flush()?;
-        Ok(())
-    }
-
-    /// Writes every buffer.
-    fn flush(&mut self) -> io::Result<()> {
-        self.spill(0)
-    }
-
-    /// Calls `f` for each of a bucket's records, in input order, a run at a time.
-    fn for_each(&mut self, bucket: usize, mut f: impl FnMut(u32, [f64; 3])) -> io::Result<()> {
-        let mut bytes = Vec::new();
-        for &(offset, len) in &self.runs[bucket] {
-            bytes.resize(len as usize, 0);
-            self.file.seek(SeekFrom::Start(offset))?;
-            self.file.read_exact(&mut bytes)?;
-            for r in bytes.chunks_exact(RECORD_BYTES) {
-                let (t, q) = read_record(r);
-                f(t, q);
-            }
-        }
-        Ok(())
-    }
-
-    /// A bucket's records, in input order.
-    fn load(&mut self, bucket: usize) -> io::Result<Vec<(u32, [f64; 3])>> {
-        let mut records = Vec::with_capacity(self.counts[bucket] as usize);
-        self.for_each(bucket, |t, q| records.push((t, q)))?;
-        Ok(records)
-    }
-}

@@ -7,11 +7,13 @@
 //!
 //! [`build_hierarchy_bucketed`] builds the same hierarchy out of core, through buckets on disk.
 
+mod barycentres;
+mod bucket_store;
 mod bucketed;
 
+pub use barycentres::{BarycentreSource, MeshBarycentres, SpooledBarycentres};
 pub use bucketed::{
-    build_hierarchy_bucketed, build_hierarchy_bucketed_with_stats, BarycentreSource, BucketBudget,
-    BucketStats, MeshBarycentres, SpooledBarycentres,
+    build_hierarchy_bucketed, build_hierarchy_bucketed_with_stats, BucketBudget, BucketStats,
 };
 
 use rustc_hash::FxHashMap as HashMap;

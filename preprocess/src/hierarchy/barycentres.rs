@@ -1,0 +1,164 @@
+//! Where the bucketed construction reads its triangles from: every triangle's barycentre
+//! (index, lattice coordinates), streamed as often as asked — from memory, computed from an
+//! in-memory mesh, or spooled once to an unnamed file — and the 28-byte record the buckets
+//! and the spool store them as.
+
+use std::fs::File;
+use std::io::{self, Read, Seek, SeekFrom, Write};
+
+use crate::frame::LatticeFrame;
+use crate::mesh::InputMesh;
+
+/// Streams every input triangle's barycentre (lattice coordinates), as often as asked.
+pub trait BarycentreSource {
+    /// Calls `f(index, barycentre)` for every triangle, with indices 0, 1, 2, … in order and
+    /// the same barycentres on every call.
+    fn for_each_barycentre(&self, f: &mut dyn FnMut(u32, [f64; 3])) -> io::Result<()>;
+}
+
+/// Barycentres held in memory (tests, small inputs).
+impl BarycentreSource for [[f64; 3]] {
+    fn for_each_barycentre(&self, f: &mut dyn FnMut(u32, [f64; 3])) -> io::Result<()> {
+        for (t, b) in self.iter().enumerate() {
+            f(t as u32, *b);
+        }
+        Ok(())
+    }
+}
+
+/// The barycentres of an in-memory mesh's triangles, computed on the fly as the build computes
+/// them (`frame.barycentre` of the three corners), so nothing per triangle is kept.
+pub struct MeshBarycentres<'a> {
+    pub frame: &'a LatticeFrame,
+    pub mesh: &'a InputMesh,
+}
+
+impl BarycentreSource for MeshBarycentres<'_> {
+    fn for_each_barycentre(&self, f: &mut dyn FnMut(u32, [f64; 3])) -> io::Result<()> {
+        let positions = &self.mesh.positions;
+        for (t, tri) in self.mesh.triangles.iter().enumerate() {
+            f(
+                t as u32,
+                self.frame.barycentre(tri.map(|v| positions[v as usize])),
+            );
+        }
+        Ok(())
+    }
+}
+
+/// A source's barycentres written once, in order, to an unnamed temporary file and streamed
+/// back from it sequentially as often as asked (28 bytes a triangle; the file is gone when
+/// this is dropped, or if the process dies). For sources that are costly to stream again, such
+/// as a mesh whose vertices are not in memory or not in triangle order: the bucketed
+/// construction then reads the source once.
+pub struct SpooledBarycentres {
+    file: File,
+    triangles: u64,
+    _charge: crate::external::temp_usage::Charge,
+}
+
+impl SpooledBarycentres {
+    /// Streams `source` once into a temporary file in `temp_dir`.
+    pub fn new(
+        source: &(impl BarycentreSource + ?Sized),
+        temp_dir: &std::path::Path,
+    ) -> io::Result<SpooledBarycentres> {
+        let mut file = tempfile::tempfile_in(temp_dir)?;
+        let mut order = InOrder::default();
+        let mut io_error = None;
+        {
+            let mut out = io::BufWriter::with_capacity(1 << 20, &mut file);
+            source.for_each_barycentre(&mut |t, q| {
+                if io_error.is_some() || !order.accept(t) {
+                    return;
+                }
+                if let Err(e) = write_record(&mut out, t, q) {
+                    io_error = Some(e);
+                }
+            })?;
+            if let Some(e) = io_error {
+                return Err(e);
+            }
+            out.flush()?;
+        }
+        let triangles = order.finish(None)?;
+        let mut charge = crate::external::temp_usage::Charge::new();
+        charge.grow(triangles * RECORD_BYTES as u64);
+        Ok(SpooledBarycentres {
+            file,
+            triangles,
+            _charge: charge,
+        })
+    }
+
+    /// Triangles spooled.
+    pub fn len(&self) -> u64 {
+        self.triangles
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.triangles == 0
+    }
+}
+
+impl BarycentreSource for SpooledBarycentres {
+    fn for_each_barycentre(&self, f: &mut dyn FnMut(u32, [f64; 3])) -> io::Result<()> {
+        let mut file = &self.file;
+        file.seek(SeekFrom::Start(0))?;
+        let mut input = io::BufReader::with_capacity(1 << 20, file);
+        let mut record = [0u8; RECORD_BYTES];
+        for _ in 0..self.triangles {
+            input.read_exact(&mut record)?;
+            let (t, q) = read_record(&record);
+            f(t, q);
+        }
+        Ok(())
+    }
+}
+
+/// Checks that a source streams 0, 1, 2, … and counts it.
+#[derive(Default)]
+pub(super) struct InOrder {
+    next: u64,
+    broken: bool,
+}
+
+impl InOrder {
+    pub(super) fn accept(&mut self, t: u32) -> bool {
+        if self.broken || t as u64 != self.next {
+            self.broken = true;
+            return false;
+        }
+        self.next += 1;
+        true
+    }
+
+    pub(super) fn finish(&self, expected: Option<u64>) -> io::Result<u64> {
+        if self.broken || expected.is_some_and(|n| n != self.next) {
+            return Err(io::Error::new(
+                io::ErrorKind::InvalidData,
+                "bucketed hierarchy: the triangle source must stream indices 0, 1, 2, … in \
+                 order, the same triangles on every pass",
+            ));
+        }
+        Ok(self.next)
+    }
+}
+
+/// Bytes of one record: index (u32) and barycentre (3 × f64), little-endian.
+pub(super) const RECORD_BYTES: usize = 4 + 3 * 8;
+
+pub(super) fn write_record(out: &mut impl Write, t: u32, q: [f64; 3]) -> io::Result<()> {
+    let mut record = [0u8; RECORD_BYTES];
+    record[0..4].copy_from_slice(&t.to_le_bytes());
+    for (i, x) in q.iter().enumerate() {
+        record[4 + 8 * i..12 + 8 * i].copy_from_slice(&x.to_le_bytes());
+    }
+    out.write_all(&record)
+}
+
+pub(super) fn read_record(r: &[u8]) -> (u32, [f64; 3]) {
+    let t = u32::from_le_bytes(r[0..4].try_into().unwrap());
+    let q = [0, 1, 2].map(|i| f64::from_le_bytes(r[4 + 8 * i..12 + 8 * i].try_into().unwrap()));
+    (t, q)
+}
