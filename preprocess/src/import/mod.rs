@@ -14,6 +14,7 @@ mod input;
 mod obj;
 mod off;
 mod ply;
+mod ply_header;
 mod stl;
 mod weld;
 
