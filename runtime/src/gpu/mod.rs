@@ -33,6 +33,7 @@ pub mod shaders;
 pub mod skirts;
 pub mod stream_budget;
 pub mod stream_pool;
+pub mod stream_report;
 pub mod streamer;
 pub mod target;
 pub mod timing;

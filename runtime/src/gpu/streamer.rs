@@ -35,82 +35,10 @@ use super::resident::{PatchLocation, ResidentModel, PATCH_LOCATION_BYTES};
 use super::stream_budget::fixed_bytes;
 use super::stream_pool::{location_at, pool_model, Placement, PoolAllocator};
 use crate::stream::loader::{read_unit, UnitBytes};
-use crate::stream::{
-    stream_frame, LoadedUnit, Loader, Residency, ResidencyStats, StreamFrame, UnitTable,
-};
+use crate::stream::{stream_frame, LoadedUnit, Loader, Residency, StreamFrame, UnitTable};
 use tessera_core::repository::format::NO_INDEX;
 
-/// Why a streaming renderer cannot be made.
-#[derive(Debug, thiserror::Error)]
-pub enum StreamError {
-    #[error(
-        "the GPU budget of {budget} bytes is too small: the fixed allocations (record slots, \
-         lists, queues, target) take {fixed} bytes and the pinned roots {roots} bytes more"
-    )]
-    BudgetTooSmall { budget: u64, fixed: u64, roots: u64 },
-    #[error(
-        "the model's {roots} roots need {bytes} bytes of {what} in one binding, more than the \
-         adapter's max_storage_buffer_binding_size ({limit} bytes)"
-    )]
-    RootsOverBindingLimit {
-        roots: u32,
-        what: &'static str,
-        bytes: u64,
-        limit: u64,
-    },
-    #[error("reading the roots' patches: {0}")]
-    Roots(tessera_core::repository::RepositoryError),
-    #[error(transparent)]
-    Render(#[from] RenderError),
-    /// The device failed (lost, out of memory): nothing more can be drawn.
-    #[error("the GPU device failed: {0}")]
-    Device(String),
-}
-
-/// What one streamed frame did.
-#[derive(Clone, Debug)]
-pub struct StreamedGpuFrame {
-    /// The CPU reference's view of the frame (selection, refined, wanted) for the flags the
-    /// GPU drew with (empty unless `set_cpu_reference`).
-    pub reference: StreamFrame,
-    /// The `may_refine` words the frame was drawn with (D / 32 words; empty unless
-    /// `set_cpu_reference`: they are O(diamonds)).
-    pub may_refine_words: Vec<u32>,
-    /// Loads issued, evictions planned, units uploaded by this frame.
-    pub loads: usize,
-    pub evictions: usize,
-    pub uploads: usize,
-    /// Nothing issued, nothing loading or waiting for pool space.
-    pub settled: bool,
-    pub stats: ResidencyStats,
-}
-
-/// Streaming totals besides `ResidencyStats`.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct GpuStreamStats {
-    /// Every GPU allocation the renderer makes, by the accounting of `stream_budget`.
-    pub gpu_bytes: u64,
-    /// The fixed part of it (everything but the record slots and the page pool).
-    pub fixed_bytes: u64,
-    /// Record slots (the paged directory, `records.rs`) and their bytes (records, locations,
-    /// traversal queue entries).
-    pub record_slots: u32,
-    pub record_bytes: u64,
-    /// Bytes of the page pool.
-    pub pool_bytes: u64,
-    /// Bytes written into the pool (units uploaded, roots included).
-    pub uploaded_bytes: u64,
-    /// Pool fragmentation (1 − largest free range / free bytes) now.
-    pub fragmentation: f64,
-    /// Frames a loaded unit waited for pool space, summed.
-    pub space_waits: u64,
-    /// Frames whose GPU feedback was read back and used.
-    pub feedback_frames: u64,
-    /// List appends past the capacity (requests lost), summed.
-    pub feedback_overflow: u64,
-    /// With the CPU reference on: frames whose GPU feedback differed from the reference's.
-    pub feedback_mismatches: u64,
-}
+pub use super::stream_report::{GpuStreamStats, StreamError, StreamedGpuFrame};
 
 /// A frame number and the refined and wanted lists the CPU reference found for it.
 type FeedbackLists = (u64, Vec<(u32, f32)>, Vec<(u32, f32)>);
