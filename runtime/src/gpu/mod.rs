@@ -24,6 +24,7 @@ pub mod device;
 pub mod draw_pipelines;
 pub mod feedback;
 pub mod frame;
+pub mod frame_request;
 pub mod full_mesh;
 pub mod position_probe;
 pub mod records;
