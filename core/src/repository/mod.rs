@@ -17,6 +17,7 @@ pub mod format;
 pub mod global_ids;
 pub mod patch;
 pub mod reader;
+pub mod strip;
 pub mod writer;
 
 pub use format::{DiamondRecord, Header, TetRecord, FORMAT_VERSION, NO_INDEX};
