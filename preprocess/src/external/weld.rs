@@ -19,6 +19,7 @@ use bytemuck::{Pod, Zeroable};
 
 use super::sort::sort_external;
 use super::staged::{RawStaged, RecordFile, StagedMesh, VertexAttributes};
+use crate::import::weld::canonical_bits;
 
 /// The smallest window of an id map held in memory, whatever the budget.
 const MIN_WINDOW: usize = if cfg!(test) { 16 } else { 1 << 16 };
@@ -267,15 +268,6 @@ struct DuplicateKey {
 struct MappedTriangle {
     corners: [u32; 3],
     mapped: u32,
-}
-
-/// Bits of a coordinate with `-0.0` folded onto `0.0` (as `import::weld`).
-fn canonical_bits(x: f64) -> u64 {
-    if x == 0.0 {
-        0
-    } else {
-        x.to_bits()
-    }
 }
 
 /// The records of `from` whose index is in `indices` (ascending).

@@ -16,7 +16,7 @@ mod off;
 mod ply;
 mod ply_header;
 mod stl;
-mod weld;
+pub(crate) mod weld;
 
 use std::io::Read;
 use std::path::Path;

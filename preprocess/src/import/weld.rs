@@ -104,7 +104,7 @@ fn pick_attr<T: Copy>(attr: &Option<Vec<T>>, kept: &[u32]) -> Option<Vec<T>> {
 
 /// Bits of a coordinate with `-0.0` folded onto `0.0`.
 #[inline]
-fn canonical_bits(x: f64) -> u64 {
+pub(crate) fn canonical_bits(x: f64) -> u64 {
     if x == 0.0 {
         0
     } else {
