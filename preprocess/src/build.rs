@@ -6,15 +6,17 @@ use std::path::Path;
 use std::time::Instant;
 
 use rayon::prelude::*;
-use tessera_core::bounds::{round_up_f32, NormalCone, Sphere};
-use tessera_core::leb::{DiamondId, Simplex};
+use tessera_core::bounds::round_up_f32;
+use tessera_core::leb::{DiamondId, Simplex, SimplexKey};
 use tessera_core::repository::format::{
     DiamondRecord, Header, TetRecord, ATTR_COLORS, ATTR_NORMALS, ATTR_UVS, NO_INDEX, POSITION_BITS,
 };
-use tessera_core::repository::patch::{encode_patch, patch_bytes};
-use tessera_core::repository::writer::{write_repository_file, RepositoryContents};
-use tessera_core::repository::RepositoryError;
+use tessera_core::repository::writer::RepositoryContents;
+use tessera_core::repository::{
+    write_repository_streamed, BlobFeed, RepositoryDirectory, RepositoryError,
+};
 
+use crate::finished_patches::{FinishedPatches, PatchEncoding};
 use crate::frame::LatticeFrame;
 use crate::hierarchy::{
     build_hierarchy, build_hierarchy_bucketed, BucketBudget, Construction, Hierarchy,
@@ -22,8 +24,7 @@ use crate::hierarchy::{
 };
 use crate::mesh::InputMesh;
 use crate::saturate::{nest_simplex_spheres, saturate, RADIUS_MARGIN};
-use crate::simplify::{simplify_hierarchy, CurrentMesh, SimplifySettings};
-use crate::strips::build_patch;
+use crate::simplify::{simplify_hierarchy, CurrentMesh, SimplifyError, SimplifySettings};
 
 /// Default maximum triangles per leaf; chosen by the sweep in ARCHITECTURE.md.
 pub const DEFAULT_LEAF_TRIANGLES: usize = 1024;
@@ -191,6 +192,8 @@ pub struct BuildSummary {
 
 /// Builds the repository for `mesh` and writes it to `out` (temporary file + rename: a failed
 /// build never leaves a partial file). `on_stage` is told each stage's name as it starts.
+/// The patches are encoded as they are made and streamed into the file (kept in temporary
+/// files under `config.memory`), so the repository's blobs are never held whole.
 pub fn build_repository(
     mesh: &InputMesh,
     config: &BuildConfig,
@@ -198,21 +201,70 @@ pub fn build_repository(
     on_stage: &(dyn Fn(&str) + Sync),
 ) -> Result<BuildSummary, BuildError> {
     let start = Instant::now();
-    let (contents, mut summary) = build_contents(mesh, config, on_stage)?;
+    let mut built = build_parts(mesh, config, on_stage)?;
     on_stage("write");
     let t = Instant::now();
-    summary.repository_bytes = write_repository_file(out, &contents)?;
-    summary.stages.push(("write", t.elapsed().as_secs_f64()));
-    summary.seconds = start.elapsed().as_secs_f64();
-    Ok(summary)
+    let mut feed = built.finished.feed(&built.order);
+    built.summary.repository_bytes = write_repository_streamed(out, &built.directory, &mut feed)?;
+    built
+        .summary
+        .stages
+        .push(("write", t.elapsed().as_secs_f64()));
+    built.summary.seconds = start.elapsed().as_secs_f64();
+    Ok(built.summary)
 }
 
-/// Builds the repository image in memory.
+/// Builds the repository image in memory (the same bytes `build_repository` writes).
 pub fn build_contents(
     mesh: &InputMesh,
     config: &BuildConfig,
     on_stage: &(dyn Fn(&str) + Sync),
 ) -> Result<(RepositoryContents, BuildSummary), BuildError> {
+    let mut built = build_parts(mesh, config, on_stage)?;
+    let mut feed = built.finished.feed(&built.order);
+    let mut patch_blob = Vec::new();
+    let mut id_blob = Vec::new();
+    for i in 0..built.order.len() {
+        let read = feed
+            .patch(i, &mut patch_blob)
+            .and_then(|()| feed.ids(i, &mut id_blob));
+        read.map_err(|source| BuildError::Temporary {
+            dir: config
+                .memory
+                .as_ref()
+                .map_or_else(Default::default, |m| m.temp_dir.clone()),
+            source,
+        })?;
+    }
+    let RepositoryDirectory {
+        header,
+        diamonds,
+        tets,
+    } = built.directory;
+    let contents = RepositoryContents {
+        header,
+        diamonds,
+        tets,
+        patch_blob,
+        id_blob,
+    };
+    Ok((contents, built.summary))
+}
+
+/// A built repository before it is written: its directory, its tet table's simplices in
+/// order, and their encoded patches.
+struct Built {
+    directory: RepositoryDirectory,
+    order: Vec<SimplexKey>,
+    finished: FinishedPatches,
+    summary: BuildSummary,
+}
+
+fn build_parts(
+    mesh: &InputMesh,
+    config: &BuildConfig,
+    on_stage: &(dyn Fn(&str) + Sync),
+) -> Result<Built, BuildError> {
     validate(mesh, config)?;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(config.threads.unwrap_or(0))
@@ -294,7 +346,7 @@ fn build_in_pool(
     mesh: &InputMesh,
     config: &BuildConfig,
     on_stage: &(dyn Fn(&str) + Sync),
-) -> Result<(RepositoryContents, BuildSummary), BuildError> {
+) -> Result<Built, BuildError> {
     let mut stages = Vec::new();
     let mut stage = |name: &'static str, t: Instant| stages.push((name, t.elapsed().as_secs_f64()));
 
@@ -350,10 +402,37 @@ fn build_in_pool(
     };
     stage("hierarchy", t);
 
-    // 2. Simplification, diamond by diamond, finest first, borders locked.
+    // 2. Simplification, diamond by diamond, finest first, borders locked; each patch
+    //    encoded (strips, quantised positions, attributes) as soon as it is final.
     on_stage("simplify");
     let t = Instant::now();
-    let simplified = simplify_hierarchy(mesh, &hierarchy, current, &config.simplify)?;
+    let attributes = (mesh.normals.is_some() as u32 * ATTR_NORMALS)
+        | (mesh.colors.is_some() as u32 * ATTR_COLORS)
+        | (mesh.uvs.is_some() as u32 * ATTR_UVS);
+    let spill_dir = config.memory.as_ref().map(|m| m.temp_dir.as_path());
+    let temporary = |source| BuildError::Temporary {
+        dir: spill_dir.map_or_else(Default::default, Path::to_path_buf),
+        source,
+    };
+    let mut finished = FinishedPatches::new(spill_dir).map_err(temporary)?;
+    let encoding = PatchEncoding {
+        mesh,
+        origin,
+        bbox_min,
+        step,
+        attributes,
+    };
+    let simplified = simplify_hierarchy(
+        mesh,
+        &hierarchy,
+        current,
+        &config.simplify,
+        &mut |patches| finished.add(patches, &encoding),
+    )
+    .map_err(|e| match e {
+        SimplifyError::Conformity(e) => BuildError::Conformity(e),
+        SimplifyError::Finished(e) => temporary(e),
+    })?;
     stage("simplify", t);
 
     // 3. Table order: breadth-first from the roots, so roots come first and siblings are
@@ -361,14 +440,7 @@ fn build_in_pool(
     on_stage("saturate");
     let t = Instant::now();
     let simplices = breadth_first(&hierarchy);
-    let relative = |g: u32| {
-        let p = mesh.positions[g as usize];
-        [p[0] - origin[0], p[1] - origin[1], p[2] - origin[2]]
-    };
-    let patch_sphere = |key| {
-        let tris = &simplified.patches[&key];
-        Sphere::around_points(tris.iter().flatten().map(|&g| relative(g)))
-    };
+    let patch_sphere = |key| finished.get(key).sphere;
     let error_floor = step.iter().copied().fold(model_size * 1e-9, f64::max);
     // Patches are stored on the position lattice: each vertex within half a step per axis of
     // its input position, while the simplifier measured its error on the input's positions.
@@ -416,70 +488,49 @@ fn build_in_pool(
         .collect();
     stage("saturate", t);
 
-    // 4. Patches: strips, quantised positions, attributes; tet records point into the blob.
-    on_stage("strips");
+    // 4. The tet table: each record points into the blobs, laid out in table order.
+    on_stage("tables");
     let t = Instant::now();
-    let attributes = (mesh.normals.is_some() as u32 * ATTR_NORMALS)
-        | (mesh.colors.is_some() as u32 * ATTR_COLORS)
-        | (mesh.uvs.is_some() as u32 * ATTR_UVS);
-    let encoded: Vec<(Vec<u8>, Vec<u8>, TetRecord, Sphere)> = simplices
-        .par_iter()
-        .map(|entry| {
-            let tris = &simplified.patches[&entry.simplex.key];
-            let patch = build_patch(tris, mesh, bbox_min, step);
-            let mut bytes = Vec::with_capacity(patch_bytes(
-                patch.global_ids.len(),
-                patch.strip.len(),
-                attributes,
-            ));
-            let mut ids = Vec::with_capacity(2 * patch.global_ids.len());
-            let placement = encode_patch(&patch, attributes, &mut bytes, &mut ids);
-            let sphere = patch_sphere(entry.simplex.key);
-            let (center, radius) = sphere.to_f32();
-            let cone = NormalCone::around_normals(tris.iter().map(|t| triangle_normal(t, mesh)));
-            let diamond = table_index
-                .get(&entry.simplex.split_point())
-                .copied()
-                .unwrap_or(NO_INDEX);
-            let record = TetRecord {
-                center,
-                radius,
-                cone_axis: cone.axis,
-                cone_cos: cone.cos,
-                diamond: if entry.first_child == NO_INDEX {
-                    NO_INDEX
-                } else {
-                    diamond
-                },
-                parent_diamond: entry.parent_diamond.map_or(NO_INDEX, |p| table_index[&p]),
-                first_child: entry.first_child,
-                level: entry.simplex.level() as u32,
-                patch_offset: 0, // placed below
-                patch_bytes: placement.patch_bytes,
-                vertex_count: patch.global_ids.len() as u32,
-                strip_index_count: patch.strip.len() as u32,
-                triangle_count: patch.triangle_count,
-                id_offset: 0, // placed below
-                id_bytes: placement.id_bytes,
-                patch_checksum: 0,
-            };
-            (bytes, ids, record, sphere)
-        })
-        .collect();
-    let mut patch_blob = Vec::with_capacity(encoded.iter().map(|(b, ..)| b.len()).sum());
-    let mut id_blob = Vec::with_capacity(encoded.iter().map(|(_, i, ..)| i.len()).sum());
-    let mut tets = Vec::with_capacity(encoded.len());
-    let mut spheres = Vec::with_capacity(encoded.len());
-    for (bytes, ids, mut record, sphere) in encoded {
-        record.patch_offset = patch_blob.len() as u64;
-        record.id_offset = id_blob.len() as u64;
-        patch_blob.extend_from_slice(&bytes);
-        id_blob.extend_from_slice(&ids);
-        tets.push(record);
-        spheres.push(sphere);
+    let mut tets = Vec::with_capacity(simplices.len());
+    let mut spheres = Vec::with_capacity(simplices.len());
+    let (mut patch_offset, mut id_offset) = (0u64, 0u64);
+    for entry in &simplices {
+        let p = finished.get(entry.simplex.key);
+        let (center, radius) = p.sphere.to_f32();
+        let diamond = table_index
+            .get(&entry.simplex.split_point())
+            .copied()
+            .unwrap_or(NO_INDEX);
+        tets.push(TetRecord {
+            center,
+            radius,
+            cone_axis: p.cone.axis,
+            cone_cos: p.cone.cos,
+            diamond: if entry.first_child == NO_INDEX {
+                NO_INDEX
+            } else {
+                diamond
+            },
+            parent_diamond: entry.parent_diamond.map_or(NO_INDEX, |p| table_index[&p]),
+            first_child: entry.first_child,
+            level: entry.simplex.level() as u32,
+            patch_offset,
+            patch_bytes: p.patch_bytes,
+            vertex_count: p.vertex_count,
+            strip_index_count: p.strip_index_count,
+            triangle_count: p.triangle_count,
+            id_offset,
+            id_bytes: p.id_bytes,
+            patch_checksum: p.patch_checksum,
+        });
+        spheres.push(p.sphere);
+        patch_offset += p.patch_bytes as u64;
+        id_offset += p.id_bytes as u64;
     }
     nest_simplex_spheres(&mut tets, &mut spheres, RADIUS_MARGIN * model_size);
-    stage("strips", t);
+    let order: Vec<SimplexKey> = simplices.iter().map(|e| e.simplex.key).collect();
+    drop(simplices);
+    stage("tables", t);
 
     let header = Header {
         dimension: config.domain.dim() as u32,
@@ -512,16 +563,16 @@ fn build_in_pool(
         seconds: 0.0,
         stages,
     };
-    Ok((
-        RepositoryContents {
+    Ok(Built {
+        directory: RepositoryDirectory {
             header,
             diamonds,
             tets,
-            patch_blob,
-            id_blob,
         },
+        order,
+        finished,
         summary,
-    ))
+    })
 }
 
 /// One row of the simplex table.
@@ -572,15 +623,4 @@ fn bounding_box(positions: &[[f64; 3]]) -> ([f64; 3], [f64; 3]) {
         }
     }
     (lo, hi)
-}
-
-fn triangle_normal(t: &[u32; 3], mesh: &InputMesh) -> [f64; 3] {
-    let [a, b, c] = t.map(|v| mesh.positions[v as usize]);
-    let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
-    let v = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
-    [
-        u[1] * v[2] - u[2] * v[1],
-        u[2] * v[0] - u[0] * v[2],
-        u[0] * v[1] - u[1] * v[0],
-    ]
 }

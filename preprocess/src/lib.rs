@@ -1,6 +1,7 @@
 //! tessera-preprocess: importers, hierarchy construction, diamond simplification, repository
 //! writer. The build reads like seed 001's pipeline: `build::build_repository` calls
-//! `hierarchy` → `simplify` → `saturate` → `strips` → the core's repository writer.
+//! `hierarchy` → `simplify` (each patch encoded by `strips` into `finished_patches` as it is
+//! made) → `saturate` → the tet table → the core's streaming repository writer.
 //!
 //! Architecture invariant: nothing here knows the GPU; the runtime never imports this crate.
 
@@ -8,6 +9,7 @@ pub mod build;
 pub mod dem;
 pub mod diamond_square;
 pub mod external;
+pub mod finished_patches;
 pub mod frame;
 pub mod fuzzing;
 pub mod gen_mesh;

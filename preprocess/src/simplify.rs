@@ -55,10 +55,9 @@ use local_edges::LocalEdges;
 
 pub use current_mesh::CurrentMesh;
 
-/// Patches of every simplex and the simplifier's own error of every split diamond.
+/// The simplifier's own error of every split diamond (the patches went to the caller's
+/// `finished` as they were made).
 pub struct Simplified {
-    /// Triangles (global vertex ids) of every simplex of the hierarchy, leaves included.
-    pub patches: HashMap<SimplexKey, Vec<[u32; 3]>>,
     /// Object-space error of each diamond's own simplification (model units), indexed like
     /// `Hierarchy::diamonds`.
     pub own_error: Vec<f32>,
@@ -80,6 +79,21 @@ struct DiamondResult {
     /// Where it does not if the rest of the mesh also uses the edge (`conformity.rs`).
     border_break_if_used_outside: Vec<BorderBreak>,
 }
+
+/// Why a simplification stopped.
+#[derive(Debug, thiserror::Error)]
+pub enum SimplifyError {
+    #[error(transparent)]
+    Conformity(#[from] ConformityError),
+    /// The caller's `finished` failed (writing the patches out).
+    #[error(transparent)]
+    Finished(#[from] std::io::Error),
+}
+
+/// Patches whose triangles are final, handed to the caller as they are made: (simplex,
+/// triangles by global vertex id).
+pub type FinishedPatchSink<'a> =
+    dyn FnMut(&[(SimplexKey, &[[u32; 3]])]) -> std::io::Result<()> + 'a;
 
 /// A diamond whose simplification did not keep the border of the region it replaces
 /// (`conformity.rs`): the build stops rather than write a repository with cracks.
@@ -158,12 +172,17 @@ impl Default for SimplifySettings {
 /// before (the input's own non-manifold edges). The output is the same for any number of
 /// threads. Every diamond's output keeps the border of the region it replaces, or the
 /// simplification stops with the first diamond (in level order) that does not.
+///
+/// Every simplex's patch goes to `finished` once, when it is final: the leaves' first, then
+/// each merged diamond's simplices'. Only the live patches (the current mesh's) are kept here,
+/// so memory follows the current mesh, not every level's patches.
 pub fn simplify_hierarchy(
     mesh: &InputMesh,
     hierarchy: &Hierarchy,
     mut current: CurrentMesh,
     settings: &SimplifySettings,
-) -> Result<Simplified, ConformityError> {
+    finished: &mut FinishedPatchSink,
+) -> Result<Simplified, SimplifyError> {
     let frame = &hierarchy.frame;
     let size = frame.model_size();
     let mut positions: Vec<[f32; 3]> = mesh
@@ -189,6 +208,11 @@ pub fn simplify_hierarchy(
             )
         })
         .collect();
+    {
+        let leaves: Vec<(SimplexKey, &[[u32; 3]])> =
+            patches.iter().map(|(k, t)| (*k, t.as_slice())).collect();
+        finished(&leaves)?;
+    }
     // The current mesh is the patches of these simplices: the leaves, then each merged
     // diamond's simplices in place of their children.
     let mut live: HashSet<SimplexKey> = hierarchy.leaf_triangles.keys().copied().collect();
@@ -226,10 +250,16 @@ pub fn simplify_hierarchy(
                 .iter()
                 .find_map(|p| p.result.conformity_error(hierarchy))
             {
-                return Err(error);
+                return Err(error.into());
             }
             let (clean, dirty) = split_batch(pending, &counts);
             current.merge(clean.iter().map(|p| &p.result.effect.changes));
+            let made: Vec<(SimplexKey, &[[u32; 3]])> = clean
+                .iter()
+                .flat_map(|p| p.result.patches.iter().map(|(k, t)| (*k, t.as_slice())))
+                .collect();
+            finished(&made)?;
+            drop(made);
             for p in clean {
                 let r = p.result;
                 own_error[r.diamond] = r.error;
@@ -237,6 +267,7 @@ pub fn simplify_hierarchy(
                 for s in &hierarchy.diamonds[r.diamond].simplices {
                     for c in s.children() {
                         live.remove(&c.key);
+                        patches.remove(&c.key);
                     }
                     live.insert(s.key);
                 }
@@ -263,7 +294,6 @@ pub fn simplify_hierarchy(
         }
     }
     Ok(Simplified {
-        patches,
         own_error,
         locked_vertices,
     })

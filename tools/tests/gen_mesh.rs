@@ -167,7 +167,7 @@ fn piped_into_build_equals_building_the_file() {
                 "hierarchy",
                 "simplify",
                 "saturate",
-                "strips",
+                "tables",
                 "write"
             ],
             "{j}"

@@ -8,6 +8,8 @@
 //!   CPU's checks need them, the GPU does not);
 //! - `writer`: `write_repository[_file]` (temporary file, fsync, rename; stale temporaries of
 //!   killed writers removed);
+//! - `streamed_writer`: `write_repository_streamed`, the same file with the blobs fed a tet
+//!   at a time (the out-of-core build);
 //! - `directory_check`: the header's and the tables' checks, shared by reader and writer;
 //! - `reader`: `Repository::open`, which validates every count, offset and index before use.
 //!   A bad file is an error (`RepositoryError`), never a panic or an out-of-bounds read.
@@ -17,6 +19,7 @@ pub mod format;
 pub mod global_ids;
 pub mod patch;
 pub mod reader;
+pub mod streamed_writer;
 pub mod strip;
 pub mod writer;
 
@@ -26,6 +29,7 @@ pub use patch::{
     encode_patch, patch_bytes, PatchData, PatchPlacement, PatchSource, PatchView, StripIndices,
 };
 pub use reader::{Repository, RepositoryError};
+pub use streamed_writer::{write_repository_streamed, BlobFeed, RepositoryDirectory};
 pub use writer::{
     remove_stale_temporaries, write_repository, write_repository_file, RepositoryContents,
 };

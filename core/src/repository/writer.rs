@@ -46,27 +46,48 @@ struct Laid {
 /// Fills the writer's header fields, the section table and the patch checksums, and validates
 /// the contents as the reader would, so an invalid repository is never written.
 fn lay_out(contents: &RepositoryContents) -> Result<Laid, RepositoryError> {
-    let overflow = || RepositoryError::Corrupt("sections overflow a u64 file offset".into());
-    let mut h = contents.header;
-    h.magic = MAGIC;
-    h.version = FORMAT_VERSION;
-    h.section_count = REQUIRED_SECTIONS.len() as u32;
-    h.diamond_count = contents.diamonds.len() as u64;
-    h.tet_count = contents.tets.len() as u64;
-    h.checksum = 0;
-    check_header_fields(&h)?;
+    let mut tets = contents.tets.clone();
     let blobs = BlobSizes {
         patches: contents.patch_blob.len() as u64,
         ids: contents.id_blob.len() as u64,
     };
     // Patch ranges are checked before they are hashed.
-    check_tables(&h, &contents.diamonds, &contents.tets, blobs)?;
-    let mut tets = contents.tets.clone();
+    let (header, _) = lay_out_directory(&contents.header, &contents.diamonds, &tets, blobs, 0)?;
     for t in &mut tets {
         let start = t.patch_offset as usize;
         t.patch_checksum =
             patch_checksum(&contents.patch_blob[start..start + t.patch_bytes as usize]);
     }
+    let ids_checksum = crc32fast::hash(&contents.id_blob);
+    let (header, entries) =
+        lay_out_directory(&header, &contents.diamonds, &tets, blobs, ids_checksum)?;
+    Ok(Laid {
+        header,
+        entries,
+        tets,
+    })
+}
+
+/// The header as written (magic, version, counts, checksum filled) and the section table for
+/// these tables and blob sizes, after the reader's header and table checks. `tets` carry their
+/// patch checksums; `ids_checksum` is the id blob's CRC-32.
+pub(super) fn lay_out_directory(
+    header: &Header,
+    diamonds: &[DiamondRecord],
+    tets: &[TetRecord],
+    blobs: BlobSizes,
+    ids_checksum: u32,
+) -> Result<(Header, [SectionEntry; 4]), RepositoryError> {
+    let overflow = || RepositoryError::Corrupt("sections overflow a u64 file offset".into());
+    let mut h = *header;
+    h.magic = MAGIC;
+    h.version = FORMAT_VERSION;
+    h.section_count = REQUIRED_SECTIONS.len() as u32;
+    h.diamond_count = diamonds.len() as u64;
+    h.tet_count = tets.len() as u64;
+    h.checksum = 0;
+    check_header_fields(&h)?;
+    check_tables(&h, diamonds, tets, blobs)?;
     let sizes = [
         (
             SECTION_DIAMONDS,
@@ -82,9 +103,9 @@ fn lay_out(contents: &RepositoryContents) -> Result<Laid, RepositoryError> {
         let offset = align8(at).ok_or_else(overflow)?;
         at = offset.checked_add(bytes).ok_or_else(overflow)?;
         let checksum = match kind {
-            SECTION_DIAMONDS => crc32fast::hash(bytemuck::cast_slice(&contents.diamonds)),
-            SECTION_TETS => crc32fast::hash(bytemuck::cast_slice(&tets)),
-            SECTION_IDS => crc32fast::hash(&contents.id_blob),
+            SECTION_DIAMONDS => crc32fast::hash(bytemuck::cast_slice(diamonds)),
+            SECTION_TETS => crc32fast::hash(bytemuck::cast_slice(tets)),
+            SECTION_IDS => ids_checksum,
             _ => 0,
         };
         *entry = SectionEntry {
@@ -99,11 +120,7 @@ fn lay_out(contents: &RepositoryContents) -> Result<Laid, RepositoryError> {
     let mut directory = bytemuck::bytes_of(&h).to_vec();
     directory.extend_from_slice(bytemuck::cast_slice(&entries));
     h.checksum = compute_checksum(&directory);
-    Ok(Laid {
-        header: h,
-        entries,
-        tets,
-    })
+    Ok((h, entries))
 }
 
 /// Writes the laid-out file to `w`, returning the byte count.
@@ -146,7 +163,7 @@ pub fn write_repository<W: Write>(w: W, contents: &RepositoryContents) -> io::Re
 
 /// The temporary name a write of `path` by process `pid` uses: `.{file name}.tmp-{pid}` in the
 /// same directory (hidden, and matched by the repository's `.gitignore`).
-fn temporary_path(path: &Path, pid: u32) -> io::Result<PathBuf> {
+pub(super) fn temporary_path(path: &Path, pid: u32) -> io::Result<PathBuf> {
     let file_name = path.file_name().ok_or_else(|| {
         io::Error::new(
             io::ErrorKind::InvalidInput,
@@ -224,18 +241,31 @@ pub fn write_repository_file(
     contents: &RepositoryContents,
 ) -> Result<u64, RepositoryError> {
     let laid = lay_out(contents)?;
+    write_atomically(path, &mut |file| {
+        let mut out = BufWriter::new(file);
+        let bytes = write_laid_out(&mut out, &laid, contents)?;
+        out.flush()?;
+        Ok(bytes)
+    })
+}
+
+/// Writes `path` through `.{file name}.tmp-{pid}` (see `write_repository_file`): removes
+/// stale temporaries, lets `write` fill the new file and return its size, syncs it, renames it
+/// over `path` and syncs the directory. On any error the temporary file is removed.
+pub(super) fn write_atomically(
+    path: &Path,
+    write: &mut dyn FnMut(&mut File) -> io::Result<u64>,
+) -> Result<u64, RepositoryError> {
     let io_error = |path: &Path, source| RepositoryError::Io {
         path: path.to_path_buf(),
         source,
     };
     let tmp = temporary_path(path, std::process::id()).map_err(|e| io_error(path, e))?;
     remove_stale_temporaries(path).map_err(|e| io_error(path, e))?;
-    let write = || -> io::Result<u64> {
-        let mut out = BufWriter::new(File::create(&tmp)?);
-        let bytes = write_laid_out(&mut out, &laid, contents)?;
-        out.into_inner()
-            .map_err(io::IntoInnerError::into_error)?
-            .sync_all()?;
+    let mut write = || -> io::Result<u64> {
+        let mut file = File::create(&tmp)?;
+        let bytes = write(&mut file)?;
+        file.sync_all()?;
         Ok(bytes)
     };
     let bytes = write().map_err(|e| {

@@ -1,0 +1,243 @@
+//! Finished patches: each simplex's patch encoded (strips, quantised positions, attributes,
+//! global ids) as soon as it is final — a leaf's when the hierarchy is built, a diamond's
+//! simplices' when the diamond is merged — with its bounding sphere, normal cone and checksum.
+//! The simplifier then keeps only the live patches' triangles, and the writer streams the
+//! encoded bytes into the repository in table order (`write_repository_streamed`).
+//!
+//! The bytes are kept in memory, or under a memory budget in two unnamed temporary files
+//! (counted in `temp_bytes_peak`), read back one patch at a time when the file is written.
+//! Either way the repository is the same bytes: a patch's encoding depends only on its
+//! triangles (in the simplifier's order) and the input's positions and attributes.
+
+use std::fs::File;
+use std::io::{self, BufWriter, Write};
+use std::os::unix::fs::FileExt;
+use std::path::Path;
+
+use rayon::prelude::*;
+use rustc_hash::FxHashMap as HashMap;
+use tessera_core::bounds::{NormalCone, Sphere};
+use tessera_core::leb::SimplexKey;
+use tessera_core::repository::format::patch_checksum;
+use tessera_core::repository::patch::{encode_patch, patch_bytes};
+use tessera_core::repository::BlobFeed;
+
+use crate::external::temp_usage::Charge;
+use crate::mesh::InputMesh;
+use crate::strips::build_patch;
+
+/// What the tet table needs of one encoded patch.
+#[derive(Clone, Copy, Debug)]
+pub struct FinishedPatch {
+    /// Bounding sphere of the patch's vertices (their input positions relative to the
+    /// repository origin).
+    pub sphere: Sphere,
+    pub cone: NormalCone,
+    pub vertex_count: u32,
+    pub strip_index_count: u32,
+    pub triangle_count: u32,
+    pub patch_bytes: u32,
+    pub id_bytes: u32,
+    pub patch_checksum: u32,
+    /// Where its bytes are in the store.
+    patch_at: u64,
+    id_at: u64,
+}
+
+/// How a patch is encoded: the input's positions and attributes, the repository origin and
+/// the position grid.
+pub struct PatchEncoding<'a> {
+    pub mesh: &'a InputMesh,
+    pub origin: [f64; 3],
+    pub bbox_min: [f64; 3],
+    pub step: [f64; 3],
+    pub attributes: u32,
+}
+
+/// Every finished patch by simplex, and its encoded bytes.
+pub struct FinishedPatches {
+    index: HashMap<SimplexKey, FinishedPatch>,
+    store: Store,
+}
+
+enum Store {
+    Memory { patches: Vec<u8>, ids: Vec<u8> },
+    Disk { patches: Spill, ids: Spill },
+}
+
+/// An unnamed append-only file, read back by ranges.
+struct Spill {
+    writer: BufWriter<File>,
+    bytes: u64,
+    charge: Charge,
+}
+
+impl Spill {
+    fn new(dir: &Path) -> io::Result<Spill> {
+        Ok(Spill {
+            writer: BufWriter::with_capacity(1 << 20, tempfile::tempfile_in(dir)?),
+            bytes: 0,
+            charge: Charge::new(),
+        })
+    }
+
+    fn append(&mut self, bytes: &[u8]) -> io::Result<u64> {
+        let at = self.bytes;
+        self.writer.write_all(bytes)?;
+        self.bytes += bytes.len() as u64;
+        self.charge.grow(bytes.len() as u64);
+        Ok(at)
+    }
+
+    fn read(&mut self, at: u64, len: usize, out: &mut Vec<u8>) -> io::Result<()> {
+        self.writer.flush()?;
+        let start = out.len();
+        out.resize(start + len, 0);
+        self.writer.get_ref().read_exact_at(&mut out[start..], at)
+    }
+}
+
+/// Patches encoded per parallel task before they are appended (bounds the encoded bytes
+/// held at once).
+const CHUNK: usize = 1024;
+
+impl FinishedPatches {
+    /// A store in memory, or in unnamed files in `spill_dir`.
+    pub fn new(spill_dir: Option<&Path>) -> io::Result<FinishedPatches> {
+        let store = match spill_dir {
+            None => Store::Memory {
+                patches: Vec::new(),
+                ids: Vec::new(),
+            },
+            Some(dir) => Store::Disk {
+                patches: Spill::new(dir)?,
+                ids: Spill::new(dir)?,
+            },
+        };
+        Ok(FinishedPatches {
+            index: HashMap::default(),
+            store,
+        })
+    }
+
+    /// Encodes (in parallel) and stores the patches of these simplices; each simplex once.
+    pub fn add(
+        &mut self,
+        patches: &[(SimplexKey, &[[u32; 3]])],
+        encoding: &PatchEncoding,
+    ) -> io::Result<()> {
+        for chunk in patches.chunks(CHUNK) {
+            let encoded: Vec<(Vec<u8>, Vec<u8>, FinishedPatch)> = chunk
+                .par_iter()
+                .map(|&(_, tris)| encode(tris, encoding))
+                .collect();
+            for (&(key, _), (bytes, ids, mut patch)) in chunk.iter().zip(encoded) {
+                (patch.patch_at, patch.id_at) = match &mut self.store {
+                    Store::Memory { patches, ids: all } => {
+                        let at = (patches.len() as u64, all.len() as u64);
+                        patches.extend_from_slice(&bytes);
+                        all.extend_from_slice(&ids);
+                        at
+                    }
+                    Store::Disk { patches, ids: all } => {
+                        (patches.append(&bytes)?, all.append(&ids)?)
+                    }
+                };
+                let previous = self.index.insert(key, patch);
+                assert!(previous.is_none(), "simplex {key:?} finished twice");
+            }
+        }
+        Ok(())
+    }
+
+    /// The finished patch of `key`. Panics when it has none (every simplex of the hierarchy
+    /// gets one).
+    pub fn get(&self, key: SimplexKey) -> &FinishedPatch {
+        self.index
+            .get(&key)
+            .unwrap_or_else(|| panic!("simplex {key:?} has no finished patch"))
+    }
+
+    /// Feeds the writer the patches of `order` (the tet table's simplices, in table order).
+    pub fn feed<'a>(&'a mut self, order: &'a [SimplexKey]) -> impl BlobFeed + 'a {
+        Feed {
+            patches: self,
+            order,
+        }
+    }
+}
+
+struct Feed<'a> {
+    patches: &'a mut FinishedPatches,
+    order: &'a [SimplexKey],
+}
+
+impl BlobFeed for Feed<'_> {
+    fn patch(&mut self, tet: usize, out: &mut Vec<u8>) -> io::Result<()> {
+        let p = *self.patches.get(self.order[tet]);
+        match &mut self.patches.store {
+            Store::Memory { patches, .. } => {
+                let at = p.patch_at as usize;
+                out.extend_from_slice(&patches[at..at + p.patch_bytes as usize]);
+                Ok(())
+            }
+            Store::Disk { patches, .. } => patches.read(p.patch_at, p.patch_bytes as usize, out),
+        }
+    }
+
+    fn ids(&mut self, tet: usize, out: &mut Vec<u8>) -> io::Result<()> {
+        let p = *self.patches.get(self.order[tet]);
+        match &mut self.patches.store {
+            Store::Memory { ids, .. } => {
+                let at = p.id_at as usize;
+                out.extend_from_slice(&ids[at..at + p.id_bytes as usize]);
+                Ok(())
+            }
+            Store::Disk { ids, .. } => ids.read(p.id_at, p.id_bytes as usize, out),
+        }
+    }
+}
+
+/// The patch of `tris`: its bytes, id stream and record fields.
+fn encode(tris: &[[u32; 3]], encoding: &PatchEncoding) -> (Vec<u8>, Vec<u8>, FinishedPatch) {
+    let mesh = encoding.mesh;
+    let patch = build_patch(tris, mesh, encoding.bbox_min, encoding.step);
+    let mut bytes = Vec::with_capacity(patch_bytes(
+        patch.global_ids.len(),
+        patch.strip.len(),
+        encoding.attributes,
+    ));
+    let mut ids = Vec::with_capacity(2 * patch.global_ids.len());
+    let placement = encode_patch(&patch, encoding.attributes, &mut bytes, &mut ids);
+    let origin = encoding.origin;
+    let relative = |g: u32| {
+        let p = mesh.positions[g as usize];
+        [p[0] - origin[0], p[1] - origin[1], p[2] - origin[2]]
+    };
+    let sphere = Sphere::around_points(tris.iter().flatten().map(|&g| relative(g)));
+    let cone = NormalCone::around_normals(tris.iter().map(|t| triangle_normal(t, mesh)));
+    let finished = FinishedPatch {
+        sphere,
+        cone,
+        vertex_count: patch.global_ids.len() as u32,
+        strip_index_count: patch.strip.len() as u32,
+        triangle_count: patch.triangle_count,
+        patch_bytes: placement.patch_bytes,
+        id_bytes: placement.id_bytes,
+        patch_checksum: patch_checksum(&bytes),
+        patch_at: 0,
+        id_at: 0,
+    };
+    (bytes, ids, finished)
+}
+
+fn triangle_normal(t: &[u32; 3], mesh: &InputMesh) -> [f64; 3] {
+    let [a, b, c] = t.map(|v| mesh.positions[v as usize]);
+    let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+    let v = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
+    [
+        u[1] * v[2] - u[2] * v[1],
+        u[2] * v[0] - u[0] * v[2],
+        u[0] * v[1] - u[1] * v[0],
+    ]
+}
