@@ -416,7 +416,7 @@ fn build_in_pool(
     };
     let mut finished = FinishedPatches::new(spill_dir).map_err(temporary)?;
     let encoding = PatchEncoding {
-        mesh,
+        vertex_count: mesh.positions.len(),
         origin,
         bbox_min,
         step,

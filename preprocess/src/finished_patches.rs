@@ -23,8 +23,8 @@ use tessera_core::repository::patch::{encode_patch, patch_bytes};
 use tessera_core::repository::BlobFeed;
 
 use crate::external::temp_usage::Charge;
-use crate::mesh::InputMesh;
 use crate::strips::build_patch;
+use crate::vertex_table::LivePatch;
 
 /// What the tet table needs of one encoded patch.
 #[derive(Clone, Copy, Debug)]
@@ -44,10 +44,10 @@ pub struct FinishedPatch {
     id_at: u64,
 }
 
-/// How a patch is encoded: the input's positions and attributes, the repository origin and
-/// the position grid.
-pub struct PatchEncoding<'a> {
-    pub mesh: &'a InputMesh,
+/// How a patch is encoded: the input's vertex count, the repository origin and the position
+/// grid (the positions and attributes are the patch's own).
+pub struct PatchEncoding {
+    pub vertex_count: usize,
     pub origin: [f64; 3],
     pub bbox_min: [f64; 3],
     pub step: [f64; 3],
@@ -123,13 +123,13 @@ impl FinishedPatches {
     /// Encodes (in parallel) and stores the patches of these simplices; each simplex once.
     pub fn add(
         &mut self,
-        patches: &[(SimplexKey, &[[u32; 3]])],
+        patches: &[(SimplexKey, &LivePatch)],
         encoding: &PatchEncoding,
     ) -> io::Result<()> {
         for chunk in patches.chunks(CHUNK) {
             let encoded: Vec<(Vec<u8>, Vec<u8>, FinishedPatch)> = chunk
                 .par_iter()
-                .map(|&(_, tris)| encode(tris, encoding))
+                .map(|&(_, patch)| encode(patch, encoding))
                 .collect();
             for (&(key, _), (bytes, ids, mut patch)) in chunk.iter().zip(encoded) {
                 (patch.patch_at, patch.id_at) = match &mut self.store {
@@ -198,10 +198,16 @@ impl BlobFeed for Feed<'_> {
     }
 }
 
-/// The patch of `tris`: its bytes, id stream and record fields.
-fn encode(tris: &[[u32; 3]], encoding: &PatchEncoding) -> (Vec<u8>, Vec<u8>, FinishedPatch) {
-    let mesh = encoding.mesh;
-    let patch = build_patch(tris, mesh, encoding.bbox_min, encoding.step);
+/// The encoding of `live`: its bytes, id stream and record fields.
+fn encode(live: &LivePatch, encoding: &PatchEncoding) -> (Vec<u8>, Vec<u8>, FinishedPatch) {
+    let (tris, vertices) = (&live.triangles, &live.vertices);
+    let patch = build_patch(
+        tris,
+        vertices,
+        encoding.vertex_count,
+        encoding.bbox_min,
+        encoding.step,
+    );
     let mut bytes = Vec::with_capacity(patch_bytes(
         patch.global_ids.len(),
         patch.strip.len(),
@@ -210,12 +216,13 @@ fn encode(tris: &[[u32; 3]], encoding: &PatchEncoding) -> (Vec<u8>, Vec<u8>, Fin
     let mut ids = Vec::with_capacity(2 * patch.global_ids.len());
     let placement = encode_patch(&patch, encoding.attributes, &mut bytes, &mut ids);
     let origin = encoding.origin;
+    let position = |g: u32| vertices.positions[vertices.row(g)];
     let relative = |g: u32| {
-        let p = mesh.positions[g as usize];
+        let p = position(g);
         [p[0] - origin[0], p[1] - origin[1], p[2] - origin[2]]
     };
     let sphere = Sphere::around_points(tris.iter().flatten().map(|&g| relative(g)));
-    let cone = NormalCone::around_normals(tris.iter().map(|t| triangle_normal(t, mesh)));
+    let cone = NormalCone::around_normals(tris.iter().map(|t| triangle_normal(t.map(position))));
     let finished = FinishedPatch {
         sphere,
         cone,
@@ -231,8 +238,7 @@ fn encode(tris: &[[u32; 3]], encoding: &PatchEncoding) -> (Vec<u8>, Vec<u8>, Fin
     (bytes, ids, finished)
 }
 
-fn triangle_normal(t: &[u32; 3], mesh: &InputMesh) -> [f64; 3] {
-    let [a, b, c] = t.map(|v| mesh.positions[v as usize]);
+fn triangle_normal([a, b, c]: [[f64; 3]; 3]) -> [f64; 3] {
     let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
     let v = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
     [

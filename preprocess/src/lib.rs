@@ -21,6 +21,7 @@ pub mod procedural;
 pub mod saturate;
 pub mod simplify;
 pub mod strips;
+pub mod vertex_table;
 
 pub use build::{
     build_contents, build_repository, BuildConfig, BuildError, BuildSummary, Domain, MemoryBudget,

@@ -46,6 +46,7 @@ use crate::frame::LatticeFrame;
 use crate::hierarchy::Hierarchy;
 use crate::local_mesh::{local_mesh, LocalMesh};
 use crate::mesh::InputMesh;
+use crate::vertex_table::{LivePatch, VertexTable};
 use batches::{merge_effect, query_edges, split_batch, MergeEffect, Pending};
 use coincident::cancel_coincident_pairs;
 use conformity::{border_break, BorderBreak};
@@ -68,7 +69,7 @@ pub struct Simplified {
 /// What simplifying one diamond produced.
 struct DiamondResult {
     diamond: usize,
-    patches: Vec<(SimplexKey, Vec<[u32; 3]>)>,
+    patches: Vec<(SimplexKey, LivePatch)>,
     error: f32,
     locked: usize,
     /// The children's triangles it replaces.
@@ -90,10 +91,8 @@ pub enum SimplifyError {
     Finished(#[from] std::io::Error),
 }
 
-/// Patches whose triangles are final, handed to the caller as they are made: (simplex,
-/// triangles by global vertex id).
-pub type FinishedPatchSink<'a> =
-    dyn FnMut(&[(SimplexKey, &[[u32; 3]])]) -> std::io::Result<()> + 'a;
+/// Patches whose triangles are final, handed to the caller as they are made.
+pub type FinishedPatchSink<'a> = dyn FnMut(&[(SimplexKey, &LivePatch)]) -> std::io::Result<()> + 'a;
 
 /// A diamond whose simplification did not keep the border of the region it replaces
 /// (`conformity.rs`): the build stops rather than write a repository with cracks.
@@ -114,13 +113,14 @@ pub struct ConformityError {
     pub output_uses: u32,
 }
 
-/// Everything a diamond's simplification reads (shared by the parallel workers).
+/// Everything a diamond's simplification reads besides its patches (shared by the parallel
+/// workers).
 struct Context<'a> {
-    mesh: &'a InputMesh,
     frame: &'a LatticeFrame,
-    /// f32 positions relative to the model origin, in model sizes: what meshopt sees.
-    positions: Vec<[f32; 3]>,
-    /// Model units per unit of `positions` (meshopt's errors are multiplied by it).
+    /// The input's vertex count: every global id is below it.
+    vertex_count: usize,
+    /// Model units per unit of `VertexTable::simplifier` (meshopt's errors are multiplied by
+    /// it).
     size: f64,
     settings: SimplifySettings,
 }
@@ -179,7 +179,7 @@ impl Default for SimplifySettings {
 pub fn simplify_hierarchy(
     mesh: &InputMesh,
     hierarchy: &Hierarchy,
-    mut current: CurrentMesh,
+    current: CurrentMesh,
     settings: &SimplifySettings,
     finished: &mut FinishedPatchSink,
 ) -> Result<Simplified, SimplifyError> {
@@ -191,26 +191,56 @@ pub fn simplify_hierarchy(
         .map(|&p| frame.relative(p).map(|x| (x / size) as f32))
         .collect();
     separate_coincident(&mut positions);
-    let ctx = Context {
-        mesh,
-        frame,
-        positions,
-        size,
-        settings: *settings,
-    };
-    let mut patches: HashMap<SimplexKey, Vec<[u32; 3]>> = hierarchy
+    let leaves: HashMap<SimplexKey, LivePatch> = hierarchy
         .leaf_triangles
-        .iter()
+        .par_iter()
         .map(|(k, tris)| {
+            let triangles: Vec<[u32; 3]> =
+                tris.iter().map(|&t| mesh.triangles[t as usize]).collect();
+            let mut ids: Vec<u32> = triangles.iter().flatten().copied().collect();
+            ids.sort_unstable();
+            ids.dedup();
+            let vertices = VertexTable::from_mesh(mesh, &positions, ids);
             (
                 *k,
-                tris.iter().map(|&t| mesh.triangles[t as usize]).collect(),
+                LivePatch {
+                    triangles,
+                    vertices,
+                },
             )
         })
         .collect();
+    drop(positions);
+    simplify_from_leaves(
+        leaves,
+        mesh.positions.len(),
+        hierarchy,
+        current,
+        settings,
+        finished,
+    )
+}
+
+/// `simplify_hierarchy` from the leaves' patches (every leaf of `hierarchy`, each carrying its
+/// vertices) of a mesh of `vertex_count` vertices.
+pub fn simplify_from_leaves(
+    leaves: HashMap<SimplexKey, LivePatch>,
+    vertex_count: usize,
+    hierarchy: &Hierarchy,
+    mut current: CurrentMesh,
+    settings: &SimplifySettings,
+    finished: &mut FinishedPatchSink,
+) -> Result<Simplified, SimplifyError> {
+    let frame = &hierarchy.frame;
+    let ctx = Context {
+        frame,
+        vertex_count,
+        size: frame.model_size(),
+        settings: *settings,
+    };
+    let mut patches = leaves;
     {
-        let leaves: Vec<(SimplexKey, &[[u32; 3]])> =
-            patches.iter().map(|(k, t)| (*k, t.as_slice())).collect();
+        let leaves: Vec<(SimplexKey, &LivePatch)> = patches.iter().map(|(k, p)| (*k, p)).collect();
         finished(&leaves)?;
     }
     // The current mesh is the patches of these simplices: the leaves, then each merged
@@ -254,9 +284,9 @@ pub fn simplify_hierarchy(
             }
             let (clean, dirty) = split_batch(pending, &counts);
             current.merge(clean.iter().map(|p| &p.result.effect.changes));
-            let made: Vec<(SimplexKey, &[[u32; 3]])> = clean
+            let made: Vec<(SimplexKey, &LivePatch)> = clean
                 .iter()
-                .flat_map(|p| p.result.patches.iter().map(|(k, t)| (*k, t.as_slice())))
+                .flat_map(|p| p.result.patches.iter().map(|(k, patch)| (*k, patch)))
                 .collect();
             finished(&made)?;
             drop(made);
@@ -303,13 +333,12 @@ fn simplify_diamond(
     ctx: &Context,
     index: usize,
     diamond: &Diamond,
-    patches: &HashMap<SimplexKey, Vec<[u32; 3]>>,
+    patches: &HashMap<SimplexKey, LivePatch>,
     current: &CurrentMesh,
     extra_locks: &HashSet<u32>,
 ) -> DiamondResult {
-    let mesh = ctx.mesh;
-    let (gathered, source) = gather(diamond, patches);
-    let local = local_mesh(&gathered, mesh.positions.len());
+    let (gathered, source, vertices) = gather(diamond, patches);
+    let local = local_mesh(&gathered, ctx.vertex_count);
     // Interior vertices: every triangle using them is in the gathered set.
     let interior: Vec<bool> = local
         .global_of
@@ -347,8 +376,7 @@ fn simplify_diamond(
         &local.indices,
         &local.global_of,
         &lock,
-        &ctx.positions,
-        mesh,
+        &vertices,
         &ctx.settings,
     );
     // meshopt's absolute error is in model sizes.
@@ -366,7 +394,7 @@ fn simplify_diamond(
         b: local.global_of[b.b as usize],
         ..b
     };
-    let patches = distribute(ctx, diamond, &local, &source, &simplified);
+    let patches = distribute(ctx, diamond, &local, &source, &simplified, &vertices);
     let effect = merge_effect(
         &local,
         &interior,
@@ -391,22 +419,25 @@ fn simplify_diamond(
     }
 }
 
-/// The triangles of the patches of the children of D's simplices, and for each the index of
-/// the simplex of D it came from.
+/// The triangles of the patches of the children of D's simplices, for each the index of the
+/// simplex of D it came from, and the vertices they carry.
 fn gather(
     diamond: &Diamond,
-    patches: &HashMap<SimplexKey, Vec<[u32; 3]>>,
-) -> (Vec<[u32; 3]>, Vec<u8>) {
+    patches: &HashMap<SimplexKey, LivePatch>,
+) -> (Vec<[u32; 3]>, Vec<u8>, VertexTable) {
     let mut gathered: Vec<[u32; 3]> = Vec::new();
     let mut source: Vec<u8> = Vec::new();
+    let mut tables: Vec<&VertexTable> = Vec::new();
     for (slot, s) in diamond.simplices.iter().enumerate() {
         for c in s.children() {
-            let tris = patches.get(&c.key).map(Vec::as_slice).unwrap_or(&[]);
-            gathered.extend_from_slice(tris);
+            if let Some(patch) = patches.get(&c.key) {
+                gathered.extend_from_slice(&patch.triangles);
+                tables.push(&patch.vertices);
+            }
             source.resize(gathered.len(), slot as u8);
         }
     }
-    (gathered, source)
+    (gathered, source, VertexTable::merge(&tables))
 }
 
 /// Hands the simplified triangles (`simplified`, local ids) to the simplices of D: a triangle
@@ -418,7 +449,8 @@ fn distribute(
     local: &LocalMesh,
     source: &[u8],
     simplified: &[u32],
-) -> Vec<(SimplexKey, Vec<[u32; 3]>)> {
+    vertices: &VertexTable,
+) -> Vec<(SimplexKey, LivePatch)> {
     let mut out: Vec<(SimplexKey, Vec<[u32; 3]>)> = diamond
         .simplices
         .iter()
@@ -444,12 +476,24 @@ fn distribute(
             None => holder(
                 &diamond.simplices,
                 &prepared,
-                barycenter_lattice(&tri, ctx.mesh, ctx.frame),
+                ctx.frame
+                    .barycentre(tri.map(|g| vertices.positions[vertices.row(g)])),
             ),
         };
         out[slot].1.push(tri);
     }
-    out
+    out.into_iter()
+        .map(|(key, triangles)| {
+            let vertices = vertices.subset(&triangles);
+            (
+                key,
+                LivePatch {
+                    triangles,
+                    vertices,
+                },
+            )
+        })
+        .collect()
 }
 
 /// Locks a vertex when the rest of the current mesh also uses it (it is not interior), or when
@@ -479,25 +523,22 @@ fn simplify_locked(
     indices: &[u32],
     global_of: &[u32],
     lock: &[bool],
-    positions: &[[f32; 3]],
-    mesh: &InputMesh,
+    vertices: &VertexTable,
     settings: &SimplifySettings,
 ) -> (Vec<u32>, f32) {
     if indices.is_empty() {
         return (Vec::new(), 0.0);
     }
-    let local_positions: Vec<[f32; 3]> = global_of.iter().map(|&g| positions[g as usize]).collect();
+    let rows: Vec<usize> = global_of.iter().map(|&g| vertices.row(g)).collect();
+    let local_positions: Vec<[f32; 3]> = rows.iter().map(|&r| vertices.simplifier[r]).collect();
     let bytes: &[u8] = bytemuck::cast_slice(&local_positions);
     let adapter = VertexDataAdapter::new(bytes, 12, 0).expect("tightly packed f32x3 positions");
     let target = ((indices.len() / 3) as f64 * settings.keep as f64) as usize * 3;
     let options = SimplifyOptions::ErrorAbsolute;
     let mut error = 0.0f32;
-    let out = match &mesh.normals {
+    let out = match &vertices.normals {
         Some(normals) => {
-            let attributes: Vec<f32> = global_of
-                .iter()
-                .flat_map(|&g| normals[g as usize])
-                .collect();
+            let attributes: Vec<f32> = rows.iter().flat_map(|&r| normals[r]).collect();
             meshopt::simplify_with_attributes_and_locks(
                 indices,
                 &adapter,
@@ -522,10 +563,6 @@ fn simplify_locked(
         ),
     };
     (out, error)
-}
-
-fn barycenter_lattice(tri: &[u32; 3], mesh: &InputMesh, frame: &LatticeFrame) -> [f64; 3] {
-    frame.barycentre(tri.map(|v| mesh.positions[v as usize]))
 }
 
 /// Moves apart, by a few f32 ulps, distinct vertices whose f32 positions coincide (detail

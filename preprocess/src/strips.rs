@@ -7,20 +7,22 @@ use tessera_core::repository::format::{oct_encode_normal, quantize_position};
 use tessera_core::repository::patch::PatchData;
 
 use crate::local_mesh::local_mesh;
-use crate::mesh::InputMesh;
+use crate::vertex_table::VertexTable;
 
 /// Restart marker in `PatchData::strip` (the encoder narrows it to 0xFFFF for u16 patches).
 const RESTART: u32 = u32::MAX;
 
-/// Builds the patch of `triangles` (global ids).
+/// Builds the patch of `triangles` (global ids below `vertex_count`, every one carried by
+/// `vertices`).
 pub fn build_patch(
     triangles: &[[u32; 3]],
-    mesh: &InputMesh,
+    vertices: &VertexTable,
+    vertex_count: usize,
     bbox_min: [f64; 3],
     step: [f64; 3],
 ) -> PatchData {
     // Local indices in first-appearance order.
-    let local = local_mesh(triangles, mesh.positions.len());
+    let local = local_mesh(triangles, vertex_count);
     let (indices, globals) = (local.indices, local.global_of);
     let vertex_count = globals.len();
     let optimized = meshopt::optimize_vertex_cache_strip(&indices, vertex_count);
@@ -45,25 +47,24 @@ pub fn build_patch(
                 .expect("stripify of a valid index list"),
         )
     };
+    let rows: Vec<usize> = order.iter().map(|&g| vertices.row(g)).collect();
     PatchData {
-        positions: order
+        positions: rows
             .iter()
-            .map(|&g| quantize_position(mesh.positions[g as usize], bbox_min, step))
+            .map(|&r| quantize_position(vertices.positions[r], bbox_min, step))
             .collect(),
-        normals: mesh.normals.as_ref().map(|n| {
-            order
-                .iter()
-                .map(|&g| oct_encode_normal(n[g as usize]))
-                .collect()
-        }),
-        colors: mesh
+        normals: vertices
+            .normals
+            .as_ref()
+            .map(|n| rows.iter().map(|&r| oct_encode_normal(n[r])).collect()),
+        colors: vertices
             .colors
             .as_ref()
-            .map(|c| order.iter().map(|&g| c[g as usize]).collect()),
-        uvs: mesh
+            .map(|c| rows.iter().map(|&r| c[r]).collect()),
+        uvs: vertices
             .uvs
             .as_ref()
-            .map(|u| order.iter().map(|&g| u[g as usize]).collect()),
+            .map(|u| rows.iter().map(|&r| u[r]).collect()),
         global_ids: order,
         strip,
         triangle_count: triangles.len() as u32,

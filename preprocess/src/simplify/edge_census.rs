@@ -17,6 +17,7 @@ use rustc_hash::{FxHashMap as HashMap, FxHashSet as HashSet};
 use tessera_core::leb::SimplexKey;
 
 use super::current_mesh::{edge_key, triangle_edges};
+use crate::vertex_table::LivePatch;
 
 /// The number of triangles of the current mesh using each edge of `query` (sorted and
 /// deduplicated edge keys), the current mesh being the patches of the `live` simplices.
@@ -25,7 +26,7 @@ use super::current_mesh::{edge_key, triangle_edges};
 pub(super) fn count_edges(
     query: &[u64],
     live: &[SimplexKey],
-    patches: &HashMap<SimplexKey, Vec<[u32; 3]>>,
+    patches: &HashMap<SimplexKey, LivePatch>,
 ) -> HashMap<u64, u32> {
     if query.is_empty() {
         return HashMap::default();
@@ -34,7 +35,8 @@ pub(super) fn count_edges(
     let endpoints = EndpointBitmap::new(query);
     live.par_iter()
         .fold(HashMap::default, |mut counts: HashMap<u64, u32>, key| {
-            for t in patches.get(key).map(Vec::as_slice).unwrap_or(&[]) {
+            let triangles = patches.get(key).map(|p| p.triangles.as_slice());
+            for t in triangles.unwrap_or(&[]) {
                 for (a, b) in triangle_edges(t) {
                     if endpoints.contains(a) && endpoints.contains(b) {
                         let e = edge_key(a, b);
@@ -88,10 +90,14 @@ mod tests {
     fn counts_only_the_asked_edges_of_live_patches() {
         let roots = Simplex::roots(3, 10);
         let (a, b, c) = (roots[0].key, roots[1].key, roots[2].key);
-        let patches: HashMap<SimplexKey, Vec<[u32; 3]>> = [
-            (a, vec![[0, 1, 2], [2, 1, 3]]),
-            (b, vec![[1, 2, 7], [100, 200, 300]]),
-            (c, vec![[1, 2, 9]]), // not live
+        let patch = |triangles: Vec<[u32; 3]>| LivePatch {
+            triangles,
+            ..LivePatch::default()
+        };
+        let patches: HashMap<SimplexKey, LivePatch> = [
+            (a, patch(vec![[0, 1, 2], [2, 1, 3]])),
+            (b, patch(vec![[1, 2, 7], [100, 200, 300]])),
+            (c, patch(vec![[1, 2, 9]])), // not live
         ]
         .into_iter()
         .collect();
