@@ -16,6 +16,7 @@ use tessera_core::repository::{
     write_repository_streamed, BlobFeed, RepositoryDirectory, RepositoryError,
 };
 
+use crate::external::StagedMesh;
 use crate::finished_patches::{FinishedPatches, PatchEncoding};
 use crate::frame::LatticeFrame;
 use crate::hierarchy::{
@@ -24,7 +25,10 @@ use crate::hierarchy::{
 };
 use crate::mesh::InputMesh;
 use crate::saturate::{nest_simplex_spheres, saturate, RADIUS_MARGIN};
-use crate::simplify::{simplify_hierarchy, CurrentMesh, SimplifyError, SimplifySettings};
+use crate::simplify::{
+    simplify_from_leaves, simplify_hierarchy, CurrentMesh, SimplifyError, SimplifySettings,
+};
+use crate::vertex_table::LivePatch;
 
 /// Default maximum triangles per leaf; chosen by the sweep in ARCHITECTURE.md.
 pub const DEFAULT_LEAF_TRIANGLES: usize = 1024;
@@ -200,8 +204,41 @@ pub fn build_repository(
     out: &Path,
     on_stage: &(dyn Fn(&str) + Sync),
 ) -> Result<BuildSummary, BuildError> {
+    write_built(Source::Memory(mesh), config, out, on_stage)
+}
+
+/// `build_repository` from a mesh staged on disk (`import::stage_mesh`), never loading it: the
+/// same bytes as the build of the loaded mesh with the same `config`, which must have a
+/// memory budget (its temporary directory holds the joins' files).
+pub fn build_repository_staged(
+    staged: &StagedMesh,
+    config: &BuildConfig,
+    out: &Path,
+    on_stage: &(dyn Fn(&str) + Sync),
+) -> Result<BuildSummary, BuildError> {
+    if config.memory.is_none() {
+        return Err(BuildError::Config(
+            "a staged mesh is built under a memory budget".into(),
+        ));
+    }
+    write_built(Source::Staged(staged), config, out, on_stage)
+}
+
+/// Where the build's mesh is.
+#[derive(Clone, Copy)]
+enum Source<'a> {
+    Memory(&'a InputMesh),
+    Staged(&'a StagedMesh),
+}
+
+fn write_built(
+    source: Source,
+    config: &BuildConfig,
+    out: &Path,
+    on_stage: &(dyn Fn(&str) + Sync),
+) -> Result<BuildSummary, BuildError> {
     let start = Instant::now();
-    let mut built = build_parts(mesh, config, on_stage)?;
+    let mut built = build_parts(source, config, on_stage)?;
     on_stage("write");
     let t = Instant::now();
     let mut feed = built.finished.feed(&built.order);
@@ -220,7 +257,7 @@ pub fn build_contents(
     config: &BuildConfig,
     on_stage: &(dyn Fn(&str) + Sync),
 ) -> Result<(RepositoryContents, BuildSummary), BuildError> {
-    let mut built = build_parts(mesh, config, on_stage)?;
+    let mut built = build_parts(Source::Memory(mesh), config, on_stage)?;
     let mut feed = built.finished.feed(&built.order);
     let mut patch_blob = Vec::new();
     let mut id_blob = Vec::new();
@@ -261,19 +298,28 @@ struct Built {
 }
 
 fn build_parts(
-    mesh: &InputMesh,
+    source: Source,
     config: &BuildConfig,
     on_stage: &(dyn Fn(&str) + Sync),
 ) -> Result<Built, BuildError> {
-    validate(mesh, config)?;
+    validate_config(config)?;
+    let bbox = match source {
+        Source::Memory(mesh) => validate(mesh)?,
+        Source::Staged(staged) => crate::staged_build::validate_staged(
+            staged,
+            config.memory.as_ref().expect("checked by the caller"),
+        )?,
+    };
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(config.threads.unwrap_or(0))
         .build()
         .map_err(|e| BuildError::Config(e.to_string()))?;
-    pool.install(|| build_in_pool(mesh, config, on_stage))
+    pool.install(|| build_in_pool(source, bbox, config, on_stage))
 }
 
-fn validate(mesh: &InputMesh, config: &BuildConfig) -> Result<(), BuildError> {
+/// The mesh's checks (`staged_build::validate_staged` makes the same on disk); returns its
+/// bounding box.
+fn validate(mesh: &InputMesh) -> Result<([f64; 3], [f64; 3]), BuildError> {
     if mesh.triangles.is_empty() {
         return Err(BuildError::EmptyMesh);
     }
@@ -310,6 +356,10 @@ fn validate(mesh: &InputMesh, config: &BuildConfig) -> Result<(), BuildError> {
             return Err(BuildError::RepeatedVertex { index, vertex });
         }
     }
+    Ok((lo, hi))
+}
+
+fn validate_config(config: &BuildConfig) -> Result<(), BuildError> {
     let SimplifySettings {
         keep,
         normal_weight,
@@ -343,16 +393,35 @@ fn validate(mesh: &InputMesh, config: &BuildConfig) -> Result<(), BuildError> {
 }
 
 fn build_in_pool(
-    mesh: &InputMesh,
+    source: Source,
+    (bbox_min, bbox_max): ([f64; 3], [f64; 3]),
     config: &BuildConfig,
     on_stage: &(dyn Fn(&str) + Sync),
 ) -> Result<Built, BuildError> {
     let mut stages = Vec::new();
     let mut stage = |name: &'static str, t: Instant| stages.push((name, t.elapsed().as_secs_f64()));
+    let (input_vertices, input_triangles, attributes) = match source {
+        Source::Memory(mesh) => (
+            mesh.positions.len(),
+            mesh.triangles.len(),
+            (mesh.normals.is_some() as u32 * ATTR_NORMALS)
+                | (mesh.colors.is_some() as u32 * ATTR_COLORS)
+                | (mesh.uvs.is_some() as u32 * ATTR_UVS),
+        ),
+        Source::Staged(staged) => {
+            let a = &staged.attributes;
+            (
+                staged.positions.len() as usize,
+                staged.triangles.len() as usize,
+                (a.normals.is_some() as u32 * ATTR_NORMALS)
+                    | (a.colors.is_some() as u32 * ATTR_COLORS)
+                    | (a.uvs.is_some() as u32 * ATTR_UVS),
+            )
+        }
+    };
 
     // Where everything sits: bounding box, repository origin (its minimum corner: every build
     // computation is relative to it, see frame.rs), lattice cube.
-    let (bbox_min, bbox_max) = bounding_box(&mesh.positions);
     let origin = bbox_min;
     let frame =
         LatticeFrame::around_box(bbox_min, bbox_max, config.lattice_bits, config.domain.dim());
@@ -363,8 +432,20 @@ fn build_in_pool(
     // 1. Hierarchy: each triangle in the leaf holding its barycentre.
     on_stage("hierarchy");
     let t = Instant::now();
-    let (hierarchy, current) = match &config.memory {
-        None => {
+    let leaf_cap = match config.construction {
+        Construction::LeafTriangles(n) => n,
+        Construction::Levels(_) => config.domain.default_leaf_triangles(),
+    };
+    let (hierarchy, current) = match (source, &config.memory) {
+        (Source::Staged(staged), Some(memory)) => crate::staged_build::hierarchy_and_counts(
+            staged,
+            frame,
+            config.construction,
+            leaf_cap,
+            memory,
+        )?,
+        (Source::Staged(_), None) => unreachable!("a staged build has a budget"),
+        (Source::Memory(mesh), None) => {
             let barycenters: Vec<[f64; 3]> = mesh
                 .triangles
                 .par_iter()
@@ -376,12 +457,8 @@ fn build_in_pool(
                 || CurrentMesh::new(mesh),
             )
         }
-        Some(memory) => {
-            let leaf = match config.construction {
-                Construction::LeafTriangles(n) => n,
-                Construction::Levels(_) => config.domain.default_leaf_triangles(),
-            };
-            let budget = BucketBudget::new(memory.bucket_triangles(leaf), &memory.temp_dir);
+        (Source::Memory(mesh), Some(memory)) => {
+            let budget = BucketBudget::new(memory.bucket_triangles(leaf_cap), &memory.temp_dir);
             let source = MeshBarycentres {
                 frame: &frame,
                 mesh,
@@ -406,9 +483,6 @@ fn build_in_pool(
     //    encoded (strips, quantised positions, attributes) as soon as it is final.
     on_stage("simplify");
     let t = Instant::now();
-    let attributes = (mesh.normals.is_some() as u32 * ATTR_NORMALS)
-        | (mesh.colors.is_some() as u32 * ATTR_COLORS)
-        | (mesh.uvs.is_some() as u32 * ATTR_UVS);
     let spill_dir = config.memory.as_ref().map(|m| m.temp_dir.as_path());
     let temporary = |source| BuildError::Temporary {
         dir: spill_dir.map_or_else(Default::default, Path::to_path_buf),
@@ -416,19 +490,30 @@ fn build_in_pool(
     };
     let mut finished = FinishedPatches::new(spill_dir).map_err(temporary)?;
     let encoding = PatchEncoding {
-        vertex_count: mesh.positions.len(),
+        vertex_count: input_vertices,
         origin,
         bbox_min,
         step,
         attributes,
     };
-    let simplified = simplify_hierarchy(
-        mesh,
-        &hierarchy,
-        current,
-        &config.simplify,
-        &mut |patches| finished.add(patches, &encoding),
-    )
+    let mut sink = |patches: &[(SimplexKey, &LivePatch)]| finished.add(patches, &encoding);
+    let simplified = match (source, &config.memory) {
+        (Source::Staged(staged), Some(memory)) => {
+            let leaves = crate::staged_build::leaves(staged, &hierarchy, memory)?;
+            simplify_from_leaves(
+                leaves,
+                input_vertices,
+                &hierarchy,
+                current,
+                &config.simplify,
+                &mut sink,
+            )
+        }
+        (Source::Staged(_), None) => unreachable!("a staged build has a budget"),
+        (Source::Memory(mesh), _) => {
+            simplify_hierarchy(mesh, &hierarchy, current, &config.simplify, &mut sink)
+        }
+    }
     .map_err(|e| match e {
         SimplifyError::Conformity(e) => BuildError::Conformity(e),
         SimplifyError::Finished(e) => temporary(e),
@@ -536,8 +621,8 @@ fn build_in_pool(
         dimension: config.domain.dim() as u32,
         attributes,
         root_tet_count: hierarchy.mesh.roots().len() as u64,
-        input_vertex_count: mesh.positions.len() as u64,
-        input_triangle_count: mesh.triangles.len() as u64,
+        input_vertex_count: input_vertices as u64,
+        input_triangle_count: input_triangles as u64,
         origin,
         bbox_min,
         bbox_max,
@@ -548,8 +633,8 @@ fn build_in_pool(
         ..bytemuck::Zeroable::zeroed()
     };
     let summary = BuildSummary {
-        input_triangles: mesh.triangles.len(),
-        input_vertices: mesh.positions.len(),
+        input_triangles,
+        input_vertices,
         tetrahedra: tets.len(),
         leaves: hierarchy.mesh.leaf_count(),
         diamonds: diamonds.len(),

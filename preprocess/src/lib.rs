@@ -20,11 +20,13 @@ pub mod mesh;
 pub mod procedural;
 pub mod saturate;
 pub mod simplify;
+mod staged_build;
 pub mod strips;
 pub mod vertex_table;
 
 pub use build::{
-    build_contents, build_repository, BuildConfig, BuildError, BuildSummary, Domain, MemoryBudget,
+    build_contents, build_repository, build_repository_staged, BuildConfig, BuildError,
+    BuildSummary, Domain, MemoryBudget,
 };
 pub use hierarchy::Construction;
 pub use mesh::InputMesh;

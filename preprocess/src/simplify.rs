@@ -184,11 +184,10 @@ pub fn simplify_hierarchy(
     finished: &mut FinishedPatchSink,
 ) -> Result<Simplified, SimplifyError> {
     let frame = &hierarchy.frame;
-    let size = frame.model_size();
     let mut positions: Vec<[f32; 3]> = mesh
         .positions
         .par_iter()
-        .map(|&p| frame.relative(p).map(|x| (x / size) as f32))
+        .map(|&p| simplifier_position(frame, p))
         .collect();
     separate_coincident(&mut positions);
     let leaves: HashMap<SimplexKey, LivePatch> = hierarchy
@@ -563,6 +562,14 @@ fn simplify_locked(
         ),
     };
     (out, error)
+}
+
+/// What meshopt sees of an input position: relative to the model origin, in model sizes, in
+/// f32 (`separate_coincident` then moves apart distinct vertices that land on one point). The
+/// staged build (`staged_build.rs`) computes the same.
+pub fn simplifier_position(frame: &LatticeFrame, p: [f64; 3]) -> [f32; 3] {
+    let size = frame.model_size();
+    frame.relative(p).map(|x| (x / size) as f32)
 }
 
 /// Moves apart, by a few f32 ulps, distinct vertices whose f32 positions coincide (detail

@@ -8,11 +8,15 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
+use crate::input::BuildInput;
 use anyhow::Context;
 use clap::Args;
 use serde_json::json;
 use tessera_core::repository::format::POSITION_BITS;
-use tessera_preprocess::{build_repository, BuildConfig, BuildSummary, Construction, MemoryBudget};
+use tessera_preprocess::{
+    build_repository, build_repository_staged, BuildConfig, BuildSummary, Construction,
+    MemoryBudget,
+};
 
 use crate::progress::Stages;
 use crate::Outcome;
@@ -78,11 +82,11 @@ pub fn run(args: BuildArgs) -> anyhow::Result<Outcome> {
         }
     };
     let staging = memory.as_ref().map(|m| (m.temp_dir.as_path(), m.bytes));
-    let input = crate::input::load_input_staged(&args.input, &args.heightfield, staging)?;
+    let input = crate::input::load_build_input(&args.input, &args.heightfield, staging)?;
     let mut config = BuildConfig {
         threads: args.threads,
         memory: memory.clone(),
-        ..BuildConfig::for_domain(input.domain)
+        ..BuildConfig::for_domain(input.domain())
     };
     if let Some(n) = args.leaf_triangles {
         config.construction = Construction::LeafTriangles(n);
@@ -96,10 +100,18 @@ pub fn run(args: BuildArgs) -> anyhow::Result<Outcome> {
     } else {
         args.input.display().to_string()
     };
-    let summary = build_repository(&input.mesh, &config, &args.output, &|s| {
+    let on_stage = |s: &str| {
         stages.stage(s);
         peaks.start(s);
-    })
+    };
+    let summary = match &input {
+        BuildInput::Loaded(loaded) => {
+            build_repository(&loaded.mesh, &config, &args.output, &on_stage)
+        }
+        BuildInput::Staged { staged, .. } => {
+            build_repository_staged(staged, &config, &args.output, &on_stage)
+        }
+    }
     .with_context(|| format!("building {name}"))?;
     stages.finish();
     let stage_peaks = peaks.finish();
@@ -128,14 +140,14 @@ pub fn run(args: BuildArgs) -> anyhow::Result<Outcome> {
         value["peak_rss_bytes"] = json!(overall);
         value["stage_peaks_are_per_stage"] = json!(peaks.reset);
         value["output"] = json!(args.output.display().to_string());
-        value["domain"] = json!(match input.domain {
+        value["domain"] = json!(match input.domain() {
             tessera_preprocess::Domain::Volume => "volume",
             tessera_preprocess::Domain::HeightField => "heightfield",
         });
-        value["grid"] = crate::input::grid_json(input.grid.as_ref());
+        value["grid"] = crate::input::grid_json(input.grid());
         println!("{value}");
     } else {
-        println!("{name}: {}", input.description);
+        println!("{name}: {}", input.description());
         print_summary(&summary, seconds, import_seconds);
         println!("wrote {}", args.output.display());
     }

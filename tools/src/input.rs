@@ -170,6 +170,96 @@ pub fn load_input_staged(
     })
 }
 
+/// What `build` builds from: the input in memory, or a mesh staged on disk and never loaded
+/// (`build --memory` with a mesh file or `-`: `build_repository_staged`).
+pub enum BuildInput {
+    Loaded(LoadedInput),
+    Staged {
+        staged: tessera_preprocess::external::StagedMesh,
+        domain: Domain,
+        description: String,
+    },
+}
+
+impl BuildInput {
+    pub fn domain(&self) -> Domain {
+        match self {
+            BuildInput::Loaded(input) => input.domain,
+            BuildInput::Staged { domain, .. } => *domain,
+        }
+    }
+
+    pub fn grid(&self) -> Option<&HeightGrid> {
+        match self {
+            BuildInput::Loaded(input) => input.grid.as_ref(),
+            BuildInput::Staged { .. } => None,
+        }
+    }
+
+    pub fn description(&self) -> &str {
+        match self {
+            BuildInput::Loaded(input) => &input.description,
+            BuildInput::Staged { description, .. } => description,
+        }
+    }
+}
+
+/// `build`'s input: with `staging` (temporary directory, memory budget), a mesh file or `-` is
+/// staged on disk and left there (a height field, or a mesh whose heights are exaggerated, is
+/// loaded as [`load_input_staged`] does).
+pub fn load_build_input(
+    path: &Path,
+    args: &HeightFieldArgs,
+    staging: Option<(&Path, u64)>,
+) -> anyhow::Result<BuildInput> {
+    let options = args.terrain_options()?;
+    let plain_mesh = DemFormat::from_path(path).is_none()
+        && options.vertical_exaggeration == 1.0
+        && args.raw_size.is_none()
+        && args.variable.is_none()
+        && args.spacing.is_none();
+    let Some((dir, budget)) = staging.filter(|_| plain_mesh) else {
+        return Ok(BuildInput::Loaded(load_input_staged(path, args, staging)?));
+    };
+    let staged = if is_stdin(path) {
+        if std::io::stdin().is_terminal() {
+            bail!("standard input is a terminal: pipe a PLY mesh into `-`");
+        }
+        tessera_preprocess::import::stage_ply_from_reader(
+            std::io::stdin(),
+            "standard input",
+            dir,
+            budget as usize,
+        )?
+    } else {
+        match tessera_preprocess::import::stage_mesh(path, dir, budget as usize) {
+            Ok(staged) => staged,
+            Err(e) if matches!(e.kind, ImportErrorKind::UnsupportedExtension(_)) => {
+                bail!(
+                    "{e}; height fields: {}",
+                    tessera_preprocess::dem::DEM_EXTENSIONS
+                )
+            }
+            Err(e) => return Err(e.into()),
+        }
+    };
+    let domain = if args.heightfield {
+        Domain::HeightField
+    } else {
+        Domain::Volume
+    };
+    let description = format!(
+        "mesh ({} triangles, {} vertices; staged on disk)",
+        staged.triangles.len(),
+        staged.positions.len()
+    );
+    Ok(BuildInput::Staged {
+        staged,
+        domain,
+        description,
+    })
+}
+
 /// Whether `path` means standard input (`-`).
 pub fn is_stdin(path: &Path) -> bool {
     path.as_os_str() == "-"

@@ -104,3 +104,89 @@ fn a_memory_budget_does_not_change_a_byte() {
         }
     }
 }
+
+/// A mesh with every attribute and detail below f32 resolution, written as an ASCII PLY of
+/// doubles: under `--memory` it is built from the staged files without being loaded (the
+/// leaves' vertex tables and the simplifier's separated f32 positions come from joins,
+/// `external/joins.rs`), and must give the bytes of the in-memory build.
+fn attributed_ply_with_sub_f32_detail(path: &Path) {
+    use std::fmt::Write as _;
+    let n = 48usize; // grid vertices per side
+    let mut vertices: Vec<[f64; 3]> = Vec::new();
+    for j in 0..n {
+        for i in 0..n {
+            let (x, y) = (i as f64 / n as f64, j as f64 / n as f64);
+            vertices.push([x, y, 0.1 * (7.0 * x).sin() * (5.0 * y).cos()]);
+        }
+    }
+    let mut triangles: Vec<[usize; 3]> = Vec::new();
+    for j in 0..n - 1 {
+        for i in 0..n - 1 {
+            let v = j * n + i;
+            triangles.push([v, v + 1, v + n + 1]);
+            triangles.push([v, v + n + 1, v + n]);
+        }
+    }
+    // Twenty vertices a few f64 ulps apart near the middle: one f32 position, distinct ids.
+    let anchor = (n / 2) * n + n / 2;
+    let first = vertices.len();
+    for k in 0..20 {
+        let [x, y, z] = vertices[anchor];
+        vertices.push([x + 0.3 / n as f64 + k as f64 * 1e-13, y + 0.2 / n as f64, z]);
+    }
+    for k in 0..19 {
+        triangles.push([first + k, first + k + 1, anchor]);
+    }
+    let mut text = format!(
+        "ply\nformat ascii 1.0\nelement vertex {}\nproperty double x\nproperty double y\n\
+         property double z\nproperty float nx\nproperty float ny\nproperty float nz\n\
+         property uchar red\nproperty uchar green\nproperty uchar blue\nproperty uchar alpha\n\
+         property float u\nproperty float v\nelement face {}\n\
+         property list uchar int vertex_indices\nend_header\n",
+        vertices.len(),
+        triangles.len()
+    );
+    for (i, p) in vertices.iter().enumerate() {
+        let (a, b) = ((i % 7) as f32 * 0.1, (i % 5) as f32 * 0.2);
+        writeln!(
+            text,
+            "{:.17e} {:.17e} {:.17e} {a} {b} 1 {} {} {} 255 {} {}",
+            p[0],
+            p[1],
+            p[2],
+            i % 256,
+            (i * 7) % 256,
+            (i * 13) % 256,
+            p[0] as f32,
+            p[1] as f32
+        )
+        .unwrap();
+    }
+    for t in &triangles {
+        writeln!(text, "3 {} {} {}", t[0], t[1], t[2]).unwrap();
+    }
+    std::fs::write(path, text).unwrap();
+}
+
+#[test]
+fn a_staged_mesh_with_attributes_and_sub_f32_detail_gives_the_same_bytes() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("attributed.ply");
+    attributed_ply_with_sub_f32_detail(&input);
+    let small_leaves = ["--leaf-triangles", "64"];
+    let reference = build_with(&input, &dir.path().join("unlimited.tsr"), &small_leaves);
+    let limited = build_with(
+        &input,
+        &dir.path().join("limited.tsr"),
+        &[&small_leaves[..], &["--memory", "1M"]].concat(),
+    );
+    assert!(limited == reference, "--memory 1M wrote other bytes");
+    let info = Command::new(env!("CARGO_BIN_EXE_tessera"))
+        .args(["info", dir.path().join("limited.tsr").to_str().unwrap(), "--json"])
+        .output()
+        .unwrap();
+    let info = String::from_utf8_lossy(&info.stdout);
+    for attribute in ["\"colors\":true", "\"normals\":true", "\"uvs\":true"] {
+        assert!(info.contains(attribute), "{attribute} missing: {info}");
+    }
+}

@@ -3,11 +3,13 @@
 //! in-memory path computes (tests compare them), so an out-of-core build can give the same
 //! repository bytes.
 
+pub mod joins;
 pub mod sort;
 pub mod staged;
 pub mod temp_usage;
 pub mod weld;
 
+pub use joins::{coincident_nudges, leaf_patches, JoinedBarycentres};
 pub use sort::{sort_external, SortStats, Sorted};
 pub use staged::{RawStaged, RawStager, RawVertex, RecordFile, StagedMesh};
 pub use weld::weld_external;

@@ -127,23 +127,46 @@ pub fn stage_mesh(
     let at = |kind: ImportErrorKind| kind.at_path(path);
     let (format, gz) = format_of(path).map_err(at)?;
     let raw = match format {
-        MeshFormat::Ply => ply::read_into(&mut Input::open(path, gz).map_err(at)?, |d| {
-            crate::external::RawStager::new(dir, d.normals, d.colors, d.uvs)
-                .map_err(ImportErrorKind::Io)
-        })
-        .and_then(|stager| stager.finish().map_err(ImportErrorKind::Io))
-        .map_err(at)?,
+        MeshFormat::Ply => stage_ply(&mut Input::open(path, gz).map_err(at)?, dir).map_err(at)?,
         _ => crate::external::RawStaged::from_raw(&read_raw(path).map_err(at)?, dir)
             .map_err(|e| at(ImportErrorKind::Io(e)))?,
     };
-    let staged =
-        crate::external::weld_external(raw, budget, dir).map_err(|e| at(ImportErrorKind::Io(e)))?;
+    weld_staged(raw, dir, budget).map_err(at)
+}
+
+/// [`stage_mesh`] of a PLY (ASCII or binary) read from `reader` (standard input), named
+/// `name` in messages.
+pub fn stage_ply_from_reader(
+    reader: impl Read + 'static,
+    name: &str,
+    dir: &Path,
+    budget: usize,
+) -> Result<crate::external::StagedMesh, ImportError> {
+    let at = |kind: ImportErrorKind| kind.at_path(name);
+    let raw = stage_ply(&mut Input::new(Box::new(reader), false, None), dir).map_err(at)?;
+    weld_staged(raw, dir, budget).map_err(at)
+}
+
+fn stage_ply(input: &mut Input, dir: &Path) -> Result<crate::external::RawStaged, ImportErrorKind> {
+    ply::read_into(input, |d| {
+        crate::external::RawStager::new(dir, d.normals, d.colors, d.uvs)
+            .map_err(ImportErrorKind::Io)
+    })
+    .and_then(|stager| stager.finish().map_err(ImportErrorKind::Io))
+}
+
+fn weld_staged(
+    raw: crate::external::RawStaged,
+    dir: &Path,
+    budget: usize,
+) -> Result<crate::external::StagedMesh, ImportErrorKind> {
+    let staged = crate::external::weld_external(raw, budget, dir).map_err(ImportErrorKind::Io)?;
     if staged.triangles.is_empty() {
-        return Err(at(ImportErrorKind::Empty {
+        return Err(ImportErrorKind::Empty {
             raw_triangles: staged.raw_triangles as usize,
             degenerate: staged.degenerate_triangles as usize,
             duplicate: staged.duplicate_triangles as usize,
-        }));
+        });
     }
     Ok(staged)
 }

@@ -70,13 +70,44 @@ impl CurrentMesh {
         budget: usize,
         temp_dir: &std::path::Path,
     ) -> std::io::Result<Self> {
-        let keys = mesh
-            .triangles
-            .iter()
-            .flat_map(|t| triangle_edges(t).map(|(a, b)| edge_key(a, b)));
+        let triangles = || Ok(mesh.triangles.iter().map(|&t| Ok(t)));
+        Self::from_stream(mesh.positions.len(), &triangles, budget, temp_dir)
+    }
+
+    /// The counts of a mesh on disk (`new_within`'s, never loading it).
+    pub fn from_staged(
+        staged: &crate::external::StagedMesh,
+        budget: usize,
+        temp_dir: &std::path::Path,
+    ) -> std::io::Result<Self> {
+        let triangles = || staged.triangles.read();
+        Self::from_stream(
+            staged.positions.len() as usize,
+            &triangles,
+            budget,
+            temp_dir,
+        )
+    }
+
+    /// The counts of `vertex_count` vertices used by the triangles `triangles()` streams
+    /// (twice: edges, then vertices).
+    fn from_stream<I: Iterator<Item = std::io::Result<[u32; 3]>>>(
+        vertex_count: usize,
+        triangles: &dyn Fn() -> std::io::Result<I>,
+        budget: usize,
+        temp_dir: &std::path::Path,
+    ) -> std::io::Result<Self> {
+        let mut error = None;
+        let keys = triangles()?
+            .map_while(|t| t.map_err(|e| error = Some(e)).ok())
+            .flat_map(|t| triangle_edges(&t).map(|(a, b)| edge_key(a, b)));
+        let sorted = crate::external::sort_external(keys, budget, temp_dir)?;
+        if let Some(e) = error {
+            return Err(e);
+        }
         let mut nonmanifold = HashMap::default();
         let mut run: Option<(u64, u32)> = None;
-        for key in crate::external::sort_external(keys, budget, temp_dir)? {
+        for key in sorted {
             let key = key?;
             run = match run {
                 Some((k, n)) if k == key => Some((k, n + 1)),
@@ -92,17 +123,26 @@ impl CurrentMesh {
         if let Some((k, n)) = run.filter(|&(_, n)| n > 2) {
             nonmanifold.insert(k, n);
         }
-        Ok(Self::with_edges(mesh, nonmanifold))
+        let mut use_count = vec![0u32; vertex_count];
+        for t in triangles()? {
+            for v in t? {
+                use_count[v as usize] += 1;
+            }
+        }
+        Ok(Self::with_counts(use_count, nonmanifold))
     }
 
     fn with_edges(mesh: &InputMesh, nonmanifold: HashMap<u64, u32>) -> Self {
-        let vertex_count = mesh.positions.len();
-        let mut use_count = vec![0u32; vertex_count];
+        let mut use_count = vec![0u32; mesh.positions.len()];
         for t in &mesh.triangles {
             for &v in t {
                 use_count[v as usize] += 1;
             }
         }
+        Self::with_counts(use_count, nonmanifold)
+    }
+
+    fn with_counts(use_count: Vec<u32>, nonmanifold: HashMap<u64, u32>) -> Self {
         let mut shards: Vec<Vec<u32>> = use_count
             .chunks(1 << SHARD_BITS)
             .map(<[u32]>::to_vec)

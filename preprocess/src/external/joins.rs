@@ -1,0 +1,290 @@
+//! What the build needs from a staged mesh without loading it (issue 12): the triangles'
+//! barycentres, the simplifier's f32 positions where distinct vertices coincide, and the
+//! leaves' patches with the vertices they carry. Each is an external sort joined with the
+//! vertex files read in order, and each equals what the in-memory build computes from the
+//! loaded mesh (the build gives the same bytes either way: `tools/tests/determinism.rs`).
+
+use std::io;
+use std::path::Path;
+
+use rustc_hash::{FxHashMap as HashMap, FxHashSet as HashSet};
+use tessera_core::leb::SimplexKey;
+
+use super::sort::sort_external;
+use super::staged::{RecordReader, StagedMesh};
+use crate::frame::LatticeFrame;
+use crate::hierarchy::{BarycentreSource, Hierarchy};
+use crate::vertex_table::{LivePatch, VertexTable};
+
+/// The barycentres of a staged mesh's triangles, as `frame.barycentre` of their corners (the
+/// in-memory build's `MeshBarycentres`): corners sorted by vertex, joined with the positions,
+/// sorted back by (triangle, corner). Costly: read it once (`SpooledBarycentres`).
+pub struct JoinedBarycentres<'a> {
+    pub staged: &'a StagedMesh,
+    pub frame: &'a LatticeFrame,
+    /// Bytes each sort may hold in memory.
+    pub budget: usize,
+    pub temp_dir: &'a Path,
+}
+
+impl BarycentreSource for JoinedBarycentres<'_> {
+    fn for_each_barycentre(&self, f: &mut dyn FnMut(u32, [f64; 3])) -> io::Result<()> {
+        // (vertex, triangle, corner), by vertex.
+        let mut error = None;
+        let corners = ok_values(self.staged.triangles.read()?, &mut error)
+            .enumerate()
+            .flat_map(|(t, tri)| {
+                (0..3).map(move |k| ((tri[k] as u128) << 64) | ((t as u128) << 2) | k as u128)
+            });
+        let by_vertex = sort_external(corners, self.budget, self.temp_dir)?;
+        check(error)?;
+        // (triangle · 4 + corner, position bits), by triangle and corner.
+        let mut positions = Cursor::new(self.staged.positions.read()?);
+        let mut error = None;
+        let joined = ok_values(by_vertex, &mut error).map(|c: u128| {
+            let p = positions.at((c >> 64) as u32);
+            [c as u64, p[0].to_bits(), p[1].to_bits(), p[2].to_bits()]
+        });
+        let by_triangle = sort_external(joined, self.budget, self.temp_dir)?;
+        check(error)?;
+        check(positions.error.take())?;
+        let mut corners = [[0.0f64; 3]; 3];
+        for record in by_triangle {
+            let [key, x, y, z] = record?;
+            let (t, k) = ((key >> 2) as u32, (key & 3) as usize);
+            corners[k] = [x, y, z].map(f64::from_bits);
+            if k == 2 {
+                f(t, self.frame.barycentre(corners));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The simplifier's f32 position of each vertex (`f32_of` of its input position) is moved
+/// apart where distinct vertices coincide, exactly as `simplify::separate_coincident` does
+/// over all positions in memory: returns the moved ones (rare: none in most meshes).
+///
+/// One sort by (f32 position, id) finds the duplicates; each walks the same sequence of
+/// one-ulp steps as in memory, its first `steps` candidates checked against every position
+/// in one more pass (the set of candidates is small); if a duplicate runs out, it starts over
+/// with four times the steps.
+pub fn coincident_nudges(
+    staged: &StagedMesh,
+    f32_of: &(dyn Fn([f64; 3]) -> [f32; 3] + Sync),
+    budget: usize,
+    temp_dir: &Path,
+) -> io::Result<HashMap<u32, [f32; 3]>> {
+    let key = |p: [f32; 3]| p.map(f32::to_bits);
+    let mut error = None;
+    let records = ok_values(staged.positions.read()?, &mut error)
+        .enumerate()
+        .map(|(v, p)| {
+            let [x, y, z] = key(f32_of(p));
+            [x, y, z, v as u32]
+        });
+    let sorted = sort_external(records, budget, temp_dir)?;
+    check(error)?;
+    let mut duplicates: Vec<(u32, [f32; 3])> = Vec::new();
+    let mut previous: Option<[u32; 3]> = None;
+    for record in sorted {
+        let [x, y, z, v] = record?;
+        if previous == Some([x, y, z]) {
+            duplicates.push((v, [x, y, z].map(f32::from_bits)));
+        }
+        previous = Some([x, y, z]);
+    }
+    if duplicates.is_empty() {
+        return Ok(HashMap::default());
+    }
+    let step = |p: &mut [f32; 3], k: usize| p[k % 3] = p[k % 3].next_up();
+    let mut steps = 64;
+    loop {
+        let mut candidates: HashSet<[u32; 3]> = HashSet::default();
+        for &(_, p) in &duplicates {
+            let mut p = p;
+            for k in 0..steps {
+                step(&mut p, k);
+                candidates.insert(key(p));
+            }
+        }
+        // Candidates some vertex already has.
+        let mut taken: HashSet<[u32; 3]> = HashSet::default();
+        for p in staged.positions.read()? {
+            let k = key(f32_of(p?));
+            if candidates.contains(&k) {
+                taken.insert(k);
+            }
+        }
+        let mut moved = HashMap::default();
+        let mut ran_out = false;
+        for &(v, p) in &duplicates {
+            let mut p = p;
+            let free = (0..steps).find(|&k| {
+                step(&mut p, k);
+                taken.insert(key(p))
+            });
+            if free.is_none() {
+                ran_out = true;
+                break;
+            }
+            moved.insert(v, p);
+        }
+        if !ran_out {
+            return Ok(moved);
+        }
+        steps *= 4;
+    }
+}
+
+/// The leaves' patches: each leaf's triangles (in the hierarchy's order) and the vertices
+/// they use, with their input positions, simplifier positions (`simplifier_of(id, position)`)
+/// and attributes. The (vertex, leaf) pairs are sorted by vertex and joined with the vertex
+/// files, so each leaf's table comes out sorted by id. The triangles are read into memory
+/// (they become the patches).
+pub fn leaf_patches(
+    staged: &StagedMesh,
+    hierarchy: &Hierarchy,
+    simplifier_of: &dyn Fn(u32, [f64; 3]) -> [f32; 3],
+    budget: usize,
+    temp_dir: &Path,
+) -> io::Result<HashMap<SimplexKey, LivePatch>> {
+    let triangles = staged.triangles.read_all()?;
+    let mut keys: Vec<SimplexKey> = hierarchy.leaf_triangles.keys().copied().collect();
+    keys.sort_unstable();
+    let attributes = &staged.attributes;
+    let mut patches: Vec<LivePatch> = keys
+        .iter()
+        .map(|k| LivePatch {
+            triangles: hierarchy.leaf_triangles[k]
+                .iter()
+                .map(|&t| triangles[t as usize])
+                .collect(),
+            vertices: VertexTable {
+                normals: attributes.normals.is_some().then(Vec::new),
+                colors: attributes.colors.is_some().then(Vec::new),
+                uvs: attributes.uvs.is_some().then(Vec::new),
+                ..VertexTable::default()
+            },
+        })
+        .collect();
+    drop(triangles);
+    let pairs = patches.iter().enumerate().flat_map(|(leaf, patch)| {
+        let mut ids: Vec<u32> = patch.triangles.iter().flatten().copied().collect();
+        ids.sort_unstable();
+        ids.dedup();
+        ids.into_iter()
+            .map(move |v| ((v as u64) << 32) | leaf as u64)
+    });
+    let by_vertex = sort_external(pairs, budget, temp_dir)?;
+    let mut positions = Cursor::new(staged.positions.read()?);
+    let mut normals = attributes
+        .normals
+        .as_ref()
+        .map(|f| f.read())
+        .transpose()?
+        .map(Cursor::new);
+    let mut colors = attributes
+        .colors
+        .as_ref()
+        .map(|f| f.read())
+        .transpose()?
+        .map(Cursor::new);
+    let mut uvs = attributes
+        .uvs
+        .as_ref()
+        .map(|f| f.read())
+        .transpose()?
+        .map(Cursor::new);
+    for pair in by_vertex {
+        let pair = pair?;
+        let (v, leaf) = ((pair >> 32) as u32, pair as u32 as usize);
+        let table = &mut patches[leaf].vertices;
+        let p = positions.at(v);
+        table.ids.push(v);
+        table.positions.push(p);
+        table.simplifier.push(simplifier_of(v, p));
+        if let (Some(column), Some(cursor)) = (&mut table.normals, &mut normals) {
+            column.push(cursor.at(v));
+        }
+        if let (Some(column), Some(cursor)) = (&mut table.colors, &mut colors) {
+            column.push(cursor.at(v));
+        }
+        if let (Some(column), Some(cursor)) = (&mut table.uvs, &mut uvs) {
+            column.push(cursor.at(v));
+        }
+    }
+    check(positions.error.take())?;
+    for cursor_error in [
+        normals.and_then(|mut c| c.error.take()),
+        colors.and_then(|mut c| c.error.take()),
+        uvs.and_then(|mut c| c.error.take()),
+    ] {
+        check(cursor_error)?;
+    }
+    Ok(keys.into_iter().zip(patches).collect())
+}
+
+/// Reads a record file in order, answering `at(i)` for ascending (repeatable) indices.
+struct Cursor<T: bytemuck::Pod> {
+    records: RecordReader<T>,
+    /// The last record read and its index.
+    current: Option<(u32, T)>,
+    /// The first read error (`at` then answers zeroes; the caller checks).
+    error: Option<io::Error>,
+}
+
+impl<T: bytemuck::Pod> Cursor<T> {
+    fn new(records: RecordReader<T>) -> Self {
+        Cursor {
+            records,
+            current: None,
+            error: None,
+        }
+    }
+
+    fn at(&mut self, index: u32) -> T {
+        loop {
+            match self.current {
+                Some((i, record)) if i == index => return record,
+                Some((i, _)) if i > index => {
+                    panic!("record {index} asked after record {i}: indices must ascend")
+                }
+                _ => {}
+            }
+            let next = self.current.map_or(0, |(i, _)| i + 1);
+            match self.records.next() {
+                Some(Ok(record)) => self.current = Some((next, record)),
+                Some(Err(e)) => {
+                    self.error.get_or_insert(e);
+                    return T::zeroed();
+                }
+                None => {
+                    self.error.get_or_insert(io::Error::other(format!(
+                        "record {index} asked past the end of a staged file"
+                    )));
+                    return T::zeroed();
+                }
+            }
+        }
+    }
+}
+
+/// The values of a fallible stream; the first error stops it and is kept in `error`.
+fn ok_values<'a, T: 'a>(
+    stream: impl Iterator<Item = io::Result<T>> + 'a,
+    error: &'a mut Option<io::Error>,
+) -> impl Iterator<Item = T> + 'a {
+    let mut stream = stream;
+    std::iter::from_fn(move || match stream.next()? {
+        Ok(v) => Some(v),
+        Err(e) => {
+            *error = Some(e);
+            None
+        }
+    })
+}
+
+fn check(error: Option<io::Error>) -> io::Result<()> {
+    error.map_or(Ok(()), Err)
+}

@@ -1,0 +1,118 @@
+//! The build's first steps from a mesh staged on disk (`build --memory` with a mesh file),
+//! never loading it: the input's checks and bounding box by streaming its files, the
+//! hierarchy from joined barycentres, the use counts from the triangle stream, and the
+//! leaves' patches by joins (`external/joins.rs`). Each gives what the in-memory steps give
+//! from the loaded mesh, so the repository is the same bytes.
+
+use std::path::Path;
+
+use rustc_hash::FxHashMap as HashMap;
+use tessera_core::leb::SimplexKey;
+
+use crate::build::{BuildError, MemoryBudget, MAX_EXTENT};
+use crate::external::{coincident_nudges, leaf_patches, JoinedBarycentres, StagedMesh};
+use crate::frame::LatticeFrame;
+use crate::hierarchy::{
+    build_hierarchy_bucketed, BucketBudget, Construction, Hierarchy, SpooledBarycentres,
+};
+use crate::simplify::{simplifier_position, CurrentMesh};
+use crate::vertex_table::LivePatch;
+
+fn temporary(memory: &MemoryBudget) -> impl Fn(std::io::Error) -> BuildError + '_ {
+    |source| BuildError::Temporary {
+        dir: memory.temp_dir.clone(),
+        source,
+    }
+}
+
+/// `build::validate`'s checks of the mesh, in the same order and with the same errors, by
+/// streaming the staged files; returns the bounding box.
+pub(crate) fn validate_staged(
+    staged: &StagedMesh,
+    memory: &MemoryBudget,
+) -> Result<([f64; 3], [f64; 3]), BuildError> {
+    let io = temporary(memory);
+    if staged.triangles.is_empty() {
+        return Err(BuildError::EmptyMesh);
+    }
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for (index, p) in staged.positions.read().map_err(&io)?.enumerate() {
+        let p = p.map_err(&io)?;
+        if p.iter().any(|x| !x.is_finite()) {
+            return Err(BuildError::NonFinite { index });
+        }
+        for i in 0..3 {
+            lo[i] = lo[i].min(p[i]);
+            hi[i] = hi[i].max(p[i]);
+        }
+    }
+    if let Some(axis) = (0..3).find(|&i| hi[i] - lo[i] > MAX_EXTENT) {
+        return Err(BuildError::TooLarge {
+            axis,
+            extent: hi[axis] - lo[axis],
+        });
+    }
+    let count = staged.positions.len() as usize;
+    for (index, t) in staged.triangles.read().map_err(&io)?.enumerate() {
+        let t = t.map_err(&io)?;
+        if let Some(&vertex) = t.iter().find(|&&v| v as usize >= count) {
+            return Err(BuildError::IndexOutOfRange {
+                index,
+                vertex,
+                count,
+            });
+        }
+        if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
+            let vertex = if t[1] == t[2] { t[1] } else { t[0] };
+            return Err(BuildError::RepeatedVertex { index, vertex });
+        }
+    }
+    Ok((lo, hi))
+}
+
+/// The hierarchy (bucketed, from barycentres joined once into a spool) and the use counts.
+pub(crate) fn hierarchy_and_counts(
+    staged: &StagedMesh,
+    frame: LatticeFrame,
+    construction: Construction,
+    leaf_triangles: usize,
+    memory: &MemoryBudget,
+) -> Result<(Hierarchy, CurrentMesh), BuildError> {
+    let io = temporary(memory);
+    let dir = memory.temp_dir.as_path();
+    let sort_budget = memory.bytes as usize / 4;
+    let barycentres = SpooledBarycentres::new(
+        &JoinedBarycentres {
+            staged,
+            frame: &frame,
+            budget: sort_budget,
+            temp_dir: dir,
+        },
+        dir,
+    )
+    .map_err(&io)?;
+    let budget = BucketBudget::new(memory.bucket_triangles(leaf_triangles), dir);
+    let hierarchy =
+        build_hierarchy_bucketed(frame, &barycentres, construction, &budget).map_err(&io)?;
+    drop(barycentres);
+    let current = CurrentMesh::from_staged(staged, sort_budget, dir).map_err(&io)?;
+    Ok((hierarchy, current))
+}
+
+/// The leaves' patches, their simplifier positions as `simplify_hierarchy` computes them in
+/// memory (relative to the model, in model sizes, coincident ones moved apart).
+pub(crate) fn leaves(
+    staged: &StagedMesh,
+    hierarchy: &Hierarchy,
+    memory: &MemoryBudget,
+) -> Result<HashMap<SimplexKey, LivePatch>, BuildError> {
+    let io = temporary(memory);
+    let dir: &Path = &memory.temp_dir;
+    let sort_budget = memory.bytes as usize / 4;
+    let frame = &hierarchy.frame;
+    let f32_of = |p: [f64; 3]| simplifier_position(frame, p);
+    let nudged = coincident_nudges(staged, &f32_of, sort_budget, dir).map_err(&io)?;
+    let simplifier_of = |v: u32, p: [f64; 3]| nudged.get(&v).copied().unwrap_or_else(|| f32_of(p));
+    leaf_patches(staged, hierarchy, &simplifier_of, sort_budget, dir).map_err(io)
+}
