@@ -62,10 +62,11 @@ pub struct BuildConfig {
 /// How much memory the out-of-core stages may use, and where their temporary files go (all
 /// unnamed: nothing is left behind, even when the build is killed).
 ///
-/// Out of core today: the import of a PLY file (`import::stage_mesh`, done by the caller)
-/// and the hierarchy's construction (`hierarchy::build_hierarchy_bucketed`). Simplification,
-/// saturation and strips still hold the mesh and every patch (ARCHITECTURE.md, "The
-/// out-of-core build").
+/// Out of core today: the import of a mesh file (`import::stage_mesh`, done by the caller, who
+/// then calls `build_repository_staged`: the mesh is never loaded), the hierarchy's
+/// construction (`hierarchy::build_hierarchy_bucketed`) and the encoded patches
+/// (`finished_patches.rs`). The simplification still holds the live patches and a level's
+/// results in memory (ARCHITECTURE.md, "The out-of-core build").
 #[derive(Clone, Debug, PartialEq)]
 pub struct MemoryBudget {
     pub bytes: u64,
@@ -436,7 +437,7 @@ fn build_in_pool(
         Construction::LeafTriangles(n) => n,
         Construction::Levels(_) => config.domain.default_leaf_triangles(),
     };
-    let (hierarchy, current) = match (source, &config.memory) {
+    let (mut hierarchy, current) = match (source, &config.memory) {
         (Source::Staged(staged), Some(memory)) => crate::staged_build::hierarchy_and_counts(
             staged,
             frame,
@@ -500,6 +501,8 @@ fn build_in_pool(
     let simplified = match (source, &config.memory) {
         (Source::Staged(staged), Some(memory)) => {
             let leaves = crate::staged_build::leaves(staged, &hierarchy, memory)?;
+            // The leaves' triangle lists are in their patches now.
+            hierarchy.leaf_triangles = Default::default();
             simplify_from_leaves(
                 leaves,
                 input_vertices,

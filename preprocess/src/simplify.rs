@@ -72,8 +72,6 @@ struct DiamondResult {
     patches: Vec<(SimplexKey, LivePatch)>,
     error: f32,
     locked: usize,
-    /// The children's triangles it replaces.
-    gathered: Vec<[u32; 3]>,
     effect: MergeEffect,
     /// Where the output does not keep the gathered set's border (global ids): the build fails.
     border_break: Option<BorderBreak>,
@@ -307,8 +305,10 @@ pub fn simplify_from_leaves(
             pending = dirty
                 .into_par_iter()
                 .map(|(mut p, blocked)| {
-                    p.lock_more(&blocked);
                     let d = p.result.diamond;
+                    // Its children are still live: what it gathered is theirs.
+                    let (gathered, ..) = gather_triangles(&hierarchy.diamonds[d], &patches);
+                    p.lock_more(&blocked, &gathered);
                     p.result = simplify_diamond(
                         &ctx,
                         d,
@@ -407,7 +407,6 @@ fn simplify_diamond(
         patches,
         error,
         locked,
-        gathered,
         effect,
         border_break: check.broken.map(global),
         border_break_if_used_outside: check
@@ -424,6 +423,15 @@ fn gather(
     diamond: &Diamond,
     patches: &HashMap<SimplexKey, LivePatch>,
 ) -> (Vec<[u32; 3]>, Vec<u8>, VertexTable) {
+    let (gathered, source, tables) = gather_triangles(diamond, patches);
+    (gathered, source, VertexTable::merge(&tables))
+}
+
+/// `gather` without merging the vertex tables: the triangles, their sources and the tables.
+fn gather_triangles<'p>(
+    diamond: &Diamond,
+    patches: &'p HashMap<SimplexKey, LivePatch>,
+) -> (Vec<[u32; 3]>, Vec<u8>, Vec<&'p VertexTable>) {
     let mut gathered: Vec<[u32; 3]> = Vec::new();
     let mut source: Vec<u8> = Vec::new();
     let mut tables: Vec<&VertexTable> = Vec::new();
@@ -436,7 +444,7 @@ fn gather(
             source.resize(gathered.len(), slot as u8);
         }
     }
-    (gathered, source, VertexTable::merge(&tables))
+    (gathered, source, tables)
 }
 
 /// Hands the simplified triangles (`simplified`, local ids) to the simplices of D: a triangle

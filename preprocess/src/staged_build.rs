@@ -87,7 +87,6 @@ pub(crate) fn hierarchy_and_counts(
             staged,
             frame: &frame,
             budget: sort_budget,
-            temp_dir: dir,
         },
         dir,
     )

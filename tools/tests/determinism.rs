@@ -182,7 +182,11 @@ fn a_staged_mesh_with_attributes_and_sub_f32_detail_gives_the_same_bytes() {
     );
     assert!(limited == reference, "--memory 1M wrote other bytes");
     let info = Command::new(env!("CARGO_BIN_EXE_tessera"))
-        .args(["info", dir.path().join("limited.tsr").to_str().unwrap(), "--json"])
+        .args([
+            "info",
+            dir.path().join("limited.tsr").to_str().unwrap(),
+            "--json",
+        ])
         .output()
         .unwrap();
     let info = String::from_utf8_lossy(&info.stdout);

@@ -17,47 +17,52 @@ use crate::hierarchy::{BarycentreSource, Hierarchy};
 use crate::vertex_table::{LivePatch, VertexTable};
 
 /// The barycentres of a staged mesh's triangles, as `frame.barycentre` of their corners (the
-/// in-memory build's `MeshBarycentres`): corners sorted by vertex, joined with the positions,
-/// sorted back by (triangle, corner). Costly: read it once (`SpooledBarycentres`).
+/// in-memory build's `MeshBarycentres`), a chunk of triangles at a time: the chunk's corners
+/// sorted by vertex pick their positions in one pass over the positions file (up to the
+/// chunk's largest id). No temporary file; the positions file is read once a chunk (from the
+/// page cache, mostly). Costly all the same: read it once (`SpooledBarycentres`).
 pub struct JoinedBarycentres<'a> {
     pub staged: &'a StagedMesh,
     pub frame: &'a LatticeFrame,
-    /// Bytes each sort may hold in memory.
+    /// Bytes a chunk may hold in memory (about 110 a triangle).
     pub budget: usize,
-    pub temp_dir: &'a Path,
 }
+
+/// Bytes a triangle of a chunk takes: its corners (12), their sort keys (24), their positions
+/// (72).
+const JOIN_BYTES_PER_TRIANGLE: usize = 108;
 
 impl BarycentreSource for JoinedBarycentres<'_> {
     fn for_each_barycentre(&self, f: &mut dyn FnMut(u32, [f64; 3])) -> io::Result<()> {
-        // (vertex, triangle, corner), by vertex.
-        let mut error = None;
-        let corners = ok_values(self.staged.triangles.read()?, &mut error)
-            .enumerate()
-            .flat_map(|(t, tri)| {
-                (0..3).map(move |k| ((tri[k] as u128) << 64) | ((t as u128) << 2) | k as u128)
-            });
-        let by_vertex = sort_external(corners, self.budget, self.temp_dir)?;
-        check(error)?;
-        // (triangle · 4 + corner, position bits), by triangle and corner.
-        let mut positions = Cursor::new(self.staged.positions.read()?);
-        let mut error = None;
-        let joined = ok_values(by_vertex, &mut error).map(|c: u128| {
-            let p = positions.at((c >> 64) as u32);
-            [c as u64, p[0].to_bits(), p[1].to_bits(), p[2].to_bits()]
-        });
-        let by_triangle = sort_external(joined, self.budget, self.temp_dir)?;
-        check(error)?;
-        check(positions.error.take())?;
-        let mut corners = [[0.0f64; 3]; 3];
-        for record in by_triangle {
-            let [key, x, y, z] = record?;
-            let (t, k) = ((key >> 2) as u32, (key & 3) as usize);
-            corners[k] = [x, y, z].map(f64::from_bits);
-            if k == 2 {
-                f(t, self.frame.barycentre(corners));
+        let chunk = (self.budget / JOIN_BYTES_PER_TRIANGLE).max(1 << 12);
+        let mut triangles = self.staged.triangles.read()?;
+        let mut first = 0u32;
+        loop {
+            let part: Vec<[u32; 3]> = triangles.by_ref().take(chunk).collect::<io::Result<_>>()?;
+            if part.is_empty() {
+                return Ok(());
             }
+            // (vertex, corner slot in the chunk), by vertex.
+            let mut corners: Vec<u64> = part
+                .iter()
+                .enumerate()
+                .flat_map(|(i, t)| (0..3).map(move |k| ((t[k] as u64) << 32) | (3 * i + k) as u64))
+                .collect();
+            corners.sort_unstable();
+            let mut at = vec![[0.0f64; 3]; corners.len()];
+            let mut positions = Cursor::new(self.staged.positions.read()?);
+            for c in corners {
+                at[c as u32 as usize] = positions.at((c >> 32) as u32);
+            }
+            check(positions.error.take())?;
+            for (i, corners) in at.chunks_exact(3).enumerate() {
+                f(
+                    first + i as u32,
+                    self.frame.barycentre([corners[0], corners[1], corners[2]]),
+                );
+            }
+            first += part.len() as u32;
         }
-        Ok(())
     }
 }
 
@@ -140,8 +145,8 @@ pub fn coincident_nudges(
 /// The leaves' patches: each leaf's triangles (in the hierarchy's order) and the vertices
 /// they use, with their input positions, simplifier positions (`simplifier_of(id, position)`)
 /// and attributes. The (vertex, leaf) pairs are sorted by vertex and joined with the vertex
-/// files, so each leaf's table comes out sorted by id. The triangles are read into memory
-/// (they become the patches).
+/// files, so each leaf's table comes out sorted by id. The triangle file is read once, in
+/// order, each triangle appended to its leaf.
 pub fn leaf_patches(
     staged: &StagedMesh,
     hierarchy: &Hierarchy,
@@ -149,17 +154,13 @@ pub fn leaf_patches(
     budget: usize,
     temp_dir: &Path,
 ) -> io::Result<HashMap<SimplexKey, LivePatch>> {
-    let triangles = staged.triangles.read_all()?;
     let mut keys: Vec<SimplexKey> = hierarchy.leaf_triangles.keys().copied().collect();
     keys.sort_unstable();
     let attributes = &staged.attributes;
     let mut patches: Vec<LivePatch> = keys
         .iter()
         .map(|k| LivePatch {
-            triangles: hierarchy.leaf_triangles[k]
-                .iter()
-                .map(|&t| triangles[t as usize])
-                .collect(),
+            triangles: Vec::with_capacity(hierarchy.leaf_triangles[k].len()),
             vertices: VertexTable {
                 normals: attributes.normals.is_some().then(Vec::new),
                 colors: attributes.colors.is_some().then(Vec::new),
@@ -168,7 +169,26 @@ pub fn leaf_patches(
             },
         })
         .collect();
-    drop(triangles);
+    // Each triangle to its leaf in one pass over the file: a leaf lists its triangles in
+    // ascending order (both constructions keep the input's order), so appending them as they
+    // come keeps the leaf's order.
+    let mut leaf_of = vec![u32::MAX; staged.triangles.len() as usize];
+    for (leaf, k) in keys.iter().enumerate() {
+        let list = &hierarchy.leaf_triangles[k];
+        assert!(
+            list.windows(2).all(|w| w[0] < w[1]),
+            "leaf {k:?} lists its triangles out of order"
+        );
+        for &t in list {
+            leaf_of[t as usize] = leaf as u32;
+        }
+    }
+    for (t, tri) in staged.triangles.read()?.enumerate() {
+        let leaf = leaf_of[t];
+        assert!(leaf != u32::MAX, "triangle {t} is in no leaf");
+        patches[leaf as usize].triangles.push(tri?);
+    }
+    drop(leaf_of);
     let pairs = patches.iter().enumerate().flat_map(|(leaf, patch)| {
         let mut ids: Vec<u32> = patch.triangles.iter().flatten().copied().collect();
         ids.sort_unstable();

@@ -102,8 +102,8 @@ type HeldBack = (Pending, Vec<u64>);
 impl Pending {
     /// Adds locks for another attempt: around the edges that blocked its merge, or, after
     /// `MAX_RESIMPLIFY` attempts, every vertex.
-    pub(super) fn lock_more(&mut self, blocked: &[u64]) {
-        let gathered = &self.result.gathered;
+    /// `gathered`: the triangles it replaces (its children's patches).
+    pub(super) fn lock_more(&mut self, blocked: &[u64], gathered: &[[u32; 3]]) {
         if self.attempts >= MAX_RESIMPLIFY {
             self.extra_locks.extend(gathered.iter().flatten().copied());
         } else {
