@@ -8,18 +8,18 @@ use wgpu::util::DeviceExt;
 use super::frame::FrameUniforms;
 use super::shaders::position_probe_source;
 use super::target::read_buffer;
-use super::GpuContext;
+use super::{GpuContext, GpuFailure};
 
 /// Positions per dispatch: 64-thread workgroups, at most 65,535 of them.
 const CHUNK: usize = 64 * 65_535;
 
 /// The clip position (x, y, z, w) of each packed position (`format::pack_position`) under
-/// `uniforms`, as the GPU computes it.
+/// `uniforms`, as the GPU computes it; the device's failure if it failed.
 pub fn clip_positions(
     ctx: &GpuContext,
     uniforms: &FrameUniforms,
     packed: &[[u32; 2]],
-) -> Vec<[f32; 4]> {
+) -> Result<Vec<[f32; 4]>, GpuFailure> {
     let device = &ctx.device;
     let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
         label: Some("position probe"),
@@ -86,8 +86,10 @@ pub fn clip_positions(
         encoder.copy_buffer_to_buffer(&clip, 0, &readback, 0, bytes);
         ctx.queue.submit([encoder.finish()]);
         out.extend_from_slice(bytemuck::cast_slice::<u8, [f32; 4]>(&read_buffer(
-            ctx, &readback,
-        )));
+            ctx,
+            &readback,
+            "the probed positions",
+        )?));
     }
-    out
+    Ok(out)
 }

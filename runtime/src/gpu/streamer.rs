@@ -28,7 +28,7 @@ use std::sync::Arc;
 use tessera_core::cut::diamond_rhos;
 use tessera_core::repository::reader::Repository;
 
-use super::device::GpuContext;
+use super::device::{GpuContext, GpuFailure};
 use super::records::{PairSlots, SlotRecord, CHILDREN_OFFSET, SLOT_RECORD_BYTES};
 use super::renderer::{FrameRequest, Readback, RenderError, Renderer, RendererOptions};
 use super::resident::{PatchLocation, ResidentModel, PATCH_LOCATION_BYTES};
@@ -73,8 +73,6 @@ pub struct GpuStreamer {
     first_entries: Vec<u32>,
     /// Simplices whose patch is in the pool (roots included).
     resident_patches: usize,
-    /// Set by the device-lost callback.
-    lost: Arc<std::sync::Mutex<Option<String>>>,
     /// Bumped at every flags upload; per frame drawn (renderer's number), the version used
     /// and the view's (bumped when the camera, τ or culling changes: feedback from another
     /// view does not make this one settled).
@@ -99,6 +97,9 @@ impl GpuStreamer {
         options: RendererOptions,
         upload_bytes_per_frame: u64,
     ) -> Result<(Renderer, GpuStreamer), StreamError> {
+        // The size first: an impossible target would otherwise read as a budget problem.
+        super::target::check_target_size(&ctx.limits, options.width, options.height)
+            .map_err(RenderError::from)?;
         let units = UnitTable::new(
             repo.diamonds(),
             repo.tets(),
@@ -142,18 +143,12 @@ impl GpuStreamer {
         let mut renderer =
             Renderer::with_model(ctx, &repo, options, model, capacity, Some(repo.clone()))?;
         if let Some(e) = pollster::block_on(scope.pop()) {
-            return Err(StreamError::Device(format!(
+            return Err(StreamError::Device(GpuFailure(format!(
                 "allocating {} bytes of pools and working buffers: {e}",
                 sizes.total()
-            )));
+            ))));
         }
-        let lost = Arc::new(std::sync::Mutex::new(None));
-        let sink = lost.clone();
-        ctx.device.set_device_lost_callback(move |reason, message| {
-            if let Ok(mut slot) = sink.lock() {
-                *slot = Some(format!("device lost ({reason:?}): {message}"));
-            }
-        });
+        ctx.check()?;
         let mut residency =
             Residency::with_records(units, budget, record_budget).map_err(|_| too_small)?;
         residency.track_changed_flags();
@@ -176,7 +171,6 @@ impl GpuStreamer {
                 .map(|l| l.first_entry)
                 .collect(),
             resident_patches: 0,
-            lost,
             flags_version: 0,
             versions: VecDeque::new(),
             view: None,
@@ -437,11 +431,11 @@ impl GpuStreamer {
         request: &FrameRequest,
         readback: Readback,
     ) -> Result<StreamedGpuFrame, StreamError> {
-        if let Some(message) = self.lost.lock().ok().and_then(|slot| slot.clone()) {
-            return Err(StreamError::Device(message));
-        }
+        // A device that failed (lost, out of memory: recorded by its callbacks) ends here.
+        ctx.check()?;
         let uploads = self.land(ctx, renderer)?;
         renderer.render(ctx, request, readback);
+        ctx.check()?;
         self.submitted += 1;
         let (frame, completed) = (self.submitted, self.completed.clone());
         ctx.queue.on_submitted_work_done(move || {
@@ -483,7 +477,7 @@ impl GpuStreamer {
         };
         // Feedback: the GPU lists of the frames read back by now (a frame or two late).
         let (mut loads, mut evictions, mut fresh) = (Vec::new(), 0, false);
-        for mut fb in renderer.take_feedback(ctx).map_err(StreamError::Device)? {
+        for mut fb in renderer.take_feedback(ctx)? {
             for list in [&mut fb.refined, &mut fb.wanted] {
                 list.sort_unstable_by_key(|&(d, _)| d);
                 list.dedup_by_key(|&mut (d, _)| d);
