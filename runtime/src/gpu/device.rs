@@ -280,6 +280,11 @@ impl GpuContext {
         let features = adapter.features();
         let optional = wgpu::Features::TIMESTAMP_QUERY | wgpu::Features::POLYGON_MODE_LINE;
         let limits = options.limits.clone().unwrap_or_else(|| adapter.limits());
+        required_limits(&limits).map_err(|missing| DeviceError::Unsupported {
+            adapter: info.name.clone(),
+            backend,
+            missing,
+        })?;
         let (device, queue) = adapter
             .request_device(&wgpu::DeviceDescriptor {
                 label: Some("tessera"),
@@ -395,6 +400,20 @@ impl GpuContext {
     }
 }
 
+/// Ok, or the limits among `limits` (those the device is opened with) that are below what
+/// the renderer's shaders assume: they clamp their dispatches at 65,535 workgroups a
+/// dimension and stride over the rest.
+fn required_limits(limits: &wgpu::Limits) -> Result<(), String> {
+    let need = super::shaders::MAX_WORKGROUPS_PER_DIMENSION;
+    if limits.max_compute_workgroups_per_dimension < need {
+        return Err(format!(
+            "limit max_compute_workgroups_per_dimension ≥ {need} (it has {})",
+            limits.max_compute_workgroups_per_dimension
+        ));
+    }
+    Ok(())
+}
+
 /// Ok, or what the adapter lacks.
 fn usable(adapter: &wgpu::Adapter) -> Result<(), String> {
     let mut missing = Vec::new();
@@ -420,6 +439,11 @@ fn usable(adapter: &wgpu::Adapter) -> Result<(), String> {
             "max_compute_workgroup_size_x",
             limits.max_compute_workgroup_size_x,
             super::shaders::COMPACT_WORKGROUP,
+        ),
+        (
+            "max_compute_workgroups_per_dimension",
+            limits.max_compute_workgroups_per_dimension,
+            super::shaders::MAX_WORKGROUPS_PER_DIMENSION,
         ),
         (
             "max_compute_workgroup_storage_size",

@@ -86,6 +86,11 @@ impl Feedback {
         }
     }
 
+    /// The largest capacity whose lists fit `binding` bytes (they are one storage binding).
+    pub fn max_capacity(binding: u64) -> u32 {
+        ((binding / 4).saturating_sub(HEADER_WORDS) / 4).min(u32::MAX as u64) as u32
+    }
+
     /// Bytes this allocates on the GPU (the lists and the ring).
     pub fn bytes(capacity: u32) -> u64 {
         let words = HEADER_WORDS + 4 * capacity as u64;

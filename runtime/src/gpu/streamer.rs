@@ -47,9 +47,30 @@ type FeedbackLists = (u64, Vec<(u32, f32)>, Vec<(u32, f32)>);
 /// 64 pixels, at least 4,096): a cut's refined and wanted simplices grow with what the view
 /// shows. A frame whose lists overflowed is not fed to the residency (its refined list is
 /// incomplete, so used units could look unused and be evicted): it requests nothing.
-pub fn feedback_capacity(tets: usize, width: u32, height: u32) -> u32 {
+/// Both lists are one storage binding (`limits`): a smaller adapter gets shorter lists, whose
+/// overflowed frames request nothing.
+pub fn feedback_capacity(tets: usize, width: u32, height: u32, limits: &wgpu::Limits) -> u32 {
     let share = (width as usize * height as usize / 64).max(4096);
-    tets.min(share) as u32
+    let binding = super::feedback::Feedback::max_capacity(super::resident::page_limit(limits));
+    tets.min(share).min(binding as usize) as u32
+}
+
+/// Whether a unit of these simplices fits one empty page of the pool: its patches, each
+/// 8-aligned as the loader lays them out, within the page's bytes, and its non-empty patches
+/// within the page's selection list.
+fn fits_a_page(
+    repo: &Repository,
+    simplices: &[u32],
+    layout: &super::stream_pool::PoolLayout,
+) -> bool {
+    let tets = repo.tets();
+    let (mut bytes, mut nonempty) = (0u64, 0u64);
+    for &s in simplices {
+        let t = &tets[s as usize];
+        bytes += (t.patch_bytes as u64).next_multiple_of(8);
+        nonempty += u64::from(t.strip_index_count != 0);
+    }
+    bytes.max(8) <= layout.page_bytes && nonempty <= layout.patch_capacity as u64
 }
 
 /// The streaming state of one renderer.
@@ -139,7 +160,12 @@ impl GpuStreamer {
         }
         let scope = ctx.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
         let model: ResidentModel = pool_model(ctx, &repo, &layout, sizes.slots);
-        let capacity = feedback_capacity(repo.tets().len(), options.width, options.height);
+        let capacity = feedback_capacity(
+            repo.tets().len(),
+            options.width,
+            options.height,
+            &ctx.limits,
+        );
         let mut renderer =
             Renderer::with_model(ctx, &repo, options, model, capacity, Some(repo.clone()))?;
         if let Some(e) = pollster::block_on(scope.pop()) {
@@ -152,6 +178,13 @@ impl GpuStreamer {
         let mut residency =
             Residency::with_records(units, budget, record_budget).map_err(|_| too_small)?;
         residency.track_changed_flags();
+        // A unit lands whole in one page (≤ one storage binding): one that no empty page can
+        // hold is refused now, so its diamond stays unrefined and the stream still settles.
+        for u in 0..residency.units().len() as u32 {
+            if !fits_a_page(&repo, residency.units().simplices(u), &layout) {
+                residency.refuse(u);
+            }
+        }
         let mut streamer = GpuStreamer {
             loader: Loader::new(repo.clone()),
             placed: vec![None; residency.units().len()],
