@@ -333,9 +333,13 @@ impl Renderer {
         (self.target.width, self.target.height)
     }
 
-    /// Replaces the target with one of another size.
-    pub fn resize(&mut self, ctx: &GpuContext, width: u32, height: u32) {
+    /// Replaces the target with one of another size, if the adapter's limits allow it (the
+    /// size is refused naming the limit, as at creation). A streaming renderer's budget
+    /// counted the target it was made with.
+    pub fn resize(&mut self, ctx: &GpuContext, width: u32, height: u32) -> Result<(), RenderError> {
+        super::target::check_target_size(&ctx.limits, width, height)?;
         self.target = RenderTarget::new(ctx, width, height);
+        Ok(())
     }
 
     /// Records and submits one frame; returns the CPU milliseconds spent (uniforms, commands,
