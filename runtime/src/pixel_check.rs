@@ -24,7 +24,9 @@ use tessera_core::cut::{diamond_rhos, select_visible};
 use tessera_core::repository::reader::Repository;
 
 use crate::camera::{bounding_radius, Camera};
-use crate::gpu::{FrameRequest, GpuContext, Readback, Renderer, ShadingMode, FLAG_COLOUR};
+use crate::gpu::{
+    FrameRequest, GpuContext, GpuFailure, Readback, Renderer, ShadingMode, FLAG_COLOUR,
+};
 use crate::views::{outside_views, terrain_views};
 
 /// What to check.
@@ -107,7 +109,7 @@ pub fn check_pixels(
     renderer: &mut Renderer,
     repo: &Repository,
     config: &PixelCheckConfig,
-) -> PixelCheckReport {
+) -> Result<PixelCheckReport, GpuFailure> {
     let h = repo.header();
     let (width, height) = renderer.size();
     let radius = bounding_radius(h.bbox_min, h.bbox_max);
@@ -167,7 +169,7 @@ pub fn check_pixels_at(
     repo: &Repository,
     cameras: &[Camera],
     tolerances: &[f32],
-) -> PixelCheckReport {
+) -> Result<PixelCheckReport, GpuFailure> {
     let views: Vec<(Camera, ShadingMode)> =
         cameras.iter().map(|&c| (c, ShadingMode::Check)).collect();
     check_views(ctx, renderer, repo, &views, tolerances, None)
@@ -248,7 +250,7 @@ fn check_views(
     views: &[(Camera, ShadingMode)],
     tolerances: &[f32],
     terrain: Option<&crate::gpu::skirts::SkirtSource>,
-) -> PixelCheckReport {
+) -> Result<PixelCheckReport, GpuFailure> {
     let excuse_input = terrain.is_some();
     let set_walls = |renderer: &mut Renderer, selection: &[u32]| {
         if let Some(source) = terrain {
@@ -282,7 +284,7 @@ fn check_views(
         };
         // How far (Chebyshev pixels) each pixel is from one of the input's own hole pixels.
         let (width, height) = renderer.size();
-        let input_hole_distance = excuse_input.then(|| {
+        let input_hole_distance = if excuse_input {
             let input = drawn_selection(repo, &rhos, 0.0, eye_local, &cull);
             set_walls(renderer, &input);
             renderer.render(
@@ -294,11 +296,13 @@ fn check_views(
                 },
             );
             let mut holes = vec![false; (width * height) as usize];
-            for (x, y) in hole_pixels(&renderer.read_image(ctx), true) {
+            for (x, y) in hole_pixels(&renderer.read_image(ctx)?, true) {
                 holes[(y * width + x) as usize] = true;
             }
-            chessboard_distance(&holes, width as usize, height as usize)
-        });
+            Some(chessboard_distance(&holes, width as usize, height as usize))
+        } else {
+            None
+        };
         for &tau in tolerances {
             let cpu = drawn_selection(repo, &rhos, tau, eye_local, &cull);
             set_walls(renderer, &cpu);
@@ -310,8 +314,8 @@ fn check_views(
                     selection: true,
                 },
             );
-            let image = renderer.read_image(ctx);
-            let gpu = renderer.read_selection(ctx);
+            let image = renderer.read_image(ctx)?;
+            let gpu = renderer.read_selection(ctx)?;
             if gpu != cpu {
                 report.selection_mismatches += 1;
             }
@@ -342,7 +346,7 @@ fn check_views(
             );
         }
     }
-    report
+    Ok(report)
 }
 
 #[cfg(test)]

@@ -67,10 +67,10 @@ pub fn check_pixels_streaming(
                         selection: true,
                     },
                 )?;
-                let image = renderer.read_image(ctx);
+                let image = renderer.read_image(ctx)?;
                 let mut cpu = frame.reference.selection;
                 cpu.retain(|&i| repo.tets()[i as usize].strip_index_count > 0);
-                if renderer.read_selection(ctx) != cpu {
+                if renderer.read_selection(ctx)? != cpu {
                     report.selection_mismatches += 1;
                 }
                 let flags = image.pixels().filter(|p| p.0 == FLAG_COLOUR).count() as u64;

@@ -59,5 +59,5 @@ pub fn check_pixels_small(
         views,
         ..Default::default()
     };
-    check_pixels(ctx, &mut renderer, repo, &config)
+    check_pixels(ctx, &mut renderer, repo, &config).expect("the GPU device works")
 }

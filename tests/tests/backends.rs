@@ -61,7 +61,9 @@ fn frame_with(
         mode: ShadingMode::Lit,
         ..FrameRequest::new(camera, 1.0)
     };
-    let f = renderer.render_and_read(ctx, &request);
+    let f = renderer
+        .render_and_read(ctx, &request)
+        .expect("frame read back");
     (f.image, f.selection)
 }
 
@@ -163,7 +165,8 @@ fn the_pixel_check_is_clean_on_gl() {
         views: 16,
         ..Default::default()
     };
-    let report = check_pixels(&ctx, &mut renderer, &built.repo, &config);
+    let report =
+        check_pixels(&ctx, &mut renderer, &built.repo, &config).expect("the GPU device works");
     eprintln!("bunny on GL: {report:?}");
     assert_eq!(report.frames, 16 * config.tolerances.len());
     assert_eq!(report.flag_pixels, 0, "cracks on GL: {:?}", report.worst);

@@ -187,7 +187,8 @@ fn a_border_vertex_nudged_in_one_patch_is_caught_by_both_checks() {
     let broken = Repository::from_bytes(to_bytes(&contents)).unwrap();
     let ctx = gpu();
     let mut renderer = Renderer::new(&ctx, &broken, RendererOptions::default()).unwrap();
-    let pixels = check_pixels(&ctx, &mut renderer, &broken, &PixelCheckConfig::default());
+    let pixels = check_pixels(&ctx, &mut renderer, &broken, &PixelCheckConfig::default())
+        .expect("the GPU device works");
     assert!(pixels.flag_pixels > 0, "{pixels:?}");
     assert!(!pixels.is_clean());
     assert_eq!(pixels.selection_mismatches, 0, "only positions changed");

@@ -208,7 +208,7 @@ fn ten_metres_above_an_etopo_scale_terrain_every_vertex_is_within_half_a_pixel()
             ShadingMode::Lit,
             0,
         );
-        let gpu_clip = clip_positions(&ctx, &uniforms, &packed);
+        let gpu_clip = clip_positions(&ctx, &uniforms, &packed).expect("clip positions read back");
         assert_eq!(gpu_clip.len(), packed.len());
         let (mut compared, mut new_max, mut old_max, mut mirror_max) = (0, 0.0f64, 0.0f64, 0.0f64);
         let mut nearest = f64::INFINITY;
@@ -296,7 +296,7 @@ fn a_vertex_shared_by_patches_gets_the_same_clip_bits_in_each() {
         .iter()
         .flat_map(|c| c.iter().map(|&(_, p)| p))
         .collect();
-    let clip = clip_positions(&ctx, &uniforms, &packed);
+    let clip = clip_positions(&ctx, &uniforms, &packed).expect("clip positions read back");
     let mut at = 0;
     let mut pairs = 0;
     for c in &shared {

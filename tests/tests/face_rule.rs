@@ -62,7 +62,10 @@ fn frame(
     };
     assert_eq!(request.cull.cones, !two_sided);
     assert!(request.cull.frustum.is_some());
-    renderer.render_and_read(ctx, &request).image
+    renderer
+        .render_and_read(ctx, &request)
+        .expect("frame read back")
+        .image
 }
 
 fn differing(a: &image::RgbaImage, b: &image::RgbaImage) -> usize {

@@ -23,7 +23,8 @@ fn check_closed_scan(file: &str) {
     let mut renderer = Renderer::new(&ctx, &built.repo, RendererOptions::default()).unwrap();
     let config = PixelCheckConfig::default();
     assert!(config.views >= 32 && config.tolerances == [0.5, 1.0, 2.0, 4.0, 8.0]);
-    let report = check_pixels(&ctx, &mut renderer, &built.repo, &config);
+    let report =
+        check_pixels(&ctx, &mut renderer, &built.repo, &config).expect("the GPU device works");
     eprintln!("{file}: {report:?}");
     assert_eq!(report.frames, 160);
     assert_eq!(
@@ -112,7 +113,7 @@ fn gpu_selection_equals_cpu_selection() {
                 selection: true,
             },
         );
-        let gpu = renderer.read_selection(&ctx);
+        let gpu = renderer.read_selection(&ctx).expect("selection read back");
         let eye_local = camera.eye_local(h.origin);
         let rhos = diamond_rhos(repo.diamonds(), eye_local, &camera.metric());
         let mut cpu = select_visible(repo.tets(), &rhos, tau, eye_local, &request.cull);
@@ -207,7 +208,7 @@ fn a_model_far_from_the_origin_renders_the_same_cut() {
                         selection: true,
                     },
                 );
-                renderer.read_selection(&ctx)
+                renderer.read_selection(&ctx).expect("selection read back")
             };
             let sa = selection(&mut ra, near_camera);
             assert!(!sa.is_empty());
@@ -224,7 +225,8 @@ fn a_model_far_from_the_origin_renders_the_same_cut() {
             views: 16,
             ..Default::default()
         },
-    );
+    )
+    .expect("the GPU device works");
     assert!(report.is_clean(), "{report:?}");
     assert!(report.covered_pixels > 0);
 }
@@ -271,7 +273,7 @@ fn shading_modes_draw_the_model() {
                     selection: false,
                 },
             );
-            let image = renderer.read_image(&ctx);
+            let image = renderer.read_image(&ctx).expect("image read back");
             let background = *image.get_pixel(0, 0);
             let covered = image.pixels().filter(|p| **p != background).count();
             assert!(covered > 256 * 256 / 10, "{mode:?}: {covered} pixels");
@@ -353,7 +355,10 @@ fn cone_culling_never_changes_the_picture() {
                     selection: true,
                 },
             );
-            frames.push((renderer.read_image(&ctx), renderer.read_selection(&ctx)));
+            frames.push((
+                renderer.read_image(&ctx).expect("image read back"),
+                renderer.read_selection(&ctx).expect("selection read back"),
+            ));
         }
         assert_eq!(
             frames[0].0, frames[1].0,

@@ -195,19 +195,21 @@ impl Rig {
                 },
             )
             .expect("frame");
-        let gpu_selection = renderer.read_selection(ctx);
+        let gpu_selection = renderer.read_selection(ctx).expect("selection read back");
         let cpu_selection = drawn(repo, &f.reference.selection);
         assert_eq!(
             gpu_selection, cpu_selection,
             "{label}: GPU and CPU selections differ"
         );
-        let image = renderer.read_image(ctx);
+        let image = renderer.read_image(ctx).expect("image read back");
         let flags = image.pixels().filter(|p| p.0 == FLAG_COLOUR).count();
         assert_eq!(flags, 0, "{label}: flag pixels");
         // The same flags on the fully resident renderer: the same image, pixel for pixel (the
         // streamed bytes and locations are the file's).
         full.set_may_refine(ctx, &f.may_refine_words).unwrap();
-        let reference = full.render_and_read(ctx, &check_request(camera));
+        let reference = full
+            .render_and_read(ctx, &check_request(camera))
+            .expect("frame read back");
         assert_eq!(
             reference.selection, gpu_selection,
             "{label}: fully resident selection"
@@ -431,13 +433,13 @@ fn a_small_binding_limit_is_refused_by_name_or_streamed_within() {
                 },
             )
             .expect("frame");
-        let gpu_selection = renderer.read_selection(&ctx);
+        let gpu_selection = renderer.read_selection(&ctx).expect("selection read back");
         assert_eq!(
             gpu_selection,
             drawn(&repo, &f.reference.selection),
             "frame {i}"
         );
-        let image = renderer.read_image(&ctx);
+        let image = renderer.read_image(&ctx).expect("image read back");
         assert_eq!(
             image.pixels().filter(|p| p.0 == FLAG_COLOUR).count(),
             0,

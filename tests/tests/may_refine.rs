@@ -85,7 +85,7 @@ fn a_diamond_kept_from_refining_gives_the_same_conforming_cut_on_gpu_and_cpu() {
         let mut gpu_selection = |words: &[u32]| {
             renderer.set_may_refine(&ctx, words).unwrap();
             renderer.render(&ctx, &request, readback);
-            renderer.read_selection(&ctx)
+            renderer.read_selection(&ctx).expect("selection read back")
         };
         let restricted_gpu = gpu_selection(&words);
         let full_gpu = gpu_selection(&may_refine_all(repo.diamonds().len()));

@@ -118,8 +118,11 @@ fn shoot(ctx: &GpuContext, renderer: &mut Renderer, repo: &Repository, r: &Frame
             selection: true,
         },
     );
-    let pixels = renderer.read_image(ctx).into_raw();
-    let gpu = renderer.read_selection(ctx);
+    let pixels = renderer
+        .read_image(ctx)
+        .expect("image read back")
+        .into_raw();
+    let gpu = renderer.read_selection(ctx).expect("selection read back");
     let covered = pixels
         .chunks_exact(4)
         .filter(|p| p[..3] != [0, 0, 0])
@@ -303,7 +306,8 @@ fn check_translation(ctx: &GpuContext, base: &InputMesh, a: &Built, offset: f64)
             tolerances: vec![0.5, 4.0],
             ..Default::default()
         },
-    );
+    )
+    .expect("the GPU device works");
     assert!(pixels.is_clean(), "offset {offset}: {pixels:?}");
     assert!(pixels.covered_pixels > 0);
 }
@@ -540,7 +544,8 @@ fn check_scale(ctx: &GpuContext, base: &InputMesh, a: &Built, factor: f64) -> us
             tolerances: vec![0.5, 4.0],
             ..Default::default()
         },
-    );
+    )
+    .expect("the GPU device works");
     assert!(pixels.is_clean(), "×{factor}: {pixels:?}");
     assert!(pixels.covered_pixels > 0);
     tie_differences
@@ -756,7 +761,8 @@ fn check_camera(
     let report = check_cuts_at(repo, &patches, &eyes, &TOLERANCES);
     assert!(report.is_clean(), "{name}: {report:?}");
     if sees == Sees::Outside {
-        let pixels = check_pixels_at(ctx, renderer, repo, &[camera], &TOLERANCES);
+        let pixels = check_pixels_at(ctx, renderer, repo, &[camera], &TOLERANCES)
+            .expect("the GPU device works");
         assert!(pixels.is_clean(), "{name}: {pixels:?}");
         assert!(pixels.covered_pixels > 0);
     }
@@ -1028,7 +1034,8 @@ fn check_input(
     eprintln!("{name}: {covered} pixels drawn");
     assert!(covered > 0, "{name}: nothing drawn");
     if surface == Surface::Closed {
-        let pixels = check_pixels_at(ctx, &mut renderer, repo, cameras, &TOLERANCES);
+        let pixels = check_pixels_at(ctx, &mut renderer, repo, cameras, &TOLERANCES)
+            .expect("the GPU device works");
         eprintln!("{name}: {pixels:?}");
         assert!(pixels.is_clean(), "{name}: {pixels:?}");
         assert!(pixels.covered_pixels > 0);

@@ -184,7 +184,7 @@ pub fn run(args: RenderBenchArgs) -> anyhow::Result<Outcome> {
     let drawn: Vec<(usize, u64)> = args
         .tolerances
         .iter()
-        .map(|&tau| {
+        .map(|&tau| -> anyhow::Result<(usize, u64)> {
             renderer.render(
                 &ctx,
                 &FrameRequest::new(camera, tau),
@@ -193,14 +193,14 @@ pub fn run(args: RenderBenchArgs) -> anyhow::Result<Outcome> {
                     selection: true,
                 },
             );
-            let selection = renderer.read_selection(&ctx);
+            let selection = renderer.read_selection(&ctx)?;
             let triangles = selection
                 .iter()
                 .map(|&i| repo.tets()[i as usize].triangle_count as u64)
                 .sum();
-            (selection.len(), triangles)
+            Ok((selection.len(), triangles))
         })
-        .collect();
+        .collect::<anyhow::Result<_>>()?;
 
     // The timed rounds, interleaved over the subjects.
     let mut subjects: Vec<Subject> = Vec::new();
@@ -226,14 +226,14 @@ pub fn run(args: RenderBenchArgs) -> anyhow::Result<Outcome> {
                             selection: false,
                         },
                     );
-                    ctx.wait_idle();
+                    ctx.wait_idle()?;
                     let wall_ms = start.elapsed().as_secs_f64() * 1e3;
                     if save {
-                        let image = renderer.read_image(&ctx);
+                        let image = renderer.read_image(&ctx)?;
                         save_frame(&image, args.save_frames.as_deref(), &format!("tau-{tau}"))?;
                     }
                     Frame {
-                        gpu_ms: renderer.read_gpu_ms(&ctx),
+                        gpu_ms: renderer.read_gpu_ms(&ctx)?,
                         wall_ms,
                         cpu_ms,
                     }
@@ -242,14 +242,14 @@ pub fn run(args: RenderBenchArgs) -> anyhow::Result<Outcome> {
                     let full = full.as_mut().expect("a full subject has its renderer");
                     let start = Instant::now();
                     let cpu_ms = full.render(&ctx, &camera, save);
-                    ctx.wait_idle();
+                    ctx.wait_idle()?;
                     let wall_ms = start.elapsed().as_secs_f64() * 1e3;
                     if save {
-                        let image = full.read_image(&ctx);
+                        let image = full.read_image(&ctx)?;
                         save_frame(&image, args.save_frames.as_deref(), "full")?;
                     }
                     Frame {
-                        gpu_ms: full.read_gpu_ms(&ctx),
+                        gpu_ms: full.read_gpu_ms(&ctx)?,
                         wall_ms,
                         cpu_ms,
                     }

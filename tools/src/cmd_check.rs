@@ -102,7 +102,7 @@ pub fn run(args: CheckArgs) -> anyhow::Result<Outcome> {
             let mut renderer = args
                 .device
                 .renderer(&ctx, &repo, (args.size.0, args.size.1))?;
-            check_pixels(&ctx, &mut renderer, &repo, &config)
+            check_pixels(&ctx, &mut renderer, &repo, &config)?
         };
         Some((
             pixels,

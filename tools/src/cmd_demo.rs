@@ -262,8 +262,8 @@ fn render_frames(
         // A first, untimed frame, waited for: the second's GPU time is the steady one, and its
         // CPU time does not include waiting for the first.
         renderer.render(&ctx, &request, Readback::default());
-        ctx.wait_idle();
-        let frame = renderer.render_and_read(&ctx, &request);
+        ctx.wait_idle()?;
+        let frame = renderer.render_and_read(&ctx, &request)?;
         let (selection, triangles, gpu_ms, cpu_ms) = (
             &frame.selection,
             frame.triangles,

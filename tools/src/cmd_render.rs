@@ -195,7 +195,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<Outcome> {
         let f = streamer
             .frame(&ctx, &mut renderer, &request, Readback::default())
             .map_err(device_failure)?;
-        ctx.wait_idle();
+        ctx.wait_idle()?;
         if f.settled {
             frames_to_converge = Some(k);
             break;
@@ -218,9 +218,12 @@ pub fn run(args: RenderArgs) -> anyhow::Result<Outcome> {
     // CPU ms of the written frame: recording and submitting it, and the streaming work
     // (landing units, feedback, plan; the CPU reference of this frame included).
     let cpu_ms = started.elapsed().as_secs_f64() * 1e3;
-    let image = renderer.read_image(&ctx);
-    let selection = &renderer.read_selection(&ctx);
-    let (triangles, gpu_ms) = (renderer.triangles_of(selection), renderer.read_gpu_ms(&ctx));
+    let image = renderer.read_image(&ctx)?;
+    let selection = &renderer.read_selection(&ctx)?;
+    let (triangles, gpu_ms) = (
+        renderer.triangles_of(selection),
+        renderer.read_gpu_ms(&ctx)?,
+    );
     let frame = tessera_runtime::gpu::Frame {
         image,
         selection: selection.clone(),

@@ -110,7 +110,7 @@ pub fn terrain_demo(
                     height,
                     ..Camera::orbit(h.bbox_min, h.bbox_max, Z_UP, 30.0, 35.0, 1.4)
                 };
-                let frame = renderer.render_and_read(&ctx, &FrameRequest::new(camera, 1.0));
+                let frame = renderer.render_and_read(&ctx, &FrameRequest::new(camera, 1.0))?;
                 let file = dir.join(TERRAIN_FRAME);
                 save_png(&frame.image, &file)?;
                 lines.push(format!(
@@ -127,7 +127,7 @@ pub fn terrain_demo(
                         views: PIXEL_VIEWS,
                         ..Default::default()
                     },
-                );
+                )?;
                 lines.push(format!(
                     "  pixel check from above and below: {} frames, {} flag pixels, {} selection mismatches",
                     px.frames, px.flag_pixels, px.selection_mismatches

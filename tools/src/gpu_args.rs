@@ -105,7 +105,7 @@ pub const UPLOAD_BYTES_PER_FRAME: u64 = 4 << 20;
 /// A streaming error as the CLI reports it: device failures become `DeviceFailure`.
 pub fn device_failure(e: StreamError) -> anyhow::Error {
     match e {
-        StreamError::Device(m) => DeviceFailure(m).into(),
+        StreamError::Device(failure) => DeviceFailure(failure.to_string()).into(),
         other => other.into(),
     }
 }

@@ -2,7 +2,8 @@
 //! keys and the exit codes stable (README.md lists them).
 //!
 //! Exit codes: 0 success; 1 a check found problems; 2 bad usage or bad input (a clear message
-//! on stderr, no output file left behind).
+//! on stderr, no output file left behind); 3 the GPU device failed (lost, out of memory, a
+//! read-back that could not be mapped: a clear message on stderr, never a panic).
 
 mod bench;
 mod bench_stream_plot;
@@ -85,8 +86,13 @@ fn main() -> ExitCode {
         Ok(Outcome::CheckFailed) => ExitCode::from(1),
         Err(e) => {
             eprintln!("error: {}", error_message(&e));
-            // A device that failed (lost, out of memory) is exit 3; every other error 2.
-            if e.downcast_ref::<gpu_args::DeviceFailure>().is_some() {
+            // A device that failed (lost, out of memory, a failed read-back) is exit 3; every
+            // other error 2.
+            let device_failed = e.chain().any(|cause| {
+                cause.is::<gpu_args::DeviceFailure>()
+                    || cause.is::<tessera_runtime::gpu::GpuFailure>()
+            });
+            if device_failed {
                 ExitCode::from(3)
             } else {
                 ExitCode::from(2)

@@ -13,9 +13,66 @@
 //! optional feature: no primitive restart, multi-draw, count draw or `first_instance`.
 
 use std::fmt::Write as _;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
 
 /// Environment variable naming the adapter to use (a substring of its name).
 pub const ADAPTER_ENV: &str = "TESSERA_ADAPTER";
+
+/// Environment variable injecting a device fault, for the tests of what every GPU command
+/// does then (exit 3 with a message, never a panic or a hang): `lost@N` destroys the device
+/// (`Device::destroy`) right after the Nth frame is submitted; `oom@N` hands the device's
+/// error handler the out-of-memory error wgpu reports for a failed allocation, at the Nth
+/// submit; `readback@N` destroys the buffer of the first read-back after the Nth submit, so
+/// its `map_async` fails. `N` defaults to 1.
+pub const FAULT_ENV: &str = "TESSERA_GPU_FAULT";
+
+/// The device failed: lost, out of memory, a read-back that could not be mapped, or an error
+/// wgpu reported outside any error scope. Nothing more can be drawn; the CLI exits with 3.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("the GPU device failed: {0}")]
+pub struct GpuFailure(pub String);
+
+/// A fault `FAULT_ENV` asks for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum FaultKind {
+    Lost,
+    OutOfMemory,
+    Readback,
+}
+
+/// What the device's callbacks saw, and the injected fault.
+#[derive(Debug, Default)]
+struct FaultState {
+    /// The first failure reported (device lost, an uncaptured error).
+    first: Mutex<Option<String>>,
+    /// Frames submitted (`GpuContext::submitted`).
+    submits: AtomicU64,
+    /// `readback@N` has failed its read-back.
+    readback_failed: AtomicBool,
+    inject: Option<(FaultKind, u64)>,
+}
+
+impl FaultState {
+    /// Keeps the first failure, on one line (wgpu's messages span several).
+    fn record(&self, message: String) {
+        if let Ok(mut first) = self.first.lock() {
+            first.get_or_insert_with(|| message.split_whitespace().collect::<Vec<_>>().join(" "));
+        }
+    }
+}
+
+/// Parses `FAULT_ENV`'s value (`kind[@N]`).
+fn parse_fault(text: &str) -> Option<(FaultKind, u64)> {
+    let (kind, at) = text.split_once('@').unwrap_or((text, "1"));
+    let kind = match kind.trim() {
+        "lost" => FaultKind::Lost,
+        "oom" => FaultKind::OutOfMemory,
+        "readback" => FaultKind::Readback,
+        _ => return None,
+    };
+    Some((kind, at.trim().parse().ok()?))
+}
 
 /// Why no device could be made.
 #[derive(Debug, thiserror::Error)]
@@ -137,6 +194,7 @@ pub struct GpuContext {
     pub backend: Backend,
     pub limits: wgpu::Limits,
     pub capabilities: Capabilities,
+    faults: Arc<FaultState>,
 }
 
 impl std::fmt::Debug for GpuContext {
@@ -222,6 +280,11 @@ impl GpuContext {
         let features = adapter.features();
         let optional = wgpu::Features::TIMESTAMP_QUERY | wgpu::Features::POLYGON_MODE_LINE;
         let limits = options.limits.clone().unwrap_or_else(|| adapter.limits());
+        required_limits(&limits).map_err(|missing| DeviceError::Unsupported {
+            adapter: info.name.clone(),
+            backend,
+            missing,
+        })?;
         let (device, queue) = adapter
             .request_device(&wgpu::DeviceDescriptor {
                 label: Some("tessera"),
@@ -234,7 +297,39 @@ impl GpuContext {
                 adapter: info.name.clone(),
                 source,
             })?;
+        // Every failure the device reports outside an error scope (wgpu's default handler
+        // panics) and its loss are recorded; `check` and every wait and read-back return them.
+        let inject = match std::env::var(FAULT_ENV) {
+            Ok(text) if !text.is_empty() => {
+                Some(parse_fault(&text).ok_or_else(|| DeviceError::Unsupported {
+                    adapter: info.name.clone(),
+                    backend,
+                    missing: format!("{FAULT_ENV}={text:?} is not lost|oom|readback[@N]"),
+                })?)
+            }
+            _ => None,
+        };
+        let faults = Arc::new(FaultState {
+            inject,
+            ..Default::default()
+        });
+        let sink = faults.clone();
+        device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
+            sink.record(match &e {
+                wgpu::Error::OutOfMemory { source } => format!("out of GPU memory: {source}"),
+                _ => format!("wgpu reported an error: {e}"),
+            })
+        }));
+        let sink = faults.clone();
+        device.set_device_lost_callback(move |reason, message| {
+            sink.record(if message.is_empty() {
+                format!("device lost ({reason:?})")
+            } else {
+                format!("device lost ({reason:?}): {message}")
+            });
+        });
         Ok(GpuContext {
+            faults,
             device,
             queue,
             capabilities: Capabilities {
@@ -255,11 +350,68 @@ impl GpuContext {
         )
     }
 
-    /// Blocks until the GPU has finished everything submitted.
-    pub fn wait_idle(&self) {
-        // An error here means the device was lost; the next call reports it.
-        let _ = self.device.poll(wgpu::PollType::wait_indefinitely());
+    /// Blocks until the GPU has finished everything submitted; the device's failure, if it
+    /// failed (`check`).
+    pub fn wait_idle(&self) -> Result<(), GpuFailure> {
+        self.check()?;
+        let polled = self.device.poll(wgpu::PollType::wait_indefinitely());
+        self.check()?;
+        polled
+            .map(|_| ())
+            .map_err(|e| GpuFailure(format!("waiting for the GPU: {e}")))
     }
+
+    /// The first failure the device reported (lost, out of memory, an error outside any
+    /// error scope), if any.
+    pub fn check(&self) -> Result<(), GpuFailure> {
+        match self.faults.first.lock() {
+            Ok(first) => first.clone().map_or(Ok(()), |m| Err(GpuFailure(m))),
+            Err(_) => Err(GpuFailure("the device's error state is poisoned".into())),
+        }
+    }
+
+    /// Counts a frame just submitted (`Renderer::render`, `FullMeshRenderer::render`) and
+    /// injects the fault `FAULT_ENV` asks for at that frame.
+    pub fn submitted(&self) {
+        let n = self.faults.submits.fetch_add(1, Ordering::AcqRel) + 1;
+        match self.faults.inject {
+            Some((FaultKind::Lost, at)) if n == at => self.device.destroy(),
+            Some((FaultKind::OutOfMemory, at)) if n == at => {
+                // What the handler installed in `new_async` records for wgpu's error.
+                self.faults.record(
+                    "out of GPU memory: an allocation failed (injected by TESSERA_GPU_FAULT)"
+                        .into(),
+                )
+            }
+            _ => {}
+        }
+    }
+
+    /// Whether the read-back about to start should fail (`FAULT_ENV`'s `readback@N`: the
+    /// first one after the Nth submit).
+    pub(crate) fn fail_this_readback(&self) -> bool {
+        match self.faults.inject {
+            Some((FaultKind::Readback, at)) => {
+                self.faults.submits.load(Ordering::Acquire) >= at
+                    && !self.faults.readback_failed.swap(true, Ordering::AcqRel)
+            }
+            _ => false,
+        }
+    }
+}
+
+/// Ok, or the limits among `limits` (those the device is opened with) that are below what
+/// the renderer's shaders assume: they clamp their dispatches at 65,535 workgroups a
+/// dimension and stride over the rest.
+fn required_limits(limits: &wgpu::Limits) -> Result<(), String> {
+    let need = super::shaders::MAX_WORKGROUPS_PER_DIMENSION;
+    if limits.max_compute_workgroups_per_dimension < need {
+        return Err(format!(
+            "limit max_compute_workgroups_per_dimension ≥ {need} (it has {})",
+            limits.max_compute_workgroups_per_dimension
+        ));
+    }
+    Ok(())
 }
 
 /// Ok, or what the adapter lacks.
@@ -287,6 +439,11 @@ fn usable(adapter: &wgpu::Adapter) -> Result<(), String> {
             "max_compute_workgroup_size_x",
             limits.max_compute_workgroup_size_x,
             super::shaders::COMPACT_WORKGROUP,
+        ),
+        (
+            "max_compute_workgroups_per_dimension",
+            limits.max_compute_workgroups_per_dimension,
+            super::shaders::MAX_WORKGROUPS_PER_DIMENSION,
         ),
         (
             "max_compute_workgroup_storage_size",

@@ -10,7 +10,7 @@
 use std::sync::atomic::{AtomicU8, Ordering};
 use std::sync::Arc;
 
-use super::device::GpuContext;
+use super::device::{GpuContext, GpuFailure};
 
 /// Staging buffers in the ring.
 pub const RING: usize = 3;
@@ -86,6 +86,11 @@ impl Feedback {
         }
     }
 
+    /// The largest capacity whose lists fit `binding` bytes (they are one storage binding).
+    pub fn max_capacity(binding: u64) -> u32 {
+        ((binding / 4).saturating_sub(HEADER_WORDS) / 4).min(u32::MAX as u64) as u32
+    }
+
     /// Bytes this allocates on the GPU (the lists and the ring).
     pub fn bytes(capacity: u32) -> u64 {
         let words = HEADER_WORDS + 4 * capacity as u64;
@@ -133,21 +138,30 @@ impl Feedback {
 
     /// The frames whose lists are readable now, oldest first (polls without waiting); an
     /// error when a map failed.
-    pub fn take(&mut self, ctx: &GpuContext) -> Result<Vec<FeedbackFrame>, String> {
-        let _ = ctx.device.poll(wgpu::PollType::Poll);
+    pub fn take(&mut self, ctx: &GpuContext) -> Result<Vec<FeedbackFrame>, GpuFailure> {
+        ctx.device
+            .poll(wgpu::PollType::Poll)
+            .map_err(|e| GpuFailure(format!("polling the device: {e}")))?;
+        ctx.check()?;
         let mut out = Vec::new();
         for s in &mut self.ring {
             match s.state.load(Ordering::Acquire) {
-                FAILED => return Err("mapping the streaming feedback failed".into()),
+                FAILED => {
+                    ctx.wait_idle()?; // a device that failed says so once its queue is done
+                    return Err(GpuFailure(
+                        "reading back the streaming feedback failed: its buffer could not be \
+                         mapped"
+                            .into(),
+                    ));
+                }
                 MAPPED => {}
                 _ => continue,
             }
             let words: Vec<u32> = {
-                let view = s
-                    .buffer
-                    .slice(..)
-                    .get_mapped_range()
-                    .map_err(|e| e.to_string())?;
+                let view =
+                    s.buffer.slice(..).get_mapped_range().map_err(|e| {
+                        GpuFailure(format!("reading back the streaming feedback: {e}"))
+                    })?;
                 bytemuck::pod_collect_to_vec(&view)
             };
             s.buffer.unmap();

@@ -109,8 +109,11 @@ pub struct Readback {
 pub enum RenderError {
     #[error(transparent)]
     Resident(#[from] ResidentError),
-    #[error("the target size {width}×{height} is not within 1..={max} pixels per side")]
-    BadSize { width: u32, height: u32, max: u32 },
+    #[error(transparent)]
+    BadSize(#[from] super::target::TargetSizeError),
+    /// The device failed while the renderer was made (out of memory, lost).
+    #[error("{0}")]
+    Device(#[from] super::device::GpuFailure),
     #[error("{got} may_refine words given; the model's {diamonds} diamonds take {expected}")]
     MayRefineLength {
         got: usize,

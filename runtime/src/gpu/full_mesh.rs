@@ -25,7 +25,7 @@ use tessera_core::cull::CullTests;
 use tessera_core::repository::format::Header;
 use wgpu::util::DeviceExt;
 
-use super::device::GpuContext;
+use super::device::{GpuContext, GpuFailure};
 use super::frame::{FrameUniforms, ShadingMode};
 use super::target::{RenderTarget, BACKGROUND, COLOR_FORMAT, DEPTH_FORMAT};
 use super::timing::FrameTimer;
@@ -49,8 +49,8 @@ pub const FULL_MESH_TRIANGLE_BYTES: u64 = 12;
 /// Why a mesh cannot be drawn.
 #[derive(Debug, thiserror::Error)]
 pub enum FullMeshError {
-    #[error("the target size {width}×{height} is not within 1..={max} pixels per side")]
-    BadSize { width: u32, height: u32, max: u32 },
+    #[error(transparent)]
+    BadSize(#[from] super::target::TargetSizeError),
     #[error("the mesh has no triangles")]
     Empty,
     #[error(transparent)]
@@ -107,10 +107,7 @@ impl FullMeshRenderer {
         width: u32,
         height: u32,
     ) -> Result<FullMeshRenderer, FullMeshError> {
-        let max = ctx.limits.max_texture_dimension_2d;
-        if !(1..=max).contains(&width) || !(1..=max).contains(&height) {
-            return Err(FullMeshError::BadSize { width, height, max });
-        }
+        super::target::check_target_size(&ctx.limits, width, height)?;
         if triangles.is_empty() {
             return Err(FullMeshError::Empty);
         }
@@ -342,18 +339,23 @@ impl FullMeshRenderer {
             self.target.copy_out(&mut encoder);
         }
         ctx.queue.submit([encoder.finish()]);
+        ctx.submitted();
         start.elapsed().as_secs_f64() * 1e3
     }
 
-    /// The image of the last frame rendered with `read_image` (blocks until it is done).
-    pub fn read_image(&self, ctx: &GpuContext) -> image::RgbaImage {
+    /// The image of the last frame rendered with `read_image` (blocks until it is done); the
+    /// device's failure if it failed.
+    pub fn read_image(&self, ctx: &GpuContext) -> Result<image::RgbaImage, GpuFailure> {
         self.target.read(ctx)
     }
 
     /// GPU milliseconds from the start to the end of the last frame's render pass, where the
     /// adapter has timestamps (blocks until that frame is done).
-    pub fn read_gpu_ms(&self, ctx: &GpuContext) -> Option<f64> {
-        self.timer.as_ref()?.read_ms(ctx)
+    pub fn read_gpu_ms(&self, ctx: &GpuContext) -> Result<Option<f64>, GpuFailure> {
+        match &self.timer {
+            Some(timer) => timer.read_ms(ctx),
+            None => Ok(None),
+        }
     }
 }
 
@@ -411,20 +413,20 @@ mod tests {
             ..Camera::looking_at([100.0, 0.0, 3.0], [100.0, 0.0, 0.0], 1.5)
         };
         r.render(&ctx, &camera, true);
-        let image = r.read_image(&ctx);
+        let image = r.read_image(&ctx).unwrap();
         let centre = image.get_pixel(32, 24).0;
         let corner = image.get_pixel(0, 0).0;
         assert_ne!(centre, corner, "the square covers the centre");
         assert_eq!(corner, [28, 31, 38, 255], "background in the corner");
         if ctx.capabilities.timestamps {
-            assert!(r.read_gpu_ms(&ctx).is_some());
+            assert!(r.read_gpu_ms(&ctx).unwrap().is_some());
         }
         // Another triangle list over the same vertices: one triangle leaves half empty,
         // none draws nothing, more than the first upload grows the buffer.
         r.set_triangles(&ctx, &[[0, 1, 2]]).unwrap();
         assert_eq!(r.triangle_count(), 1);
         r.render(&ctx, &camera, true);
-        let half = r.read_image(&ctx);
+        let half = r.read_image(&ctx).unwrap();
         assert_ne!(
             half.get_pixel(40, 18).0,
             corner,
@@ -433,11 +435,11 @@ mod tests {
         assert_eq!(half.get_pixel(24, 18).0, corner, "x < y is empty");
         r.set_triangles(&ctx, &[]).unwrap();
         r.render(&ctx, &camera, true);
-        assert_eq!(r.read_image(&ctx).get_pixel(32, 24).0, corner);
+        assert_eq!(r.read_image(&ctx).unwrap().get_pixel(32, 24).0, corner);
         r.set_triangles(&ctx, &[[0, 1, 2], [0, 2, 3], [0, 1, 2]])
             .unwrap();
         r.render(&ctx, &camera, true);
-        assert_eq!(r.read_image(&ctx), image);
+        assert_eq!(r.read_image(&ctx).unwrap(), image);
         assert!(matches!(
             r.set_triangles(&ctx, &[[0, 1, 4]]),
             Err(FullMeshError::Bad(MeshProblem::IndexOutOfRange {
@@ -450,7 +452,7 @@ mod tests {
         }
         assert!(matches!(
             FullMeshRenderer::new(&ctx, &positions, &triangles, origin, 0, 48),
-            Err(FullMeshError::BadSize { .. })
+            Err(FullMeshError::BadSize(_))
         ));
     }
 }

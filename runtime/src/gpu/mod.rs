@@ -40,7 +40,7 @@ pub mod target;
 pub mod timing;
 pub mod traversal;
 
-pub use device::{Backend, DeviceError, DeviceOptions, GpuContext};
+pub use device::{Backend, DeviceError, DeviceOptions, GpuContext, GpuFailure};
 pub use frame::{ShadingMode, FLAG_COLOUR};
 pub use renderer::{Frame, FrameRequest, Readback, RenderError, Renderer, RendererOptions};
 pub use streamer::{GpuStreamStats, GpuStreamer, StreamError, StreamedGpuFrame};

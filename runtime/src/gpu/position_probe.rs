@@ -8,19 +8,21 @@ use wgpu::util::DeviceExt;
 use super::frame::FrameUniforms;
 use super::shaders::position_probe_source;
 use super::target::read_buffer;
-use super::GpuContext;
+use super::{GpuContext, GpuFailure};
 
-/// Positions per dispatch: 64-thread workgroups, at most 65,535 of them.
-const CHUNK: usize = 64 * 65_535;
+/// Positions per dispatch: 64-thread workgroups, at most 65,535 of them (and at most one
+/// storage binding of clip positions, below).
+const CHUNK: usize = 64 * super::shaders::MAX_WORKGROUPS_PER_DIMENSION as usize;
 
 /// The clip position (x, y, z, w) of each packed position (`format::pack_position`) under
-/// `uniforms`, as the GPU computes it.
+/// `uniforms`, as the GPU computes it; the device's failure if it failed.
 pub fn clip_positions(
     ctx: &GpuContext,
     uniforms: &FrameUniforms,
     packed: &[[u32; 2]],
-) -> Vec<[f32; 4]> {
+) -> Result<Vec<[f32; 4]>, GpuFailure> {
     let device = &ctx.device;
+    let chunk = CHUNK.min((super::resident::page_limit(&ctx.limits) / 16).max(1) as usize);
     let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
         label: Some("position probe"),
         source: wgpu::ShaderSource::Wgsl(position_probe_source().into()),
@@ -39,7 +41,7 @@ pub fn clip_positions(
         usage: wgpu::BufferUsages::UNIFORM,
     });
     let mut out = Vec::with_capacity(packed.len());
-    for chunk in packed.chunks(CHUNK) {
+    for chunk in packed.chunks(chunk) {
         let input = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("position probe input"),
             contents: bytemuck::cast_slice(chunk),
@@ -86,8 +88,10 @@ pub fn clip_positions(
         encoder.copy_buffer_to_buffer(&clip, 0, &readback, 0, bytes);
         ctx.queue.submit([encoder.finish()]);
         out.extend_from_slice(bytemuck::cast_slice::<u8, [f32; 4]>(&read_buffer(
-            ctx, &readback,
-        )));
+            ctx,
+            &readback,
+            "the probed positions",
+        )?));
     }
-    out
+    Ok(out)
 }

@@ -14,7 +14,7 @@ use tessera_core::repository::reader::Repository;
 use super::compact::{
     Compaction, PageDraw, INDEXED_DRAW_OFFSET, PAGE_ARGS_BYTES, PULL_DRAW_OFFSET,
 };
-use super::device::GpuContext;
+use super::device::{GpuContext, GpuFailure};
 use super::draw_pipelines::{DrawPipelines, Pass};
 use super::feedback::{Feedback, FeedbackFrame};
 use super::frame::{FrameUniforms, ShadingMode};
@@ -124,14 +124,7 @@ impl Renderer {
         repo: &Repository,
         options: RendererOptions,
     ) -> Result<Renderer, RenderError> {
-        let max = ctx.limits.max_texture_dimension_2d;
-        if !(1..=max).contains(&options.width) || !(1..=max).contains(&options.height) {
-            return Err(RenderError::BadSize {
-                width: options.width,
-                height: options.height,
-                max,
-            });
-        }
+        super::target::check_target_size(&ctx.limits, options.width, options.height)?;
         let model = ResidentModel::upload(ctx, repo, options.budget_bytes, options.index_slots)?;
         Self::with_model(ctx, repo, options, model, 0, None)
     }
@@ -148,14 +141,7 @@ impl Renderer {
         feedback_capacity: u32,
         streamed: Option<std::sync::Arc<Repository>>,
     ) -> Result<Renderer, RenderError> {
-        let max = ctx.limits.max_texture_dimension_2d;
-        if !(1..=max).contains(&options.width) || !(1..=max).contains(&options.height) {
-            return Err(RenderError::BadSize {
-                width: options.width,
-                height: options.height,
-                max,
-            });
-        }
+        super::target::check_target_size(&ctx.limits, options.width, options.height)?;
         let device = &ctx.device;
         let buffer = |label: &str, size: u64, usage: wgpu::BufferUsages| {
             device.create_buffer(&wgpu::BufferDescriptor {
@@ -290,6 +276,8 @@ impl Renderer {
                 triangle_counts: repo.tets().iter().map(|t| t.triangle_count).collect(),
             },
         };
+        // An allocation that failed (out of memory) or a device lost while making them.
+        ctx.check()?;
         Ok(Renderer {
             header: *repo.header(),
             directory,
@@ -345,9 +333,13 @@ impl Renderer {
         (self.target.width, self.target.height)
     }
 
-    /// Replaces the target with one of another size.
-    pub fn resize(&mut self, ctx: &GpuContext, width: u32, height: u32) {
+    /// Replaces the target with one of another size, if the adapter's limits allow it (the
+    /// size is refused naming the limit, as at creation). A streaming renderer's budget
+    /// counted the target it was made with.
+    pub fn resize(&mut self, ctx: &GpuContext, width: u32, height: u32) -> Result<(), RenderError> {
+        super::target::check_target_size(&ctx.limits, width, height)?;
         self.target = RenderTarget::new(ctx, width, height);
+        Ok(())
     }
 
     /// Records and submits one frame; returns the CPU milliseconds spent (uniforms, commands,
@@ -456,13 +448,14 @@ impl Renderer {
             self.target.copy_out(&mut encoder);
         }
         ctx.queue.submit([encoder.finish()]);
+        ctx.submitted();
         self.feedback.after_submit(); // streaming
         start.elapsed().as_secs_f64() * 1e3
     }
 
     /// Streaming: the feedback of the frames whose lists are readable now, oldest first,
     /// without waiting (`feedback.rs`); numbered as `frames_submitted` counted them.
-    pub fn take_feedback(&mut self, ctx: &GpuContext) -> Result<Vec<FeedbackFrame>, String> {
+    pub fn take_feedback(&mut self, ctx: &GpuContext) -> Result<Vec<FeedbackFrame>, GpuFailure> {
         self.feedback.take(ctx)
     }
 
@@ -471,8 +464,13 @@ impl Renderer {
         self.frames_submitted
     }
 
-    /// Renders `request` and reads everything back (blocks until the frame is done).
-    pub fn render_and_read(&mut self, ctx: &GpuContext, request: &FrameRequest) -> Frame {
+    /// Renders `request` and reads everything back (blocks until the frame is done); the
+    /// device's failure if it failed.
+    pub fn render_and_read(
+        &mut self,
+        ctx: &GpuContext,
+        request: &FrameRequest,
+    ) -> Result<Frame, GpuFailure> {
         let cpu_ms = self.render(
             ctx,
             request,
@@ -481,15 +479,15 @@ impl Renderer {
                 selection: true,
             },
         );
-        let image = self.read_image(ctx);
-        let selection = self.read_selection(ctx);
-        Frame {
+        let image = self.read_image(ctx)?;
+        let selection = self.read_selection(ctx)?;
+        Ok(Frame {
             triangles: self.triangles_of(&selection),
-            gpu_ms: self.read_gpu_ms(ctx),
+            gpu_ms: self.read_gpu_ms(ctx)?,
             image,
             selection,
             cpu_ms,
-        }
+        })
     }
 
     /// Triangles of the patches of `selection` (simplices).
@@ -514,17 +512,19 @@ impl Renderer {
         }
     }
 
-    /// The image of the last frame rendered with `Readback::image`.
-    pub fn read_image(&self, ctx: &GpuContext) -> image::RgbaImage {
+    /// The image of the last frame rendered with `Readback::image` (a device failure or a
+    /// failed read-back: `GpuFailure`).
+    pub fn read_image(&self, ctx: &GpuContext) -> Result<image::RgbaImage, GpuFailure> {
         self.target.read(ctx)
     }
 
     /// The simplices drawn by the last frame rendered with `Readback::selection`, ascending
     /// (streaming: read before the next frame lands units, which may reuse slots).
-    pub fn read_selection(&self, ctx: &GpuContext) -> Vec<u32> {
-        let counts: Vec<u32> = bytemuck::pod_collect_to_vec(&read_buffer(ctx, &self.counts_read));
+    pub fn read_selection(&self, ctx: &GpuContext) -> Result<Vec<u32>, GpuFailure> {
+        let counts: Vec<u32> =
+            bytemuck::pod_collect_to_vec(&read_buffer(ctx, &self.counts_read, "the selection")?);
         let entries: Vec<u32> =
-            bytemuck::pod_collect_to_vec(&read_buffer(ctx, &self.selected_read));
+            bytemuck::pod_collect_to_vec(&read_buffer(ctx, &self.selected_read, "the selection")?);
         let mut selected = Vec::new();
         for (list, &count) in self.model.lists.iter().zip(&counts) {
             let count = count.min(list.capacity);
@@ -538,12 +538,15 @@ impl Renderer {
             }
         }
         selected.sort_unstable();
-        selected
+        Ok(selected)
     }
 
     /// GPU milliseconds from the start of the traversal to the end of the draws of the last
     /// frame, where the adapter has timestamps (blocks until that frame is done).
-    pub fn read_gpu_ms(&self, ctx: &GpuContext) -> Option<f64> {
-        self.timer.as_ref()?.read_ms(ctx)
+    pub fn read_gpu_ms(&self, ctx: &GpuContext) -> Result<Option<f64>, GpuFailure> {
+        match &self.timer {
+            Some(timer) => timer.read_ms(ctx),
+            None => Ok(None),
+        }
     }
 }

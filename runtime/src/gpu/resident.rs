@@ -104,6 +104,14 @@ pub enum ResidentError {
         bytes: u64,
         limit: u64,
     },
+    #[error(
+        "the patch blob needs {pages} pages of one storage binding each, more than the {max} \
+         a renderer can draw on this adapter (one compaction workgroup per page: \
+         max_compute_workgroups_per_dimension; 64 bytes of draw arguments per page in one \
+         binding: max_storage_buffer_binding_size): `render` and `check --gpu --gpu-budget \
+         MIB` stream it"
+    )]
+    TooManyPages { pages: usize, max: u64 },
     #[error("the model has {count} simplices; the traversal addresses at most {max}")]
     TooManySimplices { count: usize, max: usize },
     #[error(transparent)]
@@ -149,6 +157,19 @@ pub fn page_limit(limits: &wgpu::Limits) -> u64 {
         & !7
 }
 
+/// Most pages a renderer can draw: the compaction dispatches one workgroup per page
+/// (`MAX_WORKGROUPS_PER_DIMENSION`), and the pages' draw arguments are one storage binding.
+pub fn max_pages(limits: &wgpu::Limits) -> u64 {
+    max_pages_within(page_limit(limits))
+}
+
+/// `max_pages` for a storage binding of `binding` bytes.
+pub fn max_pages_within(binding: u64) -> u64 {
+    (super::shaders::MAX_WORKGROUPS_PER_DIMENSION as u64)
+        .min(binding / PAGE_ARGS_BYTES)
+        .max(1)
+}
+
 impl ResidentModel {
     /// Validates every patch (`Repository::validate_patches`), lays the blob out in pages and
     /// uploads everything, if it fits in `budget_bytes`.
@@ -173,10 +194,18 @@ impl ResidentModel {
         repo.validate_patches()?;
         let limit = page_limit(&ctx.limits);
         let mut layout = lay_out_pages(repo, limit)?;
+        let max_pages = max_pages(&ctx.limits);
+        if layout.pages.len() as u64 > max_pages {
+            return Err(ResidentError::TooManyPages {
+                pages: layout.pages.len(),
+                max: max_pages,
+            });
+        }
         // Regions start at storage-offset-aligned indices (bound one page at a time), and
         // all fit one buffer; a page left without a region is always drawn by pulling.
         let align = (ctx.limits.min_storage_buffer_offset_alignment as u64 / 4).max(1);
-        let max_indices = ctx.limits.max_buffer_size / 4;
+        // (`PageInfo` holds a region's start as u32.)
+        let max_indices = (ctx.limits.max_buffer_size / 4).min(u32::MAX as u64);
         let mut index_count = 0u64;
         for list in &mut layout.lists {
             let start = index_count.next_multiple_of(align);

@@ -53,6 +53,10 @@ pub fn position_probe_source() -> String {
 pub const TRAVERSE_WORKGROUP: u32 = 64;
 /// Threads per compaction workgroup: `@workgroup_size(256)` in compact.wgsl.
 pub const COMPACT_WORKGROUP: u32 = 256;
+/// The most workgroups a dispatch of ours asks for in one dimension: traverse.wgsl's
+/// `MAX_WORKGROUPS` and the expansion's cap in compact.wgsl (threads stride over the rest).
+/// An adapter below it is refused by name (`device.rs`).
+pub const MAX_WORKGROUPS_PER_DIMENSION: u32 = 65_535;
 
 #[cfg(test)]
 mod tests {

@@ -70,6 +70,7 @@ fn base_bytes(ctx: &GpuContext, repo: &Repository, options: &RendererOptions) ->
         repo.tets().len(),
         options.width,
         options.height,
+        &ctx.limits,
     ));
     traversal + target + frame + feedback + no_index_regions
 }

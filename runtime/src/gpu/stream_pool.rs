@@ -156,7 +156,11 @@ impl PoolLayout {
     /// slots (`slots`: a resident patch has one) and by one storage binding (`limit`) for
     /// every page's list together (the traversal binds them as one array; the allocator then
     /// places fewer patches in a page).
+    ///
+    /// At most `resident::max_pages` pages (one compaction workgroup each, their draw
+    /// arguments one binding; `limit` is that binding): a larger pool is cut to them.
     pub fn new(tets: &[TetRecord], pool_bytes: u64, limit: u64, slots: u32) -> PoolLayout {
+        let pool_bytes = pool_bytes.min(super::resident::max_pages_within(limit) * limit);
         let pages = pool_bytes.div_ceil(limit).max(1) as usize;
         let page_bytes = (pool_bytes / pages as u64) & !7;
         let nonempty = tets.iter().filter(|t| t.strip_index_count != 0);

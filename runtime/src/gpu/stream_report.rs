@@ -26,9 +26,10 @@ pub enum StreamError {
     Roots(tessera_core::repository::RepositoryError),
     #[error(transparent)]
     Render(#[from] RenderError),
-    /// The device failed (lost, out of memory): nothing more can be drawn.
-    #[error("the GPU device failed: {0}")]
-    Device(String),
+    /// The device failed (lost, out of memory, a failed read-back): nothing more can be
+    /// drawn.
+    #[error("{0}")]
+    Device(#[from] super::device::GpuFailure),
 }
 
 /// What one streamed frame did.

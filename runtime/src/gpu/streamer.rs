@@ -28,7 +28,7 @@ use std::sync::Arc;
 use tessera_core::cut::diamond_rhos;
 use tessera_core::repository::reader::Repository;
 
-use super::device::GpuContext;
+use super::device::{GpuContext, GpuFailure};
 use super::records::{PairSlots, SlotRecord, CHILDREN_OFFSET, SLOT_RECORD_BYTES};
 use super::renderer::{FrameRequest, Readback, RenderError, Renderer, RendererOptions};
 use super::resident::{PatchLocation, ResidentModel, PATCH_LOCATION_BYTES};
@@ -47,9 +47,30 @@ type FeedbackLists = (u64, Vec<(u32, f32)>, Vec<(u32, f32)>);
 /// 64 pixels, at least 4,096): a cut's refined and wanted simplices grow with what the view
 /// shows. A frame whose lists overflowed is not fed to the residency (its refined list is
 /// incomplete, so used units could look unused and be evicted): it requests nothing.
-pub fn feedback_capacity(tets: usize, width: u32, height: u32) -> u32 {
+/// Both lists are one storage binding (`limits`): a smaller adapter gets shorter lists, whose
+/// overflowed frames request nothing.
+pub fn feedback_capacity(tets: usize, width: u32, height: u32, limits: &wgpu::Limits) -> u32 {
     let share = (width as usize * height as usize / 64).max(4096);
-    tets.min(share) as u32
+    let binding = super::feedback::Feedback::max_capacity(super::resident::page_limit(limits));
+    tets.min(share).min(binding as usize) as u32
+}
+
+/// Whether a unit of these simplices fits one empty page of the pool: its patches, each
+/// 8-aligned as the loader lays them out, within the page's bytes, and its non-empty patches
+/// within the page's selection list.
+fn fits_a_page(
+    repo: &Repository,
+    simplices: &[u32],
+    layout: &super::stream_pool::PoolLayout,
+) -> bool {
+    let tets = repo.tets();
+    let (mut bytes, mut nonempty) = (0u64, 0u64);
+    for &s in simplices {
+        let t = &tets[s as usize];
+        bytes += (t.patch_bytes as u64).next_multiple_of(8);
+        nonempty += u64::from(t.strip_index_count != 0);
+    }
+    bytes.max(8) <= layout.page_bytes && nonempty <= layout.patch_capacity as u64
 }
 
 /// The streaming state of one renderer.
@@ -73,8 +94,6 @@ pub struct GpuStreamer {
     first_entries: Vec<u32>,
     /// Simplices whose patch is in the pool (roots included).
     resident_patches: usize,
-    /// Set by the device-lost callback.
-    lost: Arc<std::sync::Mutex<Option<String>>>,
     /// Bumped at every flags upload; per frame drawn (renderer's number), the version used
     /// and the view's (bumped when the camera, τ or culling changes: feedback from another
     /// view does not make this one settled).
@@ -99,6 +118,9 @@ impl GpuStreamer {
         options: RendererOptions,
         upload_bytes_per_frame: u64,
     ) -> Result<(Renderer, GpuStreamer), StreamError> {
+        // The size first: an impossible target would otherwise read as a budget problem.
+        super::target::check_target_size(&ctx.limits, options.width, options.height)
+            .map_err(RenderError::from)?;
         let units = UnitTable::new(
             repo.diamonds(),
             repo.tets(),
@@ -138,25 +160,31 @@ impl GpuStreamer {
         }
         let scope = ctx.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
         let model: ResidentModel = pool_model(ctx, &repo, &layout, sizes.slots);
-        let capacity = feedback_capacity(repo.tets().len(), options.width, options.height);
+        let capacity = feedback_capacity(
+            repo.tets().len(),
+            options.width,
+            options.height,
+            &ctx.limits,
+        );
         let mut renderer =
             Renderer::with_model(ctx, &repo, options, model, capacity, Some(repo.clone()))?;
         if let Some(e) = pollster::block_on(scope.pop()) {
-            return Err(StreamError::Device(format!(
+            return Err(StreamError::Device(GpuFailure(format!(
                 "allocating {} bytes of pools and working buffers: {e}",
                 sizes.total()
-            )));
+            ))));
         }
-        let lost = Arc::new(std::sync::Mutex::new(None));
-        let sink = lost.clone();
-        ctx.device.set_device_lost_callback(move |reason, message| {
-            if let Ok(mut slot) = sink.lock() {
-                *slot = Some(format!("device lost ({reason:?}): {message}"));
-            }
-        });
+        ctx.check()?;
         let mut residency =
             Residency::with_records(units, budget, record_budget).map_err(|_| too_small)?;
         residency.track_changed_flags();
+        // A unit lands whole in one page (≤ one storage binding): one that no empty page can
+        // hold is refused now, so its diamond stays unrefined and the stream still settles.
+        for u in 0..residency.units().len() as u32 {
+            if !fits_a_page(&repo, residency.units().simplices(u), &layout) {
+                residency.refuse(u);
+            }
+        }
         let mut streamer = GpuStreamer {
             loader: Loader::new(repo.clone()),
             placed: vec![None; residency.units().len()],
@@ -176,7 +204,6 @@ impl GpuStreamer {
                 .map(|l| l.first_entry)
                 .collect(),
             resident_patches: 0,
-            lost,
             flags_version: 0,
             versions: VecDeque::new(),
             view: None,
@@ -437,11 +464,11 @@ impl GpuStreamer {
         request: &FrameRequest,
         readback: Readback,
     ) -> Result<StreamedGpuFrame, StreamError> {
-        if let Some(message) = self.lost.lock().ok().and_then(|slot| slot.clone()) {
-            return Err(StreamError::Device(message));
-        }
+        // A device that failed (lost, out of memory: recorded by its callbacks) ends here.
+        ctx.check()?;
         let uploads = self.land(ctx, renderer)?;
         renderer.render(ctx, request, readback);
+        ctx.check()?;
         self.submitted += 1;
         let (frame, completed) = (self.submitted, self.completed.clone());
         ctx.queue.on_submitted_work_done(move || {
@@ -483,7 +510,7 @@ impl GpuStreamer {
         };
         // Feedback: the GPU lists of the frames read back by now (a frame or two late).
         let (mut loads, mut evictions, mut fresh) = (Vec::new(), 0, false);
-        for mut fb in renderer.take_feedback(ctx).map_err(StreamError::Device)? {
+        for mut fb in renderer.take_feedback(ctx)? {
             for list in [&mut fb.refined, &mut fb.wanted] {
                 list.sort_unstable_by_key(|&(d, _)| d);
                 list.dedup_by_key(|&mut (d, _)| d);

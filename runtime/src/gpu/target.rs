@@ -1,7 +1,7 @@
 //! The headless render target: an RGBA8 colour texture and a reverse-Z depth texture, and the
 //! read-back of the colour into an image.
 
-use super::device::GpuContext;
+use super::device::{GpuContext, GpuFailure};
 
 /// Colour format of the target (no sRGB conversion: the check compares exact byte values).
 pub const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
@@ -15,6 +15,48 @@ pub const BACKGROUND: wgpu::Color = wgpu::Color {
     b: 0.15,
     a: 1.0,
 };
+
+/// Why a target size cannot be drawn on this adapter: each case names the limit.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum TargetSizeError {
+    #[error(
+        "the target size {width}×{height} is not within 1..={max} pixels per side (the \
+         adapter's max_texture_dimension_2d)"
+    )]
+    Dimension { width: u32, height: u32, max: u32 },
+    #[error(
+        "the target size {width}×{height} needs a {bytes}-byte read-back buffer, more than \
+         the adapter's max_buffer_size ({limit} bytes)"
+    )]
+    Readback {
+        width: u32,
+        height: u32,
+        bytes: u64,
+        limit: u64,
+    },
+}
+
+/// Ok when a `width` × `height` target (textures and read-back buffer) fits `limits`.
+pub fn check_target_size(
+    limits: &wgpu::Limits,
+    width: u32,
+    height: u32,
+) -> Result<(), TargetSizeError> {
+    let max = limits.max_texture_dimension_2d;
+    if !(1..=max).contains(&width) || !(1..=max).contains(&height) {
+        return Err(TargetSizeError::Dimension { width, height, max });
+    }
+    let bytes = readback_bytes(width, height);
+    if bytes > limits.max_buffer_size {
+        return Err(TargetSizeError::Readback {
+            width,
+            height,
+            bytes,
+            limit: limits.max_buffer_size,
+        });
+    }
+    Ok(())
+}
 
 /// An offscreen colour + depth target with its read-back buffer.
 pub struct RenderTarget {
@@ -59,7 +101,7 @@ impl RenderTarget {
         let padded_row = (4 * width).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
         let readback = ctx.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("colour read-back"),
-            size: padded_row as u64 * height as u64,
+            size: readback_bytes(width, height),
             usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
             mapped_at_creation: false,
         });
@@ -134,35 +176,63 @@ impl RenderTarget {
     }
 
     /// The colour written by the last `copy_out`, as tightly packed RGBA8 rows (blocks until
-    /// the GPU is done).
-    pub fn read(&self, ctx: &GpuContext) -> image::RgbaImage {
-        let bytes = read_buffer(ctx, &self.readback);
+    /// the GPU is done); the device's failure if it failed or the read-back could not be
+    /// mapped.
+    pub fn read(&self, ctx: &GpuContext) -> Result<image::RgbaImage, GpuFailure> {
+        let bytes = read_buffer(ctx, &self.readback, "the image")?;
         let row = 4 * self.width as usize;
         let mut pixels = Vec::with_capacity(row * self.height as usize);
         for r in bytes.chunks_exact(self.padded_row as usize) {
             pixels.extend_from_slice(&r[..row]);
         }
         image::RgbaImage::from_raw(self.width, self.height, pixels)
-            .expect("width × height × 4 bytes")
+            .ok_or_else(|| GpuFailure("the image read back has the wrong size".into()))
     }
 }
 
-/// Maps a MAP_READ buffer, copies it out and unmaps it (blocks until the GPU is done).
-pub fn read_buffer(ctx: &GpuContext, buffer: &wgpu::Buffer) -> Vec<u8> {
+/// Bytes of the target's read-back buffer for `width` × `height` (rows padded to
+/// `COPY_BYTES_PER_ROW_ALIGNMENT`).
+pub fn readback_bytes(width: u32, height: u32) -> u64 {
+    (4 * width as u64).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT as u64) * height as u64
+}
+
+/// Maps a MAP_READ buffer, copies it out and unmaps it (blocks until the GPU is done). A
+/// device that failed, or a map that failed, is a `GpuFailure` naming `what` was read.
+pub fn read_buffer(
+    ctx: &GpuContext,
+    buffer: &wgpu::Buffer,
+    what: &str,
+) -> Result<Vec<u8>, GpuFailure> {
+    ctx.check()?;
+    if ctx.fail_this_readback() {
+        buffer.destroy(); // FAULT_ENV's `readback`: the map below fails as a real one would
+    }
     let slice = buffer.slice(..);
     let (sender, receiver) = std::sync::mpsc::channel();
     slice.map_async(wgpu::MapMode::Read, move |result| {
         let _ = sender.send(result);
     });
-    ctx.wait_idle();
-    receiver
-        .recv()
-        .expect("the map callback runs during the poll")
-        .expect("mapping a read-back buffer");
+    let waited = ctx.wait_idle();
+    // A failed map names what was read, and the device's failure when it has one.
+    let failed = |why: String, device: Option<&GpuFailure>| {
+        GpuFailure(match device {
+            Some(device) => format!("reading back {what} failed: {why} ({})", device.0),
+            None => format!("reading back {what} failed: {why}"),
+        })
+    };
+    match receiver.try_recv() {
+        Ok(Ok(())) => {}
+        Ok(Err(e)) => return Err(failed(e.to_string(), waited.as_ref().err())),
+        Err(_) => {
+            let why = "the map did not complete".to_string();
+            return Err(failed(why, waited.as_ref().err()));
+        }
+    }
+    waited?;
     let bytes = slice
         .get_mapped_range()
-        .expect("the buffer was just mapped")
+        .map_err(|e| failed(e.to_string(), None))?
         .to_vec();
     buffer.unmap();
-    bytes
+    Ok(bytes)
 }

@@ -5,7 +5,7 @@
 //! Caveat (BENCHMARKS.md): lavapipe does not cover compute passes with its timestamps, so there
 //! the figure is the draw pass alone.
 
-use super::device::GpuContext;
+use super::device::{GpuContext, GpuFailure};
 use super::target::read_buffer;
 
 /// The queries of one frame.
@@ -70,9 +70,11 @@ impl FrameTimer {
 
     /// Milliseconds between the two timestamps of the last resolved frame (blocks until that
     /// frame is done); `None` if the clock went backwards.
-    pub fn read_ms(&self, ctx: &GpuContext) -> Option<f64> {
-        let ticks: Vec<u64> = bytemuck::pod_collect_to_vec(&read_buffer(ctx, &self.read));
-        let elapsed = ticks[1].checked_sub(ticks[0])?;
-        Some(elapsed as f64 * self.period_ns as f64 * 1e-6)
+    pub fn read_ms(&self, ctx: &GpuContext) -> Result<Option<f64>, GpuFailure> {
+        let ticks: Vec<u64> =
+            bytemuck::pod_collect_to_vec(&read_buffer(ctx, &self.read, "the GPU timestamps")?);
+        Ok(ticks[1]
+            .checked_sub(ticks[0])
+            .map(|elapsed| elapsed as f64 * self.period_ns as f64 * 1e-6))
     }
 }

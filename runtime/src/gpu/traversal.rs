@@ -11,7 +11,7 @@ use super::resident::ResidentModel;
 use super::shaders::{traverse_source, TRAVERSE_WORKGROUP};
 
 /// Largest workgroup count of one dispatch dimension; threads stride beyond it.
-const MAX_WORKGROUPS: u32 = 65_535;
+const MAX_WORKGROUPS: u32 = super::shaders::MAX_WORKGROUPS_PER_DIMENSION;
 /// Bytes of one `DispatchIndirectArgs` (x, y, z).
 const DISPATCH_ARGS_BYTES: u64 = 12;
 

@@ -20,7 +20,8 @@
 //!   priority, so a paused camera settles and stops loading (no thrash).
 //!
 //! A unit that fails to load (a damaged patch) is broken for good: it never becomes resident,
-//! so the diamond whose split creates the damaged patch never refines.
+//! so the diamond whose split creates the damaged patch never refines. A unit too large for
+//! the GPU to hold (`refuse`) is treated the same way without being read.
 //!
 //! Two budgets: bytes (the units' patches) and records (one per simplex of a unit: the GPU's
 //! record slots, `gpu::records`); a load must fit both, and eviction makes room in both. The
@@ -42,6 +43,9 @@ pub enum UnitState {
     Resident,
     /// Failed to load (a damaged patch): never loaded again.
     Broken,
+    /// Larger than the GPU can hold as one unit (a page of the pool, `refuse`): never loaded;
+    /// its diamond never refines, so the cut stays coarser there.
+    TooLarge,
 }
 
 /// Totals since the residency was made.
@@ -65,6 +69,8 @@ pub struct ResidencyStats {
     pub evictions: u64,
     /// Units broken by a failed load.
     pub broken_units: usize,
+    /// Units refused as larger than the GPU can hold (`refuse`).
+    pub too_large_units: usize,
     /// Units wanted in the latest frame but neither resident nor loading.
     pub pending_units: usize,
 }
@@ -253,7 +259,7 @@ impl Residency {
                 match self.state[ai] {
                     UnitState::Resident | UnitState::Loading => self.last_used[ai] = frame,
                     UnitState::Absent => self.candidates.push(a),
-                    UnitState::Broken => {}
+                    UnitState::Broken | UnitState::TooLarge => {}
                 }
                 stack.extend_from_slice(self.units.parents(a));
             }
@@ -484,6 +490,18 @@ impl Residency {
             if self.track_changes {
                 self.changed.push(d);
             }
+        }
+    }
+
+    /// Marks absent unit `u` as one that can never be held (larger than any page of the GPU's
+    /// pool: pages are at most one storage binding, and a unit lands whole in one page). It
+    /// is never requested or loaded, its diamond never refines: the cut stays coarser there
+    /// and the stream still settles (a unit issued but never placed would keep it loading
+    /// for good).
+    pub fn refuse(&mut self, u: u32) {
+        if self.state[u as usize] == UnitState::Absent {
+            self.state[u as usize] = UnitState::TooLarge;
+            self.stats.too_large_units += 1;
         }
     }
 

@@ -227,8 +227,8 @@ impl Subject for ClusterDag<'_> {
         Ok(start.elapsed().as_secs_f64() * 1e3)
     }
 
-    fn gpu_ms(&self, ctx: &GpuContext) -> Option<f64> {
-        self.renderer.read_gpu_ms(ctx)
+    fn gpu_ms(&self, ctx: &GpuContext) -> anyhow::Result<Option<f64>> {
+        Ok(self.renderer.read_gpu_ms(ctx)?)
     }
 
     fn measured_frame(
@@ -245,7 +245,7 @@ impl Subject for ClusterDag<'_> {
             triangles: self.selected.len() as u64,
             level: None,
         };
-        Ok((drawn, self.renderer.read_image(ctx)))
+        Ok((drawn, self.renderer.read_image(ctx)?))
     }
 
     fn surface(&self) -> Surface<'_> {

@@ -152,8 +152,8 @@ impl Subject for DiscreteLod<'_> {
         Ok(start.elapsed().as_secs_f64() * 1e3)
     }
 
-    fn gpu_ms(&self, ctx: &GpuContext) -> Option<f64> {
-        self.levels[self.last].1.read_gpu_ms(ctx)
+    fn gpu_ms(&self, ctx: &GpuContext) -> anyhow::Result<Option<f64>> {
+        Ok(self.levels[self.last].1.read_gpu_ms(ctx)?)
     }
 
     fn measured_frame(
@@ -171,7 +171,7 @@ impl Subject for DiscreteLod<'_> {
             triangles: l.triangles.len() as u64,
             level: Some(level as u32),
         };
-        Ok((drawn, renderer.read_image(ctx)))
+        Ok((drawn, renderer.read_image(ctx)?))
     }
 
     fn surface(&self) -> Surface<'_> {

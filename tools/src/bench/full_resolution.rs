@@ -31,8 +31,8 @@ impl Subject for FullResolution<'_> {
         Ok(self.renderer.render(ctx, camera, false))
     }
 
-    fn gpu_ms(&self, ctx: &GpuContext) -> Option<f64> {
-        self.renderer.read_gpu_ms(ctx)
+    fn gpu_ms(&self, ctx: &GpuContext) -> anyhow::Result<Option<f64>> {
+        Ok(self.renderer.read_gpu_ms(ctx)?)
     }
 
     fn measured_frame(
@@ -47,7 +47,7 @@ impl Subject for FullResolution<'_> {
             triangles: self.mesh.triangles.len() as u64,
             level: None,
         };
-        Ok((drawn, self.renderer.read_image(ctx)))
+        Ok((drawn, self.renderer.read_image(ctx)?))
     }
 
     fn surface(&self) -> Surface<'_> {

@@ -37,8 +37,8 @@ impl Subject for Ours<'_> {
             .render(ctx, &FrameRequest::new(*camera, tau), Readback::default()))
     }
 
-    fn gpu_ms(&self, ctx: &GpuContext) -> Option<f64> {
-        self.renderer.read_gpu_ms(ctx)
+    fn gpu_ms(&self, ctx: &GpuContext) -> anyhow::Result<Option<f64>> {
+        Ok(self.renderer.read_gpu_ms(ctx)?)
     }
 
     fn measured_frame(
@@ -49,7 +49,7 @@ impl Subject for Ours<'_> {
     ) -> anyhow::Result<(Drawn, image::RgbaImage)> {
         let frame = self
             .renderer
-            .render_and_read(ctx, &FrameRequest::new(*camera, tau));
+            .render_and_read(ctx, &FrameRequest::new(*camera, tau))?;
         self.surface = drawn_cut(self.repo, &frame.selection)?;
         let drawn = Drawn {
             patches: frame.selection.len() as u64,

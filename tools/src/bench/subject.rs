@@ -39,7 +39,7 @@ pub trait Subject {
     fn submit(&mut self, ctx: &GpuContext, camera: &Camera, tau: f32) -> anyhow::Result<f64>;
 
     /// GPU milliseconds of the last frame, where the adapter has timestamps.
-    fn gpu_ms(&self, ctx: &GpuContext) -> Option<f64>;
+    fn gpu_ms(&self, ctx: &GpuContext) -> anyhow::Result<Option<f64>>;
 
     /// Renders one frame with read-back: its counts and image; the surface it drew is then
     /// `surface()`.
@@ -64,11 +64,11 @@ pub fn timed_frame(
 ) -> anyhow::Result<FrameTimes> {
     let start = Instant::now();
     let cpu_ms = subject.submit(ctx, camera, tau)?;
-    ctx.wait_idle();
+    ctx.wait_idle()?;
     let wall_ms = start.elapsed().as_secs_f64() * 1e3;
     Ok(FrameTimes {
         cpu_ms,
         wall_ms,
-        gpu_ms: subject.gpu_ms(ctx),
+        gpu_ms: subject.gpu_ms(ctx)?,
     })
 }

@@ -503,7 +503,7 @@ fn time_path(
     for (f, camera) in path.iter().enumerate() {
         let start = Instant::now();
         let cpu_ms = frame(camera)?;
-        ctx.wait_idle();
+        ctx.wait_idle()?;
         if f > 0 {
             acc.cpu_ms.push(cpu_ms);
             acc.frame_ms.push(start.elapsed().as_secs_f64() * 1e3);
