@@ -16,7 +16,7 @@ use tessera_core::repository::{
     write_repository_streamed, BlobFeed, RepositoryDirectory, RepositoryError,
 };
 
-use crate::external::StagedMesh;
+use crate::external::{LeafGroups, StagedMesh};
 use crate::finished_patches::{FinishedPatches, PatchEncoding};
 use crate::frame::LatticeFrame;
 use crate::hierarchy::{
@@ -64,9 +64,10 @@ pub struct BuildConfig {
 ///
 /// Out of core today: the import of a mesh file (`import::stage_mesh`, done by the caller, who
 /// then calls `build_repository_staged`: the mesh is never loaded), the hierarchy's
-/// construction (`hierarchy::build_hierarchy_bucketed`) and the encoded patches
-/// (`finished_patches.rs`). The simplification still holds the live patches and a level's
-/// results in memory (ARCHITECTURE.md, "The out-of-core build").
+/// construction (`hierarchy::build_hierarchy_bucketed`), the live patches
+/// (`simplify/live_store.rs`) and the encoded patches (`finished_patches.rs`). The
+/// simplification still holds a level's results in memory (ARCHITECTURE.md, "The out-of-core
+/// build").
 #[derive(Clone, Debug, PartialEq)]
 pub struct MemoryBudget {
     pub bytes: u64,
@@ -183,6 +184,8 @@ pub struct BuildSummary {
     pub depth: u16,
     pub patch_triangles: usize,
     pub locked_vertices: usize,
+    /// Diamond simplifications redone after a conflict with their level's batch.
+    pub resimplified_diamonds: usize,
     pub root_error: f64,
     /// Model units per position step on each axis (`Header::position_step`).
     pub position_step: [f64; 3],
@@ -437,7 +440,7 @@ fn build_in_pool(
         Construction::LeafTriangles(n) => n,
         Construction::Levels(_) => config.domain.default_leaf_triangles(),
     };
-    let (mut hierarchy, current) = match (source, &config.memory) {
+    let (hierarchy, current) = match (source, &config.memory) {
         (Source::Staged(staged), Some(memory)) => crate::staged_build::hierarchy_and_counts(
             staged,
             frame,
@@ -500,22 +503,33 @@ fn build_in_pool(
     let mut sink = |patches: &[(SimplexKey, &LivePatch)]| finished.add(patches, &encoding);
     let simplified = match (source, &config.memory) {
         (Source::Staged(staged), Some(memory)) => {
-            let leaves = crate::staged_build::leaves(staged, &hierarchy, memory)?;
-            // The leaves' triangle lists are in their patches now.
-            hierarchy.leaf_triangles = Default::default();
+            let simplifier_of =
+                crate::staged_build::simplifier_positions(staged, &hierarchy.frame, memory)?;
+            let mut groups = LeafGroups::new(
+                staged,
+                &hierarchy,
+                &simplifier_of,
+                crate::staged_build::leaf_group_triangles(memory),
+            );
             simplify_from_leaves(
-                leaves,
+                &mut || groups.next_group(),
                 input_vertices,
                 &hierarchy,
                 current,
                 &config.simplify,
+                spill_dir,
                 &mut sink,
             )
         }
         (Source::Staged(_), None) => unreachable!("a staged build has a budget"),
-        (Source::Memory(mesh), _) => {
-            simplify_hierarchy(mesh, &hierarchy, current, &config.simplify, &mut sink)
-        }
+        (Source::Memory(mesh), _) => simplify_hierarchy(
+            mesh,
+            &hierarchy,
+            current,
+            &config.simplify,
+            spill_dir,
+            &mut sink,
+        ),
     }
     .map_err(|e| match e {
         SimplifyError::Conformity(e) => BuildError::Conformity(e),
@@ -644,6 +658,7 @@ fn build_in_pool(
         depth: hierarchy.depth(),
         patch_triangles: tets.iter().map(|t| t.triangle_count as usize).sum(),
         locked_vertices: simplified.locked_vertices,
+        resimplified_diamonds: simplified.resimplified,
         root_error: diamonds.first().map_or(0.0, |d| d.error as f64),
         position_step: step,
         quantisation_error,

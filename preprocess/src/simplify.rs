@@ -34,7 +34,10 @@ mod coincident;
 mod conformity;
 mod current_mesh;
 mod edge_census;
+mod live_store;
 mod local_edges;
+
+use std::borrow::Cow;
 
 use rustc_hash::{FxHashMap as HashMap, FxHashSet as HashSet};
 
@@ -52,6 +55,7 @@ use coincident::cancel_coincident_pairs;
 use conformity::{border_break, BorderBreak};
 use current_mesh::{edge_key, triangle_edges};
 use edge_census::count_edges;
+use live_store::LiveStore;
 use local_edges::LocalEdges;
 
 pub use current_mesh::CurrentMesh;
@@ -64,6 +68,9 @@ pub struct Simplified {
     pub own_error: Vec<f32>,
     /// Vertices locked, summed over all diamonds (a statistic).
     pub locked_vertices: usize,
+    /// Simplifications redone because a diamond was held back from its level's batch (a
+    /// statistic; each needs the rest of the mesh's edge counts, `edge_census.rs`).
+    pub resimplified: usize,
 }
 
 /// What simplifying one diamond produced.
@@ -88,6 +95,10 @@ pub enum SimplifyError {
     #[error(transparent)]
     Finished(#[from] std::io::Error),
 }
+
+/// The leaves' patches, a group at a time (every leaf of the hierarchy once, each carrying its
+/// vertices); `None` after the last group.
+pub type LeafSource<'a> = dyn FnMut() -> std::io::Result<Option<Vec<(SimplexKey, LivePatch)>>> + 'a;
 
 /// Patches whose triangles are final, handed to the caller as they are made.
 pub type FinishedPatchSink<'a> = dyn FnMut(&[(SimplexKey, &LivePatch)]) -> std::io::Result<()> + 'a;
@@ -179,6 +190,7 @@ pub fn simplify_hierarchy(
     hierarchy: &Hierarchy,
     current: CurrentMesh,
     settings: &SimplifySettings,
+    spill_dir: Option<&std::path::Path>,
     finished: &mut FinishedPatchSink,
 ) -> Result<Simplified, SimplifyError> {
     let frame = &hierarchy.frame;
@@ -188,7 +200,7 @@ pub fn simplify_hierarchy(
         .map(|&p| simplifier_position(frame, p))
         .collect();
     separate_coincident(&mut positions);
-    let leaves: HashMap<SimplexKey, LivePatch> = hierarchy
+    let leaves: Vec<(SimplexKey, LivePatch)> = hierarchy
         .leaf_triangles
         .par_iter()
         .map(|(k, tris)| {
@@ -208,24 +220,29 @@ pub fn simplify_hierarchy(
         })
         .collect();
     drop(positions);
+    let mut leaves = Some(leaves);
     simplify_from_leaves(
-        leaves,
+        &mut || Ok(leaves.take()),
         mesh.positions.len(),
         hierarchy,
         current,
         settings,
+        spill_dir,
         finished,
     )
 }
 
-/// `simplify_hierarchy` from the leaves' patches (every leaf of `hierarchy`, each carrying its
-/// vertices) of a mesh of `vertex_count` vertices.
+/// `simplify_hierarchy` from the leaves' patches (`leaves`: every leaf of `hierarchy`, a group
+/// at a time) of a mesh of `vertex_count` vertices. With `spill_dir`, the live patches wait in
+/// an unnamed file there (`live_store.rs`), not in memory, and the leaves need never be in
+/// memory all at once.
 pub fn simplify_from_leaves(
-    leaves: HashMap<SimplexKey, LivePatch>,
+    leaves: &mut LeafSource,
     vertex_count: usize,
     hierarchy: &Hierarchy,
     mut current: CurrentMesh,
     settings: &SimplifySettings,
+    spill_dir: Option<&std::path::Path>,
     finished: &mut FinishedPatchSink,
 ) -> Result<Simplified, SimplifyError> {
     let frame = &hierarchy.frame;
@@ -235,16 +252,23 @@ pub fn simplify_from_leaves(
         size: frame.model_size(),
         settings: *settings,
     };
-    let mut patches = leaves;
-    {
-        let leaves: Vec<(SimplexKey, &LivePatch)> = patches.iter().map(|(k, p)| (*k, p)).collect();
-        finished(&leaves)?;
-    }
     // The current mesh is the patches of these simplices: the leaves, then each merged
     // diamond's simplices in place of their children.
-    let mut live: HashSet<SimplexKey> = hierarchy.leaf_triangles.keys().copied().collect();
+    let mut patches = LiveStore::new(spill_dir)?;
+    let mut live: HashSet<SimplexKey> = HashSet::default();
+    while let Some(group) = leaves()? {
+        let list: Vec<(SimplexKey, &LivePatch)> = group.iter().map(|(k, p)| (*k, p)).collect();
+        finished(&list)?;
+        drop(list);
+        for (key, patch) in group {
+            live.insert(key);
+            patches.insert(key, patch)?;
+        }
+    }
+    release_freed_memory();
     let mut own_error = vec![0.0f32; hierarchy.diamonds.len()];
     let mut locked_vertices = 0;
+    let mut resimplified = 0;
     let mut by_level: Vec<usize> = (0..hierarchy.diamonds.len()).collect();
     by_level.sort_by_key(|&i| std::cmp::Reverse(hierarchy.diamonds[i].level));
     for level_group in
@@ -253,23 +277,27 @@ pub fn simplify_from_leaves(
         let no_extra = HashSet::default();
         let mut pending: Vec<Pending> = level_group
             .par_iter()
-            .map(|&d| Pending {
-                result: simplify_diamond(
-                    &ctx,
-                    d,
-                    &hierarchy.diamonds[d],
-                    &patches,
-                    &current,
-                    &no_extra,
-                ),
-                extra_locks: HashSet::default(),
-                attempts: 0,
+            .map(|&d| {
+                Ok(Pending {
+                    result: simplify_diamond(
+                        &ctx,
+                        d,
+                        &hierarchy.diamonds[d],
+                        &patches,
+                        &current,
+                        &no_extra,
+                    )?,
+                    extra_locks: HashSet::default(),
+                    attempts: 0,
+                })
             })
-            .collect();
+            .collect::<std::io::Result<_>>()?;
         while !pending.is_empty() {
             // The rest of the mesh's counts of the edges the pending diamonds share with it.
             let live_list: Vec<SimplexKey> = live.iter().copied().collect();
-            let counts = count_edges(&query_edges(&pending), &live_list, &patches);
+            let counts = count_edges(&query_edges(&pending), &live_list, &|k| {
+                patches.triangles(k)
+            })?;
             for p in &mut pending {
                 p.result.resolve(&counts);
             }
@@ -280,6 +308,7 @@ pub fn simplify_from_leaves(
                 return Err(error.into());
             }
             let (clean, dirty) = split_batch(pending, &counts);
+            resimplified += dirty.len();
             current.merge(clean.iter().map(|p| &p.result.effect.changes));
             let made: Vec<(SimplexKey, &LivePatch)> = clean
                 .iter()
@@ -294,11 +323,13 @@ pub fn simplify_from_leaves(
                 for s in &hierarchy.diamonds[r.diamond].simplices {
                     for c in s.children() {
                         live.remove(&c.key);
-                        patches.remove(&c.key);
+                        patches.remove(&c.key)?;
                     }
                     live.insert(s.key);
                 }
-                patches.extend(r.patches);
+                for (key, patch) in r.patches {
+                    patches.insert(key, patch)?;
+                }
             }
             // Simplify the others again against the mesh with the batch merged, with more
             // locks.
@@ -307,7 +338,7 @@ pub fn simplify_from_leaves(
                 .map(|(mut p, blocked)| {
                     let d = p.result.diamond;
                     // Its children are still live: what it gathered is theirs.
-                    let (gathered, ..) = gather_triangles(&hierarchy.diamonds[d], &patches);
+                    let (gathered, ..) = gather_patches(&hierarchy.diamonds[d], &patches)?;
                     p.lock_more(&blocked, &gathered);
                     p.result = simplify_diamond(
                         &ctx,
@@ -316,15 +347,18 @@ pub fn simplify_from_leaves(
                         &patches,
                         &current,
                         &p.extra_locks,
-                    );
-                    p
+                    )?;
+                    Ok(p)
                 })
-                .collect();
+                .collect::<std::io::Result<_>>()?;
         }
+        patches.compact()?;
+        release_freed_memory();
     }
     Ok(Simplified {
         own_error,
         locked_vertices,
+        resimplified,
     })
 }
 
@@ -332,11 +366,11 @@ fn simplify_diamond(
     ctx: &Context,
     index: usize,
     diamond: &Diamond,
-    patches: &HashMap<SimplexKey, LivePatch>,
+    patches: &LiveStore,
     current: &CurrentMesh,
     extra_locks: &HashSet<u32>,
-) -> DiamondResult {
-    let (gathered, source, vertices) = gather(diamond, patches);
+) -> std::io::Result<DiamondResult> {
+    let (gathered, source, vertices) = gather(diamond, patches)?;
     let local = local_mesh(&gathered, ctx.vertex_count);
     // Interior vertices: every triangle using them is in the gathered set.
     let interior: Vec<bool> = local
@@ -402,7 +436,7 @@ fn simplify_diamond(
         &simplified,
         current,
     );
-    DiamondResult {
+    Ok(DiamondResult {
         diamond: index,
         patches,
         error,
@@ -414,37 +448,39 @@ fn simplify_diamond(
             .into_iter()
             .map(global)
             .collect(),
-    }
+    })
 }
 
 /// The triangles of the patches of the children of D's simplices, for each the index of the
 /// simplex of D it came from, and the vertices they carry.
 fn gather(
     diamond: &Diamond,
-    patches: &HashMap<SimplexKey, LivePatch>,
-) -> (Vec<[u32; 3]>, Vec<u8>, VertexTable) {
-    let (gathered, source, tables) = gather_triangles(diamond, patches);
-    (gathered, source, VertexTable::merge(&tables))
+    patches: &LiveStore,
+) -> std::io::Result<(Vec<[u32; 3]>, Vec<u8>, VertexTable)> {
+    let (gathered, source, children) = gather_patches(diamond, patches)?;
+    let tables: Vec<&VertexTable> = children.iter().map(|p| &p.vertices).collect();
+    Ok((gathered, source, VertexTable::merge(&tables)))
 }
 
-/// `gather` without merging the vertex tables: the triangles, their sources and the tables.
-fn gather_triangles<'p>(
-    diamond: &Diamond,
-    patches: &'p HashMap<SimplexKey, LivePatch>,
-) -> (Vec<[u32; 3]>, Vec<u8>, Vec<&'p VertexTable>) {
+/// What a diamond gathers: its children's triangles, for each the slot of the simplex of D it
+/// came from, and the children's patches.
+type Gathered<'p> = (Vec<[u32; 3]>, Vec<u8>, Vec<Cow<'p, LivePatch>>);
+
+/// `gather` without merging the vertex tables.
+fn gather_patches<'p>(diamond: &Diamond, patches: &'p LiveStore) -> std::io::Result<Gathered<'p>> {
     let mut gathered: Vec<[u32; 3]> = Vec::new();
     let mut source: Vec<u8> = Vec::new();
-    let mut tables: Vec<&VertexTable> = Vec::new();
+    let mut children = Vec::new();
     for (slot, s) in diamond.simplices.iter().enumerate() {
         for c in s.children() {
-            if let Some(patch) = patches.get(&c.key) {
+            if let Some(patch) = patches.get(&c.key)? {
                 gathered.extend_from_slice(&patch.triangles);
-                tables.push(&patch.vertices);
+                children.push(patch);
             }
             source.resize(gathered.len(), slot as u8);
         }
     }
-    (gathered, source, tables)
+    Ok((gathered, source, children))
 }
 
 /// Hands the simplified triangles (`simplified`, local ids) to the simplices of D: a triangle
@@ -570,6 +606,22 @@ fn simplify_locked(
         ),
     };
     (out, error)
+}
+
+/// Gives the memory freed back to the system (glibc keeps freed small blocks in its heap, so
+/// the resident size would otherwise stay at the level's high-water mark for the rest of the
+/// build; a `--memory` budget is about resident memory).
+fn release_freed_memory() {
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    {
+        extern "C" {
+            fn malloc_trim(pad: usize) -> i32;
+        }
+        // SAFETY: glibc's malloc_trim only returns free heap pages to the system.
+        unsafe {
+            malloc_trim(0);
+        }
+    }
 }
 
 /// What meshopt sees of an input position: relative to the model origin, in model sizes, in

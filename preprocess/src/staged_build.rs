@@ -4,19 +4,13 @@
 //! leaves' patches by joins (`external/joins.rs`). Each gives what the in-memory steps give
 //! from the loaded mesh, so the repository is the same bytes.
 
-use std::path::Path;
-
-use rustc_hash::FxHashMap as HashMap;
-use tessera_core::leb::SimplexKey;
-
 use crate::build::{BuildError, MemoryBudget, MAX_EXTENT};
-use crate::external::{coincident_nudges, leaf_patches, JoinedBarycentres, StagedMesh};
+use crate::external::{coincident_nudges, JoinedBarycentres, StagedMesh};
 use crate::frame::LatticeFrame;
 use crate::hierarchy::{
     build_hierarchy_bucketed, BucketBudget, Construction, Hierarchy, SpooledBarycentres,
 };
 use crate::simplify::{simplifier_position, CurrentMesh};
-use crate::vertex_table::LivePatch;
 
 fn temporary(memory: &MemoryBudget) -> impl Fn(std::io::Error) -> BuildError + '_ {
     |source| BuildError::Temporary {
@@ -99,19 +93,22 @@ pub(crate) fn hierarchy_and_counts(
     Ok((hierarchy, current))
 }
 
-/// The leaves' patches, their simplifier positions as `simplify_hierarchy` computes them in
-/// memory (relative to the model, in model sizes, coincident ones moved apart).
-pub(crate) fn leaves(
+/// The simplifier's position of each vertex as `simplify_hierarchy` computes it in memory
+/// (relative to the model, in model sizes, coincident ones moved apart): `(id, position)` →
+/// f32 position, for `LeafGroups`.
+pub(crate) fn simplifier_positions<'f>(
     staged: &StagedMesh,
-    hierarchy: &Hierarchy,
+    frame: &'f LatticeFrame,
     memory: &MemoryBudget,
-) -> Result<HashMap<SimplexKey, LivePatch>, BuildError> {
-    let io = temporary(memory);
-    let dir: &Path = &memory.temp_dir;
-    let sort_budget = memory.bytes as usize / 4;
-    let frame = &hierarchy.frame;
-    let f32_of = |p: [f64; 3]| simplifier_position(frame, p);
-    let nudged = coincident_nudges(staged, &f32_of, sort_budget, dir).map_err(&io)?;
-    let simplifier_of = |v: u32, p: [f64; 3]| nudged.get(&v).copied().unwrap_or_else(|| f32_of(p));
-    leaf_patches(staged, hierarchy, &simplifier_of, sort_budget, dir).map_err(io)
+) -> Result<impl Fn(u32, [f64; 3]) -> [f32; 3] + 'f, BuildError> {
+    let f32_of = move |p: [f64; 3]| simplifier_position(frame, p);
+    let nudged = coincident_nudges(staged, &f32_of, memory.bytes as usize / 4, &memory.temp_dir)
+        .map_err(temporary(memory))?;
+    Ok(move |v: u32, p: [f64; 3]| nudged.get(&v).copied().unwrap_or_else(|| f32_of(p)))
+}
+
+/// Triangles a group of leaves may hold while it is joined (about 60 bytes a triangle: the
+/// triangle, its share of vertex rows and join pairs) within a quarter of the budget.
+pub(crate) fn leaf_group_triangles(memory: &MemoryBudget) -> usize {
+    (memory.bytes as usize / 4 / 60).max(1 << 12)
 }

@@ -169,6 +169,8 @@ pub fn summary_json(s: &BuildSummary, seconds: f64) -> serde_json::Value {
         "patch_triangles": s.patch_triangles,
         "mean_triangles_per_patch": s.patch_triangles as f64 / s.tetrahedra.max(1) as f64,
         "root_error": s.root_error,
+        "locked_vertices": s.locked_vertices,
+        "resimplified_diamonds": s.resimplified_diamonds,
         "position_step": s.position_step,
         "quantisation_error": s.quantisation_error,
         "stages": s.stages.iter().map(|(name, t)| json!({"stage": name, "seconds": t})).collect::<Vec<_>>(),

@@ -142,107 +142,153 @@ pub fn coincident_nudges(
     }
 }
 
-/// The leaves' patches: each leaf's triangles (in the hierarchy's order) and the vertices
-/// they use, with their input positions, simplifier positions (`simplifier_of(id, position)`)
-/// and attributes. The (vertex, leaf) pairs are sorted by vertex and joined with the vertex
-/// files, so each leaf's table comes out sorted by id. The triangle file is read once, in
-/// order, each triangle appended to its leaf.
-pub fn leaf_patches(
-    staged: &StagedMesh,
-    hierarchy: &Hierarchy,
-    simplifier_of: &dyn Fn(u32, [f64; 3]) -> [f32; 3],
-    budget: usize,
-    temp_dir: &Path,
-) -> io::Result<HashMap<SimplexKey, LivePatch>> {
-    let mut keys: Vec<SimplexKey> = hierarchy.leaf_triangles.keys().copied().collect();
-    keys.sort_unstable();
-    let attributes = &staged.attributes;
-    let mut patches: Vec<LivePatch> = keys
-        .iter()
-        .map(|k| LivePatch {
-            triangles: Vec::with_capacity(hierarchy.leaf_triangles[k].len()),
-            vertices: VertexTable {
-                normals: attributes.normals.is_some().then(Vec::new),
-                colors: attributes.colors.is_some().then(Vec::new),
-                uvs: attributes.uvs.is_some().then(Vec::new),
-                ..VertexTable::default()
-            },
-        })
-        .collect();
-    // Each triangle to its leaf in one pass over the file: a leaf lists its triangles in
-    // ascending order (both constructions keep the input's order), so appending them as they
-    // come keeps the leaf's order.
-    let mut leaf_of = vec![u32::MAX; staged.triangles.len() as usize];
-    for (leaf, k) in keys.iter().enumerate() {
-        let list = &hierarchy.leaf_triangles[k];
-        assert!(
-            list.windows(2).all(|w| w[0] < w[1]),
-            "leaf {k:?} lists its triangles out of order"
-        );
-        for &t in list {
-            leaf_of[t as usize] = leaf as u32;
+/// The leaves' patches, a group of leaves at a time (in key order, about `max_triangles`
+/// triangles a group): each leaf's triangles (in the hierarchy's order) and the vertices they
+/// use, with their input positions, simplifier positions (`simplifier_of(id, position)`) and
+/// attributes. A group costs one pass over the triangle file (up to its last triangle) and one
+/// over the vertex files (up to its largest id): its triangles are picked by index, its
+/// (vertex, leaf) pairs sorted in memory and joined with the vertex files, so each leaf's
+/// table comes out sorted by id. Nothing is written to disk.
+pub struct LeafGroups<'a> {
+    staged: &'a StagedMesh,
+    hierarchy: &'a Hierarchy,
+    simplifier_of: &'a dyn Fn(u32, [f64; 3]) -> [f32; 3],
+    keys: Vec<SimplexKey>,
+    next: usize,
+    max_triangles: usize,
+}
+
+impl<'a> LeafGroups<'a> {
+    pub fn new(
+        staged: &'a StagedMesh,
+        hierarchy: &'a Hierarchy,
+        simplifier_of: &'a dyn Fn(u32, [f64; 3]) -> [f32; 3],
+        max_triangles: usize,
+    ) -> Self {
+        let mut keys: Vec<SimplexKey> = hierarchy.leaf_triangles.keys().copied().collect();
+        keys.sort_unstable();
+        LeafGroups {
+            staged,
+            hierarchy,
+            simplifier_of,
+            keys,
+            next: 0,
+            max_triangles: max_triangles.max(1),
         }
     }
-    for (t, tri) in staged.triangles.read()?.enumerate() {
-        let leaf = leaf_of[t];
-        assert!(leaf != u32::MAX, "triangle {t} is in no leaf");
-        patches[leaf as usize].triangles.push(tri?);
-    }
-    drop(leaf_of);
-    let pairs = patches.iter().enumerate().flat_map(|(leaf, patch)| {
-        let mut ids: Vec<u32> = patch.triangles.iter().flatten().copied().collect();
-        ids.sort_unstable();
-        ids.dedup();
-        ids.into_iter()
-            .map(move |v| ((v as u64) << 32) | leaf as u64)
-    });
-    let by_vertex = sort_external(pairs, budget, temp_dir)?;
-    let mut positions = Cursor::new(staged.positions.read()?);
-    let mut normals = attributes
-        .normals
-        .as_ref()
-        .map(|f| f.read())
-        .transpose()?
-        .map(Cursor::new);
-    let mut colors = attributes
-        .colors
-        .as_ref()
-        .map(|f| f.read())
-        .transpose()?
-        .map(Cursor::new);
-    let mut uvs = attributes
-        .uvs
-        .as_ref()
-        .map(|f| f.read())
-        .transpose()?
-        .map(Cursor::new);
-    for pair in by_vertex {
-        let pair = pair?;
-        let (v, leaf) = ((pair >> 32) as u32, pair as u32 as usize);
-        let table = &mut patches[leaf].vertices;
-        let p = positions.at(v);
-        table.ids.push(v);
-        table.positions.push(p);
-        table.simplifier.push(simplifier_of(v, p));
-        if let (Some(column), Some(cursor)) = (&mut table.normals, &mut normals) {
-            column.push(cursor.at(v));
+
+    /// The next group's patches; `None` after the last.
+    pub fn next_group(&mut self) -> io::Result<Option<Vec<(SimplexKey, LivePatch)>>> {
+        if self.next == self.keys.len() {
+            return Ok(None);
         }
-        if let (Some(column), Some(cursor)) = (&mut table.colors, &mut colors) {
-            column.push(cursor.at(v));
+        let lists = &self.hierarchy.leaf_triangles;
+        let mut end = self.next;
+        let mut triangles = 0;
+        while end < self.keys.len() && (end == self.next || triangles < self.max_triangles) {
+            triangles += lists[&self.keys[end]].len();
+            end += 1;
         }
-        if let (Some(column), Some(cursor)) = (&mut table.uvs, &mut uvs) {
-            column.push(cursor.at(v));
+        let keys = &self.keys[self.next..end];
+        self.next = end;
+        // (triangle, leaf in the group), by triangle. A leaf lists its triangles in ascending
+        // order (both constructions keep the input's), so taking them in file order keeps it.
+        let mut wanted: Vec<(u32, u32)> = Vec::with_capacity(triangles);
+        for (leaf, k) in keys.iter().enumerate() {
+            let list = &lists[k];
+            assert!(
+                list.windows(2).all(|w| w[0] < w[1]),
+                "leaf {k:?} lists its triangles out of order"
+            );
+            wanted.extend(list.iter().map(|&t| (t, leaf as u32)));
         }
+        wanted.sort_unstable();
+        let attributes = &self.staged.attributes;
+        let mut patches: Vec<LivePatch> = keys
+            .iter()
+            .map(|k| LivePatch {
+                triangles: Vec::with_capacity(lists[k].len()),
+                vertices: VertexTable {
+                    normals: attributes.normals.is_some().then(Vec::new),
+                    colors: attributes.colors.is_some().then(Vec::new),
+                    uvs: attributes.uvs.is_some().then(Vec::new),
+                    ..VertexTable::default()
+                },
+            })
+            .collect();
+        let mut file = Cursor::new(self.staged.triangles.read()?);
+        for &(t, leaf) in &wanted {
+            patches[leaf as usize].triangles.push(file.at(t));
+        }
+        check(file.error.take())?;
+        drop(wanted);
+        let mut pairs: Vec<u64> = Vec::new();
+        for (leaf, patch) in patches.iter().enumerate() {
+            let start = pairs.len();
+            pairs.extend(
+                patch
+                    .triangles
+                    .iter()
+                    .flatten()
+                    .map(|&v| ((v as u64) << 32) | leaf as u64),
+            );
+            pairs[start..].sort_unstable();
+            let mut kept = start;
+            for i in start..pairs.len() {
+                if i == start || pairs[i] != pairs[kept - 1] {
+                    pairs[kept] = pairs[i];
+                    kept += 1;
+                }
+            }
+            pairs.truncate(kept);
+        }
+        pairs.sort_unstable();
+        let mut positions = Cursor::new(self.staged.positions.read()?);
+        let mut normals = attributes
+            .normals
+            .as_ref()
+            .map(|f| f.read())
+            .transpose()?
+            .map(Cursor::new);
+        let mut colors = attributes
+            .colors
+            .as_ref()
+            .map(|f| f.read())
+            .transpose()?
+            .map(Cursor::new);
+        let mut uvs = attributes
+            .uvs
+            .as_ref()
+            .map(|f| f.read())
+            .transpose()?
+            .map(Cursor::new);
+        for pair in pairs {
+            let (v, leaf) = ((pair >> 32) as u32, pair as u32 as usize);
+            let table = &mut patches[leaf].vertices;
+            let p = positions.at(v);
+            table.ids.push(v);
+            table.positions.push(p);
+            table.simplifier.push((self.simplifier_of)(v, p));
+            if let (Some(column), Some(cursor)) = (&mut table.normals, &mut normals) {
+                column.push(cursor.at(v));
+            }
+            if let (Some(column), Some(cursor)) = (&mut table.colors, &mut colors) {
+                column.push(cursor.at(v));
+            }
+            if let (Some(column), Some(cursor)) = (&mut table.uvs, &mut uvs) {
+                column.push(cursor.at(v));
+            }
+        }
+        check(positions.error.take())?;
+        for cursor_error in [
+            normals.and_then(|mut c| c.error.take()),
+            colors.and_then(|mut c| c.error.take()),
+            uvs.and_then(|mut c| c.error.take()),
+        ] {
+            check(cursor_error)?;
+        }
+        Ok(Some(keys.iter().copied().zip(patches).collect()))
     }
-    check(positions.error.take())?;
-    for cursor_error in [
-        normals.and_then(|mut c| c.error.take()),
-        colors.and_then(|mut c| c.error.take()),
-        uvs.and_then(|mut c| c.error.take()),
-    ] {
-        check(cursor_error)?;
-    }
-    Ok(keys.into_iter().zip(patches).collect())
 }
 
 /// Reads a record file in order, answering `at(i)` for ascending (repeatable) indices.

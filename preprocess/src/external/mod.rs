@@ -9,7 +9,7 @@ pub mod staged;
 pub mod temp_usage;
 pub mod weld;
 
-pub use joins::{coincident_nudges, leaf_patches, JoinedBarycentres};
+pub use joins::{coincident_nudges, JoinedBarycentres, LeafGroups};
 pub use sort::{sort_external, SortStats, Sorted};
 pub use staged::{RawStaged, RawStager, RawVertex, RecordFile, StagedMesh};
 pub use weld::weld_external;

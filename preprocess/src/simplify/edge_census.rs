@@ -17,26 +17,31 @@ use rustc_hash::{FxHashMap as HashMap, FxHashSet as HashSet};
 use tessera_core::leb::SimplexKey;
 
 use super::current_mesh::{edge_key, triangle_edges};
-use crate::vertex_table::LivePatch;
+use std::borrow::Cow;
+use std::io;
 
 /// The number of triangles of the current mesh using each edge of `query` (sorted and
 /// deduplicated edge keys), the current mesh being the patches of the `live` simplices.
 /// Edges no triangle uses are absent. Counts are sums, so the result does not depend on the
 /// order of `live` or on the number of threads.
-pub(super) fn count_edges(
+/// A live simplex's patch triangles (none for a simplex that is not live).
+pub(super) type TrianglesOf<'f, 's> =
+    dyn Fn(&SimplexKey) -> io::Result<Option<Cow<'s, [[u32; 3]]>>> + Sync + 'f;
+
+pub(super) fn count_edges<'s>(
     query: &[u64],
     live: &[SimplexKey],
-    patches: &HashMap<SimplexKey, LivePatch>,
-) -> HashMap<u64, u32> {
+    triangles_of: &TrianglesOf<'_, 's>,
+) -> io::Result<HashMap<u64, u32>> {
     if query.is_empty() {
-        return HashMap::default();
+        return Ok(HashMap::default());
     }
     let wanted: HashSet<u64> = query.iter().copied().collect();
     let endpoints = EndpointBitmap::new(query);
     live.par_iter()
-        .fold(HashMap::default, |mut counts: HashMap<u64, u32>, key| {
-            let triangles = patches.get(key).map(|p| p.triangles.as_slice());
-            for t in triangles.unwrap_or(&[]) {
+        .try_fold(HashMap::default, |mut counts: HashMap<u64, u32>, key| {
+            let triangles = triangles_of(key)?;
+            for t in triangles.as_deref().unwrap_or(&[]) {
                 for (a, b) in triangle_edges(t) {
                     if endpoints.contains(a) && endpoints.contains(b) {
                         let e = edge_key(a, b);
@@ -46,13 +51,13 @@ pub(super) fn count_edges(
                     }
                 }
             }
-            counts
+            Ok(counts)
         })
-        .reduce(HashMap::default, |mut a, b| {
+        .try_reduce(HashMap::default, |mut a, b| {
             for (e, n) in b {
                 *a.entry(e).or_default() += n;
             }
-            a
+            Ok(a)
         })
 }
 
@@ -90,14 +95,10 @@ mod tests {
     fn counts_only_the_asked_edges_of_live_patches() {
         let roots = Simplex::roots(3, 10);
         let (a, b, c) = (roots[0].key, roots[1].key, roots[2].key);
-        let patch = |triangles: Vec<[u32; 3]>| LivePatch {
-            triangles,
-            ..LivePatch::default()
-        };
-        let patches: HashMap<SimplexKey, LivePatch> = [
-            (a, patch(vec![[0, 1, 2], [2, 1, 3]])),
-            (b, patch(vec![[1, 2, 7], [100, 200, 300]])),
-            (c, patch(vec![[1, 2, 9]])), // not live
+        let patches: HashMap<SimplexKey, Vec<[u32; 3]>> = [
+            (a, vec![[0, 1, 2], [2, 1, 3]]),
+            (b, vec![[1, 2, 7], [100, 200, 300]]),
+            (c, vec![[1, 2, 9]]), // not live
         ]
         .into_iter()
         .collect();
@@ -108,7 +109,8 @@ mod tests {
             edge_key(0, 3),
         ];
         query.sort_unstable();
-        let counts = count_edges(&query, &[a, b], &patches);
+        let triangles_of = |k: &SimplexKey| Ok(patches.get(k).map(|t| Cow::Borrowed(&t[..])));
+        let counts = count_edges(&query, &[a, b], &triangles_of).unwrap();
         assert_eq!(counts.get(&edge_key(1, 2)), Some(&3));
         assert_eq!(counts.get(&edge_key(0, 1)), Some(&1));
         assert_eq!(counts.get(&edge_key(200, 300)), Some(&1));

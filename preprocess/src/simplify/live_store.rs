@@ -1,0 +1,300 @@
+//! The live patches (the current mesh's), by simplex: in memory, or under a memory budget in
+//! an unnamed temporary file with only an index in memory (issue 12). Workers read patches in
+//! parallel (`pread`); the simplification's main thread adds and removes them. The file is
+//! append-only and rewritten with only the live patches when the dead ones outweigh them.
+//!
+//! A record: triangle count, vertex count, attribute bits (u32 each), then the triangles,
+//! ids, f64 positions, simplifier positions and the attributes present, little-endian.
+
+use std::borrow::Cow;
+use std::fs::File;
+use std::io;
+use std::os::unix::fs::FileExt;
+use std::path::Path;
+
+use rustc_hash::FxHashMap as HashMap;
+use tessera_core::leb::SimplexKey;
+
+use crate::external::temp_usage::Charge;
+use crate::vertex_table::{LivePatch, VertexTable};
+
+pub(super) enum LiveStore {
+    Memory(HashMap<SimplexKey, LivePatch>),
+    Disk(DiskStore),
+}
+
+pub(super) struct DiskStore {
+    file: File,
+    dir: std::path::PathBuf,
+    /// Where each live patch's record is and its triangle count.
+    index: HashMap<SimplexKey, (u64, u32)>,
+    end: u64,
+    live_bytes: u64,
+    charge: Charge,
+}
+
+const HEAD: usize = 12;
+const NORMALS: u32 = 1;
+const COLORS: u32 = 2;
+const UVS: u32 = 4;
+
+impl LiveStore {
+    /// An empty store in memory, or in an unnamed file in `spill_dir`.
+    pub(super) fn new(spill_dir: Option<&Path>) -> io::Result<LiveStore> {
+        let Some(dir) = spill_dir else {
+            return Ok(LiveStore::Memory(HashMap::default()));
+        };
+        Ok(LiveStore::Disk(DiskStore {
+            file: tempfile::tempfile_in(dir)?,
+            dir: dir.to_path_buf(),
+            index: HashMap::default(),
+            end: 0,
+            live_bytes: 0,
+            charge: Charge::new(),
+        }))
+    }
+
+    /// The patch of `key`, if live.
+    pub(super) fn get(&self, key: &SimplexKey) -> io::Result<Option<Cow<'_, LivePatch>>> {
+        match self {
+            LiveStore::Memory(map) => Ok(map.get(key).map(Cow::Borrowed)),
+            LiveStore::Disk(store) => match store.index.get(key) {
+                None => Ok(None),
+                Some(&(at, _)) => store.read(at).map(|p| Some(Cow::Owned(p))),
+            },
+        }
+    }
+
+    /// The triangles of `key`'s patch, if live (without its vertices).
+    pub(super) fn triangles(&self, key: &SimplexKey) -> io::Result<Option<Cow<'_, [[u32; 3]]>>> {
+        match self {
+            LiveStore::Memory(map) => Ok(map.get(key).map(|p| Cow::Borrowed(&p.triangles[..]))),
+            LiveStore::Disk(store) => match store.index.get(key) {
+                None => Ok(None),
+                Some(&(at, n)) => {
+                    let mut triangles = vec![[0u32; 3]; n as usize];
+                    store.file.read_exact_at(
+                        bytemuck::cast_slice_mut(&mut triangles),
+                        at + HEAD as u64,
+                    )?;
+                    Ok(Some(Cow::Owned(triangles)))
+                }
+            },
+        }
+    }
+
+    pub(super) fn insert(&mut self, key: SimplexKey, patch: LivePatch) -> io::Result<()> {
+        match self {
+            LiveStore::Memory(map) => {
+                map.insert(key, patch);
+                Ok(())
+            }
+            LiveStore::Disk(store) => store.append(key, &patch),
+        }
+    }
+
+    pub(super) fn remove(&mut self, key: &SimplexKey) -> io::Result<()> {
+        match self {
+            LiveStore::Memory(map) => {
+                map.remove(key);
+                Ok(())
+            }
+            LiveStore::Disk(store) => {
+                if let Some((at, _)) = store.index.remove(key) {
+                    let mut head = [0u8; HEAD];
+                    store.file.read_exact_at(&mut head, at)?;
+                    store.live_bytes -= record_bytes(&head);
+                }
+                Ok(())
+            }
+        }
+    }
+
+    /// Rewrites the file with only the live patches when the dead ones take more room.
+    pub(super) fn compact(&mut self) -> io::Result<()> {
+        let LiveStore::Disk(store) = self else {
+            return Ok(());
+        };
+        if store.end > 2 * store.live_bytes.max(1 << 20) {
+            store.rewrite()?;
+        }
+        Ok(())
+    }
+}
+
+impl DiskStore {
+    /// A new file with only the live records, in their order.
+    fn rewrite(&mut self) -> io::Result<()> {
+        let store = self;
+        let mut fresh = DiskStore {
+            file: tempfile::tempfile_in(&store.dir)?,
+            dir: store.dir.clone(),
+            index: HashMap::default(),
+            end: 0,
+            live_bytes: 0,
+            charge: Charge::new(),
+        };
+        let mut keys: Vec<(SimplexKey, u64)> =
+            store.index.iter().map(|(k, &(at, _))| (*k, at)).collect();
+        keys.sort_unstable_by_key(|&(_, at)| at);
+        for (key, at) in keys {
+            fresh.append(key, &store.read(at)?)?;
+        }
+        *store = fresh;
+        Ok(())
+    }
+
+    fn append(&mut self, key: SimplexKey, patch: &LivePatch) -> io::Result<()> {
+        let bytes = encode(patch);
+        self.file.write_all_at(&bytes, self.end)?;
+        self.index
+            .insert(key, (self.end, patch.triangles.len() as u32));
+        self.end += bytes.len() as u64;
+        self.live_bytes += bytes.len() as u64;
+        self.charge.grow(bytes.len() as u64);
+        Ok(())
+    }
+
+    fn read(&self, at: u64) -> io::Result<LivePatch> {
+        let mut head = [0u8; HEAD];
+        self.file.read_exact_at(&mut head, at)?;
+        let mut bytes = vec![0u8; record_bytes(&head) as usize];
+        self.file.read_exact_at(&mut bytes, at)?;
+        Ok(decode(&bytes))
+    }
+}
+
+fn head_fields(head: &[u8]) -> (usize, usize, u32) {
+    let word = |i: usize| u32::from_le_bytes(head[4 * i..4 * i + 4].try_into().expect("4 bytes"));
+    (word(0) as usize, word(1) as usize, word(2))
+}
+
+fn record_bytes(head: &[u8]) -> u64 {
+    let (t, v, bits) = head_fields(head);
+    let per_vertex = 4
+        + 24
+        + 12
+        + if bits & NORMALS != 0 { 12 } else { 0 }
+        + if bits & COLORS != 0 { 4 } else { 0 }
+        + if bits & UVS != 0 { 8 } else { 0 };
+    (HEAD + 12 * t + per_vertex * v) as u64
+}
+
+fn encode(patch: &LivePatch) -> Vec<u8> {
+    let v = &patch.vertices;
+    let bits = (v.normals.is_some() as u32 * NORMALS)
+        | (v.colors.is_some() as u32 * COLORS)
+        | (v.uvs.is_some() as u32 * UVS);
+    let mut out = Vec::new();
+    for word in [patch.triangles.len() as u32, v.ids.len() as u32, bits] {
+        out.extend_from_slice(&word.to_le_bytes());
+    }
+    out.extend_from_slice(bytemuck::cast_slice(&patch.triangles));
+    out.extend_from_slice(bytemuck::cast_slice(&v.ids));
+    out.extend_from_slice(bytemuck::cast_slice(&v.positions));
+    out.extend_from_slice(bytemuck::cast_slice(&v.simplifier));
+    if let Some(n) = &v.normals {
+        out.extend_from_slice(bytemuck::cast_slice(n));
+    }
+    if let Some(c) = &v.colors {
+        out.extend_from_slice(bytemuck::cast_slice(c));
+    }
+    if let Some(u) = &v.uvs {
+        out.extend_from_slice(bytemuck::cast_slice(u));
+    }
+    debug_assert_eq!(out.len() as u64, record_bytes(&out[..HEAD]));
+    out
+}
+
+fn decode(bytes: &[u8]) -> LivePatch {
+    let (t, v, bits) = head_fields(bytes);
+    let mut at = HEAD;
+    let mut take = |n: usize| {
+        let part = &bytes[at..at + n];
+        at += n;
+        part
+    };
+    // Records are written from aligned vectors but read at any offset: copy, never cast in place.
+    fn column<T: bytemuck::Pod>(bytes: &[u8]) -> Vec<T> {
+        bytemuck::pod_collect_to_vec(bytes)
+    }
+    let triangles: Vec<[u32; 3]> = column(take(12 * t));
+    let ids: Vec<u32> = column(take(4 * v));
+    let positions: Vec<[f64; 3]> = column(take(24 * v));
+    let simplifier: Vec<[f32; 3]> = column(take(12 * v));
+    let normals = (bits & NORMALS != 0).then(|| column(take(12 * v)));
+    let colors = (bits & COLORS != 0).then(|| column(take(4 * v)));
+    let uvs = (bits & UVS != 0).then(|| column(take(8 * v)));
+    LivePatch {
+        triangles,
+        vertices: VertexTable {
+            ids,
+            positions,
+            simplifier,
+            normals,
+            colors,
+            uvs,
+        },
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use tessera_core::leb::Simplex;
+
+    fn patch(seed: u32, attributes: bool) -> LivePatch {
+        let ids: Vec<u32> = (0..5).map(|i| seed * 10 + i).collect();
+        LivePatch {
+            triangles: vec![[ids[0], ids[1], ids[2]], [ids[2], ids[3], ids[4]]],
+            vertices: VertexTable {
+                positions: ids.iter().map(|&g| [g as f64, 0.5, -1.0]).collect(),
+                simplifier: ids.iter().map(|&g| [g as f32, 0.25, 0.0]).collect(),
+                normals: attributes.then(|| ids.iter().map(|&g| [0.0, g as f32, 1.0]).collect()),
+                colors: attributes.then(|| ids.iter().map(|&g| [g as u8, 1, 2, 3]).collect()),
+                uvs: attributes.then(|| ids.iter().map(|&g| [g as f32, 0.0]).collect()),
+                ids,
+            },
+        }
+    }
+
+    #[test]
+    fn a_disk_store_gives_back_what_it_was_given_through_removals_and_compaction() {
+        let dir = tempfile::tempdir().unwrap();
+        let roots = Simplex::roots(3, 10);
+        let keys: Vec<SimplexKey> = roots
+            .iter()
+            .flat_map(|r| {
+                let [a, b] = r.children();
+                [r.key, a.key, b.key]
+            })
+            .collect();
+        for attributes in [false, true] {
+            let mut store = LiveStore::new(Some(dir.path())).unwrap();
+            for (i, k) in keys.iter().enumerate() {
+                store.insert(*k, patch(i as u32, attributes)).unwrap();
+            }
+            for k in keys.iter().step_by(2) {
+                store.remove(k).unwrap();
+            }
+            let LiveStore::Disk(disk) = &mut store else {
+                unreachable!()
+            };
+            let before = disk.end;
+            disk.rewrite().unwrap();
+            assert!(disk.end < before, "{} → {}", before, disk.end);
+            for (i, k) in keys.iter().enumerate() {
+                let got = store.get(k).unwrap().map(Cow::into_owned);
+                let triangles = store.triangles(k).unwrap().map(Cow::into_owned);
+                if i % 2 == 0 {
+                    assert_eq!(got, None);
+                    assert_eq!(triangles, None);
+                } else {
+                    let expected = patch(i as u32, attributes);
+                    assert_eq!(triangles.as_deref(), Some(&expected.triangles[..]));
+                    assert_eq!(got, Some(expected));
+                }
+            }
+        }
+    }
+}
