@@ -178,7 +178,7 @@ impl Repository {
         let patch_verified = (0..tets.len().div_ceil(64))
             .map(|_| AtomicU64::new(0))
             .collect();
-        Ok(Repository {
+        let repository = Repository {
             header: layout.header,
             diamonds: layout.diamonds,
             tets: layout.tets,
@@ -189,7 +189,35 @@ impl Repository {
             ids_checked: OnceLock::new(),
             patch_verified,
             storage,
-        })
+        };
+        // Validation read the whole directory through the map: those pages would stay in the
+        // process's resident set (RssFile), which would then grow with the model.
+        repository.release_pages();
+        Ok(repository)
+    }
+
+    /// Drops this process's mapping of every page of the file it has touched (the page cache
+    /// keeps them; the next read maps them again), so the map's share of the resident set
+    /// (RssFile) goes back to zero. Opening calls it after validating the directory, and a
+    /// caller that scans the whole directory (a streamer sizing its pools) may call it after.
+    /// Linux `madvise(MADV_DONTNEED)`; a no-op for an in-memory image and elsewhere.
+    pub fn release_pages(&self) {
+        #[cfg(target_os = "linux")]
+        if let Storage::Mapped(map) = &self.storage {
+            if !map.is_empty() {
+                // SAFETY: the map is a read-only, shared mapping of a file this process does
+                // not write, and the caller contract of `open` says no one modifies it while it
+                // is open. For such a mapping MADV_DONTNEED only removes the page-table
+                // entries: the next access faults the same bytes back in from the page cache,
+                // so every borrow of the map keeps reading the bytes that were validated.
+                // (memmap2 calls the advice unchecked because for private or anonymous
+                // mappings it would discard content; none here.) A failure only leaves the
+                // pages resident.
+                let _ = unsafe {
+                    map.unchecked_advise_range(memmap2::UncheckedAdvice::DontNeed, 0, map.len())
+                };
+            }
+        }
     }
 
     /// The header.

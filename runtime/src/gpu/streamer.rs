@@ -206,6 +206,9 @@ impl GpuStreamer {
                 roots,
             });
         }
+        // Sizing the pools and the unit table read the whole directory through the map: drop
+        // those pages from the resident set (the units' records are read again as they land).
+        streamer.repo.release_pages();
         Ok((renderer, streamer))
     }
 
