@@ -5,6 +5,7 @@
 //! on stderr, no output file left behind).
 
 mod bench;
+mod bench_stream_loops;
 mod bench_stream_plot;
 mod cmd_bench;
 mod cmd_bench_render;
