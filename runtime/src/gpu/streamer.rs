@@ -104,7 +104,13 @@ impl GpuStreamer {
             repo.tets(),
             repo.header().root_tet_count as usize,
         );
+        // The unit table, the pools' sizes and the pool model each read the whole directory
+        // through the map; its pages are dropped from the resident set after each
+        // (`release_pages`), so the process's peak holds one pass over the directory at a
+        // time, before the pools are allocated.
+        repo.release_pages();
         let sizes = fixed_bytes(ctx, &repo, &options);
+        repo.release_pages();
         let layout = sizes.layout;
         let roots = units.root_bytes();
         let root_count = units.roots().len() as u32;
@@ -138,6 +144,7 @@ impl GpuStreamer {
         }
         let scope = ctx.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
         let model: ResidentModel = pool_model(ctx, &repo, &layout, sizes.slots);
+        repo.release_pages();
         let capacity = feedback_capacity(repo.tets().len(), options.width, options.height);
         let mut renderer =
             Renderer::with_model(ctx, &repo, options, model, capacity, Some(repo.clone()))?;
