@@ -149,7 +149,8 @@ pub fn run(args: RenderBenchArgs) -> anyhow::Result<Outcome> {
     }
 
     // The model, the peer's mesh and the camera.
-    let repo = Repository::open(&args.repository)?;
+    // Opened (and its directory validated) once; `--stream` shares it with the streamer.
+    let repo = std::sync::Arc::new(Repository::open(&args.repository)?);
     let h = *repo.header();
     let source = match &args.source {
         Some(path) => Some(load_source(path, &repo)?),
@@ -169,8 +170,7 @@ pub fn run(args: RenderBenchArgs) -> anyhow::Result<Outcome> {
     // The GPU side: both renderers resident at once.
     let ctx = args.gpu.context()?;
     if args.stream {
-        drop(repo);
-        return run_streaming(&args, &ctx, camera, orbit);
+        return run_streaming(&args, &ctx, repo, camera, orbit);
     }
     let mut renderer = args
         .gpu
@@ -352,11 +352,11 @@ const SETTLE_FRAMES: usize = 1000;
 fn run_streaming(
     args: &RenderBenchArgs,
     ctx: &tessera_runtime::gpu::GpuContext,
+    repo: std::sync::Arc<Repository>,
     camera: Camera,
     orbit: [f64; 3],
 ) -> anyhow::Result<Outcome> {
     use crate::gpu_args::device_failure;
-    let repo = std::sync::Arc::new(Repository::open(&args.repository)?);
     let h = *repo.header();
     let simplices = repo.tets().len();
     let (mut renderer, mut streamer) =
