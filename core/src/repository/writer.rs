@@ -60,7 +60,7 @@ fn lay_out(contents: &RepositoryContents) -> Result<Laid, RepositoryError> {
         ids: contents.id_blob.len() as u64,
     };
     // Patch ranges are checked before they are hashed.
-    check_tables(&h, &contents.diamonds, &contents.tets, blobs)?;
+    check_tables(&h, &contents.diamonds, &contents.tets, blobs, &|_| {})?;
     let mut tets = contents.tets.clone();
     for t in &mut tets {
         let start = t.patch_offset as usize;

@@ -150,22 +150,50 @@ pub struct PoolLayout {
     pub patch_capacity: u32,
 }
 
+/// What the pool's lists are sized from: the model's smallest non-empty patch (8-aligned,
+/// at least 8 bytes; 8 when there is none) and its number of non-empty patches.
+#[derive(Clone, Copy, Debug)]
+pub struct PatchSizes {
+    pub smallest: u64,
+    pub nonempty: u64,
+}
+
+impl PatchSizes {
+    /// None yet: feed every tet record to `add`, then `finish`.
+    pub(crate) fn new() -> PatchSizes {
+        PatchSizes {
+            smallest: u64::MAX,
+            nonempty: 0,
+        }
+    }
+
+    pub(crate) fn add(&mut self, t: &TetRecord) {
+        if t.strip_index_count != 0 {
+            self.nonempty += 1;
+            self.smallest = self
+                .smallest
+                .min((t.patch_bytes as u64).next_multiple_of(8).max(8));
+        }
+    }
+
+    pub(crate) fn finish(mut self) -> PatchSizes {
+        if self.nonempty == 0 {
+            self.smallest = 8;
+        }
+        self
+    }
+}
+
 impl PoolLayout {
     /// Pages of at most `limit` bytes filling `pool_bytes`; lists sized from the smallest
     /// non-empty patch (8-aligned), capped by the model's non-empty patches, by the record
     /// slots (`slots`: a resident patch has one) and by one storage binding (`limit`) for
     /// every page's list together (the traversal binds them as one array; the allocator then
     /// places fewer patches in a page).
-    pub fn new(tets: &[TetRecord], pool_bytes: u64, limit: u64, slots: u32) -> PoolLayout {
+    pub fn new(patches: PatchSizes, pool_bytes: u64, limit: u64, slots: u32) -> PoolLayout {
         let pages = pool_bytes.div_ceil(limit).max(1) as usize;
         let page_bytes = (pool_bytes / pages as u64) & !7;
-        let nonempty = tets.iter().filter(|t| t.strip_index_count != 0);
-        let smallest = nonempty
-            .clone()
-            .map(|t| (t.patch_bytes as u64).next_multiple_of(8).max(8))
-            .min()
-            .unwrap_or(8);
-        let count = nonempty.count() as u64;
+        let (smallest, count) = (patches.smallest, patches.nonempty);
         PoolLayout {
             pages,
             page_bytes,
