@@ -1,8 +1,8 @@
 //! The map's share of the process's resident set does not grow with the model (issue 11,
 //! "nothing in the process grows with the model's size but the roots"): opening validates the
-//! whole directory through the map and then drops those pages from the resident set
-//! (`Repository::release_pages`), and so does the streaming renderer after sizing its pools
-//! from the directory. Measured per mapping from /proc/self/smaps (Linux): the `Rss:` of the
+//! whole directory through the map and drops those pages from the resident set as it goes
+//! (`Repository::release_pages`, `Repository::scan_tets`), and so does the streaming renderer
+//! after each of its passes over the directory. Measured per mapping from /proc/self/smaps (Linux): the `Rss:` of the
 //! mapping that holds the repository.
 
 use tessera_core::repository::Repository;
@@ -75,6 +75,23 @@ fn opening_and_streaming_leave_no_directory_pages_resident() {
         "{scanned} bytes resident after a scan of {directory}"
     );
     repo.release_pages();
+    assert!(mapping_rss(address) <= 2 * page);
+
+    // A pass with `scan_tets` drops the pages behind it, a mebibyte at a time: at its last
+    // record it holds at most the last chunk, not the whole table.
+    let tet_table = std::mem::size_of_val(repo.tets()) as u64;
+    assert!(tet_table > (1 << 20) + 64 * page, "{tet_table}");
+    let last = repo.tets().len() - 1;
+    let mut at_last = 0;
+    repo.scan_tets(|i, _| {
+        if i == last {
+            at_last = mapping_rss(address);
+        }
+    });
+    assert!(
+        at_last <= (1 << 20) + 2 * page,
+        "{at_last} bytes resident at the last record of a {tet_table}-byte table"
+    );
     assert!(mapping_rss(address) <= 2 * page);
 
     // The streaming renderer reads the whole directory to size its pools and unit table,
