@@ -9,6 +9,7 @@ use tessera_core::repository::Repository;
 use tessera_preprocess::import::load_mesh;
 use tessera_preprocess::{BuildConfig, Construction};
 use tessera_runtime::gpu::{GpuStreamer, RendererOptions};
+use tessera_runtime::stream::UnitTable;
 use tessera_tests::{build, gpu, testdata};
 
 /// Resident bytes of the mapping that contains `address` (its `Rss:` in /proc/self/smaps).
@@ -111,4 +112,35 @@ fn opening_and_streaming_leave_no_directory_pages_resident() {
         "{streaming} bytes of the map resident after the streamer's setup (directory \
          {directory})"
     );
+}
+
+/// `UnitTable::from_repository` (two passes through the map, pages dropped behind them) builds
+/// the table `UnitTable::new` builds from the whole slices.
+#[test]
+fn the_unit_table_read_through_the_map_is_the_one_from_the_slices() {
+    let mesh = load_mesh(&testdata("mesh/bunny00.off"))
+        .expect("import")
+        .mesh;
+    let config = BuildConfig {
+        construction: Construction::LeafTriangles(64),
+        ..BuildConfig::default()
+    };
+    let built = build(&mesh, &config);
+    let repo = &built.repo;
+    let a = UnitTable::new(
+        repo.diamonds(),
+        repo.tets(),
+        repo.header().root_tet_count as usize,
+    );
+    let b = UnitTable::from_repository(repo);
+    assert_eq!(a.len(), b.len());
+    assert!(a.len() > 100, "{} units", a.len());
+    assert_eq!((a.roots(), a.root_bytes()), (b.roots(), b.root_bytes()));
+    for u in 0..a.len() as u32 {
+        assert_eq!(a.simplices(u), b.simplices(u), "unit {u}");
+        assert_eq!(a.bytes(u), b.bytes(u), "unit {u}");
+        assert_eq!(a.children(u), b.children(u), "unit {u}");
+        assert_eq!(a.parents(u), b.parents(u), "unit {u}");
+        assert_eq!(a.level(u), b.level(u), "unit {u}");
+    }
 }

@@ -99,11 +99,7 @@ impl GpuStreamer {
         options: RendererOptions,
         upload_bytes_per_frame: u64,
     ) -> Result<(Renderer, GpuStreamer), StreamError> {
-        let units = UnitTable::new(
-            repo.diamonds(),
-            repo.tets(),
-            repo.header().root_tet_count as usize,
-        );
+        let units = UnitTable::from_repository(&repo);
         // The unit table, the pools' sizes and the pool model each read the whole directory
         // through the map; its pages are dropped from the resident set after each
         // (`release_pages`), so the process's peak holds one pass over the directory at a
