@@ -99,11 +99,11 @@ impl GpuStreamer {
         options: RendererOptions,
         upload_bytes_per_frame: u64,
     ) -> Result<(Renderer, GpuStreamer), StreamError> {
+        // The unit table and the pools' sizes read the whole directory through the map, the
+        // tet table a mebibyte at a time, dropping its pages behind them
+        // (`Repository::scan_tets`); the rest of what they read (the diamond table) is dropped
+        // after each (`release_pages`), and after the pool model and at the end.
         let units = UnitTable::from_repository(&repo);
-        // The unit table, the pools' sizes and the pool model each read the whole directory
-        // through the map; its pages are dropped from the resident set after each
-        // (`release_pages`), so the process's peak holds one pass over the directory at a
-        // time, before the pools are allocated.
         repo.release_pages();
         let sizes = fixed_bytes(ctx, &repo, &options);
         repo.release_pages();
