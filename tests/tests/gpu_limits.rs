@@ -9,7 +9,7 @@ use tessera_core::repository::Repository;
 use tessera_preprocess::import::load_mesh;
 use tessera_preprocess::BuildConfig;
 use tessera_runtime::camera::{bounding_radius, Camera, Y_UP};
-use tessera_runtime::gpu::stream_pool::PoolLayout;
+use tessera_runtime::gpu::stream_pool::{PatchSizes, PoolLayout};
 use tessera_runtime::gpu::streamer::feedback_capacity;
 use tessera_runtime::gpu::{
     DeviceOptions, FrameRequest, GpuContext, GpuStreamer, Readback, Renderer, RendererOptions,
@@ -257,7 +257,7 @@ fn more_pages_than_one_binding_of_draw_arguments_are_refused_or_cut() {
             && message.contains("max_storage_buffer_binding_size"),
         "{message}"
     );
-    let layout = PoolLayout::new(repo.tets(), 1 << 30, limit, 1 << 20);
+    let layout = PoolLayout::new(PatchSizes::of(repo.tets()), 1 << 30, limit, 1 << 20);
     assert!(layout.pages as u64 * 64 <= limit, "{layout:?}");
     assert!(
         layout.page_bytes <= limit && layout.page_bytes > 0,

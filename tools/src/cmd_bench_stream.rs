@@ -1,14 +1,22 @@
 //! `tessera bench stream REPO --gpu-budget MB`: a camera path flown under a residency budget,
 //! warm and cold, frame by frame.
 //!
-//! The streaming loop is `tessera_runtime::stream::CpuStreamer`: the residency's flags gate the
-//! cut, the traversal's feedback (refined and wanted diamonds) drives loads by screen error
-//! within a per-frame allowance, loads land `--latency-frames` later (read through the map,
-//! checksums checked, at that moment), evictions make room. The traversal runs on the CPU here
-//! (`"traversal": "cpu"` in the JSON): the figures are the residency's — resident bytes,
-//! bytes loaded, wanted units not resident, how far the drawn cut is from what τ asks
+//! By default the streaming loop is `tessera_runtime::stream::CpuStreamer`: the residency's
+//! flags gate the cut, the traversal's feedback (refined and wanted diamonds) drives loads by
+//! screen error within a per-frame allowance, loads land `--latency-frames` later (read through
+//! the map, checksums checked, at that moment), evictions make room. The traversal runs on the
+//! CPU there (`"traversal": "cpu"` in the JSON): the figures are the residency's — resident
+//! bytes, bytes loaded, wanted units not resident, how far the drawn cut is from what τ asks
 //! (max ρ/τ over the drawn simplices), frames to settle — and `frame_ms` is the CPU time of a
 //! frame's traversal, planning and the reads of the loads landing in it, not GPU time.
+//!
+//! `--gpu` drives the GPU renderer instead (`"traversal": "gpu"`: what `render` runs — the
+//! page pool within `--gpu-budget`, every GPU allocation counted, the traversal's feedback
+//! read back a frame or two late, a loader thread); `frame_ms` is then the whole frame,
+//! waited for. `--loops N` flies the path N times (the soak run): at each loop's end the last
+//! camera is held until the stream settles, and the report says per loop whether the settled
+//! cut equals the first loop's, the most bytes resident, and the process's memory
+//! (`bench_stream_loops.rs`).
 //!
 //! Warm: the file is read once first, so the page cache holds it. Cold: the file is dropped
 //! from the page cache first (`posix_fadvise(DONTNEED)`), so loads read the disk; each run
@@ -17,16 +25,18 @@
 use std::fs::File;
 use std::io::Read;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::time::Instant;
 
 use anyhow::{anyhow, bail, Context};
 use clap::Args;
 use serde::Deserialize;
 use serde_json::json;
-use tessera_core::cull::CullTests;
 use tessera_core::repository::reader::Repository;
 use tessera_runtime::camera::Camera;
-use tessera_runtime::stream::{CpuStreamer, StreamSettings};
+use tessera_runtime::stream::StreamSettings;
+
+use crate::bench_stream_loops::{run_loops, Driver, Row};
 
 use crate::cmd_render::default_up;
 use crate::Outcome;
@@ -64,6 +74,23 @@ pub struct StreamBenchArgs {
     /// warm and cold) into this directory.
     #[arg(long)]
     pub plot: Option<PathBuf>,
+    /// Stream with the GPU renderer (`render`'s streaming renderer) instead of the CPU
+    /// traversal; `--gpu-budget` then bounds every GPU allocation.
+    #[arg(long)]
+    pub gpu: bool,
+    /// wgpu backend with `--gpu`: vulkan, gl, metal or dx12 (default: $WGPU_BACKEND, else any).
+    #[arg(long, requires = "gpu")]
+    pub backend: Option<tessera_runtime::gpu::Backend>,
+    /// Adapter name substring with `--gpu` (default: $TESSERA_ADAPTER, else the best present).
+    #[arg(long, requires = "gpu")]
+    pub adapter: Option<String>,
+    /// Fly the path this many times (a soak run); each loop's last camera is held until the
+    /// stream settles, and its settled cut is compared with the first loop's.
+    #[arg(long, default_value_t = 1)]
+    pub loops: usize,
+    /// Most frames a loop's last camera is held waiting for the stream to settle.
+    #[arg(long, default_value_t = 1000)]
+    pub settle_frames: usize,
 }
 
 #[derive(Deserialize)]
@@ -83,18 +110,6 @@ struct Keyframe {
 
 fn default_between() -> usize {
     30
-}
-
-/// One frame of a run.
-#[derive(Clone, Copy, Debug)]
-struct Row {
-    patches: usize,
-    triangles: u64,
-    resident_bytes: u64,
-    loaded_bytes: u64,
-    wanted_not_resident: usize,
-    max_error_over_tau: f32,
-    frame_ms: f64,
 }
 
 fn parse_size(s: &str) -> anyhow::Result<(u32, u32)> {
@@ -217,61 +232,6 @@ fn prepare_cache(path: &Path, cold: bool) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// One run of the path: rows per frame, and the frame (index) from which the stream stayed
-/// settled to the end (no load issued, none in flight), if it did.
-fn run_path(
-    path: &Path,
-    cams: &[Camera],
-    settings: StreamSettings,
-    tau: f32,
-) -> anyhow::Result<(
-    Vec<Row>,
-    Option<usize>,
-    tessera_runtime::stream::ResidencyStats,
-)> {
-    let repo = Repository::open(path)?;
-    let mut streamer = CpuStreamer::new(&repo, settings).map_err(|e| anyhow!("{e}"))?;
-    let mut rows = Vec::with_capacity(cams.len());
-    let mut settled_from: Option<usize> = None;
-    for (i, cam) in cams.iter().enumerate() {
-        let eye = cam.eye_local(repo.header().origin);
-        let cull = CullTests {
-            frustum: Some(cam.view_volume()),
-            cones: true,
-        };
-        let t = Instant::now();
-        let f = streamer.frame(eye, &cam.metric(), tau, &cull);
-        let frame_ms = t.elapsed().as_secs_f64() * 1e3;
-        let triangles = f
-            .frame
-            .selection
-            .iter()
-            .map(|&s| repo.tets()[s as usize].triangle_count as u64)
-            .sum();
-        // Settled: the stream has gone quiet (nothing issued, nothing in flight); under a
-        // budget smaller than the view's working set units may still be wanted.
-        let settled = f.loads == 0 && f.stats.loading_units == 0;
-        match (settled, settled_from) {
-            (true, None) => settled_from = Some(i),
-            (false, Some(_)) => settled_from = None,
-            _ => {}
-        }
-        rows.push(Row {
-            patches: f.frame.selection.len(),
-            triangles,
-            resident_bytes: f.stats.resident_bytes,
-            loaded_bytes: f.loaded_bytes,
-            wanted_not_resident: f.stats.pending_units,
-            max_error_over_tau: f.frame.max_error_over_tau,
-            frame_ms,
-        });
-    }
-    if let Some((unit, e)) = streamer.failures.first() {
-        eprintln!("warning: unit {unit} could not be loaded: {e}");
-    }
-    Ok((rows, settled_from, streamer.residency().stats()))
-}
-
 pub fn run(args: StreamBenchArgs) -> anyhow::Result<Outcome> {
     if !(args.gpu_budget.is_finite() && args.gpu_budget > 0.0) {
         bail!(
@@ -285,6 +245,9 @@ pub fn run(args: StreamBenchArgs) -> anyhow::Result<Outcome> {
     if !(args.tolerance.is_finite() && args.tolerance > 0.0) {
         bail!("--tolerance {} must be positive and finite", args.tolerance);
     }
+    if args.loops == 0 {
+        bail!("--loops must be at least 1");
+    }
     let size = parse_size(&args.size)?;
     let probe = Repository::open(&args.repository)?;
     let cams = cameras(&args, &probe, size)?;
@@ -295,37 +258,84 @@ pub fn run(args: StreamBenchArgs) -> anyhow::Result<Outcome> {
         upload_bytes_per_frame: (args.upload_mb_per_frame * (1u64 << 20) as f64) as u64,
         latency_frames: args.latency_frames.max(1),
     };
+    let gpu_args = crate::gpu_args::GpuArgs {
+        adapter: args.adapter.clone(),
+        backend: args.backend,
+        gpu_budget: Some(args.gpu_budget),
+    };
+    let ctx = if args.gpu {
+        Some(gpu_args.context()?)
+    } else {
+        None
+    };
     let mut runs = Vec::new();
     let mut plotted = Vec::new();
     for mode in ["warm", "cold"] {
         prepare_cache(&args.repository, mode == "cold")?;
         let cached = page_cache_share(&args.repository)?;
         let t = Instant::now();
-        let (rows, settled_from, stats) =
-            run_path(&args.repository, &cams, settings, args.tolerance)?;
+        let repo = Arc::new(Repository::open(&args.repository)?);
+        let mut driver = match &ctx {
+            Some(ctx) => Driver::gpu(ctx, &gpu_args, repo.clone(), size)?,
+            None => Driver::cpu(&repo, settings)?,
+        };
+        let (rows, loops) = run_loops(
+            &mut driver,
+            &cams,
+            args.tolerance,
+            args.loops,
+            args.settle_frames,
+        )?;
         let seconds = t.elapsed().as_secs_f64();
+        for failure in driver.failures().iter().take(1) {
+            eprintln!("warning: {failure} could not be loaded");
+        }
+        let stats = driver.stats();
+        // Settled from: the first frame from which the stream stayed quiet to the end.
+        let settled_from = settled_from_frame(&rows);
         let mut ms: Vec<f64> = rows.iter().map(|r| r.frame_ms).collect();
         ms.sort_by(f64::total_cmp);
+        let first_cut = loops[0].cut.clone();
+        let loop_json: Vec<_> = loops
+            .iter()
+            .enumerate()
+            .map(|(i, l)| l.json(i + 1, &first_cut))
+            .collect();
+        let anon_end: Vec<u64> = loops
+            .iter()
+            .filter_map(|l| l.memory.map(|m| l.anon_peak.unwrap_or(m.rss_anon)))
+            .collect();
+        let last = loops.last().expect("at least one loop");
         let summary = json!({
             "page_cache_share_before": cached,
             "seconds": seconds,
             "frames": rows.len(),
+            "loops": args.loops,
             "settled_from_frame": settled_from,
+            "every_loop_settled": loops.iter().all(|l| l.settle_frames.is_some()),
+            "cuts_equal_first_loop": loops.iter().all(|l| l.cut == first_cut),
+            "resident_budget_bytes": driver.resident_budget(),
             "peak_resident_bytes": stats.peak_resident_bytes,
+            "gpu_bytes": driver.gpu_bytes(),
             "loaded_bytes": stats.loaded_bytes,
             "loads": stats.loads,
             "evictions": stats.evictions,
             "broken_units": stats.broken_units,
             "frame_ms_median": ms[ms.len() / 2],
             "frame_ms_max": ms[ms.len() - 1],
-            "max_error_over_tau_last": rows.last().map(|r| r.max_error_over_tau),
+            "max_error_over_tau_last": last.max_error_over_tau,
             "wanted_not_resident_last": rows.last().map(|r| r.wanted_not_resident),
+            // RssAnon's sampled maximum in loops 2.. minus loop 1's (flat after the first).
+            "rss_anon_growth_after_first_loop": anon_end.first().map(|&first| {
+                anon_end[1..].iter().map(|&a| a as i64 - first as i64).max().unwrap_or(0)
+            }),
         });
         if !args.json {
             println!(
                 "{mode}: {} frames in {seconds:.2} s (page cache {:.0} % before); settled from \
                  frame {settled_from:?}; peak resident {:.2} MiB of {:.2}; loaded {:.2} MiB in {} \
-                 loads, {} evictions; frame ms median {:.3}, max {:.3}; last frame max ρ/τ {:.3}",
+                 loads, {} evictions; frame ms median {:.3}, max {:.3}; last settled cut max ρ/τ \
+                 {}",
                 rows.len(),
                 100.0 * cached,
                 stats.peak_resident_bytes as f64 / (1u64 << 20) as f64,
@@ -335,8 +345,30 @@ pub fn run(args: StreamBenchArgs) -> anyhow::Result<Outcome> {
                 stats.evictions,
                 ms[ms.len() / 2],
                 ms[ms.len() - 1],
-                rows.last().map_or(0.0, |r| r.max_error_over_tau),
+                last.max_error_over_tau
+                    .map_or("n/a".to_string(), |e| format!("{e:.3}")),
             );
+            if args.loops > 1 {
+                for l in &loop_json {
+                    println!(
+                        "  loop {}: settled after {} held frames, cut {} patches ({}), peak \
+                         resident {} B, {} loads, {} evictions, RssAnon {} B (sampled max {})",
+                        l["loop"],
+                        l["settle_frames"],
+                        l["cut_patches"],
+                        if l["cut_equals_first_loop"] == true {
+                            "= loop 1"
+                        } else {
+                            "DIFFERS from loop 1"
+                        },
+                        l["peak_resident_bytes"],
+                        l["loads"],
+                        l["evictions"],
+                        l["memory"]["rss_anon_bytes"],
+                        l["memory"]["rss_anon_peak_sampled_bytes"],
+                    );
+                }
+            }
         }
         let frames: Vec<_> = rows
             .iter()
@@ -352,7 +384,12 @@ pub fn run(args: StreamBenchArgs) -> anyhow::Result<Outcome> {
                 })
             })
             .collect();
-        runs.push(json!({"mode": mode, "summary": summary, "per_frame": frames}));
+        runs.push(json!({
+            "mode": mode,
+            "summary": summary,
+            "loops": loop_json,
+            "per_frame": frames,
+        }));
         plotted.push((mode, rows));
     }
     if let Some(dir) = &args.plot {
@@ -367,17 +404,32 @@ pub fn run(args: StreamBenchArgs) -> anyhow::Result<Outcome> {
             json!({
                 "repository": args.repository,
                 "repository_bytes": file_bytes,
-                "traversal": "cpu",
+                "traversal": if args.gpu { "gpu" } else { "cpu" },
+                "adapter": ctx.as_ref().map(|c| c.adapter_description()),
+                "backend": ctx.as_ref().map(|c| c.backend.name()),
                 "tolerance": args.tolerance,
                 "size": [size.0, size.1],
                 "budget_bytes": settings.budget_bytes,
-                "upload_bytes_per_frame": settings.upload_bytes_per_frame,
-                "latency_frames": settings.latency_frames,
+                "upload_bytes_per_frame": if args.gpu {
+                    crate::gpu_args::UPLOAD_BYTES_PER_FRAME
+                } else {
+                    settings.upload_bytes_per_frame
+                },
+                "latency_frames": (!args.gpu).then_some(settings.latency_frames),
                 "runs": runs,
             })
         );
     }
     Ok(Outcome::Ok)
+}
+
+/// The first frame from which every frame to the end was settled, if the last one was.
+fn settled_from_frame(rows: &[Row]) -> Option<usize> {
+    match rows.iter().rposition(|r| !r.settled) {
+        None => Some(0),
+        Some(i) if i + 1 < rows.len() => Some(i + 1),
+        Some(_) => None,
+    }
 }
 
 /// What `bench_stream_plot` draws from a run's rows.
@@ -387,7 +439,10 @@ pub fn series(rows: &[RowView]) -> [Vec<(f64, f64)>; 4] {
         let x = i as f64;
         out[0].push((x, r.0));
         out[1].push((x, r.1));
-        out[2].push((x, r.2));
+        // Known on the GPU only for the frames read back.
+        if r.2.is_finite() {
+            out[2].push((x, r.2));
+        }
         out[3].push((x, r.3));
     }
     out
@@ -396,13 +451,17 @@ pub fn series(rows: &[RowView]) -> [Vec<(f64, f64)>; 4] {
 /// (resident MiB, loaded KiB, max ρ/τ, frame ms) of one frame.
 pub type RowView = (f64, f64, f64, f64);
 
-impl Row {
-    /// The plotted quantities.
+/// The plotted quantities of a row.
+trait View {
+    fn view(&self) -> RowView;
+}
+
+impl View for Row {
     fn view(&self) -> RowView {
         (
             self.resident_bytes as f64 / (1u64 << 20) as f64,
             self.loaded_bytes as f64 / 1024.0,
-            self.max_error_over_tau as f64,
+            self.max_error_over_tau.map_or(f64::NAN, f64::from),
             self.frame_ms,
         )
     }

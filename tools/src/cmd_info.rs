@@ -21,12 +21,16 @@ pub struct InfoArgs {
 pub fn run(args: InfoArgs) -> anyhow::Result<Outcome> {
     let repo = Repository::open(&args.repository)?;
     let h = repo.header();
-    let tets = repo.tets();
-    let leaves = tets.iter().filter(|t| t.first_child == u32::MAX).count();
-    let patch_triangles: u64 = tets.iter().map(|t| t.triangle_count as u64).sum();
-    // Restart markers included: what the renderer's strip slots are made of.
-    let strip_indices: u64 = tets.iter().map(|t| t.strip_index_count as u64).sum();
-    let depth = tets.iter().map(|t| t.level).max().unwrap_or(0);
+    // One pass over the tet table, its pages dropped behind it (`scan_tets`): the peak
+    // memory does not grow with the directory.
+    let (mut leaves, mut patch_triangles, mut strip_indices, mut depth) = (0usize, 0u64, 0u64, 0);
+    repo.scan_tets(|_, t| {
+        leaves += (t.first_child == u32::MAX) as usize;
+        patch_triangles += t.triangle_count as u64;
+        // Restart markers included: what the renderer's strip slots are made of.
+        strip_indices += t.strip_index_count as u64;
+        depth = depth.max(t.level);
+    });
     let root_error = repo.diamonds().first().map_or(0.0, |d| d.error);
     let (patch_blob_bytes, id_blob_bytes) = (repo.patch_blob().len(), repo.id_blob().len());
     let sections: Vec<_> = repo

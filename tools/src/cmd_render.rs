@@ -85,6 +85,13 @@ impl From<Mode> for ShadingMode {
     }
 }
 
+/// Adds `extra`'s keys to the object `value`.
+pub fn merge(value: &mut serde_json::Value, extra: serde_json::Value) {
+    if let (Some(v), serde_json::Value::Object(e)) = (value.as_object_mut(), extra) {
+        v.extend(e);
+    }
+}
+
 pub fn parse_size(s: &str) -> Result<(u32, u32), String> {
     let (w, h) = s
         .split_once(['x', 'X'])
@@ -172,11 +179,11 @@ pub fn run(args: RenderArgs) -> anyhow::Result<Outcome> {
     if !(args.tolerance >= 0.0 && args.tolerance.is_finite()) {
         anyhow::bail!("--tolerance {} must be a finite number ≥ 0", args.tolerance);
     }
-    let repo = Repository::open(&args.repository)?;
-    let h = *repo.header();
+    // Opened (and its directory validated) once: the streamer shares this map.
+    let shared = std::sync::Arc::new(Repository::open(&args.repository)?);
+    let h = *shared.header();
     let camera = camera_from_args(&args, h.bbox_min, h.bbox_max, h.dimension)?;
     let ctx = args.gpu.context()?;
-    let shared = std::sync::Arc::new(Repository::open(&args.repository)?);
     let (mut renderer, mut streamer) =
         args.gpu
             .streaming(&ctx, shared, (camera.width, camera.height))?;
@@ -191,11 +198,15 @@ pub fn run(args: RenderArgs) -> anyhow::Result<Outcome> {
     // Streaming: frames until nothing is issued, loading or waiting (or the cap), then one
     // more frame, read back and written.
     let mut frames_to_converge = None;
+    // RssAnon after every frame (on a CPU adapter the GPU's buffers are anonymous memory).
+    let mut anon_peak = crate::peak_rss::AnonPeak::default();
+    anon_peak.sample();
     for k in 1..args.max_frames.max(1) {
         let f = streamer
             .frame(&ctx, &mut renderer, &request, Readback::default())
             .map_err(device_failure)?;
         ctx.wait_idle()?;
+        anon_peak.sample();
         if f.settled {
             frames_to_converge = Some(k);
             break;
@@ -232,11 +243,10 @@ pub fn run(args: RenderArgs) -> anyhow::Result<Outcome> {
         cpu_ms,
     };
     let (stats, gpu) = (last.stats, streamer.stats());
+    let memory = anon_peak.sample();
     save_png(&frame.image, &args.output)?;
     if args.json {
-        println!(
-            "{}",
-            json!({
+        let mut value = json!({
                 "output": args.output.display().to_string(),
                 "patches": frame.selection.len(),
                 "triangles": frame.triangles,
@@ -263,8 +273,12 @@ pub fn run(args: RenderArgs) -> anyhow::Result<Outcome> {
                 "frames_to_converge": frames_to_converge,
                 "pool_fragmentation": gpu.fragmentation,
                 "max_error_over_tau": last.reference.max_error_over_tau,
-            })
+        });
+        merge(
+            &mut value,
+            crate::peak_rss::MemoryNow::json(memory, anon_peak.bytes()),
         );
+        println!("{value}");
     } else {
         println!(
             "{}: {} patches, {} triangles at τ = {} px; GPU {} ms on {}; streamed: {} of {} \

@@ -1,5 +1,9 @@
-//! The process's peak resident memory (`peak_rss_bytes` in `build --json` and
-//! `gen mesh --json`): VmHWM from /proc/self/status on Linux, `None` elsewhere.
+//! The process's resident memory from /proc/self/status on Linux (`None` elsewhere): the peak
+//! (`peak_rss_bytes` in `build --json`, `gen mesh --json`, `render --json`: VmHWM), and the
+//! current split into anonymous and file-backed pages (`MemoryNow`: RssAnon counts the heap
+//! and, on a CPU adapter such as lavapipe, the "GPU" buffers; RssFile the map's touched pages,
+//! which the kernel can drop and re-read). The kernel keeps no peak of RssAnon: `AnonPeak`
+//! samples it, so its maximum is a lower bound of the true peak.
 
 /// Peak resident set size in bytes, where the system says.
 pub fn peak_rss_bytes() -> Option<u64> {
@@ -55,9 +59,73 @@ fn reset_peak() -> bool {
 }
 
 fn parse_vm_hwm(status: &str) -> Option<u64> {
-    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
-    let kb = line["VmHWM:".len()..].trim().strip_suffix("kB")?.trim();
+    status_field(status, "VmHWM")
+}
+
+/// A `Name:   N kB` line of /proc/self/status, in bytes.
+fn status_field(status: &str, name: &str) -> Option<u64> {
+    let line = status
+        .lines()
+        .find(|l| l.strip_prefix(name).is_some_and(|r| r.starts_with(':')))?;
+    let kb = line[name.len() + 1..].trim().strip_suffix("kB")?.trim();
     kb.parse::<u64>().ok().map(|kb| kb * 1024)
+}
+
+/// Resident memory now, bytes: VmRSS = RssAnon + RssFile + RssShmem, and the peak VmHWM.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct MemoryNow {
+    pub rss: u64,
+    pub rss_anon: u64,
+    pub rss_file: u64,
+    pub peak_rss: u64,
+}
+
+impl MemoryNow {
+    /// Read from /proc/self/status; `None` where the system does not say.
+    pub fn read() -> Option<MemoryNow> {
+        let status = std::fs::read_to_string("/proc/self/status").ok()?;
+        parse_memory(&status)
+    }
+
+    /// The JSON keys every command reporting memory uses.
+    pub fn json(now: Option<MemoryNow>, anon_peak: Option<u64>) -> serde_json::Value {
+        serde_json::json!({
+            "peak_rss_bytes": now.map(|m| m.peak_rss),
+            "rss_bytes": now.map(|m| m.rss),
+            "rss_anon_bytes": now.map(|m| m.rss_anon),
+            "rss_file_bytes": now.map(|m| m.rss_file),
+            "rss_anon_peak_sampled_bytes": anon_peak,
+        })
+    }
+}
+
+fn parse_memory(status: &str) -> Option<MemoryNow> {
+    Some(MemoryNow {
+        rss: status_field(status, "VmRSS")?,
+        rss_anon: status_field(status, "RssAnon")?,
+        rss_file: status_field(status, "RssFile")?,
+        peak_rss: status_field(status, "VmHWM")?,
+    })
+}
+
+/// The largest RssAnon seen by `sample` (a lower bound of the true peak: the kernel keeps
+/// none).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct AnonPeak(Option<u64>);
+
+impl AnonPeak {
+    /// Reads RssAnon now and keeps the largest; returns the reading.
+    pub fn sample(&mut self) -> Option<MemoryNow> {
+        let now = MemoryNow::read();
+        if let Some(m) = now {
+            self.0 = Some(self.0.map_or(m.rss_anon, |p| p.max(m.rss_anon)));
+        }
+        now
+    }
+
+    pub fn bytes(&self) -> Option<u64> {
+        self.0
+    }
 }
 
 #[cfg(test)]
@@ -69,7 +137,26 @@ mod tests {
         let status = "Name:\ttessera\nVmPeak:\t  9000 kB\nVmHWM:\t    2048 kB\nVmRSS:\t 1 kB\n";
         assert_eq!(parse_vm_hwm(status), Some(2 * 1024 * 1024));
         assert_eq!(parse_vm_hwm("VmRSS: 1 kB"), None);
+        let status = "VmHWM:\t 8 kB\nVmRSS:\t 6 kB\nRssAnon:\t 4 kB\nRssFile:\t 2 kB\n";
+        assert_eq!(
+            parse_memory(status),
+            Some(MemoryNow {
+                rss: 6 << 10,
+                rss_anon: 4 << 10,
+                rss_file: 2 << 10,
+                peak_rss: 8 << 10
+            })
+        );
+        // "RssAnon" must not match a longer name.
+        assert_eq!(status_field("RssAnonX:\t 4 kB\n", "RssAnon"), None);
         #[cfg(target_os = "linux")]
         assert!(peak_rss_bytes().unwrap() > 0);
+        #[cfg(target_os = "linux")]
+        {
+            let mut peak = AnonPeak::default();
+            let now = peak.sample().unwrap();
+            assert!(now.rss_anon > 0 && now.rss >= now.rss_anon && now.peak_rss >= now.rss);
+            assert_eq!(peak.bytes(), Some(now.rss_anon));
+        }
     }
 }

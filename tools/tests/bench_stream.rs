@@ -110,3 +110,134 @@ fn check_run(repo: &Path, budget_mib: &str, plot: &Path) {
         }
     }
 }
+
+/// The soak run of issue 11, scaled down: a camera path flown three times on the GPU renderer
+/// under a budget smaller than the path's working set (but holding its last view), each
+/// loop's last camera held until the stream settles. Every loop settles on the first loop's
+/// cut, the resident bytes never pass the residency's budget nor the GPU allocations
+/// `--gpu-budget`, and loads go on (evictions in every loop, loads after them). On llvmpipe
+/// GL the process's RssAnon stays flat after the first loop; on lavapipe (Vulkan) it is not
+/// asserted: its driver keeps about a quarter of a megabyte per submitted frame until the
+/// device is dropped (BENCHMARKS.md, "Out of core", the soak run), whatever tessera does.
+#[test]
+fn a_looped_path_on_the_gpu_settles_on_the_same_cut_every_loop_within_the_budget() {
+    let dir = tempfile::tempdir().unwrap();
+    let repo = dir.path().join("bunny.tsr");
+    let out = tessera(&[
+        "build",
+        bunny().to_str().unwrap(),
+        "-o",
+        repo.to_str().unwrap(),
+    ]);
+    assert!(out.status.success());
+    // A path around the bunny: in from 3 radii, then a full turn at 0.9 radii.
+    let info: serde_json::Value =
+        serde_json::from_slice(&tessera(&["info", repo.to_str().unwrap(), "--json"]).stdout)
+            .unwrap();
+    let corner = |k: &str| -> Vec<f64> {
+        info[k]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_f64().unwrap())
+            .collect()
+    };
+    let (lo, hi) = (corner("bbox_min"), corner("bbox_max"));
+    let centre: Vec<f64> = (0..3).map(|i| (lo[i] + hi[i]) / 2.0).collect();
+    let radius = (0..3).map(|i| (hi[i] - lo[i]).powi(2)).sum::<f64>().sqrt() / 2.0;
+    let eye = |azimuth: f64, distance: f64| {
+        let (a, e) = (azimuth.to_radians(), 15f64.to_radians());
+        vec![
+            centre[0] + distance * radius * e.cos() * a.sin(),
+            centre[1] + distance * radius * e.sin(),
+            centre[2] + distance * radius * e.cos() * a.cos(),
+        ]
+    };
+    let keyframes: Vec<_> = [
+        (0.0, 3.0),
+        (90.0, 0.9),
+        (180.0, 0.9),
+        (270.0, 0.9),
+        (360.0, 0.9),
+    ]
+    .iter()
+    .map(|&(az, d)| serde_json::json!({"eye": eye(az, d), "target": centre}))
+    .collect();
+    let path = dir.path().join("path.json");
+    std::fs::write(
+        &path,
+        serde_json::json!({"keyframes": keyframes, "frames_between": 25, "pause_frames": 20})
+            .to_string(),
+    )
+    .unwrap();
+
+    let loops = 3;
+    let soak = |backend: &str, budget_mib: &str| -> serde_json::Value {
+        let out = tessera(&[
+            "bench",
+            "stream",
+            repo.to_str().unwrap(),
+            "--gpu",
+            "--backend",
+            backend,
+            "--loops",
+            &loops.to_string(),
+            "--path",
+            path.to_str().unwrap(),
+            "--size",
+            "160x90",
+            "--tolerance",
+            "0.5",
+            "--gpu-budget",
+            budget_mib,
+            "--json",
+        ]);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{stderr}");
+        serde_json::from_slice(&out.stdout).unwrap()
+    };
+    // The path's working set: what an unlimited budget loads, with no eviction.
+    let unlimited = soak("vulkan", "64");
+    let working_set = unlimited["runs"][0]["summary"]["peak_resident_bytes"]
+        .as_u64()
+        .unwrap();
+    assert_eq!(unlimited["runs"][0]["summary"]["evictions"], 0);
+
+    for backend in ["vulkan", "gl"] {
+        let v = soak(backend, "0.9");
+        assert_eq!(v["traversal"], "gpu");
+        assert_eq!(v["backend"], backend);
+        let budget = v["budget_bytes"].as_u64().unwrap();
+        for run in v["runs"].as_array().unwrap() {
+            let s = &run["summary"];
+            eprintln!("{backend} {}: {s}", run["mode"]);
+            let resident_budget = s["resident_budget_bytes"].as_u64().unwrap();
+            assert!(resident_budget < working_set, "{s}: no pressure");
+            assert!(
+                s["peak_resident_bytes"].as_u64().unwrap() <= resident_budget,
+                "{s}"
+            );
+            assert!(s["gpu_bytes"].as_u64().unwrap() <= budget, "{s}");
+            assert_eq!(s["every_loop_settled"], true, "{s}");
+            assert_eq!(s["cuts_equal_first_loop"], true, "{s}");
+            // The last view fits: its settled cut is what τ asks for.
+            assert!(s["max_error_over_tau_last"].as_f64().unwrap() <= 1.0, "{s}");
+            let per_loop = run["loops"].as_array().unwrap();
+            assert_eq!(per_loop.len(), loops);
+            for l in per_loop {
+                assert!(l["cut_patches"].as_u64().unwrap() > 0, "{l}");
+                assert!(l["peak_resident_bytes"].as_u64().unwrap() <= resident_budget);
+                // Loading never stalls: every loop evicts and loads again.
+                assert!(l["evictions"].as_u64().unwrap() > 0, "{l}");
+                assert!(l["loads"].as_u64().unwrap() > 0, "{l}");
+            }
+            if backend == "gl" {
+                let growth = s["rss_anon_growth_after_first_loop"].as_i64().unwrap();
+                assert!(
+                    growth <= 4 << 20,
+                    "RssAnon grew {growth} B after loop 1: {s}"
+                );
+            }
+        }
+    }
+}

@@ -93,6 +93,7 @@ pub(crate) fn check_tables(
     diamonds: &[DiamondRecord],
     tets: &[TetRecord],
     blobs: BlobSizes,
+    tets_done: &dyn Fn(usize),
 ) -> Result<(), RepositoryError> {
     debug_assert_eq!(
         (h.diamond_count, h.tet_count),
@@ -141,7 +142,13 @@ pub(crate) fn check_tables(
     // Tets per diamond, and whether each tet was already claimed as a child.
     let mut members = vec![0u32; diamonds.len()];
     let mut is_child = vec![false; tets.len()];
+    // Tets per `tets_done` call: the reader drops the pages of the tets checked (children
+    // come after their parent, so the loop never reads behind itself but for them).
+    const TETS_PER_CALL: usize = (1 << 20) / super::format::TET_RECORD_SIZE;
     for (i, t) in tets.iter().enumerate() {
+        if i % TETS_PER_CALL == 0 && i > 0 {
+            tets_done(i);
+        }
         let fail = |what: String| Err(corrupt(format!("tet {i}: {what}")));
         if !(finite(t.center) && t.radius.is_finite() && t.radius >= 0.0) {
             return fail(format!(

@@ -99,7 +99,37 @@ impl Storage {
             Storage::Owned { words, len } => &bytemuck::cast_slice(words)[..*len],
         }
     }
+
+    /// Drops this process's mapping of the pages covering `range` (whole pages, rounded
+    /// outwards; see `Repository::release_pages` for why this is safe). Linux only; a no-op
+    /// for an in-memory image.
+    fn release(&self, range: Range<usize>) {
+        #[cfg(target_os = "linux")]
+        if let Storage::Mapped(map) = self {
+            const PAGE: usize = 4096;
+            let start = range.start.min(map.len()) / PAGE * PAGE;
+            let end = range.end.min(map.len());
+            if end > start {
+                // SAFETY: as in `Repository::release_pages`: a read-only shared file mapping;
+                // the next access maps the same bytes in again from the page cache.
+                let _ = unsafe {
+                    map.unchecked_advise_range(
+                        memmap2::UncheckedAdvice::DontNeed,
+                        start,
+                        end - start,
+                    )
+                };
+            }
+        }
+        #[cfg(not(target_os = "linux"))]
+        let _ = range;
+    }
 }
+
+/// Bytes of the directory between two releases of its pages while it is validated: the
+/// process holds at most about this much of it at a time (plus the diamond table, read at
+/// random while the tets are checked).
+const RELEASE_CHUNK: usize = 1 << 20;
 
 /// An open repository whose directory is validated; patches are verified on first read.
 pub struct Repository {
@@ -165,7 +195,11 @@ impl Repository {
 
     fn validate(storage: Storage) -> Result<Repository, RepositoryError> {
         let bytes = storage.bytes();
-        let layout = check_layout(bytes)?;
+        // The directory is read once for its checksums and once for its records; its pages
+        // are dropped behind each pass as it goes, so opening holds about `RELEASE_CHUNK` of
+        // it at a time, whatever the model's size.
+        let release = |range: Range<usize>| storage.release(range);
+        let layout = check_layout(bytes, &release)?;
         let diamonds: &[DiamondRecord] = bytemuck::try_cast_slice(&bytes[layout.diamonds.clone()])
             .map_err(|e| corrupt(format!("diamond table cannot be borrowed in place: {e:?}")))?;
         let tets: &[TetRecord] = bytemuck::try_cast_slice(&bytes[layout.tets.clone()])
@@ -174,11 +208,13 @@ impl Repository {
             patches: layout.patch_blob.len() as u64,
             ids: layout.id_blob.len() as u64,
         };
-        check_tables(&layout.header, diamonds, tets, blobs)?;
+        let tets_start = layout.tets.start;
+        let tets_done = |n: usize| release(tets_start..tets_start + n * TET_RECORD_SIZE);
+        check_tables(&layout.header, diamonds, tets, blobs, &tets_done)?;
         let patch_verified = (0..tets.len().div_ceil(64))
             .map(|_| AtomicU64::new(0))
             .collect();
-        Ok(Repository {
+        let repository = Repository {
             header: layout.header,
             diamonds: layout.diamonds,
             tets: layout.tets,
@@ -189,7 +225,50 @@ impl Repository {
             ids_checked: OnceLock::new(),
             patch_verified,
             storage,
-        })
+        };
+        // Validation read the whole directory through the map: those pages would stay in the
+        // process's resident set (RssFile), which would then grow with the model.
+        repository.release_pages();
+        Ok(repository)
+    }
+
+    /// Visits every tet record in order, dropping the pages of those visited from the
+    /// resident set every `RELEASE_CHUNK` bytes (as opening does), so a pass over the whole
+    /// directory holds about that much of it at a time whatever the model's size.
+    pub fn scan_tets(&self, mut visit: impl FnMut(usize, &TetRecord)) {
+        let per_chunk = RELEASE_CHUNK / TET_RECORD_SIZE;
+        for (k, chunk) in self.tets().chunks(per_chunk).enumerate() {
+            for (j, t) in chunk.iter().enumerate() {
+                visit(k * per_chunk + j, t);
+            }
+            let start = self.tets.start + k * per_chunk * TET_RECORD_SIZE;
+            self.storage
+                .release(start..start + std::mem::size_of_val(chunk));
+        }
+    }
+
+    /// Drops this process's mapping of every page of the file it has touched (the page cache
+    /// keeps them; the next read maps them again), so the map's share of the resident set
+    /// (RssFile) goes back to zero. Opening calls it after validating the directory, and a
+    /// caller that scans the whole directory (a streamer sizing its pools) may call it after.
+    /// Linux `madvise(MADV_DONTNEED)`; a no-op for an in-memory image and elsewhere.
+    pub fn release_pages(&self) {
+        #[cfg(target_os = "linux")]
+        if let Storage::Mapped(map) = &self.storage {
+            if !map.is_empty() {
+                // SAFETY: the map is a read-only, shared mapping of a file this process does
+                // not write, and the caller contract of `open` says no one modifies it while it
+                // is open. For such a mapping MADV_DONTNEED only removes the page-table
+                // entries: the next access faults the same bytes back in from the page cache,
+                // so every borrow of the map keeps reading the bytes that were validated.
+                // (memmap2 calls the advice unchecked because for private or anonymous
+                // mappings it would discard content; none here.) A failure only leaves the
+                // pages resident.
+                let _ = unsafe {
+                    map.unchecked_advise_range(memmap2::UncheckedAdvice::DontNeed, 0, map.len())
+                };
+            }
+        }
     }
 
     /// The header.
@@ -318,7 +397,7 @@ struct Layout {
 
 /// Checks the header, its checksum and the section table of `bytes`, then the directory's
 /// checksums (the diamond and tet tables; not the blobs).
-fn check_layout(bytes: &[u8]) -> Result<Layout, RepositoryError> {
+fn check_layout(bytes: &[u8], release: &dyn Fn(Range<usize>)) -> Result<Layout, RepositoryError> {
     let len = bytes.len() as u64;
     if bytes.len() < HEADER_SIZE {
         return Err(RepositoryError::TooSmall { len });
@@ -377,7 +456,13 @@ fn check_layout(bytes: &[u8]) -> Result<Layout, RepositoryError> {
         (SECTION_DIAMONDS, &diamonds, diamond_sum),
         (SECTION_TETS, &tets, tet_sum),
     ] {
-        let computed = crc32fast::hash(&bytes[range.clone()]);
+        let mut hasher = crc32fast::Hasher::new();
+        for start in range.clone().step_by(RELEASE_CHUNK) {
+            let chunk = start..(start + RELEASE_CHUNK).min(range.end);
+            hasher.update(&bytes[chunk.clone()]);
+            release(chunk);
+        }
+        let computed = hasher.finalize();
         if computed != stored {
             return Err(RepositoryError::SectionChecksumMismatch {
                 section: section_name(kind),

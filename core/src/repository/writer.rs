@@ -87,7 +87,7 @@ pub(super) fn lay_out_directory(
     h.tet_count = tets.len() as u64;
     h.checksum = 0;
     check_header_fields(&h)?;
-    check_tables(&h, diamonds, tets, blobs)?;
+    check_tables(&h, diamonds, tets, blobs, &|_| {})?;
     let sizes = [
         (
             SECTION_DIAMONDS,

@@ -22,7 +22,7 @@ use super::device::GpuContext;
 use super::records::SLOT_RECORD_BYTES;
 use super::renderer::RendererOptions;
 use super::resident::{page_limit, ENTRY_BYTES, PAGE_ARGS_BYTES};
-use super::stream_pool::PoolLayout;
+use super::stream_pool::{PatchSizes, PoolLayout};
 
 /// Bytes per record slot: the record, its location and its entry in each traversal queue.
 pub const SLOT_BYTES: u64 = SLOT_RECORD_BYTES + 16 + 2 * 4;
@@ -104,15 +104,20 @@ struct ModelNeeds {
     bytes: u64,
     simplices: u64,
     bytes_per_slot: f64,
+    patches: PatchSizes,
 }
 
 fn model_needs(repo: &Repository) -> ModelNeeds {
     let mut per_level = [(0u64, 0u64); 64];
-    for t in repo.tets() {
+    let mut patches = PatchSizes::new();
+    // One pass over the directory, its pages dropped behind it (`scan_tets`).
+    repo.scan_tets(|_, t| {
         let level = &mut per_level[(t.level as usize).min(63)];
         level.0 += 1;
         level.1 += (t.patch_bytes as u64).next_multiple_of(8);
-    }
+        patches.add(t);
+    });
+    let patches = patches.finish();
     let simplices: u64 = per_level.iter().map(|l| l.0).sum();
     let bytes: u64 = per_level.iter().map(|l| l.1).sum();
     let average = bytes as f64 / simplices.max(1) as f64;
@@ -125,6 +130,7 @@ fn model_needs(repo: &Repository) -> ModelNeeds {
         bytes: bytes * 8 / 7 + 64,
         simplices,
         bytes_per_slot: densest.max(average / 4.0).max(8.0),
+        patches,
     }
 }
 
@@ -157,7 +163,7 @@ pub fn fixed_bytes(ctx: &GpuContext, repo: &Repository, options: &RendererOption
         // Pages capped at what the model needs: what they leave goes to slots (up to the
         // model's).
         let slots = slots.max(clamp((available.saturating_sub(pool) / SLOT_BYTES) & !1));
-        let layout = PoolLayout::new(repo.tets(), pool, limit, slots as u32);
+        let layout = PoolLayout::new(needs.patches, pool, limit, slots as u32);
         let fixed = base + layout.pages as u64 * per_page_bytes(ctx, &layout);
         let candidate = FixedBytes {
             fixed,
@@ -170,7 +176,7 @@ pub fn fixed_bytes(ctx: &GpuContext, repo: &Repository, options: &RendererOption
         available = available.saturating_sub(candidate.total() - options.budget_bytes);
     }
     let slots = slots_for(0);
-    let layout = PoolLayout::new(repo.tets(), 0, limit, slots as u32);
+    let layout = PoolLayout::new(needs.patches, 0, limit, slots as u32);
     FixedBytes {
         fixed: base + per_page_bytes(ctx, &layout),
         slots: slots as u32,

@@ -150,6 +150,49 @@ pub struct PoolLayout {
     pub patch_capacity: u32,
 }
 
+/// What the pool's lists are sized from: the model's smallest non-empty patch (8-aligned,
+/// at least 8 bytes; 8 when there is none) and its number of non-empty patches.
+#[derive(Clone, Copy, Debug)]
+pub struct PatchSizes {
+    pub smallest: u64,
+    pub nonempty: u64,
+}
+
+impl PatchSizes {
+    /// None yet: feed every tet record to `add`, then `finish`.
+    pub(crate) fn new() -> PatchSizes {
+        PatchSizes {
+            smallest: u64::MAX,
+            nonempty: 0,
+        }
+    }
+
+    pub(crate) fn add(&mut self, t: &TetRecord) {
+        if t.strip_index_count != 0 {
+            self.nonempty += 1;
+            self.smallest = self
+                .smallest
+                .min((t.patch_bytes as u64).next_multiple_of(8).max(8));
+        }
+    }
+
+    /// The sizes of a table held in memory (tests; the streamer scans the map).
+    pub fn of(tets: &[TetRecord]) -> PatchSizes {
+        let mut sizes = PatchSizes::new();
+        for t in tets {
+            sizes.add(t);
+        }
+        sizes.finish()
+    }
+
+    pub(crate) fn finish(mut self) -> PatchSizes {
+        if self.nonempty == 0 {
+            self.smallest = 8;
+        }
+        self
+    }
+}
+
 impl PoolLayout {
     /// Pages of at most `limit` bytes filling `pool_bytes`; lists sized from the smallest
     /// non-empty patch (8-aligned), capped by the model's non-empty patches, by the record
@@ -159,17 +202,11 @@ impl PoolLayout {
     ///
     /// At most `resident::max_pages` pages (one compaction workgroup each, their draw
     /// arguments one binding; `limit` is that binding): a larger pool is cut to them.
-    pub fn new(tets: &[TetRecord], pool_bytes: u64, limit: u64, slots: u32) -> PoolLayout {
+    pub fn new(patches: PatchSizes, pool_bytes: u64, limit: u64, slots: u32) -> PoolLayout {
         let pool_bytes = pool_bytes.min(super::resident::max_pages_within(limit) * limit);
         let pages = pool_bytes.div_ceil(limit).max(1) as usize;
         let page_bytes = (pool_bytes / pages as u64) & !7;
-        let nonempty = tets.iter().filter(|t| t.strip_index_count != 0);
-        let smallest = nonempty
-            .clone()
-            .map(|t| (t.patch_bytes as u64).next_multiple_of(8).max(8))
-            .min()
-            .unwrap_or(8);
-        let count = nonempty.count() as u64;
+        let (smallest, count) = (patches.smallest, patches.nonempty);
         PoolLayout {
             pages,
             page_bytes,

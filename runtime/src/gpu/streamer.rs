@@ -121,12 +121,14 @@ impl GpuStreamer {
         // The size first: an impossible target would otherwise read as a budget problem.
         super::target::check_target_size(&ctx.limits, options.width, options.height)
             .map_err(RenderError::from)?;
-        let units = UnitTable::new(
-            repo.diamonds(),
-            repo.tets(),
-            repo.header().root_tet_count as usize,
-        );
+        // The unit table and the pools' sizes read the whole directory through the map, the
+        // tet table a mebibyte at a time, dropping its pages behind them
+        // (`Repository::scan_tets`); the rest of what they read (the diamond table) is dropped
+        // after each (`release_pages`), and after the pool model and at the end.
+        let units = UnitTable::from_repository(&repo);
+        repo.release_pages();
         let sizes = fixed_bytes(ctx, &repo, &options);
+        repo.release_pages();
         let layout = sizes.layout;
         let roots = units.root_bytes();
         let root_count = units.roots().len() as u32;
@@ -160,6 +162,7 @@ impl GpuStreamer {
         }
         let scope = ctx.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
         let model: ResidentModel = pool_model(ctx, &repo, &layout, sizes.slots);
+        repo.release_pages();
         let capacity = feedback_capacity(
             repo.tets().len(),
             options.width,
@@ -233,6 +236,9 @@ impl GpuStreamer {
                 roots,
             });
         }
+        // Sizing the pools and the unit table read the whole directory through the map: drop
+        // those pages from the resident set (the units' records are read again as they land).
+        streamer.repo.release_pages();
         Ok((renderer, streamer))
     }
 

@@ -57,11 +57,7 @@ pub struct CpuStreamer<'r> {
 impl<'r> CpuStreamer<'r> {
     /// Every unit absent, the roots pinned; fails when the roots exceed the budget.
     pub fn new(repo: &'r Repository, settings: StreamSettings) -> Result<CpuStreamer<'r>, String> {
-        let units = UnitTable::new(
-            repo.diamonds(),
-            repo.tets(),
-            repo.header().root_tet_count as usize,
-        );
+        let units = UnitTable::from_repository(repo);
         Ok(CpuStreamer {
             repo,
             residency: Residency::new(units, settings.budget_bytes)?,

@@ -15,6 +15,7 @@
 //! simplices and 27,532 diamonds; computed, not measured.)
 
 use tessera_core::repository::format::{DiamondRecord, TetRecord, NO_INDEX};
+use tessera_core::repository::reader::Repository;
 
 /// Compressed rows: row `r` is `items[starts[r]..starts[r + 1]]`.
 #[derive(Clone, Debug, Default)]
@@ -75,6 +76,61 @@ impl UnitTable {
                 (t.parent_diamond != NO_INDEX).then_some((t.parent_diamond, i as u32))
             }),
         );
+        let unit_bytes = (0..diamonds.len())
+            .map(|d| {
+                created
+                    .row(d)
+                    .iter()
+                    .map(|&t| tets[t as usize].patch_bytes as u64)
+                    .sum()
+            })
+            .collect();
+        let root_bytes = (0..root_count).map(|t| tets[t].patch_bytes as u64).sum();
+        Self::with_created(diamonds, created, unit_bytes, root_count, root_bytes)
+    }
+
+    /// The same table as `new` for an open repository, its tet table read in two passes that
+    /// drop its pages behind them (`Repository::scan_tets`): the process never holds the
+    /// whole directory, nor a list of (diamond, simplex) pairs.
+    pub fn from_repository(repo: &Repository) -> UnitTable {
+        let diamonds = repo.diamonds();
+        let root_count = repo.header().root_tet_count as usize;
+        let mut starts = vec![0u32; diamonds.len() + 1];
+        let mut unit_bytes = vec![0u64; diamonds.len()];
+        let mut root_bytes = 0;
+        repo.scan_tets(|i, t| {
+            if t.parent_diamond != NO_INDEX {
+                starts[t.parent_diamond as usize + 1] += 1;
+                unit_bytes[t.parent_diamond as usize] += t.patch_bytes as u64;
+            }
+            if i < root_count {
+                root_bytes += t.patch_bytes as u64;
+            }
+        });
+        for r in 0..diamonds.len() {
+            starts[r + 1] += starts[r];
+        }
+        let mut fill = starts.clone();
+        let mut items = vec![0u32; starts[diamonds.len()] as usize];
+        repo.scan_tets(|i, t| {
+            if t.parent_diamond != NO_INDEX {
+                let slot = &mut fill[t.parent_diamond as usize];
+                items[*slot as usize] = i as u32;
+                *slot += 1;
+            }
+        });
+        let created = Rows { starts, items };
+        Self::with_created(diamonds, created, unit_bytes, root_count, root_bytes)
+    }
+
+    /// The rest of the table from the diamond table and the units' rows and bytes.
+    fn with_created(
+        diamonds: &[DiamondRecord],
+        created: Rows,
+        unit_bytes: Vec<u64>,
+        root_count: usize,
+        root_bytes: u64,
+    ) -> UnitTable {
         let children = Rows::from_pairs(
             diamonds.len(),
             diamonds
@@ -89,20 +145,6 @@ impl UnitTable {
                 .enumerate()
                 .flat_map(|(i, d)| d.parents().iter().map(move |&p| (i as u32, p))),
         );
-        let unit_bytes = (0..diamonds.len())
-            .map(|d| {
-                created
-                    .row(d)
-                    .iter()
-                    .map(|&t| tets[t as usize].patch_bytes as u64)
-                    .sum()
-            })
-            .collect();
-        let roots: Vec<u32> = (0..root_count as u32).collect();
-        let root_bytes = roots
-            .iter()
-            .map(|&t| tets[t as usize].patch_bytes as u64)
-            .sum();
         UnitTable {
             created,
             children,
@@ -110,7 +152,7 @@ impl UnitTable {
             unit_bytes,
             levels: diamonds.iter().map(|d| d.level).collect(),
             root_bytes,
-            roots,
+            roots: (0..root_count as u32).collect(),
         }
     }
 
