@@ -65,9 +65,9 @@ pub struct BuildConfig {
 /// Out of core today: the import of a mesh file (`import::stage_mesh`, done by the caller, who
 /// then calls `build_repository_staged`: the mesh is never loaded), the hierarchy's
 /// construction (`hierarchy::build_hierarchy_bucketed`), the live patches
-/// (`simplify/live_store.rs`) and the encoded patches (`finished_patches.rs`). The
-/// simplification still holds a level's results in memory (ARCHITECTURE.md, "The out-of-core
-/// build").
+/// (`simplify/live_store.rs`), a level's results (`simplify/result_spill.rs`) and the encoded
+/// patches (`finished_patches.rs`). What still grows with the input is listed in
+/// ARCHITECTURE.md, "The out-of-core build".
 #[derive(Clone, Debug, PartialEq)]
 pub struct MemoryBudget {
     pub bytes: u64,
@@ -440,7 +440,7 @@ fn build_in_pool(
         Construction::LeafTriangles(n) => n,
         Construction::Levels(_) => config.domain.default_leaf_triangles(),
     };
-    let (hierarchy, current) = match (source, &config.memory) {
+    let (mut hierarchy, current) = match (source, &config.memory) {
         (Source::Staged(staged), Some(memory)) => crate::staged_build::hierarchy_and_counts(
             staged,
             frame,
@@ -494,7 +494,7 @@ fn build_in_pool(
     };
     let mut finished = FinishedPatches::new(spill_dir).map_err(temporary)?;
     let encoding = PatchEncoding {
-        vertex_count: input_vertices,
+        numbering_table: crate::simplify::numbering_table(input_vertices, spill_dir.is_some()),
         origin,
         bbox_min,
         step,
@@ -505,9 +505,11 @@ fn build_in_pool(
         (Source::Staged(staged), Some(memory)) => {
             let simplifier_of =
                 crate::staged_build::simplifier_positions(staged, &hierarchy.frame, memory)?;
+            // The leaves' lists go to the groups, which drop each once it is made.
+            let lists = std::mem::take(&mut hierarchy.leaf_triangles);
             let mut groups = LeafGroups::new(
                 staged,
-                &hierarchy,
+                lists,
                 &simplifier_of,
                 crate::staged_build::leaf_group_triangles(memory),
             );

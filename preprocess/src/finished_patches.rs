@@ -44,10 +44,11 @@ pub struct FinishedPatch {
     id_at: u64,
 }
 
-/// How a patch is encoded: the input's vertex count, the repository origin and the position
-/// grid (the positions and attributes are the patch's own).
+/// How a patch is encoded: how its vertices are numbered (`local_mesh`'s table: the input's
+/// vertex count, or none under a memory budget), the repository origin and the position grid
+/// (the positions and attributes are the patch's own).
 pub struct PatchEncoding {
-    pub vertex_count: usize,
+    pub numbering_table: Option<usize>,
     pub origin: [f64; 3],
     pub bbox_min: [f64; 3],
     pub step: [f64; 3],
@@ -204,7 +205,7 @@ fn encode(live: &LivePatch, encoding: &PatchEncoding) -> (Vec<u8>, Vec<u8>, Fini
     let patch = build_patch(
         tris,
         vertices,
-        encoding.vertex_count,
+        encoding.numbering_table,
         encoding.bbox_min,
         encoding.step,
     );

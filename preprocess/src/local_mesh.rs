@@ -25,8 +25,12 @@ pub(crate) struct LocalMesh {
     pub uses: Vec<u32>,
 }
 
-/// Numbers the vertices of `triangles` (global ids below `vertex_count`) in order of first use.
-pub(crate) fn local_mesh(triangles: &[[u32; 3]], vertex_count: usize) -> LocalMesh {
+/// Numbers the vertices of `triangles` in order of first use. `table`: the input's vertex
+/// count (every global id is below it) to number through a per-thread table of that many
+/// entries, or `None` for a hash map per call (under a memory budget, where a table per
+/// worker thread would not fit). Either way the same numbering.
+pub(crate) fn local_mesh(triangles: &[[u32; 3]], table: Option<usize>) -> LocalMesh {
+    let vertex_count = table.unwrap_or(usize::MAX);
     if vertex_count > TABLE_MAX_VERTICES {
         let mut local_of: HashMap<u32, u32> =
             HashMap::with_capacity_and_hasher(triangles.len(), Default::default());

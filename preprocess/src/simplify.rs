@@ -36,6 +36,7 @@ mod current_mesh;
 mod edge_census;
 mod live_store;
 mod local_edges;
+mod result_spill;
 
 use std::borrow::Cow;
 
@@ -57,6 +58,7 @@ use current_mesh::{edge_key, triangle_edges};
 use edge_census::count_edges;
 use live_store::LiveStore;
 use local_edges::LocalEdges;
+use result_spill::{Held, Payload, ResultSpill};
 
 pub use current_mesh::CurrentMesh;
 
@@ -76,7 +78,9 @@ pub struct Simplified {
 /// What simplifying one diamond produced.
 struct DiamondResult {
     diamond: usize,
-    patches: Vec<(SimplexKey, LivePatch)>,
+    /// Its new patches and vertex count changes (`effect.changes.vertices` is left empty),
+    /// in memory or spilled (`result_spill.rs`).
+    payload: Held,
     error: f32,
     locked: usize,
     effect: MergeEffect,
@@ -126,8 +130,9 @@ pub struct ConformityError {
 /// workers).
 struct Context<'a> {
     frame: &'a LatticeFrame,
-    /// The input's vertex count: every global id is below it.
-    vertex_count: usize,
+    /// The input's vertex count (every global id is below it) where `local_mesh` may number
+    /// through a per-thread table of that size; `None` under a tight memory budget.
+    numbering_table: Option<usize>,
     /// Model units per unit of `VertexTable::simplifier` (meshopt's errors are multiplied by
     /// it).
     size: f64,
@@ -248,7 +253,7 @@ pub fn simplify_from_leaves(
     let frame = &hierarchy.frame;
     let ctx = Context {
         frame,
-        vertex_count,
+        numbering_table: numbering_table(vertex_count, spill_dir.is_some()),
         size: frame.model_size(),
         settings: *settings,
     };
@@ -265,7 +270,7 @@ pub fn simplify_from_leaves(
             patches.insert(key, patch)?;
         }
     }
-    release_freed_memory();
+    crate::external::allocator::release_freed_memory();
     let mut own_error = vec![0.0f32; hierarchy.diamonds.len()];
     let mut locked_vertices = 0;
     let mut resimplified = 0;
@@ -275,6 +280,7 @@ pub fn simplify_from_leaves(
         by_level.chunk_by(|&a, &b| hierarchy.diamonds[a].level == hierarchy.diamonds[b].level)
     {
         let no_extra = HashSet::default();
+        let spill = ResultSpill::new(spill_dir)?;
         let mut pending: Vec<Pending> = level_group
             .par_iter()
             .map(|&d| {
@@ -286,6 +292,7 @@ pub fn simplify_from_leaves(
                         &patches,
                         &current,
                         &no_extra,
+                        &spill,
                     )?,
                     extra_locks: HashSet::default(),
                     attempts: 0,
@@ -309,26 +316,44 @@ pub fn simplify_from_leaves(
             }
             let (clean, dirty) = split_batch(pending, &counts);
             resimplified += dirty.len();
-            current.merge(clean.iter().map(|p| &p.result.effect.changes));
-            let made: Vec<(SimplexKey, &LivePatch)> = clean
-                .iter()
-                .flat_map(|p| p.result.patches.iter().map(|(k, patch)| (*k, patch)))
-                .collect();
-            finished(&made)?;
-            drop(made);
-            for p in clean {
-                let r = p.result;
-                own_error[r.diamond] = r.error;
-                locked_vertices += r.locked;
-                for s in &hierarchy.diamonds[r.diamond].simplices {
-                    for c in s.children() {
-                        live.remove(&c.key);
-                        patches.remove(&c.key)?;
-                    }
-                    live.insert(s.key);
+            // The batch merges a group of diamonds at a time (their payloads back in memory):
+            // count changes are sums, so the counts do not depend on the grouping.
+            let mut clean = clean.into_iter().peekable();
+            while clean.peek().is_some() {
+                let group: Vec<Pending> = clean.by_ref().take(MERGE_GROUP).collect();
+                let mut merged = Vec::with_capacity(group.len());
+                for p in group {
+                    let mut r = p.result;
+                    let Payload {
+                        patches: made,
+                        vertices,
+                    } = spill.take(std::mem::replace(
+                        &mut r.payload,
+                        Held::Memory(Payload::default()),
+                    ))?;
+                    r.effect.changes.vertices = vertices;
+                    merged.push((r, made));
                 }
-                for (key, patch) in r.patches {
-                    patches.insert(key, patch)?;
+                current.merge(merged.iter().map(|(r, _)| &r.effect.changes));
+                let list: Vec<(SimplexKey, &LivePatch)> = merged
+                    .iter()
+                    .flat_map(|(_, made)| made.iter().map(|(k, patch)| (*k, patch)))
+                    .collect();
+                finished(&list)?;
+                drop(list);
+                for (r, made) in merged {
+                    own_error[r.diamond] = r.error;
+                    locked_vertices += r.locked;
+                    for s in &hierarchy.diamonds[r.diamond].simplices {
+                        for c in s.children() {
+                            live.remove(&c.key);
+                            patches.remove(&c.key)?;
+                        }
+                        live.insert(s.key);
+                    }
+                    for (key, patch) in made {
+                        patches.insert(key, patch)?;
+                    }
                 }
             }
             // Simplify the others again against the mesh with the batch merged, with more
@@ -347,13 +372,14 @@ pub fn simplify_from_leaves(
                         &patches,
                         &current,
                         &p.extra_locks,
+                        &spill,
                     )?;
                     Ok(p)
                 })
                 .collect::<std::io::Result<_>>()?;
         }
         patches.compact()?;
-        release_freed_memory();
+        crate::external::allocator::release_freed_memory();
     }
     Ok(Simplified {
         own_error,
@@ -369,9 +395,10 @@ fn simplify_diamond(
     patches: &LiveStore,
     current: &CurrentMesh,
     extra_locks: &HashSet<u32>,
+    spill: &ResultSpill,
 ) -> std::io::Result<DiamondResult> {
     let (gathered, source, vertices) = gather(diamond, patches)?;
-    let local = local_mesh(&gathered, ctx.vertex_count);
+    let local = local_mesh(&gathered, ctx.numbering_table);
     // Interior vertices: every triangle using them is in the gathered set.
     let interior: Vec<bool> = local
         .global_of
@@ -428,7 +455,7 @@ fn simplify_diamond(
         ..b
     };
     let patches = distribute(ctx, diamond, &local, &source, &simplified, &vertices);
-    let effect = merge_effect(
+    let mut effect = merge_effect(
         &local,
         &interior,
         &gathered_edges,
@@ -436,9 +463,10 @@ fn simplify_diamond(
         &simplified,
         current,
     );
+    let vertices = std::mem::take(&mut effect.changes.vertices);
     Ok(DiamondResult {
         diamond: index,
-        patches,
+        payload: spill.hold(Payload { patches, vertices })?,
         error,
         locked,
         effect,
@@ -608,21 +636,14 @@ fn simplify_locked(
     (out, error)
 }
 
-/// Gives the memory freed back to the system (glibc keeps freed small blocks in its heap, so
-/// the resident size would otherwise stay at the level's high-water mark for the rest of the
-/// build; a `--memory` budget is about resident memory).
-fn release_freed_memory() {
-    #[cfg(all(target_os = "linux", target_env = "gnu"))]
-    {
-        extern "C" {
-            fn malloc_trim(pad: usize) -> i32;
-        }
-        // SAFETY: glibc's malloc_trim only returns free heap pages to the system.
-        unsafe {
-            malloc_trim(0);
-        }
-    }
+/// `local_mesh`'s table size: the vertex count, or none under a memory budget (a 4-byte entry
+/// per vertex and worker thread would grow with the input).
+pub(crate) fn numbering_table(vertex_count: usize, budgeted: bool) -> Option<usize> {
+    (!budgeted).then_some(vertex_count)
 }
+
+/// Diamonds of a batch whose payloads are back in memory at once while they merge.
+const MERGE_GROUP: usize = 256;
 
 /// What meshopt sees of an input position: relative to the model origin, in model sizes, in
 /// f32 (`separate_coincident` then moves apart distinct vertices that land on one point). The

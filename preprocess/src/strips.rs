@@ -12,17 +12,17 @@ use crate::vertex_table::VertexTable;
 /// Restart marker in `PatchData::strip` (the encoder narrows it to 0xFFFF for u16 patches).
 const RESTART: u32 = u32::MAX;
 
-/// Builds the patch of `triangles` (global ids below `vertex_count`, every one carried by
-/// `vertices`).
+/// Builds the patch of `triangles` (global ids, every one carried by `vertices`);
+/// `numbering_table` as `local_mesh` takes it.
 pub fn build_patch(
     triangles: &[[u32; 3]],
     vertices: &VertexTable,
-    vertex_count: usize,
+    numbering_table: Option<usize>,
     bbox_min: [f64; 3],
     step: [f64; 3],
 ) -> PatchData {
     // Local indices in first-appearance order.
-    let local = local_mesh(triangles, vertex_count);
+    let local = local_mesh(triangles, numbering_table);
     let (indices, globals) = (local.indices, local.global_of);
     let vertex_count = globals.len();
     let optimized = meshopt::optimize_vertex_cache_strip(&indices, vertex_count);

@@ -194,3 +194,45 @@ fn a_staged_mesh_with_attributes_and_sub_f32_detail_gives_the_same_bytes() {
         assert!(info.contains(attribute), "{attribute} missing: {info}");
     }
 }
+
+/// `--memory` is a bound on resident memory (issue 12: "Peak RSS (VmHWM) stays under SIZE"),
+/// checked at the scale CI affords: 2 M triangles with shuffled vertices in 64 MiB, every
+/// stage's own peak (`stages[].peak_rss_bytes`: VmHWM, reset at each stage) within it.
+#[test]
+fn a_2m_triangle_build_stays_within_64_mib() {
+    let dir = tempfile::tempdir().unwrap();
+    let generated = dir.path().join("g2m.ply");
+    tessera(&[
+        "gen",
+        "mesh",
+        "--triangles",
+        "2000000",
+        "--shuffle-vertices",
+        "-o",
+        generated.to_str().unwrap(),
+    ]);
+    let out = Command::new(env!("CARGO_BIN_EXE_tessera"))
+        .args(["build", generated.to_str().unwrap(), "-o"])
+        .arg(dir.path().join("g2m.tsr"))
+        .args(["--memory", "64M", "--json"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let budget = 64u64 << 20;
+    for stage in json["stages"].as_array().unwrap() {
+        let peak = stage["peak_rss_bytes"]
+            .as_u64()
+            .expect("Linux reports VmHWM");
+        assert!(
+            peak <= budget,
+            "stage {} peaked at {:.1} MiB, over --memory 64M: {json}",
+            stage["stage"],
+            peak as f64 / (1 << 20) as f64
+        );
+    }
+}

@@ -13,7 +13,7 @@ use tessera_core::leb::SimplexKey;
 use super::sort::sort_external;
 use super::staged::{RecordReader, StagedMesh};
 use crate::frame::LatticeFrame;
-use crate::hierarchy::{BarycentreSource, Hierarchy};
+use crate::hierarchy::BarycentreSource;
 use crate::vertex_table::{LivePatch, VertexTable};
 
 /// The barycentres of a staged mesh's triangles, as `frame.barycentre` of their corners (the
@@ -151,7 +151,9 @@ pub fn coincident_nudges(
 /// table comes out sorted by id. Nothing is written to disk.
 pub struct LeafGroups<'a> {
     staged: &'a StagedMesh,
-    hierarchy: &'a Hierarchy,
+    /// Each leaf's triangle indices (the hierarchy's `leaf_triangles`, taken from it), each
+    /// list dropped once its group is made.
+    lists: HashMap<SimplexKey, Vec<u32>>,
     simplifier_of: &'a dyn Fn(u32, [f64; 3]) -> [f32; 3],
     keys: Vec<SimplexKey>,
     next: usize,
@@ -161,15 +163,15 @@ pub struct LeafGroups<'a> {
 impl<'a> LeafGroups<'a> {
     pub fn new(
         staged: &'a StagedMesh,
-        hierarchy: &'a Hierarchy,
+        lists: HashMap<SimplexKey, Vec<u32>>,
         simplifier_of: &'a dyn Fn(u32, [f64; 3]) -> [f32; 3],
         max_triangles: usize,
     ) -> Self {
-        let mut keys: Vec<SimplexKey> = hierarchy.leaf_triangles.keys().copied().collect();
+        let mut keys: Vec<SimplexKey> = lists.keys().copied().collect();
         keys.sort_unstable();
         LeafGroups {
             staged,
-            hierarchy,
+            lists,
             simplifier_of,
             keys,
             next: 0,
@@ -182,7 +184,7 @@ impl<'a> LeafGroups<'a> {
         if self.next == self.keys.len() {
             return Ok(None);
         }
-        let lists = &self.hierarchy.leaf_triangles;
+        let lists = &mut self.lists;
         let mut end = self.next;
         let mut triangles = 0;
         while end < self.keys.len() && (end == self.next || triangles < self.max_triangles) {
@@ -194,20 +196,22 @@ impl<'a> LeafGroups<'a> {
         // (triangle, leaf in the group), by triangle. A leaf lists its triangles in ascending
         // order (both constructions keep the input's), so taking them in file order keeps it.
         let mut wanted: Vec<(u32, u32)> = Vec::with_capacity(triangles);
+        let mut sizes = Vec::with_capacity(keys.len());
         for (leaf, k) in keys.iter().enumerate() {
-            let list = &lists[k];
+            let list = lists.remove(k).expect("every leaf has a list");
             assert!(
                 list.windows(2).all(|w| w[0] < w[1]),
                 "leaf {k:?} lists its triangles out of order"
             );
+            sizes.push(list.len());
             wanted.extend(list.iter().map(|&t| (t, leaf as u32)));
         }
         wanted.sort_unstable();
         let attributes = &self.staged.attributes;
-        let mut patches: Vec<LivePatch> = keys
+        let mut patches: Vec<LivePatch> = sizes
             .iter()
-            .map(|k| LivePatch {
-                triangles: Vec::with_capacity(lists[k].len()),
+            .map(|&n| LivePatch {
+                triangles: Vec::with_capacity(n),
                 vertices: VertexTable {
                     normals: attributes.normals.is_some().then(Vec::new),
                     colors: attributes.colors.is_some().then(Vec::new),

@@ -3,6 +3,7 @@
 //! in-memory path computes (tests compare them), so an out-of-core build can give the same
 //! repository bytes.
 
+pub mod allocator;
 pub mod joins;
 pub mod sort;
 pub mod staged;

@@ -145,7 +145,7 @@ impl DiskStore {
     }
 
     fn append(&mut self, key: SimplexKey, patch: &LivePatch) -> io::Result<()> {
-        let bytes = encode(patch);
+        let bytes = encode_patch(patch);
         self.file.write_all_at(&bytes, self.end)?;
         self.index
             .insert(key, (self.end, patch.triangles.len() as u32));
@@ -160,7 +160,7 @@ impl DiskStore {
         self.file.read_exact_at(&mut head, at)?;
         let mut bytes = vec![0u8; record_bytes(&head) as usize];
         self.file.read_exact_at(&mut bytes, at)?;
-        Ok(decode(&bytes))
+        Ok(decode_patch(&bytes))
     }
 }
 
@@ -180,7 +180,8 @@ fn record_bytes(head: &[u8]) -> u64 {
     (HEAD + 12 * t + per_vertex * v) as u64
 }
 
-fn encode(patch: &LivePatch) -> Vec<u8> {
+/// A patch's record (also `result_spill.rs`'s).
+pub(super) fn encode_patch(patch: &LivePatch) -> Vec<u8> {
     let v = &patch.vertices;
     let bits = (v.normals.is_some() as u32 * NORMALS)
         | (v.colors.is_some() as u32 * COLORS)
@@ -206,7 +207,8 @@ fn encode(patch: &LivePatch) -> Vec<u8> {
     out
 }
 
-fn decode(bytes: &[u8]) -> LivePatch {
+/// The patch of a record written by `encode_patch`.
+pub(super) fn decode_patch(bytes: &[u8]) -> LivePatch {
     let (t, v, bits) = head_fields(bytes);
     let mut at = HEAD;
     let mut take = |n: usize| {
