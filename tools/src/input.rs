@@ -136,21 +136,8 @@ pub fn load_input_staged(
     if is_stdin(path) && std::io::stdin().is_terminal() {
         bail!("standard input is a terminal: pipe a PLY mesh into `-`");
     }
-    let report = match read_mesh(path, staging) {
-        Ok(report) => report,
-        Err(e) if matches!(e.kind, ImportErrorKind::UnsupportedExtension(_)) => {
-            bail!(
-                "{e}; height fields: {}",
-                tessera_preprocess::dem::DEM_EXTENSIONS
-            )
-        }
-        Err(e) => return Err(e.into()),
-    };
-    let domain = if args.heightfield {
-        Domain::HeightField
-    } else {
-        Domain::Volume
-    };
+    let report = read_mesh(path, staging).map_err(import_error)?;
+    let domain = mesh_domain(args);
     let mut mesh = report.mesh;
     if options.vertical_exaggeration != 1.0 {
         for p in &mut mesh.positions {
@@ -232,22 +219,9 @@ pub fn load_build_input(
             budget as usize,
         )?
     } else {
-        match tessera_preprocess::import::stage_mesh(path, dir, budget as usize) {
-            Ok(staged) => staged,
-            Err(e) if matches!(e.kind, ImportErrorKind::UnsupportedExtension(_)) => {
-                bail!(
-                    "{e}; height fields: {}",
-                    tessera_preprocess::dem::DEM_EXTENSIONS
-                )
-            }
-            Err(e) => return Err(e.into()),
-        }
+        tessera_preprocess::import::stage_mesh(path, dir, budget as usize).map_err(import_error)?
     };
-    let domain = if args.heightfield {
-        Domain::HeightField
-    } else {
-        Domain::Volume
-    };
+    let domain = mesh_domain(args);
     let description = format!(
         "mesh ({} triangles, {} vertices; staged on disk)",
         staged.triangles.len(),
@@ -258,6 +232,27 @@ pub fn load_build_input(
         domain,
         description,
     })
+}
+
+/// An importer's error; an unknown extension also lists the height-field ones.
+fn import_error(e: ImportError) -> anyhow::Error {
+    if matches!(e.kind, ImportErrorKind::UnsupportedExtension(_)) {
+        anyhow::anyhow!(
+            "{e}; height fields: {}",
+            tessera_preprocess::dem::DEM_EXTENSIONS
+        )
+    } else {
+        e.into()
+    }
+}
+
+/// A mesh file builds the 3D hierarchy, or the 2D one with `--heightfield`.
+fn mesh_domain(args: &HeightFieldArgs) -> Domain {
+    if args.heightfield {
+        Domain::HeightField
+    } else {
+        Domain::Volume
+    }
 }
 
 /// Whether `path` means standard input (`-`).

@@ -43,6 +43,21 @@ fn tessera(args: &[&str]) {
     );
 }
 
+/// `gen mesh --triangles 2000000 --shuffle-vertices FLAGS` into `dir/g2m.ply`.
+fn generate_2m(dir: &Path, flags: &[&str]) -> std::path::PathBuf {
+    let generated = dir.join("g2m.ply");
+    let base = [
+        "gen",
+        "mesh",
+        "--triangles",
+        "2000000",
+        "--shuffle-vertices",
+    ];
+    let out = ["-o", generated.to_str().unwrap()];
+    tessera(&[&base[..], flags, &out[..]].concat());
+    generated
+}
+
 #[test]
 fn thread_count_does_not_change_a_byte() {
     let dir = tempfile::tempdir().unwrap();
@@ -66,18 +81,7 @@ fn thread_count_does_not_change_a_byte() {
 #[test]
 fn a_memory_budget_does_not_change_a_byte() {
     let dir = tempfile::tempdir().unwrap();
-    let generated = dir.path().join("g2m.ply");
-    tessera(&[
-        "gen",
-        "mesh",
-        "--triangles",
-        "2000000",
-        "--shuffle-vertices",
-        "--density-range",
-        "1000",
-        "-o",
-        generated.to_str().unwrap(),
-    ]);
+    let generated = generate_2m(dir.path(), &["--density-range", "1000"]);
     let temp = dir.path().join("temp");
     std::fs::create_dir(&temp).unwrap();
     let cases: [(std::path::PathBuf, &[&str]); 4] = [
@@ -201,16 +205,7 @@ fn a_staged_mesh_with_attributes_and_sub_f32_detail_gives_the_same_bytes() {
 #[test]
 fn a_2m_triangle_build_stays_within_64_mib() {
     let dir = tempfile::tempdir().unwrap();
-    let generated = dir.path().join("g2m.ply");
-    tessera(&[
-        "gen",
-        "mesh",
-        "--triangles",
-        "2000000",
-        "--shuffle-vertices",
-        "-o",
-        generated.to_str().unwrap(),
-    ]);
+    let generated = generate_2m(dir.path(), &[]);
     let out = Command::new(env!("CARGO_BIN_EXE_tessera"))
         .args(["build", generated.to_str().unwrap(), "-o"])
         .arg(dir.path().join("g2m.tsr"))
