@@ -513,8 +513,17 @@ fn build_in_pool(
                 &simplifier_of,
                 crate::staged_build::leaf_group_triangles(memory),
             );
+            // Once the last group is made, nothing reads the staged mesh again: its files are
+            // emptied (the caller still owns them), which frees their disk space.
+            let mut next = || {
+                let group = groups.next_group()?;
+                if group.is_none() {
+                    staged.discard()?;
+                }
+                Ok(group)
+            };
             simplify_from_leaves(
-                &mut || groups.next_group(),
+                &mut next,
                 input_vertices,
                 &hierarchy,
                 current,

@@ -83,7 +83,7 @@ where
             let mut file = tempfile::tempfile_in(temp_dir)?;
             let mut writer = BufWriter::with_capacity(MERGE_BUFFER, &mut file);
             let mut records = 0;
-            let mut charge = Charge::new();
+            let charge = Charge::new();
             for record in Merge::<T>::new(group.iter().map(Run::share).collect())? {
                 writer.write_all(bytemuck::bytes_of(&record?))?;
                 records += 1;
@@ -166,7 +166,7 @@ fn write_run<T: Pod>(records: &[T], temp_dir: &Path, stats: &mut SortStats) -> i
     file.write_all(bytes)?;
     stats.runs += 1;
     stats.bytes_written += bytes.len() as u64;
-    let mut charge = Charge::new();
+    let charge = Charge::new();
     charge.grow(bytes.len() as u64);
     Ok(Run {
         file,

@@ -25,7 +25,7 @@ pub(super) const IO_BUFFER: usize = 1 << 20;
 pub struct RecordFile<T: Pod> {
     file: File,
     records: u64,
-    _charge: Charge,
+    charge: Charge,
     _record: PhantomData<T>,
 }
 
@@ -53,6 +53,13 @@ impl<T: Pod> RecordFile<T> {
     /// Bytes on disk.
     pub fn bytes(&self) -> u64 {
         self.records * std::mem::size_of::<T>() as u64
+    }
+
+    /// Empties the file (its disk space is freed; the records are gone, reading fails).
+    pub fn discard(&self) -> io::Result<()> {
+        self.file.set_len(0)?;
+        self.charge.release();
+        Ok(())
     }
 
     /// Streams every record from the first.
@@ -106,7 +113,7 @@ impl<T: Pod> RecordWriter<T> {
         Ok(RecordFile {
             file,
             records: self.records,
-            _charge: self.charge,
+            charge: self.charge,
             _record: PhantomData,
         })
     }
@@ -290,6 +297,23 @@ impl StagedMesh {
         })
     }
 
+    /// Empties every file (once the build has taken all it needs: their disk space is freed).
+    pub fn discard(&self) -> io::Result<()> {
+        self.positions.discard()?;
+        self.triangles.discard()?;
+        let a = &self.attributes;
+        if let Some(f) = &a.normals {
+            f.discard()?;
+        }
+        if let Some(f) = &a.colors {
+            f.discard()?;
+        }
+        if let Some(f) = &a.uvs {
+            f.discard()?;
+        }
+        Ok(())
+    }
+
     /// Bytes of its files.
     pub fn bytes(&self) -> u64 {
         let a = &self.attributes;
@@ -298,5 +322,27 @@ impl StagedMesh {
             + a.normals.as_ref().map_or(0, RecordFile::bytes)
             + a.colors.as_ref().map_or(0, RecordFile::bytes)
             + a.uvs.as_ref().map_or(0, RecordFile::bytes)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_discarded_file_gives_back_its_disk_and_cannot_be_read() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut writer = RecordFile::<[u32; 3]>::create(dir.path()).unwrap();
+        for i in 0..1000u32 {
+            writer.push(&[i, i + 1, i + 2]).unwrap();
+        }
+        let file = writer.finish().unwrap();
+        assert_eq!(file.file.metadata().unwrap().len(), 12_000);
+        assert_eq!(file.charge.bytes(), 12_000);
+        assert_eq!(file.read_all().unwrap()[999], [999, 1000, 1001]);
+        file.discard().unwrap();
+        assert_eq!(file.file.metadata().unwrap().len(), 0);
+        assert_eq!(file.charge.bytes(), 0);
+        assert!(file.read_all().is_err(), "a discarded file read as if whole");
     }
 }

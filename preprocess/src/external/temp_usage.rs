@@ -23,30 +23,36 @@ pub fn reset_peak() {
     PEAK.store(current(), Ordering::Relaxed);
 }
 
-/// The bytes one temporary file holds, counted in the totals until dropped.
+/// The bytes one temporary file holds, counted in the totals until dropped or released.
 #[derive(Debug, Default)]
-pub struct Charge(u64);
+pub struct Charge(AtomicU64);
 
 impl Charge {
     pub fn new() -> Charge {
-        Charge(0)
+        Charge(AtomicU64::new(0))
     }
 
     /// The file grew by `bytes`.
-    pub fn grow(&mut self, bytes: u64) {
-        self.0 += bytes;
+    pub fn grow(&self, bytes: u64) {
+        self.0.fetch_add(bytes, Ordering::Relaxed);
         let now = CURRENT.fetch_add(bytes, Ordering::Relaxed) + bytes;
         PEAK.fetch_max(now, Ordering::Relaxed);
     }
 
+    /// The file was emptied.
+    pub fn release(&self) {
+        let held = self.0.swap(0, Ordering::Relaxed);
+        CURRENT.fetch_sub(held, Ordering::Relaxed);
+    }
+
     /// Bytes charged.
     pub fn bytes(&self) -> u64 {
-        self.0
+        self.0.load(Ordering::Relaxed)
     }
 }
 
 impl Drop for Charge {
     fn drop(&mut self) {
-        CURRENT.fetch_sub(self.0, Ordering::Relaxed);
+        self.release();
     }
 }

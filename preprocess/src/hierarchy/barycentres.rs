@@ -82,7 +82,7 @@ impl SpooledBarycentres {
             out.flush()?;
         }
         let triangles = order.finish(None)?;
-        let mut charge = crate::external::temp_usage::Charge::new();
+        let charge = crate::external::temp_usage::Charge::new();
         charge.grow(triangles * RECORD_BYTES as u64);
         Ok(SpooledBarycentres {
             file,

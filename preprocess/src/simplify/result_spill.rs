@@ -12,7 +12,6 @@ use std::io;
 use std::os::unix::fs::FileExt;
 use std::path::Path;
 use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::Mutex;
 
 use tessera_core::leb::SimplexKey;
 
@@ -38,7 +37,7 @@ pub(super) enum Held {
 pub(super) struct ResultSpill {
     file: Option<File>,
     end: AtomicU64,
-    charge: Mutex<Charge>,
+    charge: Charge,
 }
 
 impl ResultSpill {
@@ -46,7 +45,7 @@ impl ResultSpill {
         Ok(ResultSpill {
             file: dir.map(tempfile::tempfile_in).transpose()?,
             end: AtomicU64::new(0),
-            charge: Mutex::new(Charge::new()),
+            charge: Charge::new(),
         })
     }
 
@@ -58,10 +57,7 @@ impl ResultSpill {
         let bytes = encode(&payload);
         let at = self.end.fetch_add(bytes.len() as u64, Ordering::Relaxed);
         file.write_all_at(&bytes, at)?;
-        self.charge
-            .lock()
-            .unwrap_or_else(|e| e.into_inner())
-            .grow(bytes.len() as u64);
+        self.charge.grow(bytes.len() as u64);
         Ok(Held::Spilled {
             at,
             bytes: bytes.len() as u64,
