@@ -343,6 +343,9 @@ mod tests {
         file.discard().unwrap();
         assert_eq!(file.file.metadata().unwrap().len(), 0);
         assert_eq!(file.charge.bytes(), 0);
-        assert!(file.read_all().is_err(), "a discarded file read as if whole");
+        assert!(
+            file.read_all().is_err(),
+            "a discarded file read as if whole"
+        );
     }
 }
