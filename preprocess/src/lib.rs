@@ -6,6 +6,7 @@
 //! Architecture invariant: nothing here knows the GPU; the runtime never imports this crate.
 
 pub mod build;
+mod build_config;
 pub mod dem;
 pub mod diamond_square;
 pub mod external;

@@ -33,31 +33,37 @@ mod batches;
 mod coincident;
 mod conformity;
 mod current_mesh;
+mod distribute;
 mod edge_census;
 mod live_store;
 mod local_edges;
+mod positions;
 mod result_spill;
 
 use std::borrow::Cow;
 
-use rustc_hash::{FxHashMap as HashMap, FxHashSet as HashSet};
+use rustc_hash::FxHashSet as HashSet;
 
 use meshopt::{SimplifyOptions, VertexDataAdapter};
 use rayon::prelude::*;
-use tessera_core::leb::{Diamond, PreparedSimplex, Simplex, SimplexKey};
+use tessera_core::leb::{Diamond, SimplexKey};
 
 use crate::frame::LatticeFrame;
 use crate::hierarchy::Hierarchy;
-use crate::local_mesh::{local_mesh, LocalMesh};
+use crate::local_mesh::local_mesh;
 use crate::mesh::InputMesh;
 use crate::vertex_table::{LivePatch, VertexTable};
 use batches::{merge_effect, query_edges, split_batch, MergeEffect, Pending};
 use coincident::cancel_coincident_pairs;
 use conformity::{border_break, BorderBreak};
 use current_mesh::{edge_key, triangle_edges};
+use distribute::distribute;
 use edge_census::count_edges;
 use live_store::LiveStore;
 use local_edges::LocalEdges;
+pub(crate) use positions::numbering_table;
+use positions::separate_coincident;
+pub use positions::{simplifier_position, ulp_step};
 use result_spill::{Held, Payload, ResultSpill};
 
 pub use current_mesh::CurrentMesh;
@@ -511,62 +517,6 @@ fn gather_patches<'p>(diamond: &Diamond, patches: &'p LiveStore) -> std::io::Res
     Ok((gathered, source, children))
 }
 
-/// Hands the simplified triangles (`simplified`, local ids) to the simplices of D: a triangle
-/// the simplifier kept stays with the simplex it came from (`source`; its barycentre is in
-/// that simplex's child), a new one goes to the simplex holding its barycentre.
-fn distribute(
-    ctx: &Context,
-    diamond: &Diamond,
-    local: &LocalMesh,
-    source: &[u8],
-    simplified: &[u32],
-    vertices: &VertexTable,
-) -> Vec<(SimplexKey, LivePatch)> {
-    let mut out: Vec<(SimplexKey, Vec<[u32; 3]>)> = diamond
-        .simplices
-        .iter()
-        .map(|s| {
-            let share = simplified.len() / 3 / diamond.simplices.len();
-            (s.key, Vec::with_capacity(share + 8))
-        })
-        .collect();
-    // Keys are local ids in the triangle's own rotation; a repeated triangle keeps its last
-    // source.
-    let key = |t: &[u32]| ((t[0] as u128) << 64) | ((t[1] as u128) << 32) | t[2] as u128;
-    let came_from: HashMap<u128, u8> = local
-        .indices
-        .chunks_exact(3)
-        .zip(source)
-        .map(|(t, &slot)| (key(t), slot))
-        .collect();
-    let prepared: Vec<PreparedSimplex> = diamond.simplices.iter().map(Simplex::prepared).collect();
-    for t in simplified.chunks_exact(3) {
-        let tri = [0, 1, 2].map(|k| local.global_of[t[k] as usize]);
-        let slot = match came_from.get(&key(t)) {
-            Some(&slot) => slot as usize,
-            None => holder(
-                &diamond.simplices,
-                &prepared,
-                ctx.frame
-                    .barycentre(tri.map(|g| vertices.positions[vertices.row(g)])),
-            ),
-        };
-        out[slot].1.push(tri);
-    }
-    out.into_iter()
-        .map(|(key, triangles)| {
-            let vertices = vertices.subset(&triangles);
-            (
-                key,
-                LivePatch {
-                    triangles,
-                    vertices,
-                },
-            )
-        })
-        .collect()
-}
-
 /// Locks a vertex when the rest of the current mesh also uses it (it is not interior), or when
 /// it lies on a non-manifold edge of the gathered set, or (with `keep_borders`) on a border
 /// edge (holes of the scan): all keep every conforming cut's borders where the input has them.
@@ -636,75 +586,5 @@ fn simplify_locked(
     (out, error)
 }
 
-/// `local_mesh`'s table size: the vertex count, or none under a memory budget (a 4-byte entry
-/// per vertex and worker thread would grow with the input).
-pub(crate) fn numbering_table(vertex_count: usize, budgeted: bool) -> Option<usize> {
-    (!budgeted).then_some(vertex_count)
-}
-
 /// Diamonds of a batch whose payloads are back in memory at once while they merge.
 const MERGE_GROUP: usize = 256;
-
-/// What meshopt sees of an input position: relative to the model origin, in model sizes, in
-/// f32 (`separate_coincident` then moves apart distinct vertices that land on one point). The
-/// staged build (`staged_build.rs`) computes the same.
-pub fn simplifier_position(frame: &LatticeFrame, p: [f64; 3]) -> [f32; 3] {
-    let size = frame.model_size();
-    frame.relative(p).map(|x| (x / size) as f32)
-}
-
-/// Moves apart, by a few f32 ulps, distinct vertices whose f32 positions coincide (detail
-/// below f32 resolution; the welded input has no two vertices at the same f64 position).
-///
-/// Why: meshopt identifies vertices by position (attribute "wedges") and drops every triangle
-/// with two corners at one position, even a triangle no collapse touched, so a closed surface
-/// of such detail would come out open — a crack by ids. With every position unique, meshopt
-/// sees only the topology we give it. The nudge (a relative 1e-7 of the model) changes the
-/// simplifier's decisions, not the stored positions, which come from the f64 input.
-fn separate_coincident(positions: &mut [[f32; 3]]) {
-    let key = |p: &[f32; 3]| p.map(f32::to_bits);
-    let mut order: Vec<u32> = (0..positions.len() as u32).collect();
-    order.par_sort_unstable_by_key(|&v| (key(&positions[v as usize]), v));
-    let duplicates: Vec<u32> = order
-        .chunk_by(|&a, &b| key(&positions[a as usize]) == key(&positions[b as usize]))
-        .flat_map(|run| run[1..].iter().copied())
-        .collect();
-    if duplicates.is_empty() {
-        return; // the common case
-    }
-    let mut taken: HashSet<[u32; 3]> = positions.iter().map(key).collect();
-    for v in duplicates {
-        // Step x, then y, then z up one ulp at a time until the position is free.
-        let mut p = positions[v as usize];
-        for k in 0.. {
-            let axis = k % 3;
-            p[axis] = p[axis].next_up();
-            if taken.insert(key(&p)) {
-                break;
-            }
-        }
-        positions[v as usize] = p;
-    }
-}
-
-/// The simplex of the diamond that holds `b` (`prepared` are the simplices' facet planes);
-/// when simplification moved a triangle's barycentre outside the diamond, the simplex with the
-/// nearest centroid.
-fn holder(simplices: &[Simplex], prepared: &[PreparedSimplex], b: [f64; 3]) -> usize {
-    if let Some(i) = prepared.iter().position(|s| s.contains_point(b)) {
-        return i;
-    }
-    let centroid = |s: &Simplex| {
-        let mut c = [0.0; 3];
-        for v in &s.vertices[..4] {
-            for i in 0..3 {
-                c[i] += v[i] as f64 / 4.0;
-            }
-        }
-        c
-    };
-    let dist2 = |c: [f64; 3]| (0..3).map(|i| (c[i] - b[i]).powi(2)).sum::<f64>();
-    (0..simplices.len())
-        .min_by(|&x, &y| dist2(centroid(&simplices[x])).total_cmp(&dist2(centroid(&simplices[y]))))
-        .unwrap_or(0)
-}

@@ -86,20 +86,20 @@ pub struct RenderBenchArgs {
 
 /// The timings of one subject's timed frames.
 #[derive(Clone, Debug, Default)]
-struct Timings {
-    gpu_ms: Vec<f64>,
-    wall_ms: Vec<f64>,
-    cpu_ms: Vec<f64>,
+pub(crate) struct Timings {
+    pub gpu_ms: Vec<f64>,
+    pub wall_ms: Vec<f64>,
+    pub cpu_ms: Vec<f64>,
 }
 
 impl Timings {
-    fn gpu_median(&self) -> Option<f64> {
+    pub fn gpu_median(&self) -> Option<f64> {
         percentile(&self.gpu_ms, 0.5)
     }
 }
 
 /// The nearest-rank percentile `q` in (0, 1] of `values`; `None` when empty.
-fn percentile(values: &[f64], q: f64) -> Option<f64> {
+pub(crate) fn percentile(values: &[f64], q: f64) -> Option<f64> {
     if values.is_empty() {
         return None;
     }
@@ -170,7 +170,7 @@ pub fn run(args: RenderBenchArgs) -> anyhow::Result<Outcome> {
     // The GPU side: both renderers resident at once.
     let ctx = args.gpu.context()?;
     if args.stream {
-        return run_streaming(&args, &ctx, repo, camera, orbit);
+        return crate::bench_render_stream::run_streaming(&args, &ctx, repo, camera, orbit);
     }
     let mut renderer = args
         .gpu
@@ -313,26 +313,16 @@ pub fn run(args: RenderBenchArgs) -> anyhow::Result<Outcome> {
         v["draw_calls"] = json!(1);
         v
     });
-    let value = json!({
-        "adapter": ctx.adapter_description(),
-        "backend": ctx.backend.name(),
-        "repository": args.repository.display().to_string(),
-        "model_triangles": h.input_triangle_count,
-        "simplices": repo.tets().len(),
-        "size": {"width": camera.width, "height": camera.height},
-        "camera": {
-            "orbit": orbit,
-            "eye": camera.eye,
-            "target": camera.target,
-            "up": camera.up,
-            "fov_y_degrees": camera.fov_y_degrees,
-        },
-        "frames": args.frames,
-        "warm_up_frames": WARM_UP_FRAMES,
-        "full_resolution": full_json,
-        "rows": rows,
-        "memory": crate::peak_rss::MemoryNow::json(crate::peak_rss::MemoryNow::read(), None),
-    });
+    let mut value = report(
+        &args,
+        &ctx,
+        (h.input_triangle_count, repo.tets().len()),
+        &camera,
+        orbit,
+        rows,
+    );
+    value["full_resolution"] = json!(full_json);
+    value["memory"] = crate::peak_rss::MemoryNow::json(crate::peak_rss::MemoryNow::read(), None);
     if args.json {
         println!("{value}");
     } else {
@@ -341,101 +331,20 @@ pub fn run(args: RenderBenchArgs) -> anyhow::Result<Outcome> {
     Ok(Outcome::Ok)
 }
 
-/// Most frames drawn per τ while the stream settles.
-const SETTLE_FRAMES: usize = 1000;
-
-/// `--stream`: the streaming renderer (`gpu_args::streaming`), τ after τ. Per τ: frames until
-/// settled (at most `SETTLE_FRAMES`), then the warm-up and timed frames of the settled view,
-/// each waited for; `cpu_ms` is the streamer's whole frame call (landing units, recording,
-/// submit, feedback, plan). The memory is read at the end (the process's resident set, the
-/// GPU's allocations by the budget's accounting, RssAnon sampled after every frame).
-fn run_streaming(
+/// The fields every `bench render` report has (the subjects add theirs).
+pub(crate) fn report(
     args: &RenderBenchArgs,
     ctx: &tessera_runtime::gpu::GpuContext,
-    repo: std::sync::Arc<Repository>,
-    camera: Camera,
+    (model_triangles, simplices): (u64, usize),
+    camera: &Camera,
     orbit: [f64; 3],
-) -> anyhow::Result<Outcome> {
-    use crate::gpu_args::device_failure;
-    let h = *repo.header();
-    let simplices = repo.tets().len();
-    let (mut renderer, mut streamer) =
-        args.gpu
-            .streaming(ctx, repo, (camera.width, camera.height))?;
-    let mut anon_peak = crate::peak_rss::AnonPeak::default();
-    anon_peak.sample();
-    let mut rows = Vec::new();
-    for &tau in &args.tolerances {
-        let request = FrameRequest::new(camera, tau);
-        let mut settled_after = None;
-        for k in 1..=SETTLE_FRAMES {
-            let f = streamer
-                .frame(ctx, &mut renderer, &request, Readback::default())
-                .map_err(device_failure)?;
-            ctx.wait_idle()?;
-            anon_peak.sample();
-            if f.settled {
-                settled_after = Some(k);
-                break;
-            }
-        }
-        let mut t = Timings::default();
-        for round in 0..WARM_UP_FRAMES + args.frames {
-            let start = Instant::now();
-            streamer
-                .frame(ctx, &mut renderer, &request, Readback::default())
-                .map_err(device_failure)?;
-            let cpu_ms = start.elapsed().as_secs_f64() * 1e3;
-            ctx.wait_idle()?;
-            let wall_ms = start.elapsed().as_secs_f64() * 1e3;
-            anon_peak.sample();
-            if round >= WARM_UP_FRAMES {
-                t.gpu_ms.extend(renderer.read_gpu_ms(ctx)?);
-                t.wall_ms.push(wall_ms);
-                t.cpu_ms.push(cpu_ms);
-            }
-        }
-        // One more frame, read back: what this τ drew.
-        let last = streamer
-            .frame(
-                ctx,
-                &mut renderer,
-                &request,
-                Readback {
-                    image: args.save_frames.is_some(),
-                    selection: true,
-                },
-            )
-            .map_err(device_failure)?;
-        let selection = renderer.read_selection(ctx)?;
-        if args.save_frames.is_some() {
-            let image = renderer.read_image(ctx)?;
-            save_frame(&image, args.save_frames.as_deref(), &format!("tau-{tau}"))?;
-        }
-        rows.push(json!({
-            "tolerance": tau,
-            "patches": selection.len(),
-            "triangles": renderer.triangles_of(&selection),
-            "gpu_ms_median": t.gpu_median(),
-            "gpu_ms_p90": percentile(&t.gpu_ms, 0.9),
-            "wall_ms_median": percentile(&t.wall_ms, 0.5),
-            "cpu_ms_median": percentile(&t.cpu_ms, 0.5),
-            "cpu_ms_p90": percentile(&t.cpu_ms, 0.9),
-            "speedup_vs_full": null,
-            "wall_speedup_vs_full": null,
-            "frames_to_converge": settled_after,
-            "resident_patches": streamer.resident_patches(),
-            "resident_patch_bytes": last.stats.resident_bytes,
-            "pending_units": last.stats.pending_units,
-        }));
-    }
-    let gpu = streamer.stats();
-    let memory = anon_peak.sample();
-    let value = json!({
+    rows: Vec<serde_json::Value>,
+) -> serde_json::Value {
+    json!({
         "adapter": ctx.adapter_description(),
         "backend": ctx.backend.name(),
         "repository": args.repository.display().to_string(),
-        "model_triangles": h.input_triangle_count,
+        "model_triangles": model_triangles,
         "simplices": simplices,
         "size": {"width": camera.width, "height": camera.height},
         "camera": {
@@ -447,36 +356,8 @@ fn run_streaming(
         },
         "frames": args.frames,
         "warm_up_frames": WARM_UP_FRAMES,
-        "full_resolution": null,
         "rows": rows,
-        "stream": {
-            "budget_bytes": args.gpu.budget_bytes(ctx),
-            "resident_bytes": gpu.gpu_bytes,
-            "fixed_bytes": gpu.fixed_bytes,
-            "record_slots": gpu.record_slots,
-            "record_bytes": gpu.record_bytes,
-            "pool_bytes": gpu.pool_bytes,
-            "loaded_bytes": streamer.residency().stats().loaded_bytes,
-            "evictions": streamer.residency().stats().evictions,
-        },
-        "memory": crate::peak_rss::MemoryNow::json(memory, anon_peak.bytes()),
-    });
-    if args.json {
-        println!("{value}");
-    } else {
-        print_table(&value);
-        let (s, m) = (&value["stream"], &value["memory"]);
-        println!(
-            "streamed: {} GPU bytes allocated of {} budget; peak RSS {} B, RssAnon {} B at the end \
-             (sampled max {} B)",
-            s["resident_bytes"],
-            s["budget_bytes"],
-            m["peak_rss_bytes"],
-            m["rss_anon_bytes"],
-            m["rss_anon_peak_sampled_bytes"]
-        );
-    }
-    Ok(Outcome::Ok)
+    })
 }
 
 /// Loads the source mesh and places it in the repository's frame; refuses a mesh that is
@@ -532,7 +413,11 @@ pub(crate) fn load_source_mesh(path: &Path, repo: &Repository) -> anyhow::Result
     Ok(mesh)
 }
 
-fn save_frame(image: &image::RgbaImage, dir: Option<&Path>, name: &str) -> anyhow::Result<()> {
+pub(crate) fn save_frame(
+    image: &image::RgbaImage,
+    dir: Option<&Path>,
+    name: &str,
+) -> anyhow::Result<()> {
     match dir {
         Some(dir) => save_png(image, &dir.join(format!("{name}.png"))),
         None => Ok(()),
@@ -540,7 +425,7 @@ fn save_frame(image: &image::RgbaImage, dir: Option<&Path>, name: &str) -> anyho
 }
 
 /// The human table, from the JSON report.
-fn print_table(v: &serde_json::Value) {
+pub(crate) fn print_table(v: &serde_json::Value) {
     // Numbers with `digits` decimals, integers and strings as they are, null as "n/a".
     let cell = |x: &serde_json::Value, digits: usize| match x {
         serde_json::Value::Null => "n/a".to_string(),

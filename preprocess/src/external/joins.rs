@@ -10,6 +10,7 @@ use std::path::Path;
 use rustc_hash::{FxHashMap as HashMap, FxHashSet as HashSet};
 use tessera_core::leb::SimplexKey;
 
+use super::fallible::{check, ok_values};
 use super::sort::sort_external;
 use super::staged::{RecordReader, StagedMesh};
 use crate::frame::LatticeFrame;
@@ -102,7 +103,7 @@ pub fn coincident_nudges(
     if duplicates.is_empty() {
         return Ok(HashMap::default());
     }
-    let step = |p: &mut [f32; 3], k: usize| p[k % 3] = p[k % 3].next_up();
+    let step = crate::simplify::ulp_step;
     let mut steps = 64;
     loop {
         let mut candidates: HashSet<[u32; 3]> = HashSet::default();
@@ -338,23 +339,4 @@ impl<T: bytemuck::Pod> Cursor<T> {
             }
         }
     }
-}
-
-/// The values of a fallible stream; the first error stops it and is kept in `error`.
-fn ok_values<'a, T: 'a>(
-    stream: impl Iterator<Item = io::Result<T>> + 'a,
-    error: &'a mut Option<io::Error>,
-) -> impl Iterator<Item = T> + 'a {
-    let mut stream = stream;
-    std::iter::from_fn(move || match stream.next()? {
-        Ok(v) => Some(v),
-        Err(e) => {
-            *error = Some(e);
-            None
-        }
-    })
-}
-
-fn check(error: Option<io::Error>) -> io::Result<()> {
-    error.map_or(Ok(()), Err)
 }

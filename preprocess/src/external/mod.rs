@@ -4,6 +4,7 @@
 //! repository bytes.
 
 pub mod allocator;
+mod fallible;
 pub mod joins;
 pub mod sort;
 pub mod staged;

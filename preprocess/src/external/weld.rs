@@ -17,6 +17,7 @@ use std::path::Path;
 
 use bytemuck::{Pod, Zeroable};
 
+use super::fallible::{check, ok_values};
 use super::sort::sort_external;
 use super::staged::{RawStaged, RecordFile, StagedMesh, VertexAttributes};
 use crate::import::weld::canonical_bits;
@@ -290,24 +291,6 @@ fn pick<T: Pod>(
         }
     }
     out.finish()
-}
-
-/// The values of a stream of results, stopping at the first error (kept in `error`).
-fn ok_values<'a, T>(
-    results: impl Iterator<Item = io::Result<T>> + 'a,
-    error: &'a mut Option<io::Error>,
-) -> impl Iterator<Item = T> + 'a {
-    results.map_while(move |r| match r {
-        Ok(v) => Some(v),
-        Err(e) => {
-            *error = Some(e);
-            None
-        }
-    })
-}
-
-fn check(error: Option<io::Error>) -> io::Result<()> {
-    error.map_or(Ok(()), Err)
 }
 
 #[cfg(test)]

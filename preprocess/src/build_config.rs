@@ -1,0 +1,175 @@
+//! What controls a build and what it reports: `BuildConfig` (with its `Domain` and the
+//! `--memory` budget), `BuildError`, `BuildSummary`. The driver is `build.rs`.
+
+use tessera_core::repository::RepositoryError;
+
+use crate::hierarchy::Construction;
+use crate::simplify::SimplifySettings;
+
+/// Default maximum triangles per leaf; chosen by the sweep in ARCHITECTURE.md.
+pub const DEFAULT_LEAF_TRIANGLES: usize = 1024;
+
+/// Default leaf size of a height field (2D): a grid fills its triangles evenly, so leaves hold
+/// close to the cap and a smaller cap gives patches of the size a mesh's 1024 gives (measured
+/// sweep in ARCHITECTURE.md).
+pub const DEFAULT_LEAF_TRIANGLES_HEIGHT_FIELD: usize = 256;
+
+/// Largest extent of a model along any axis, in its units.
+pub const MAX_EXTENT: f64 = 1e30;
+
+/// Everything that controls a build.
+#[derive(Clone, Debug)]
+pub struct BuildConfig {
+    /// How deep the hierarchy goes (adaptive by leaf size, or a fixed number of levels).
+    pub construction: Construction,
+    /// Worker threads; None = one per core.
+    pub threads: Option<usize>,
+    /// log2 of the lattice cube side: bounds the depth at dimension · bits levels.
+    pub lattice_bits: u32,
+    /// What the hierarchy subdivides: tetrahedra for any mesh, triangles for a height field.
+    pub domain: Domain,
+    /// How each diamond is simplified.
+    pub simplify: SimplifySettings,
+    /// A memory budget (`--memory`): the stages that can work out of core do, with their
+    /// temporary files in its directory. The repository is the same bytes with or without it.
+    pub memory: Option<MemoryBudget>,
+}
+
+/// How much memory the out-of-core stages may use, and where their temporary files go (all
+/// unnamed: nothing is left behind, even when the build is killed).
+///
+/// Out of core today: the import of a mesh file (`import::stage_mesh`, done by the caller, who
+/// then calls `build_repository_staged`: the mesh is never loaded), the hierarchy's
+/// construction (`hierarchy::build_hierarchy_bucketed`), the live patches
+/// (`simplify/live_store.rs`), a level's results (`simplify/result_spill.rs`) and the encoded
+/// patches (`finished_patches.rs`). What still grows with the input is listed in
+/// ARCHITECTURE.md, "The out-of-core build".
+#[derive(Clone, Debug, PartialEq)]
+pub struct MemoryBudget {
+    pub bytes: u64,
+    pub temp_dir: std::path::PathBuf,
+}
+
+impl MemoryBudget {
+    /// Triangles a bucket of the hierarchy's construction may hold: a quarter of the budget
+    /// at about 70 bytes per triangle while a bucket is split, and never less than a few
+    /// leaves.
+    pub fn bucket_triangles(&self, leaf_triangles: usize) -> usize {
+        ((self.bytes / 4 / 70) as usize).max(4 * leaf_triangles.max(1))
+    }
+}
+
+/// The space the LEB hierarchy subdivides.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Domain {
+    /// Tetrahedra over the model's bounding cube (3D LEB): any triangle mesh.
+    Volume,
+    /// Right triangles over the square around the model's x, y extent (2D LEB, BDAM's pair of
+    /// bintrees): a height field, z being the height; triangles are located by their (x, y)
+    /// barycentre.
+    HeightField,
+}
+
+impl Domain {
+    /// The default `--leaf-triangles` of this domain.
+    pub fn default_leaf_triangles(self) -> usize {
+        match self {
+            Domain::Volume => DEFAULT_LEAF_TRIANGLES,
+            Domain::HeightField => DEFAULT_LEAF_TRIANGLES_HEIGHT_FIELD,
+        }
+    }
+
+    /// The LEB dimension: 3 or 2.
+    pub fn dim(self) -> u8 {
+        match self {
+            Domain::Volume => 3,
+            Domain::HeightField => 2,
+        }
+    }
+}
+
+impl BuildConfig {
+    /// The defaults for a domain: its leaf size, and for height fields border chains free to
+    /// shorten (`SimplifySettings::keep_borders`, ARCHITECTURE.md "Lock rule").
+    pub fn for_domain(domain: Domain) -> BuildConfig {
+        BuildConfig {
+            construction: Construction::LeafTriangles(domain.default_leaf_triangles()),
+            threads: None,
+            lattice_bits: 20,
+            domain,
+            memory: None,
+            simplify: SimplifySettings {
+                keep_borders: domain == Domain::Volume,
+                ..SimplifySettings::default()
+            },
+        }
+    }
+}
+
+impl Default for BuildConfig {
+    /// `for_domain(Domain::Volume)`.
+    fn default() -> Self {
+        BuildConfig::for_domain(Domain::Volume)
+    }
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum BuildError {
+    #[error("the mesh has no triangles")]
+    EmptyMesh,
+    #[error("vertex {index} has a non-finite coordinate")]
+    NonFinite { index: usize },
+    #[error("triangle {index} references vertex {vertex}, but the mesh has {count} vertices")]
+    IndexOutOfRange {
+        index: usize,
+        vertex: u32,
+        count: usize,
+    },
+    #[error(
+        "triangle {index} uses vertex {vertex} twice: weld the mesh first \
+         (tessera_preprocess::import::weld drops such triangles)"
+    )]
+    RepeatedVertex { index: usize, vertex: u32 },
+    #[error(
+        "the model spans {extent:e} units along axis {axis}; at most {MAX_EXTENT:e} \
+         (bounds are stored in f32 relative to the model)"
+    )]
+    TooLarge { axis: usize, extent: f64 },
+    #[error("invalid configuration: {0}")]
+    Config(String),
+    #[error(transparent)]
+    Repository(#[from] RepositoryError),
+    #[error(transparent)]
+    Conformity(#[from] crate::simplify::ConformityError),
+    #[error("temporary files in {dir}: {source}")]
+    Temporary {
+        dir: std::path::PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+}
+
+/// What a build did, for `--json` and the benchmark.
+#[derive(Clone, Debug, Default)]
+pub struct BuildSummary {
+    pub input_triangles: usize,
+    pub input_vertices: usize,
+    pub tetrahedra: usize,
+    pub leaves: usize,
+    pub diamonds: usize,
+    pub depth: u16,
+    pub patch_triangles: usize,
+    pub locked_vertices: usize,
+    /// Diamond simplifications redone after a conflict with their level's batch.
+    pub resimplified_diamonds: usize,
+    pub root_error: f64,
+    /// Model units per position step on each axis (`Header::position_step`).
+    pub position_step: [f64; 3],
+    /// Half the diagonal of one position step: how far a stored vertex may lie from its input
+    /// position. Added to every diamond's own error before saturation.
+    pub quantisation_error: f64,
+    pub repository_bytes: u64,
+    pub seconds: f64,
+    /// (stage, seconds) in order.
+    pub stages: Vec<(&'static str, f64)>,
+}
