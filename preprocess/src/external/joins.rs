@@ -227,25 +227,13 @@ impl<'a> LeafGroups<'a> {
         }
         check(file.error.take())?;
         drop(wanted);
+        // (vertex, leaf) once per leaf, by vertex.
         let mut pairs: Vec<u64> = Vec::new();
         for (leaf, patch) in patches.iter().enumerate() {
-            let start = pairs.len();
-            pairs.extend(
-                patch
-                    .triangles
-                    .iter()
-                    .flatten()
-                    .map(|&v| ((v as u64) << 32) | leaf as u64),
-            );
-            pairs[start..].sort_unstable();
-            let mut kept = start;
-            for i in start..pairs.len() {
-                if i == start || pairs[i] != pairs[kept - 1] {
-                    pairs[kept] = pairs[i];
-                    kept += 1;
-                }
-            }
-            pairs.truncate(kept);
+            let mut ids: Vec<u32> = patch.triangles.iter().flatten().copied().collect();
+            ids.sort_unstable();
+            ids.dedup();
+            pairs.extend(ids.into_iter().map(|v| ((v as u64) << 32) | leaf as u64));
         }
         pairs.sort_unstable();
         let mut positions = Cursor::new(self.staged.positions.read()?);

@@ -26,11 +26,18 @@ pub(super) enum LiveStore {
 pub(super) struct DiskStore {
     file: File,
     dir: std::path::PathBuf,
-    /// Where each live patch's record is and its triangle count.
-    index: HashMap<SimplexKey, (u64, u32)>,
+    /// Where each live patch's record is, its size and its triangle count.
+    index: HashMap<SimplexKey, Record>,
     end: u64,
     live_bytes: u64,
     charge: Charge,
+}
+
+#[derive(Clone, Copy)]
+struct Record {
+    at: u64,
+    bytes: u64,
+    triangles: u32,
 }
 
 const HEAD: usize = 12;
@@ -60,7 +67,7 @@ impl LiveStore {
             LiveStore::Memory(map) => Ok(map.get(key).map(Cow::Borrowed)),
             LiveStore::Disk(store) => match store.index.get(key) {
                 None => Ok(None),
-                Some(&(at, _)) => store.read(at).map(|p| Some(Cow::Owned(p))),
+                Some(record) => store.read(record).map(|p| Some(Cow::Owned(p))),
             },
         }
     }
@@ -71,11 +78,11 @@ impl LiveStore {
             LiveStore::Memory(map) => Ok(map.get(key).map(|p| Cow::Borrowed(&p.triangles[..]))),
             LiveStore::Disk(store) => match store.index.get(key) {
                 None => Ok(None),
-                Some(&(at, n)) => {
-                    let mut triangles = vec![[0u32; 3]; n as usize];
+                Some(record) => {
+                    let mut triangles = vec![[0u32; 3]; record.triangles as usize];
                     store.file.read_exact_at(
                         bytemuck::cast_slice_mut(&mut triangles),
-                        at + HEAD as u64,
+                        record.at + HEAD as u64,
                     )?;
                     Ok(Some(Cow::Owned(triangles)))
                 }
@@ -100,10 +107,8 @@ impl LiveStore {
                 Ok(())
             }
             LiveStore::Disk(store) => {
-                if let Some((at, _)) = store.index.remove(key) {
-                    let mut head = [0u8; HEAD];
-                    store.file.read_exact_at(&mut head, at)?;
-                    store.live_bytes -= record_bytes(&head);
+                if let Some(record) = store.index.remove(key) {
+                    store.live_bytes -= record.bytes;
                 }
                 Ok(())
             }
@@ -134,11 +139,11 @@ impl DiskStore {
             live_bytes: 0,
             charge: Charge::new(),
         };
-        let mut keys: Vec<(SimplexKey, u64)> =
-            store.index.iter().map(|(k, &(at, _))| (*k, at)).collect();
-        keys.sort_unstable_by_key(|&(_, at)| at);
-        for (key, at) in keys {
-            fresh.append(key, &store.read(at)?)?;
+        let mut records: Vec<(SimplexKey, Record)> =
+            store.index.iter().map(|(k, r)| (*k, *r)).collect();
+        records.sort_unstable_by_key(|(_, r)| r.at);
+        for (key, record) in records {
+            fresh.append(key, &store.read(&record)?)?;
         }
         *store = fresh;
         Ok(())
@@ -147,19 +152,22 @@ impl DiskStore {
     fn append(&mut self, key: SimplexKey, patch: &LivePatch) -> io::Result<()> {
         let bytes = encode_patch(patch);
         self.file.write_all_at(&bytes, self.end)?;
-        self.index
-            .insert(key, (self.end, patch.triangles.len() as u32));
+        let record = Record {
+            at: self.end,
+            bytes: bytes.len() as u64,
+            triangles: patch.triangles.len() as u32,
+        };
+        self.index.insert(key, record);
         self.end += bytes.len() as u64;
         self.live_bytes += bytes.len() as u64;
         self.charge.grow(bytes.len() as u64);
         Ok(())
     }
 
-    fn read(&self, at: u64) -> io::Result<LivePatch> {
-        let mut head = [0u8; HEAD];
-        self.file.read_exact_at(&mut head, at)?;
-        let mut bytes = vec![0u8; record_bytes(&head) as usize];
-        self.file.read_exact_at(&mut bytes, at)?;
+    /// One `pread` of the whole record.
+    fn read(&self, record: &Record) -> io::Result<LivePatch> {
+        let mut bytes = vec![0u8; record.bytes as usize];
+        self.file.read_exact_at(&mut bytes, record.at)?;
         Ok(decode_patch(&bytes))
     }
 }
