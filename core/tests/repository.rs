@@ -30,6 +30,7 @@ fn open_all(bytes: Vec<u8>) -> Result<(), RepositoryError> {
     let repo = Repository::from_bytes(bytes)?;
     for i in 0..repo.tets().len() {
         let p = repo.patch(i)?;
+        let p = p.view();
         let n = p.vertex_count() as u32;
         for t in p.triangles() {
             assert!(
@@ -97,6 +98,7 @@ fn check_round_trip(dimension: u32, attributes: u32, big: bool, dir: &Path) {
     assert_eq!(repo.id_blob(), &contents.id_blob[..]);
     for (i, original) in patches.iter().enumerate() {
         let view = repo.patch(i).unwrap();
+        let view = view.view();
         assert_eq!(view.to_patch_data(), *original, "tet {i}");
         assert_eq!(
             view.global_ids().collect::<Vec<_>>(),
@@ -160,6 +162,7 @@ fn big_patch_uses_u32_indices() {
     write_repository(&mut bytes, &contents).unwrap();
     let repo = Repository::from_bytes(bytes).unwrap();
     let view = repo.patch(9).unwrap();
+    let view = view.view();
     let StripIndices::U32(strip) = view.strip() else {
         panic!("a 70,000-vertex patch needs u32 indices")
     };
@@ -174,7 +177,7 @@ fn big_patch_uses_u32_indices() {
         unstripify(&patches[9].strip).len()
     );
     assert!(matches!(
-        repo.patch(8).unwrap().strip(),
+        repo.patch(8).unwrap().view().strip(),
         StripIndices::U16(_)
     ));
 }

@@ -50,6 +50,7 @@ fn directory(contents: &RepositoryContents) -> RepositoryDirectory {
         header: contents.header,
         diamonds: contents.diamonds.clone(),
         tets,
+        codec: contents.codec,
     }
 }
 

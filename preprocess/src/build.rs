@@ -116,6 +116,7 @@ pub fn build_contents(
         header,
         diamonds,
         tets,
+        codec,
     } = built.directory;
     let contents = RepositoryContents {
         header,
@@ -123,6 +124,7 @@ pub fn build_contents(
         tets,
         patch_blob,
         id_blob,
+        codec,
     };
     Ok((contents, built.summary))
 }
@@ -334,6 +336,7 @@ fn build_in_pool(
         bbox_min,
         step,
         attributes,
+        codec: config.codec,
     };
     let mut sink = |patches: &[(SimplexKey, &LivePatch)]| finished.add(patches, &encoding);
     let simplified = match (source, &config.memory) {
@@ -517,6 +520,7 @@ fn build_in_pool(
             header,
             diamonds,
             tets,
+            codec: config.codec,
         },
         order,
         finished,

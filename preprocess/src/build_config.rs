@@ -1,7 +1,7 @@
 //! What controls a build and what it reports: `BuildConfig` (with its `Domain` and the
 //! `--memory` budget), `BuildError`, `BuildSummary`. The driver is `build.rs`.
 
-use tessera_core::repository::RepositoryError;
+use tessera_core::repository::{PatchCodec, RepositoryError};
 
 use crate::hierarchy::Construction;
 use crate::simplify::SimplifySettings;
@@ -33,6 +33,9 @@ pub struct BuildConfig {
     /// A memory budget (`--memory`): the stages that can work out of core do, with their
     /// temporary files in its directory. The repository is the same bytes with or without it.
     pub memory: Option<MemoryBudget>,
+    /// How the repository stores its patches: packed (the default) or raw (`--no-compress`).
+    /// Either decodes to the same drawn bytes.
+    pub codec: PatchCodec,
 }
 
 /// How much memory the out-of-core stages may use, and where their temporary files go (all
@@ -98,6 +101,7 @@ impl BuildConfig {
             lattice_bits: 20,
             domain,
             memory: None,
+            codec: PatchCodec::Packed,
             simplify: SimplifySettings {
                 keep_borders: domain == Domain::Volume,
                 ..SimplifySettings::default()

@@ -18,7 +18,8 @@ use rayon::prelude::*;
 use rustc_hash::FxHashMap as HashMap;
 use tessera_core::bounds::{NormalCone, Sphere};
 use tessera_core::leb::SimplexKey;
-use tessera_core::repository::format::patch_checksum;
+use tessera_core::repository::format::{patch_checksum, PatchCodec};
+use tessera_core::repository::packed::pack_patch;
 use tessera_core::repository::patch::{encode_patch, patch_bytes};
 use tessera_core::repository::BlobFeed;
 
@@ -53,6 +54,8 @@ pub struct PatchEncoding {
     pub bbox_min: [f64; 3],
     pub step: [f64; 3],
     pub attributes: u32,
+    /// Raw, or packed as it is encoded (`packed::pack_patch`).
+    pub codec: PatchCodec,
 }
 
 /// Every finished patch by simplex, and its encoded bytes.
@@ -216,6 +219,17 @@ fn encode(live: &LivePatch, encoding: &PatchEncoding) -> (Vec<u8>, Vec<u8>, Fini
     ));
     let mut ids = Vec::with_capacity(2 * patch.global_ids.len());
     let placement = encode_patch(&patch, encoding.attributes, &mut bytes, &mut ids);
+    if encoding.codec == PatchCodec::Packed {
+        let mut packed = Vec::new();
+        pack_patch(
+            &bytes,
+            patch.global_ids.len(),
+            patch.strip.len(),
+            encoding.attributes,
+            &mut packed,
+        );
+        bytes = packed;
+    }
     let origin = encoding.origin;
     let position = |g: u32| vertices.positions[vertices.row(g)];
     let relative = |g: u32| {
@@ -230,7 +244,7 @@ fn encode(live: &LivePatch, encoding: &PatchEncoding) -> (Vec<u8>, Vec<u8>, Fini
         vertex_count: patch.global_ids.len() as u32,
         strip_index_count: patch.strip.len() as u32,
         triangle_count: patch.triangle_count,
-        patch_bytes: placement.patch_bytes,
+        patch_bytes: u32::try_from(bytes.len()).expect("a patch over 4 GiB"),
         id_bytes: placement.id_bytes,
         patch_checksum: patch_checksum(&bytes),
         patch_at: 0,

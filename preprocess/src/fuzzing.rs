@@ -124,8 +124,15 @@ pub fn repository(data: &[u8]) -> bool {
         }
     };
     for i in 0..repo.tets().len() {
+        if let Ok(size) = repo.decoded_patch_bytes(i) {
+            let mut out = vec![0; size];
+            if let Err(e) = repo.read_patch(i, &mut out) {
+                assert!(!e.to_string().trim().is_empty());
+            }
+        }
         match repo.patch(i) {
             Ok(patch) => {
+                let patch = patch.view();
                 let n = patch.vertex_count();
                 for t in patch.triangles() {
                     assert!(t.iter().all(|&v| (v as usize) < n), "tet {i}: {t:?} of {n}");

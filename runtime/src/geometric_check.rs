@@ -70,6 +70,7 @@ pub fn decode_all_patches(repo: &Repository) -> Result<Vec<Vec<[u32; 3]>>, Repos
         .into_par_iter()
         .map(|i| {
             let patch = repo.patch(i)?;
+            let patch = patch.view();
             let ids: Vec<u32> = patch.global_ids().collect();
             Ok(patch
                 .triangles()
@@ -86,6 +87,7 @@ pub fn position_mismatches(repo: &Repository) -> Result<usize, RepositoryError> 
     let mut position: HashMap<u32, ([u32; 3], bool)> = HashMap::new();
     for i in 0..repo.tets().len() {
         let patch = repo.patch(i)?;
+        let patch = patch.view();
         for (local, id) in patch.global_ids().enumerate() {
             let q = patch.position(local);
             let (stored, mismatched) = position.entry(id).or_insert((q, false));

@@ -30,6 +30,7 @@ fn attributes_survive_into_every_patch() {
     let mut checked = 0;
     for i in 0..repo.tets().len() {
         let patch = repo.patch(i).unwrap();
+        let patch = patch.view();
         let (pn, pc, pu) = (
             patch.normals().unwrap(),
             patch.colors().unwrap(),
@@ -65,5 +66,5 @@ fn a_mesh_without_attributes_stores_none() {
     mesh.normals = None;
     let built = build(&mesh, &BuildConfig::default());
     assert_eq!(built.repo.header().attributes, 0);
-    assert!(built.repo.patch(0).unwrap().normals().is_none());
+    assert!(built.repo.patch(0).unwrap().view().normals().is_none());
 }

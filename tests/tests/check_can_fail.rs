@@ -8,6 +8,7 @@ use tessera_core::repository::format::{
 use tessera_core::repository::global_ids::encode_global_ids;
 use tessera_core::repository::reader::Repository;
 use tessera_core::repository::writer::{write_repository_file, RepositoryContents};
+use tessera_core::repository::PatchCodec;
 use tessera_preprocess::import::load_mesh;
 use tessera_preprocess::{build_contents, BuildConfig};
 use tessera_runtime::geometric_check::{check_cuts, decode_all_patches, CheckConfig, CheckReport};
@@ -16,11 +17,14 @@ use tessera_runtime::pixel_check::{check_pixels, PixelCheckConfig};
 use tessera_runtime::views::check_views;
 use tessera_tests::{gpu, testdata};
 
-fn bunny_contents() -> RepositoryContents {
+/// The bunny built with `codec`: the tests that edit patch bytes in place build it raw.
+fn bunny_contents(codec: PatchCodec) -> RepositoryContents {
     let input = load_mesh(&testdata("mesh/bunny00.off")).unwrap().mesh;
-    build_contents(&input, &BuildConfig::default(), &|_| {})
-        .unwrap()
-        .0
+    let config = BuildConfig {
+        codec,
+        ..BuildConfig::default()
+    };
+    build_contents(&input, &config, &|_| {}).unwrap().0
 }
 
 fn check(contents: &RepositoryContents, config: &CheckConfig) -> CheckReport {
@@ -35,7 +39,7 @@ fn check(contents: &RepositoryContents, config: &CheckConfig) -> CheckReport {
 #[test]
 fn an_intact_repository_is_clean() {
     let report = check(
-        &bunny_contents(),
+        &bunny_contents(PatchCodec::Packed),
         &CheckConfig {
             views: 8,
             ..Default::default()
@@ -46,7 +50,7 @@ fn an_intact_repository_is_clean() {
 
 #[test]
 fn a_vertex_swapped_in_one_coarse_patch_is_a_crack() {
-    let mut contents = bunny_contents();
+    let mut contents = bunny_contents(PatchCodec::Raw);
     let config = CheckConfig {
         views: 8,
         ..Default::default()
@@ -72,6 +76,7 @@ fn a_vertex_swapped_in_one_coarse_patch_is_a_crack() {
     // Point one of its border vertices at another vertex of the same patch's neighbourhood:
     // the triangles stay valid, the shared edges no longer match.
     let patch = repo.patch(victim).unwrap();
+    let patch = patch.view();
     let ids: Vec<u32> = patch.global_ids().collect();
     let mut local_edges = std::collections::HashMap::new();
     for t in patch.triangles() {
@@ -88,7 +93,7 @@ fn a_vertex_swapped_in_one_coarse_patch_is_a_crack() {
     // Re-encode every patch's ids with the victim's border vertex renamed.
     let replacement = (0..u32::MAX).find(|g| !ids.contains(g)).unwrap();
     let mut all_ids: Vec<Vec<u32>> = (0..repo.tets().len())
-        .map(|i| repo.patch(i).unwrap().global_ids().collect())
+        .map(|i| repo.patch(i).unwrap().view().global_ids().collect())
         .collect();
     drop(repo);
     all_ids[victim][border_vertex] = replacement;
@@ -104,7 +109,7 @@ fn a_vertex_swapped_in_one_coarse_patch_is_a_crack() {
 
 #[test]
 fn an_unsaturated_error_is_a_monotonicity_violation() {
-    let mut contents = bunny_contents();
+    let mut contents = bunny_contents(PatchCodec::Packed);
     // The root diamond's error below its children's.
     contents.diamonds[0].error = 1e-30;
     let report = check(
@@ -128,7 +133,7 @@ fn to_bytes(contents: &RepositoryContents) -> Vec<u8> {
 /// sees nothing, but the position check does, and the GPU sees the gap as flag pixels.
 #[test]
 fn a_border_vertex_nudged_in_one_patch_is_caught_by_both_checks() {
-    let mut contents = bunny_contents();
+    let mut contents = bunny_contents(PatchCodec::Raw);
     let repo = Repository::from_bytes(to_bytes(&contents)).unwrap();
     let h = *repo.header();
     // The patches of a coarse cut, largest first: each is drawn by many views at τ = 8 px.
@@ -138,6 +143,7 @@ fn a_border_vertex_nudged_in_one_patch_is_caught_by_both_checks() {
     coarse.sort_by_key(|&i| std::cmp::Reverse(repo.tets()[i].triangle_count));
     let victim = coarse[0];
     let patch = repo.patch(victim).unwrap();
+    let patch = patch.view();
     let mut local_edges = std::collections::HashMap::new();
     for t in patch.triangles() {
         for k in 0..3 {

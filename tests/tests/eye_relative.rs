@@ -102,7 +102,7 @@ fn the_build_reports_its_quantisation_error_and_counts_it() {
 /// Every distinct stored position of the repository (all patches, all levels).
 fn stored_positions(repo: &Repository) -> Vec<[u32; 2]> {
     let mut all: Vec<[u32; 2]> = (0..repo.tets().len())
-        .flat_map(|i| repo.patch(i).unwrap().packed_positions().to_vec())
+        .flat_map(|i| repo.patch(i).unwrap().view().packed_positions().to_vec())
         .collect();
     all.sort_unstable();
     all.dedup();
@@ -273,6 +273,7 @@ fn a_vertex_shared_by_patches_gets_the_same_clip_bits_in_each() {
     let mut copies: HashMap<u32, Vec<(usize, [u32; 2])>> = HashMap::new();
     for i in 0..repo.tets().len() {
         let patch = repo.patch(i).unwrap();
+        let patch = patch.view();
         for (id, &p) in patch.global_ids().zip(patch.packed_positions()) {
             copies.entry(id).or_default().push((i, p));
         }

@@ -3,6 +3,7 @@
 //! naming the limit, or split / streamed within it.
 
 use std::sync::Arc;
+use tessera_core::repository::patch::drawn_patch_bytes;
 
 use tessera_core::cull::CullTests;
 use tessera_core::repository::Repository;
@@ -49,11 +50,16 @@ fn options(width: u32, height: u32, budget_bytes: u64) -> RendererOptions {
 
 /// Bytes unit `u` takes in a page: its patches back to back, each 8-aligned (the loader's
 /// layout).
+/// Tet `i`'s patch as the GPU holds it (decoded).
+fn drawn(repo: &Repository, i: usize) -> u64 {
+    drawn_patch_bytes(&repo.tets()[i], repo.header().attributes)
+}
+
 fn placed_bytes(repo: &Repository, units: &UnitTable, u: u32) -> u64 {
     units
         .simplices(u)
         .iter()
-        .map(|&s| (repo.tets()[s as usize].patch_bytes as u64).next_multiple_of(8))
+        .map(|&s| drawn(repo, s as usize).next_multiple_of(8))
         .sum()
 }
 
@@ -70,6 +76,7 @@ fn a_unit_larger_than_a_page_is_refused_and_the_stream_settles() {
         repo.diamonds(),
         repo.tets(),
         repo.header().root_tet_count as usize,
+        &|t| drawn_patch_bytes(t, repo.header().attributes),
     );
     let (big, big_bytes) = (0..units.len() as u32)
         .map(|u| (u, placed_bytes(&repo, &units, u)))
@@ -233,14 +240,10 @@ fn a_target_beyond_the_texture_or_buffer_limit_is_refused_by_name() {
 #[test]
 fn more_pages_than_one_binding_of_draw_arguments_are_refused_or_cut() {
     let (_b, repo) = bunny();
-    let largest = repo
-        .tets()
-        .iter()
-        .map(|t| t.patch_bytes as u64)
-        .max()
-        .unwrap();
+    let count = repo.tets().len();
+    let largest = (0..count).map(|i| drawn(&repo, i)).max().unwrap();
     let limit = largest.next_multiple_of(8);
-    let blob: u64 = repo.tets().iter().map(|t| t.patch_bytes as u64).sum();
+    let blob: u64 = (0..count).map(|i| drawn(&repo, i)).sum();
     assert!(
         blob / limit > limit / 64,
         "the test needs more pages than fit"
@@ -257,7 +260,12 @@ fn more_pages_than_one_binding_of_draw_arguments_are_refused_or_cut() {
             && message.contains("max_storage_buffer_binding_size"),
         "{message}"
     );
-    let layout = PoolLayout::new(PatchSizes::of(repo.tets()), 1 << 30, limit, 1 << 20);
+    let layout = PoolLayout::new(
+        PatchSizes::of(repo.tets(), repo.header().attributes),
+        1 << 30,
+        limit,
+        1 << 20,
+    );
     assert!(layout.pages as u64 * 64 <= limit, "{layout:?}");
     assert!(
         layout.page_bytes <= limit && layout.page_bytes > 0,

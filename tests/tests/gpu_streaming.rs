@@ -9,6 +9,7 @@
 //! camera at half its working set stops loading.
 
 use std::sync::Arc;
+use tessera_core::repository::patch::drawn_patch_bytes;
 
 use tessera_core::cull::CullTests;
 use tessera_core::cut::{diamond_rhos, select_visible};
@@ -105,6 +106,7 @@ fn working_set_and_records(repo: &Repository, camera: &Camera) -> (u64, u64) {
         repo.diamonds(),
         repo.tets(),
         repo.header().root_tet_count as usize,
+        &|t| drawn_patch_bytes(t, repo.header().attributes),
     );
     let eye = camera.eye_local(repo.header().origin);
     let rhos = diamond_rhos(repo.diamonds(), eye, &camera.metric());
@@ -239,7 +241,12 @@ impl Rig {
 fn streaming_at_a_quarter_of_the_repository_draws_the_cpu_reference_every_frame() {
     let (b, repo) = built("mesh/armadillo.off");
     let ctx = gpu();
-    let blob: u64 = repo.tets().iter().map(|t| t.patch_bytes as u64).sum();
+    let attributes = repo.header().attributes;
+    let blob: u64 = repo
+        .tets()
+        .iter()
+        .map(|t| drawn_patch_bytes(t, attributes))
+        .sum();
     // The pool holds a quarter of the repository's patches (the fixed allocations — tables,
     // lists, the 240 × 160 target — come on top: at this size they are most of the budget).
     let budget = budget_for_pool(&ctx, &repo, blob / 4);
@@ -312,6 +319,7 @@ fn a_paused_camera_at_half_its_working_set_stops_loading() {
         repo.diamonds(),
         repo.tets(),
         repo.header().root_tet_count as usize,
+        &|t| drawn_patch_bytes(t, repo.header().attributes),
     )
     .root_bytes();
     // The residency gets 7/8 of the pool: a pool of 8/7 × the half working set.

@@ -5,6 +5,7 @@
 //! after each of its passes over the directory. Measured per mapping from /proc/self/smaps (Linux): the `Rss:` of the
 //! mapping that holds the repository.
 
+use tessera_core::repository::patch::drawn_patch_bytes;
 use tessera_core::repository::Repository;
 use tessera_preprocess::import::load_mesh;
 use tessera_preprocess::{BuildConfig, Construction};
@@ -131,6 +132,7 @@ fn the_unit_table_read_through_the_map_is_the_one_from_the_slices() {
         repo.diamonds(),
         repo.tets(),
         repo.header().root_tet_count as usize,
+        &|t| drawn_patch_bytes(t, repo.header().attributes),
     );
     let b = UnitTable::from_repository(repo);
     assert_eq!(a.len(), b.len());

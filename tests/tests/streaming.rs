@@ -6,6 +6,7 @@
 
 use tessera_core::cull::CullTests;
 use tessera_core::cut::{diamond_rhos, select_stateless, select_visible};
+use tessera_core::repository::patch::drawn_patch_bytes;
 use tessera_core::repository::Repository;
 use tessera_preprocess::import::load_mesh;
 use tessera_preprocess::BuildConfig;
@@ -21,6 +22,7 @@ fn units_of(repo: &Repository) -> UnitTable {
         repo.diamonds(),
         repo.tets(),
         repo.header().root_tet_count as usize,
+        &|t| drawn_patch_bytes(t, repo.header().attributes),
     )
 }
 
@@ -251,7 +253,7 @@ fn a_damaged_patch_keeps_its_diamond_from_refining() {
     let patches_at = repo
         .sections()
         .iter()
-        .find(|s| s.kind == tessera_core::repository::format::SECTION_PATCHES)
+        .find(|s| s.kind == tessera_core::repository::format::SECTION_PACKED_PATCHES)
         .unwrap()
         .offset;
     let at = patches_at + repo.tets()[simplex as usize].patch_offset;
@@ -391,7 +393,7 @@ fn hand_units(diamonds: &[(&[u32], &[u32])]) -> UnitTable {
             ..bytemuck::Zeroable::zeroed()
         }));
     }
-    UnitTable::new(&records, &tets, 1)
+    UnitTable::new(&records, &tets, 1, &|t| t.patch_bytes as u64)
 }
 
 /// A request that needs more room than any one unit without resident children frees must

@@ -33,6 +33,10 @@ pub struct Row {
     pub wanted_not_resident: usize,
     pub max_error_over_tau: Option<f32>,
     pub frame_ms: f64,
+    /// Milliseconds spent reading the units that landed this frame out of the map (and
+    /// decoding them, when packed): on the CPU inside `frame_ms`, on the GPU on the loader
+    /// thread.
+    pub read_ms: f64,
     /// The stream was quiet after this frame (CPU: nothing issued or in flight; GPU: the
     /// streamer's `settled`).
     pub settled: bool,
@@ -191,6 +195,7 @@ impl<'r> Driver<'r> {
                         wanted_not_resident: f.stats.pending_units,
                         max_error_over_tau: Some(f.frame.max_error_over_tau),
                         frame_ms,
+                        read_ms: f.read_seconds * 1e3,
                         settled: f.loads == 0 && f.stats.loading_units == 0,
                     },
                     // Quiet: nothing issued, nothing in flight.
@@ -205,6 +210,7 @@ impl<'r> Driver<'r> {
                 streamer,
             } => {
                 let before = streamer.residency().stats().loaded_bytes;
+                let read_before = streamer.stats().read_seconds;
                 let request = FrameRequest::new(*cam, tau);
                 streamer.set_cpu_reference(read_cut);
                 let t = Instant::now();
@@ -240,6 +246,7 @@ impl<'r> Driver<'r> {
                         wanted_not_resident: f.stats.pending_units,
                         max_error_over_tau: read_cut.then_some(f.reference.max_error_over_tau),
                         frame_ms,
+                        read_ms: (streamer.stats().read_seconds - read_before) * 1e3,
                         settled: f.settled,
                     },
                     settled: f.settled,

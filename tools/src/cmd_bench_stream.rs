@@ -252,6 +252,10 @@ pub fn run(args: StreamBenchArgs) -> anyhow::Result<Outcome> {
     let probe = Repository::open(&args.repository)?;
     let cams = cameras(&args, &probe, size)?;
     let file_bytes = probe.file_bytes();
+    let codec = match probe.codec() {
+        tessera_core::repository::PatchCodec::Raw => "raw",
+        tessera_core::repository::PatchCodec::Packed => "packed",
+    };
     drop(probe);
     let settings = StreamSettings {
         budget_bytes: (args.gpu_budget * (1u64 << 20) as f64) as u64,
@@ -322,6 +326,9 @@ pub fn run(args: StreamBenchArgs) -> anyhow::Result<Outcome> {
             "evictions": stats.evictions,
             "broken_units": stats.broken_units,
             "frame_ms_median": ms[ms.len() / 2],
+            "read_ms_total": rows.iter().map(|r| r.read_ms).sum::<f64>(),
+            "read_ms_max_frame": rows.iter().map(|r| r.read_ms).fold(0.0, f64::max),
+            "patch_codec": codec,
             "frame_ms_max": ms[ms.len() - 1],
             "max_error_over_tau_last": last.max_error_over_tau,
             "wanted_not_resident_last": rows.last().map(|r| r.wanted_not_resident),
@@ -334,8 +341,8 @@ pub fn run(args: StreamBenchArgs) -> anyhow::Result<Outcome> {
             println!(
                 "{mode}: {} frames in {seconds:.2} s (page cache {:.0} % before); settled from \
                  frame {settled_from:?}; peak resident {:.2} MiB of {:.2}; loaded {:.2} MiB in {} \
-                 loads, {} evictions; frame ms median {:.3}, max {:.3}; last settled cut max ρ/τ \
-                 {}",
+                 loads, {} evictions; frame ms median {:.3}, max {:.3}; read ({codec}) {:.1} ms \
+                 in all, {:.2} ms at most in a frame; last settled cut max ρ/τ {}",
                 rows.len(),
                 100.0 * cached,
                 stats.peak_resident_bytes as f64 / (1u64 << 20) as f64,
@@ -345,6 +352,8 @@ pub fn run(args: StreamBenchArgs) -> anyhow::Result<Outcome> {
                 stats.evictions,
                 ms[ms.len() / 2],
                 ms[ms.len() - 1],
+                rows.iter().map(|r| r.read_ms).sum::<f64>(),
+                rows.iter().map(|r| r.read_ms).fold(0.0, f64::max),
                 last.max_error_over_tau
                     .map_or("n/a".to_string(), |e| format!("{e:.3}")),
             );
@@ -381,6 +390,7 @@ pub fn run(args: StreamBenchArgs) -> anyhow::Result<Outcome> {
                     "wanted_not_resident": r.wanted_not_resident,
                     "max_error_over_tau": r.max_error_over_tau,
                     "frame_ms": r.frame_ms,
+                    "read_ms": r.read_ms,
                 })
             })
             .collect();

@@ -1,6 +1,6 @@
 //! `tessera build INPUT|- -o OUT.tsr [--leaf-triangles N | --levels L] [--threads N] [--json]`
 //! `[--memory SIZE [--temp DIR]] [--heightfield] [--raw-size WxH] [--variable NAME]`
-//! `[--spacing M] [--exaggeration X]`
+//! `[--spacing M] [--exaggeration X] [--no-compress]`
 //!
 //! A mesh builds the 3D hierarchy (tetrahedra); a DEM (by extension) or `--heightfield` the 2D
 //! one (right triangles over x, y).`
@@ -12,7 +12,7 @@ use crate::input::BuildInput;
 use anyhow::Context;
 use clap::Args;
 use serde_json::json;
-use tessera_core::repository::format::POSITION_BITS;
+use tessera_core::repository::format::{PatchCodec, POSITION_BITS};
 use tessera_preprocess::{
     build_repository, build_repository_staged, BuildConfig, BuildSummary, Construction,
     MemoryBudget,
@@ -47,6 +47,10 @@ pub struct BuildArgs {
     /// files have no names: nothing is left behind, even when the build is killed.
     #[arg(long, value_name = "DIR", requires = "memory")]
     pub temp: Option<PathBuf>,
+    /// Store the patches as they are drawn instead of packed (meshoptimizer's vertex and
+    /// index-sequence codecs, lossless; decoded by the loader): larger files, no decoding.
+    #[arg(long)]
+    pub no_compress: bool,
     /// Print one JSON object on stdout.
     #[arg(long)]
     pub json: bool,
@@ -88,6 +92,11 @@ pub fn run(args: BuildArgs) -> anyhow::Result<Outcome> {
     let mut config = BuildConfig {
         threads: args.threads,
         memory: memory.clone(),
+        codec: if args.no_compress {
+            PatchCodec::Raw
+        } else {
+            PatchCodec::Packed
+        },
         ..BuildConfig::for_domain(input.domain())
     };
     if let Some(n) = args.leaf_triangles {

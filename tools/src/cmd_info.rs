@@ -4,7 +4,8 @@ use std::path::PathBuf;
 
 use clap::Args;
 use serde_json::json;
-use tessera_core::repository::format::section_name;
+use tessera_core::repository::format::{section_name, PatchCodec};
+use tessera_core::repository::patch::drawn_patch_bytes;
 use tessera_core::repository::reader::Repository;
 
 use crate::Outcome;
@@ -24,7 +25,17 @@ pub fn run(args: InfoArgs) -> anyhow::Result<Outcome> {
     // One pass over the tet table, its pages dropped behind it (`scan_tets`): the peak
     // memory does not grow with the directory.
     let (mut leaves, mut patch_triangles, mut strip_indices, mut depth) = (0usize, 0u64, 0u64, 0);
+    // Per level: simplices, stored (packed or raw) and drawn (decoded) patch bytes.
+    let mut levels: Vec<(u64, u64, u64)> = Vec::new();
+    let attributes = h.attributes;
     repo.scan_tets(|_, t| {
+        let level = t.level as usize;
+        if levels.len() <= level {
+            levels.resize(level + 1, (0, 0, 0));
+        }
+        levels[level].0 += 1;
+        levels[level].1 += t.patch_bytes as u64;
+        levels[level].2 += drawn_patch_bytes(t, attributes);
         leaves += (t.first_child == u32::MAX) as usize;
         patch_triangles += t.triangle_count as u64;
         // Restart markers included: what the renderer's strip slots are made of.
@@ -38,6 +49,21 @@ pub fn run(args: InfoArgs) -> anyhow::Result<Outcome> {
         .iter()
         .map(|s| json!({"kind": section_name(s.kind), "offset": s.offset, "bytes": s.bytes}))
         .collect();
+    let (stored, drawn) = levels
+        .iter()
+        .fold((0u64, 0u64), |(s, d), l| (s + l.1, d + l.2));
+    let per_level: Vec<_> = levels
+        .iter()
+        .enumerate()
+        .map(|(level, &(simplices, stored, drawn))| {
+            json!({"level": level, "simplices": simplices, "stored_bytes": stored,
+                   "decoded_bytes": drawn})
+        })
+        .collect();
+    let codec = match repo.codec() {
+        PatchCodec::Raw => "raw",
+        PatchCodec::Packed => "packed",
+    };
     let value = json!({
         "format_version": h.version,
         "dimension": h.dimension,
@@ -60,6 +86,10 @@ pub fn run(args: InfoArgs) -> anyhow::Result<Outcome> {
         "repository_bytes": repo.file_bytes(),
         "patch_blob_bytes": patch_blob_bytes,
         "id_blob_bytes": id_blob_bytes,
+        "patch_codec": codec,
+        "patch_stored_bytes": stored,
+        "patch_decoded_bytes": drawn,
+        "levels": per_level,
         "sections": sections,
     });
     if args.json {
@@ -81,11 +111,21 @@ pub fn run(args: InfoArgs) -> anyhow::Result<Outcome> {
         );
         println!("  bbox: {:?} .. {:?}", h.bbox_min, h.bbox_max);
         println!(
-            "  {} bytes: patches {} (GPU), global ids {} (CPU checks)",
+            "  {} bytes: patches {} ({codec}; {drawn} decoded, what the GPU holds), global ids \
+             {} (CPU checks)",
             repo.file_bytes(),
             patch_blob_bytes,
             id_blob_bytes
         );
+        println!("  level  simplices      stored     decoded  ratio");
+        for (level, &(simplices, stored, drawn)) in levels.iter().enumerate() {
+            let ratio = if stored > 0 {
+                format!("{:.2}", drawn as f64 / stored as f64)
+            } else {
+                "-".into()
+            };
+            println!("  {level:>5} {simplices:>10} {stored:>11} {drawn:>11}  {ratio:>5}");
+        }
     }
     Ok(Outcome::Ok)
 }

@@ -2,15 +2,24 @@
 //! other and the hierarchy's structure, in time and memory linear in the tables. Shared by the
 //! reader (`Repository::open`) and the writer (nothing invalid is ever written).
 
-use super::format::{DiamondRecord, Header, TetRecord, ATTR_ALL, NO_INDEX, TABLE_ALIGN};
+use super::format::{
+    DiamondRecord, Header, PatchCodec, TetRecord, ATTR_ALL, NO_INDEX, TABLE_ALIGN,
+};
 use super::patch::patch_bytes_checked;
 use super::reader::{corrupt, RepositoryError};
+
+/// Most bytes a packed patch may decode to per byte stored (+ 256): a reader allocates the
+/// decoded size, so it must follow from the file's size. Index codecs spend at least a byte an
+/// index (2 or 4 decoded), and real patches pack 2-4×; the bound leaves a wide margin.
+pub const MAX_PACKING_RATIO: u64 = 32;
 
 /// Sizes of the patch and id blobs, which every patch and id range must fit.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct BlobSizes {
     pub patches: u64,
     pub ids: u64,
+    /// How the patch blob stores its patches (what `patch_bytes` must be).
+    pub codec: PatchCodec,
 }
 
 fn finite<const N: usize>(v: [f32; N]) -> bool {
@@ -249,11 +258,27 @@ pub(crate) fn check_tables(
             t.strip_index_count as u64,
             h.attributes,
         );
-        if expected != Some(t.patch_bytes as u64) {
-            return fail(format!(
-                "patch is {} bytes but {} vertices and {} strip indices take {expected:?}",
-                t.patch_bytes, t.vertex_count, t.strip_index_count
-            ));
+        let stored_ok = match blobs.codec {
+            PatchCodec::Raw => expected == Some(t.patch_bytes as u64),
+            // Packed: any multiple of 8, but the decoded patch must have a size a u32 holds.
+            PatchCodec::Packed => {
+                expected.is_some_and(|e| e <= MAX_PACKING_RATIO * t.patch_bytes as u64 + 256)
+                    && t.patch_bytes % 8 == 0
+            }
+        };
+        if !stored_ok {
+            return fail(match blobs.codec {
+                PatchCodec::Raw => format!(
+                    "patch is {} bytes but {} vertices and {} strip indices take {expected:?}",
+                    t.patch_bytes, t.vertex_count, t.strip_index_count
+                ),
+                PatchCodec::Packed => format!(
+                    "packed patch is {} bytes (not a multiple of 8), or {} vertices and {} \
+                     strip indices decode to {expected:?} bytes (more than \
+                     {MAX_PACKING_RATIO} × its size + 256)",
+                    t.patch_bytes, t.vertex_count, t.strip_index_count
+                ),
+            });
         }
         let id_end = t.id_offset as u128 + t.id_bytes as u128;
         if id_end > blobs.ids as u128 {

@@ -8,6 +8,7 @@
 //!   SECTION_DIAMONDS   DiamondRecord × diamond_count                (56 bytes each)
 //!   SECTION_TETS       TetRecord × tet_count                        (88 bytes each)
 //!   SECTION_PATCHES    patch blob                                   (see `patch.rs`)
+//!     or SECTION_PACKED_PATCHES, the same patches packed            (see `packed.rs`)
 //!   SECTION_IDS        id blob                                      (see `global_ids.rs`)
 //! end of file        = the end of the last section
 //! ```
@@ -27,7 +28,13 @@
 //! any other unknown kind is refused ("made by a newer tessera").
 //!
 //! The patch blob is what a renderer uploads (positions, attributes, strips); the id blob holds
-//! each patch's global vertex ids, which only the CPU needs (crack checks).
+//! each patch's global vertex ids, which only the CPU needs (crack checks). A repository holds
+//! its patches either as they are drawn (`SECTION_PATCHES`, `build --no-compress`) or packed
+//! (`SECTION_PACKED_PATCHES`, the default): then each `TetRecord`'s `patch_offset`,
+//! `patch_bytes` and `patch_checksum` describe the packed bytes, and the loader decodes them
+//! into the drawn layout, whose size the record's counts give (`patch::patch_bytes`). A
+//! tessera that predates packing refuses such a file as "made by a newer tessera" (an unknown
+//! required section), and every tessera since reads both.
 //!
 //! Everything is little-endian and read zero-copy (bytemuck casts from the memory map), so the
 //! records are `#[repr(C)]` with no implicit padding. Gaps between sections are zero bytes
@@ -78,9 +85,34 @@ pub const SECTION_TETS: u32 = 2;
 pub const SECTION_PATCHES: u32 = 3;
 /// Section kind: the global-id blob.
 pub const SECTION_IDS: u32 = 4;
-/// The kinds every version-4 repository has, exactly once each.
-pub const REQUIRED_SECTIONS: [u32; 4] =
-    [SECTION_DIAMONDS, SECTION_TETS, SECTION_PATCHES, SECTION_IDS];
+/// Section kind: the patch blob with every patch packed (`packed.rs`); a repository has
+/// exactly one of `SECTION_PATCHES` and this.
+pub const SECTION_PACKED_PATCHES: u32 = 5;
+/// The kinds every version-4 repository has, exactly once each, besides its one patch blob
+/// (`SECTION_PATCHES` or `SECTION_PACKED_PATCHES`).
+pub const REQUIRED_SECTIONS: [u32; 3] = [SECTION_DIAMONDS, SECTION_TETS, SECTION_IDS];
+/// Sections a repository's writer lays out: the required ones and the patch blob.
+pub const WRITTEN_SECTIONS: usize = REQUIRED_SECTIONS.len() + 1;
+
+/// How a repository stores its patches.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum PatchCodec {
+    /// As drawn: `SECTION_PATCHES`, each patch exactly `patch::patch_bytes(..)`.
+    Raw,
+    /// Packed: `SECTION_PACKED_PATCHES` (`packed.rs`), decoded when loaded.
+    #[default]
+    Packed,
+}
+
+impl PatchCodec {
+    /// The section kind of this codec's patch blob.
+    pub fn section_kind(self) -> u32 {
+        match self {
+            PatchCodec::Raw => SECTION_PATCHES,
+            PatchCodec::Packed => SECTION_PACKED_PATCHES,
+        }
+    }
+}
 /// Section flag: a reader that does not know the section's kind may ignore it.
 pub const SECTION_FLAG_OPTIONAL: u32 = 1;
 /// Every section flag this version knows.
@@ -161,7 +193,7 @@ pub struct SectionEntry {
     pub offset: u64,
     /// u64, length in bytes; for a table, exactly its count × its record size.
     pub bytes: u64,
-    /// u32, CRC-32 of the section's bytes (0 for `SECTION_PATCHES`: per-patch checksums).
+    /// u32, CRC-32 of the section's bytes (0 for the patch blob: per-patch checksums).
     pub checksum: u32,
     /// u32, must be 0.
     pub reserved: u32,
@@ -229,8 +261,9 @@ pub struct TetRecord {
     pub level: u32,
     /// u64, byte offset of the patch from the start of the patch blob; multiple of 8.
     pub patch_offset: u64,
-    /// u32, size of the encoded patch in bytes, exactly
-    /// `patch_bytes(vertex_count, strip_index_count, attributes)`.
+    /// u32, size of the stored patch in bytes: exactly
+    /// `patch_bytes(vertex_count, strip_index_count, attributes)` in a `SECTION_PATCHES` blob,
+    /// the packed size (a multiple of 8) in a `SECTION_PACKED_PATCHES` one.
     pub patch_bytes: u32,
     /// u32, vertices in the patch; ≤ 65,535 means u16 strip indices, more means u32.
     pub vertex_count: u32,
@@ -243,8 +276,9 @@ pub struct TetRecord {
     pub id_offset: u64,
     /// u32, size of the id stream: exactly `vertex_count` canonical varints (`global_ids.rs`).
     pub id_bytes: u32,
-    /// u32, CRC-32 of the patch's `patch_bytes` bytes at `patch_offset` (padding included;
-    /// `patch_checksum`), checked the first time the patch is read.
+    /// u32, CRC-32 of the patch's `patch_bytes` stored bytes at `patch_offset` (padding
+    /// included; `patch_checksum`; the packed bytes when packed), checked the first time the
+    /// patch is read.
     pub patch_checksum: u32,
 }
 
@@ -318,6 +352,7 @@ pub fn section_name(kind: u32) -> String {
         SECTION_DIAMONDS => "diamond table".into(),
         SECTION_TETS => "tet table".into(),
         SECTION_PATCHES => "patch blob".into(),
+        SECTION_PACKED_PATCHES => "packed patch blob".into(),
         SECTION_IDS => "id blob".into(),
         other => format!("section kind {other}"),
     }

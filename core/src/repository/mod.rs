@@ -4,6 +4,8 @@
 //!   position / normal encodings;
 //! - `patch`: one simplex's patch (packed positions, attributes, a triangle strip with primitive
 //!   restart over local vertices): `encode_patch` and the zero-copy `PatchView`;
+//! - `packed`: the packed (compressed) form of a patch, the default on disk, decoded on load
+//!   into exactly what `encode_patch` writes;
 //! - `global_ids`: each patch's global vertex ids, delta + varint coded in their own blob (the
 //!   CPU's checks need them, the GPU does not);
 //! - `writer`: `write_repository[_file]` (temporary file, fsync, rename; stale temporaries of
@@ -11,24 +13,28 @@
 //! - `streamed_writer`: `write_repository_streamed`, the same file with the blobs fed a tet
 //!   at a time (the out-of-core build);
 //! - `directory_check`: the header's and the tables' checks, shared by reader and writer;
+//! - `file_layout`: the header, its checksum and the section table, checked before any record;
 //! - `reader`: `Repository::open`, which validates every count, offset and index before use.
 //!   A bad file is an error (`RepositoryError`), never a panic or an out-of-bounds read.
 
 mod directory_check;
+mod file_layout;
 pub mod format;
 pub mod global_ids;
+pub mod packed;
 pub mod patch;
 pub mod reader;
 pub mod streamed_writer;
 pub mod strip;
 pub mod writer;
 
+pub use format::PatchCodec;
 pub use format::{DiamondRecord, Header, TetRecord, FORMAT_VERSION, NO_INDEX};
 pub use global_ids::GlobalIds;
 pub use patch::{
     encode_patch, patch_bytes, PatchData, PatchPlacement, PatchSource, PatchView, StripIndices,
 };
-pub use reader::{Repository, RepositoryError};
+pub use reader::{Patch, Repository, RepositoryError};
 pub use streamed_writer::{write_repository_streamed, BlobFeed, RepositoryDirectory};
 pub use writer::{
     remove_stale_temporaries, write_repository, write_repository_file, RepositoryContents,

@@ -135,6 +135,17 @@ pub fn patch_bytes(vertex_count: usize, strip_index_count: usize, attributes: u3
         .expect("patch size overflows usize")
 }
 
+/// Size of `tet`'s patch as drawn (decoded, when the repository is packed): what a renderer
+/// uploads for it. `u64::MAX` if the counts overflow (a record `Repository::open` refuses).
+pub fn drawn_patch_bytes(tet: &TetRecord, attributes: u32) -> u64 {
+    patch_bytes_checked(
+        tet.vertex_count as u64,
+        tet.strip_index_count as u64,
+        attributes,
+    )
+    .unwrap_or(u64::MAX)
+}
+
 /// Byte offset of the strip from the start of a patch with `vertex_count` vertices and the
 /// `attributes` mask: where a renderer points its index buffer. Panics on overflow.
 pub fn strip_byte_offset(vertex_count: usize, attributes: u32) -> usize {
@@ -360,6 +371,16 @@ impl<'a> PatchView<'a> {
         source: &PatchSource<'a>,
         tet: &TetRecord,
     ) -> Result<PatchView<'a>, RepositoryError> {
+        Self::parse_checked(source, tet, true)
+    }
+
+    /// `parse` with the passes over the strip and ids (`full`) or without them (a patch that
+    /// passed `parse` before: what is left is O(1)).
+    pub(crate) fn parse_checked(
+        source: &PatchSource<'a>,
+        tet: &TetRecord,
+        full: bool,
+    ) -> Result<PatchView<'a>, RepositoryError> {
         let (blob, attributes) = (source.patch_blob, source.attributes);
         if attributes & !ATTR_ALL != 0 {
             return Err(corrupt(format!("unknown attribute bits {attributes:#x}")));
@@ -394,7 +415,7 @@ impl<'a> PatchView<'a> {
             })?;
         // Both fit: end ≤ blob.len().
         let bytes = &blob[start as usize..end as usize];
-        if bytes[layout.strip.end..].iter().any(|&b| b != 0) {
+        if full && bytes[layout.strip.end..].iter().any(|&b| b != 0) {
             return Err(corrupt("patch padding is not zero".to_string()));
         }
         let strip = if layout.wide {
@@ -402,7 +423,8 @@ impl<'a> PatchView<'a> {
         } else {
             StripIndices::U16(cast(bytes, layout.strip.clone(), "strip")?)
         };
-        if let Some(k) = (0..strip.len()).find(|&k| strip.get(k).is_some_and(|i| i >= n)) {
+        let out_of_range = |k: usize| strip.get(k).is_some_and(|i| i >= n);
+        if let Some(k) = (0..strip.len()).filter(|_| full).find(|&k| out_of_range(k)) {
             return Err(corrupt(format!(
                 "strip index {k} is {}, but the patch has {n} vertices",
                 strip.get(k).unwrap_or_default()
@@ -414,7 +436,7 @@ impl<'a> PatchView<'a> {
                 tet.triangle_count
             )));
         }
-        if let Some(k) = odd_segment_start(strip) {
+        if let Some(k) = full.then(|| odd_segment_start(strip)).flatten() {
             return Err(corrupt(format!(
                 "a strip segment starts at the odd position {k} (every segment must start at an \
                  even position; a repository built before this rule must be rebuilt)"
@@ -434,7 +456,9 @@ impl<'a> PatchView<'a> {
                     source.id_blob.len()
                 ))
             })?;
-        check_global_ids(ids, n as u64, source.input_vertex_count).map_err(corrupt)?;
+        if full {
+            check_global_ids(ids, n as u64, source.input_vertex_count).map_err(corrupt)?;
+        }
         Ok(PatchView {
             bytes,
             ids,

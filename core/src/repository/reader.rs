@@ -19,14 +19,67 @@ use std::sync::OnceLock;
 
 use memmap2::Mmap;
 
-use super::directory_check::{check_header_fields, check_tables, BlobSizes};
+use super::directory_check::{check_tables, BlobSizes};
+use super::file_layout::check_layout;
 use super::format::{
-    compute_checksum, patch_checksum, section_name, DiamondRecord, Header, SectionEntry, TetRecord,
-    DIAMOND_RECORD_SIZE, FORMAT_VERSION, HEADER_SIZE, MAGIC, MAX_SECTIONS, REQUIRED_SECTIONS,
-    SECTION_DIAMONDS, SECTION_ENTRY_SIZE, SECTION_FLAGS_ALL, SECTION_FLAG_OPTIONAL, SECTION_IDS,
-    SECTION_PATCHES, SECTION_TETS, TABLE_ALIGN, TET_RECORD_SIZE,
+    patch_checksum, section_name, DiamondRecord, Header, PatchCodec, SectionEntry, TetRecord,
+    HEADER_SIZE, MAGIC, SECTION_IDS, TET_RECORD_SIZE,
 };
-use super::patch::{PatchSource, PatchView};
+use super::packed::unpack_patch;
+use super::patch::{patch_bytes_checked, PatchSource, PatchView};
+
+/// A validated patch (`Repository::patch`): borrowed from the map, or decoded from a packed
+/// repository; `view` gives its arrays.
+#[derive(Clone, Debug)]
+pub struct Patch<'a> {
+    bytes: PatchBytes,
+    tet: TetRecord,
+    source: PatchSource<'a>,
+}
+
+#[derive(Clone, Debug)]
+enum PatchBytes {
+    /// In the map, where the tet record says.
+    Mapped,
+    /// Decoded into 8-aligned words (the patch at offset 0).
+    Decoded(Vec<u64>),
+}
+
+impl Patch<'_> {
+    /// Where `PatchView::parse` finds this patch.
+    fn source(&self) -> PatchSource<'_> {
+        match &self.bytes {
+            PatchBytes::Mapped => self.source,
+            PatchBytes::Decoded(words) => PatchSource {
+                patch_blob: bytemuck::cast_slice(words),
+                ..self.source
+            },
+        }
+    }
+
+    /// The tet record with the patch range `source` holds it at.
+    fn record(&self) -> TetRecord {
+        match &self.bytes {
+            PatchBytes::Mapped => self.tet,
+            PatchBytes::Decoded(_) => TetRecord {
+                patch_offset: 0,
+                patch_bytes: patch_bytes_checked(
+                    self.tet.vertex_count as u64,
+                    self.tet.strip_index_count as u64,
+                    self.source.attributes,
+                )
+                .expect("checked on open") as u32,
+                ..self.tet
+            },
+        }
+    }
+
+    /// The patch's arrays (validated when `Repository::patch` made it: O(1) here).
+    pub fn view(&self) -> PatchView<'_> {
+        PatchView::parse_checked(&self.source(), &self.record(), false)
+            .expect("the same checks passed when the patch was read")
+    }
+}
 
 /// Why a repository cannot be read or written.
 #[derive(Debug, thiserror::Error)]
@@ -129,7 +182,7 @@ impl Storage {
 /// Bytes of the directory between two releases of its pages while it is validated: the
 /// process holds at most about this much of it at a time (plus the diamond table, read at
 /// random while the tets are checked).
-const RELEASE_CHUNK: usize = 1 << 20;
+pub(crate) const RELEASE_CHUNK: usize = 1 << 20;
 
 /// An open repository whose directory is validated; patches are verified on first read.
 pub struct Repository {
@@ -143,6 +196,8 @@ pub struct Repository {
     id_blob_checksum: u32,
     /// The section table as read.
     sections: Vec<SectionEntry>,
+    /// How the patch blob stores the patches.
+    codec: PatchCodec,
     /// Outcome of the one check of the id blob's checksum (the computed value on a mismatch).
     ids_checked: OnceLock<Result<(), u32>>,
     /// One bit per tet: its patch checksum was verified. Relaxed atomics: a race only verifies
@@ -207,6 +262,7 @@ impl Repository {
         let blobs = BlobSizes {
             patches: layout.patch_blob.len() as u64,
             ids: layout.id_blob.len() as u64,
+            codec: layout.codec,
         };
         let tets_start = layout.tets.start;
         let tets_done = |n: usize| release(tets_start..tets_start + n * TET_RECORD_SIZE);
@@ -222,6 +278,7 @@ impl Repository {
             id_blob: layout.id_blob,
             id_blob_checksum: layout.id_blob_checksum,
             sections: layout.sections,
+            codec: layout.codec,
             ids_checked: OnceLock::new(),
             patch_verified,
             storage,
@@ -330,9 +387,15 @@ impl Repository {
         })
     }
 
-    /// The encoded patch of tet `tet_index` (what a renderer uploads), its checksum verified
-    /// the first time it is read: one damaged patch is `PatchChecksumMismatch` naming the tet,
-    /// and the rest of the repository stays readable. Its strip is not parsed (`patch` does).
+    /// How the patch blob stores the patches (packed by default, `build --no-compress` raw).
+    pub fn codec(&self) -> PatchCodec {
+        self.codec
+    }
+
+    /// The stored patch of tet `tet_index` (raw: what a renderer uploads; packed: what
+    /// `read_patch` decodes), its checksum verified the first time it is read: one damaged
+    /// patch is `PatchChecksumMismatch` naming the tet, and the rest of the repository stays
+    /// readable. Its strip is not parsed (`patch` does).
     pub fn patch_bytes(&self, tet_index: usize) -> Result<&[u8], RepositoryError> {
         let tet = self.tet(tet_index)?;
         // In range: `check_tables` checked every patch range against the blob.
@@ -353,23 +416,84 @@ impl Repository {
         Ok(bytes)
     }
 
-    /// Parses and validates the patch of tet `tet_index`: its checksum (first read only), then
-    /// one pass over its strip and one over its id stream (the id blob's checksum is verified
-    /// on the first call, see `verify_ids`).
-    pub fn patch(&self, tet_index: usize) -> Result<PatchView<'_>, RepositoryError> {
-        self.patch_bytes(tet_index)?;
+    /// Size of tet `tet_index`'s patch as drawn (decoded), `patch::patch_bytes` of its counts:
+    /// what `read_patch` writes. Checked on open to fit a u32.
+    pub fn decoded_patch_bytes(&self, tet_index: usize) -> Result<usize, RepositoryError> {
+        let t = self.tet(tet_index)?;
+        Ok(patch_bytes_checked(
+            t.vertex_count as u64,
+            t.strip_index_count as u64,
+            self.header.attributes,
+        )
+        .expect("checked on open") as usize)
+    }
+
+    /// Writes tet `tet_index`'s patch as drawn into `out` (exactly `decoded_patch_bytes`
+    /// long): a copy from the map, or the packed patch decoded (`packed::unpack_patch`, which
+    /// checks every index and coordinate it writes). The checksum is verified as in
+    /// `patch_bytes`; a patch that does not decode is `Corrupt` naming the tet.
+    pub fn read_patch(&self, tet_index: usize, out: &mut [u8]) -> Result<(), RepositoryError> {
+        let stored = self.patch_bytes(tet_index)?;
+        let expected = self.decoded_patch_bytes(tet_index)?;
+        if out.len() != expected {
+            return Err(corrupt(format!(
+                "tet {tet_index}: its patch is {expected} bytes, not the {} given",
+                out.len()
+            )));
+        }
+        match self.codec {
+            PatchCodec::Raw => {
+                out.copy_from_slice(stored);
+                Ok(())
+            }
+            PatchCodec::Packed => {
+                let t = self.tet(tet_index)?;
+                unpack_patch(
+                    stored,
+                    t.vertex_count as usize,
+                    t.strip_index_count as usize,
+                    self.header.attributes,
+                    out,
+                )
+                .map_err(|e| corrupt(format!("tet {tet_index}: {e}")))
+            }
+        }
+    }
+
+    /// Parses and validates the patch of tet `tet_index`: its checksum (first read only), its
+    /// decoding when packed, then one pass over its strip and one over its id stream (the id
+    /// blob's checksum is verified on the first call, see `verify_ids`). The patch borrows the
+    /// map when the repository is raw and owns its decoded bytes when packed.
+    pub fn patch(&self, tet_index: usize) -> Result<Patch<'_>, RepositoryError> {
         self.verify_ids()?;
-        let tet = self.tet(tet_index)?;
-        let source = PatchSource {
-            patch_blob: self.patch_blob(),
-            id_blob: self.id_blob(),
-            attributes: self.header.attributes,
-            input_vertex_count: self.header.input_vertex_count,
+        let tet = *self.tet(tet_index)?;
+        let bytes = match self.codec {
+            PatchCodec::Raw => {
+                self.patch_bytes(tet_index)?;
+                PatchBytes::Mapped
+            }
+            PatchCodec::Packed => {
+                let len = self.decoded_patch_bytes(tet_index)?;
+                let mut words = vec![0u64; len.div_ceil(8)];
+                self.read_patch(tet_index, &mut bytemuck::cast_slice_mut(&mut words)[..len])?;
+                PatchBytes::Decoded(words)
+            }
         };
-        PatchView::parse(&source, tet).map_err(|e| match e {
+        let patch = Patch {
+            bytes,
+            tet,
+            source: PatchSource {
+                patch_blob: self.patch_blob(),
+                id_blob: self.id_blob(),
+                attributes: self.header.attributes,
+                input_vertex_count: self.header.input_vertex_count,
+            },
+        };
+        PatchView::parse(&patch.source(), &patch.record()).map_err(|e| match e {
             RepositoryError::Corrupt(message) => corrupt(format!("tet {tet_index}: {message}")),
             other => other,
-        })
+        })?;
+        Ok(patch)
     }
 
     /// Verifies and parses every patch: after this, `patch` cannot fail. Cost: one pass over
@@ -381,211 +505,5 @@ impl Repository {
     /// Size of the file in bytes.
     pub fn file_bytes(&self) -> u64 {
         self.storage.bytes().len() as u64
-    }
-}
-
-/// Where the sections lie in a file whose header and section table were checked.
-struct Layout {
-    header: Header,
-    diamonds: Range<usize>,
-    tets: Range<usize>,
-    patch_blob: Range<usize>,
-    id_blob: Range<usize>,
-    id_blob_checksum: u32,
-    sections: Vec<SectionEntry>,
-}
-
-/// Checks the header, its checksum and the section table of `bytes`, then the directory's
-/// checksums (the diamond and tet tables; not the blobs).
-fn check_layout(bytes: &[u8], release: &dyn Fn(Range<usize>)) -> Result<Layout, RepositoryError> {
-    let len = bytes.len() as u64;
-    if bytes.len() < HEADER_SIZE {
-        return Err(RepositoryError::TooSmall { len });
-    }
-    let header: Header = bytemuck::pod_read_unaligned(&bytes[..HEADER_SIZE]);
-    if header.magic != MAGIC {
-        return Err(RepositoryError::BadMagic {
-            found: header.magic,
-        });
-    }
-    if header.version != FORMAT_VERSION {
-        return Err(RepositoryError::WrongVersion {
-            found: header.version,
-            expected: FORMAT_VERSION,
-        });
-    }
-    let required = REQUIRED_SECTIONS.len() as u32;
-    if !(required..=MAX_SECTIONS).contains(&header.section_count) {
-        return Err(corrupt(format!(
-            "{} sections listed, not {required}..={MAX_SECTIONS}",
-            header.section_count
-        )));
-    }
-    let table_end = HEADER_SIZE + header.section_count as usize * SECTION_ENTRY_SIZE;
-    if bytes.len() < table_end {
-        return Err(corrupt(format!(
-            "file is {len} bytes, too short for the header and its {}-entry section table \
-             ({table_end} bytes)",
-            header.section_count
-        )));
-    }
-    let computed = compute_checksum(&bytes[..table_end]);
-    if computed != header.checksum {
-        return Err(RepositoryError::ChecksumMismatch {
-            stored: header.checksum,
-            computed,
-        });
-    }
-    check_header_fields(&header)?;
-    let entries: Vec<SectionEntry> = bytes[HEADER_SIZE..table_end]
-        .chunks_exact(SECTION_ENTRY_SIZE)
-        .map(bytemuck::pod_read_unaligned)
-        .collect();
-    let ranges = section_ranges(&header, &entries, table_end as u64, len)?;
-    let find = |kind: u32| {
-        let i = entries.iter().position(|e| e.kind == kind);
-        // Present: `section_ranges` requires every required kind.
-        let i = i.expect("required section checked");
-        (ranges[i].clone(), entries[i].checksum)
-    };
-    let (diamonds, diamond_sum) = find(SECTION_DIAMONDS);
-    let (tets, tet_sum) = find(SECTION_TETS);
-    let (patch_blob, _) = find(SECTION_PATCHES);
-    let (id_blob, id_blob_checksum) = find(SECTION_IDS);
-    for (kind, range, stored) in [
-        (SECTION_DIAMONDS, &diamonds, diamond_sum),
-        (SECTION_TETS, &tets, tet_sum),
-    ] {
-        let mut hasher = crc32fast::Hasher::new();
-        for start in range.clone().step_by(RELEASE_CHUNK) {
-            let chunk = start..(start + RELEASE_CHUNK).min(range.end);
-            hasher.update(&bytes[chunk.clone()]);
-            release(chunk);
-        }
-        let computed = hasher.finalize();
-        if computed != stored {
-            return Err(RepositoryError::SectionChecksumMismatch {
-                section: section_name(kind),
-                stored,
-                computed,
-            });
-        }
-    }
-    Ok(Layout {
-        header,
-        diamonds,
-        tets,
-        patch_blob,
-        id_blob,
-        id_blob_checksum,
-        sections: entries,
-    })
-}
-
-/// The byte range of every section entry, checked: known flags, zero reserved field, each
-/// kind at most once, every required kind present, unknown kinds only when optional, tables
-/// exactly their count × record size, 8-aligned, after the section table, inside the file, no
-/// two overlapping, and the file ending where the last section ends.
-fn section_ranges(
-    h: &Header,
-    entries: &[SectionEntry],
-    table_end: u64,
-    len: u64,
-) -> Result<Vec<Range<usize>>, RepositoryError> {
-    let mut ranges = Vec::with_capacity(entries.len());
-    for (i, e) in entries.iter().enumerate() {
-        let name = section_name(e.kind);
-        if e.flags & !SECTION_FLAGS_ALL != 0 || e.reserved != 0 {
-            return Err(corrupt(format!(
-                "section {i} ({name}): unknown flags {:#x} or reserved field {}",
-                e.flags, e.reserved
-            )));
-        }
-        if entries[..i].iter().any(|o| o.kind == e.kind) {
-            return Err(corrupt(format!("section {i}: a second {name}")));
-        }
-        let record = match e.kind {
-            SECTION_DIAMONDS => Some((h.diamond_count, DIAMOND_RECORD_SIZE)),
-            SECTION_TETS => Some((h.tet_count, TET_RECORD_SIZE)),
-            SECTION_PATCHES | SECTION_IDS => None,
-            _ if e.flags & SECTION_FLAG_OPTIONAL != 0 => None,
-            _ => {
-                return Err(corrupt(format!(
-                    "section {i} is of kind {}, which this build does not know and may not \
-                     skip: the repository was made by a newer tessera",
-                    e.kind
-                )))
-            }
-        };
-        if let Some((count, size)) = record {
-            if count.checked_mul(size as u64) != Some(e.bytes) {
-                return Err(corrupt(format!(
-                    "{name} is {} bytes, but {count} records take {count} × {size}",
-                    e.bytes
-                )));
-            }
-        }
-        ranges.push(table_range(&name, e.offset, e.bytes, table_end, len)?);
-    }
-    if let Some(kind) = REQUIRED_SECTIONS
-        .iter()
-        .find(|&&k| !entries.iter().any(|e| e.kind == k))
-    {
-        return Err(corrupt(format!("no {} section", section_name(*kind))));
-    }
-    let mut order: Vec<usize> = (0..ranges.len()).collect();
-    order.sort_by_key(|&i| (ranges[i].start, ranges[i].end));
-    for pair in order.windows(2) {
-        let (a, b) = (&ranges[pair[0]], &ranges[pair[1]]);
-        if b.start < a.end {
-            return Err(corrupt(format!(
-                "{} at {}..{} overlaps {} at {}..{}",
-                section_name(entries[pair[1]].kind),
-                b.start,
-                b.end,
-                section_name(entries[pair[0]].kind),
-                a.start,
-                a.end
-            )));
-        }
-    }
-    let end = ranges
-        .iter()
-        .map(|r| r.end as u64)
-        .max()
-        .unwrap_or(table_end);
-    if end != len {
-        return Err(corrupt(format!(
-            "file is {len} bytes but its sections end at {end}"
-        )));
-    }
-    Ok(ranges)
-}
-
-/// Byte range of a section of `bytes` at `offset`, which must be 8-aligned, at or after `after`
-/// (the end of the section table) and end within `len`.
-fn table_range(
-    name: &str,
-    offset: u64,
-    bytes: u64,
-    after: u64,
-    len: u64,
-) -> Result<Range<usize>, RepositoryError> {
-    if offset & (TABLE_ALIGN - 1) != 0 {
-        return Err(corrupt(format!(
-            "{name} offset {offset} is not a multiple of 8"
-        )));
-    }
-    if offset < after {
-        return Err(corrupt(format!(
-            "{name} at offset {offset} overlaps the section table, which ends at {after}"
-        )));
-    }
-    match offset.checked_add(bytes) {
-        // end ≤ len, and len came from a slice length, so both fit in usize.
-        Some(end) if end <= len => Ok(offset as usize..end as usize),
-        _ => Err(corrupt(format!(
-            "{name} of {bytes} bytes at offset {offset} exceeds the file of {len} bytes"
-        ))),
     }
 }

@@ -13,8 +13,9 @@ use std::path::Path;
 
 use super::directory_check::BlobSizes;
 use super::format::{
-    patch_checksum, DiamondRecord, Header, SectionEntry, TetRecord, HEADER_SIZE, SECTION_DIAMONDS,
-    SECTION_ENTRY_SIZE, SECTION_IDS, SECTION_PATCHES, SECTION_TETS,
+    patch_checksum, DiamondRecord, Header, PatchCodec, SectionEntry, TetRecord, HEADER_SIZE,
+    SECTION_DIAMONDS, SECTION_ENTRY_SIZE, SECTION_IDS, SECTION_PACKED_PATCHES, SECTION_PATCHES,
+    SECTION_TETS, WRITTEN_SECTIONS,
 };
 use super::reader::{corrupt, RepositoryError};
 use super::writer::{lay_out_directory, write_atomically};
@@ -28,6 +29,8 @@ pub struct RepositoryDirectory {
     /// Every tet's `patch_offset` / `id_offset` is where the previous tet's range ends (0 for
     /// the first), and `patch_checksum` is its patch's CRC-32 (`format::patch_checksum`).
     pub tets: Vec<TetRecord>,
+    /// How the fed patches are stored (the fed bytes are the stored ones).
+    pub codec: PatchCodec,
 }
 
 /// Gives the writer each tet's bytes, in table order.
@@ -49,7 +52,7 @@ pub fn write_repository_streamed(
     directory: &RepositoryDirectory,
     feed: &mut dyn BlobFeed,
 ) -> Result<u64, RepositoryError> {
-    let blobs = contiguous_blobs(&directory.tets)?;
+    let blobs = contiguous_blobs(&directory.tets, directory.codec)?;
     let (header, entries) = lay_out_directory(
         &directory.header,
         &directory.diamonds,
@@ -63,8 +66,12 @@ pub fn write_repository_streamed(
 }
 
 /// The blob sizes, after checking that the tets' ranges follow each other in table order.
-fn contiguous_blobs(tets: &[TetRecord]) -> Result<BlobSizes, RepositoryError> {
-    let mut sizes = BlobSizes { patches: 0, ids: 0 };
+fn contiguous_blobs(tets: &[TetRecord], codec: PatchCodec) -> Result<BlobSizes, RepositoryError> {
+    let mut sizes = BlobSizes {
+        patches: 0,
+        ids: 0,
+        codec,
+    };
     for (i, t) in tets.iter().enumerate() {
         if t.patch_offset != sizes.patches || t.id_offset != sizes.ids {
             return Err(corrupt(format!(
@@ -86,7 +93,7 @@ fn contiguous_blobs(tets: &[TetRecord]) -> Result<BlobSizes, RepositoryError> {
 fn write_streamed(
     file: &mut File,
     header: &Header,
-    mut entries: [SectionEntry; 4],
+    mut entries: [SectionEntry; WRITTEN_SECTIONS],
     directory: &RepositoryDirectory,
     feed: &mut dyn BlobFeed,
 ) -> io::Result<u64> {
@@ -103,7 +110,7 @@ fn write_streamed(
         match entry.kind {
             SECTION_DIAMONDS => out.write_all(bytemuck::cast_slice(&directory.diamonds))?,
             SECTION_TETS => out.write_all(bytemuck::cast_slice(&directory.tets))?,
-            SECTION_PATCHES => {
+            SECTION_PATCHES | SECTION_PACKED_PATCHES => {
                 for (i, t) in directory.tets.iter().enumerate() {
                     buffer.clear();
                     feed.patch(i, &mut buffer)?;

@@ -11,9 +11,9 @@ use std::path::{Path, PathBuf};
 
 use super::directory_check::{check_header_fields, check_tables, BlobSizes};
 use super::format::{
-    align8, compute_checksum, patch_checksum, DiamondRecord, Header, SectionEntry, TetRecord,
-    DIAMOND_RECORD_SIZE, FORMAT_VERSION, HEADER_SIZE, MAGIC, REQUIRED_SECTIONS, SECTION_DIAMONDS,
-    SECTION_ENTRY_SIZE, SECTION_IDS, SECTION_PATCHES, SECTION_TETS, TET_RECORD_SIZE,
+    align8, compute_checksum, patch_checksum, DiamondRecord, Header, PatchCodec, SectionEntry,
+    TetRecord, DIAMOND_RECORD_SIZE, FORMAT_VERSION, HEADER_SIZE, MAGIC, SECTION_DIAMONDS,
+    SECTION_ENTRY_SIZE, SECTION_IDS, SECTION_TETS, TET_RECORD_SIZE, WRITTEN_SECTIONS,
 };
 use super::reader::RepositoryError;
 
@@ -29,8 +29,11 @@ pub struct RepositoryContents {
     /// The tet table, roots first (`Header::tet_count` = its length). The writer fills each
     /// `patch_checksum` (whatever it held is ignored).
     pub tets: Vec<TetRecord>,
-    /// The patches, each at its tet's `patch_offset` (see `patch::encode_patch`).
+    /// The patches, each at its tet's `patch_offset` (see `patch::encode_patch`), stored as
+    /// `codec` says (packed: each `packed::pack_patch` of the encoded patch).
     pub patch_blob: Vec<u8>,
+    /// How `patch_blob` stores the patches.
+    pub codec: PatchCodec,
     /// The global id streams, each at its tet's `id_offset` (see `patch::encode_patch`).
     pub id_blob: Vec<u8>,
 }
@@ -39,7 +42,7 @@ pub struct RepositoryContents {
 /// patch checksums.
 struct Laid {
     header: Header,
-    entries: [SectionEntry; 4],
+    entries: [SectionEntry; WRITTEN_SECTIONS],
     tets: Vec<TetRecord>,
 }
 
@@ -50,6 +53,7 @@ fn lay_out(contents: &RepositoryContents) -> Result<Laid, RepositoryError> {
     let blobs = BlobSizes {
         patches: contents.patch_blob.len() as u64,
         ids: contents.id_blob.len() as u64,
+        codec: contents.codec,
     };
     // Patch ranges are checked before they are hashed.
     let (header, _) = lay_out_directory(&contents.header, &contents.diamonds, &tets, blobs, 0)?;
@@ -77,12 +81,12 @@ pub(super) fn lay_out_directory(
     tets: &[TetRecord],
     blobs: BlobSizes,
     ids_checksum: u32,
-) -> Result<(Header, [SectionEntry; 4]), RepositoryError> {
+) -> Result<(Header, [SectionEntry; WRITTEN_SECTIONS]), RepositoryError> {
     let overflow = || RepositoryError::Corrupt("sections overflow a u64 file offset".into());
     let mut h = *header;
     h.magic = MAGIC;
     h.version = FORMAT_VERSION;
-    h.section_count = REQUIRED_SECTIONS.len() as u32;
+    h.section_count = WRITTEN_SECTIONS as u32;
     h.diamond_count = diamonds.len() as u64;
     h.tet_count = tets.len() as u64;
     h.checksum = 0;
@@ -94,11 +98,11 @@ pub(super) fn lay_out_directory(
             h.diamond_count * DIAMOND_RECORD_SIZE as u64,
         ),
         (SECTION_TETS, h.tet_count * TET_RECORD_SIZE as u64),
-        (SECTION_PATCHES, blobs.patches),
+        (blobs.codec.section_kind(), blobs.patches),
         (SECTION_IDS, blobs.ids),
     ];
-    let mut at = (HEADER_SIZE + REQUIRED_SECTIONS.len() * SECTION_ENTRY_SIZE) as u64;
-    let mut entries = [SectionEntry::default(); 4];
+    let mut at = (HEADER_SIZE + WRITTEN_SECTIONS * SECTION_ENTRY_SIZE) as u64;
+    let mut entries = [SectionEntry::default(); WRITTEN_SECTIONS];
     for (entry, (kind, bytes)) in entries.iter_mut().zip(sizes) {
         let offset = align8(at).ok_or_else(overflow)?;
         at = offset.checked_add(bytes).ok_or_else(overflow)?;
@@ -137,8 +141,8 @@ fn write_laid_out<W: Write>(
         let bytes: &[u8] = match entry.kind {
             SECTION_DIAMONDS => bytemuck::cast_slice(&contents.diamonds),
             SECTION_TETS => bytemuck::cast_slice(&laid.tets),
-            SECTION_PATCHES => &contents.patch_blob,
-            _ => &contents.id_blob,
+            SECTION_IDS => &contents.id_blob,
+            _ => &contents.patch_blob,
         };
         w.write_all(&ZEROS[..(entry.offset - at) as usize])?;
         w.write_all(bytes)?;

@@ -2,8 +2,8 @@
 #![allow(dead_code)]
 
 use tessera_core::repository::format::{
-    oct_encode_normal, DiamondRecord, Header, TetRecord, ATTR_COLORS, ATTR_NORMALS, ATTR_UVS,
-    NO_INDEX,
+    oct_encode_normal, DiamondRecord, Header, PatchCodec, TetRecord, ATTR_COLORS, ATTR_NORMALS,
+    ATTR_UVS, NO_INDEX,
 };
 use tessera_core::repository::patch::{encode_patch, PatchData, STRIP_RESTART};
 use tessera_core::repository::RepositoryContents;
@@ -158,6 +158,7 @@ pub fn contents(
         tets,
         patch_blob: blob,
         id_blob: ids,
+        codec: PatchCodec::Raw,
     };
     (contents, patches)
 }

@@ -14,6 +14,7 @@
 use bytemuck::{Pod, Zeroable};
 use tessera_core::repository::patch::{strip_byte_offset, MAX_U16_PATCH_VERTICES};
 use tessera_core::repository::reader::{Repository, RepositoryError};
+use tessera_core::repository::PatchCodec;
 use wgpu::util::DeviceExt;
 
 use super::device::GpuContext;
@@ -69,7 +70,7 @@ pub struct SelectionList {
 /// A resident page of the patch blob.
 pub struct Page {
     pub buffer: wgpu::Buffer,
-    /// Its byte range in the patch blob.
+    /// Its byte range in the patch blob as drawn (decoded, when the repository is packed).
     pub blob_range: std::ops::Range<u64>,
 }
 
@@ -270,24 +271,16 @@ impl ResidentModel {
                 usage: wgpu::BufferUsages::STORAGE | extra,
             })
         };
-        let blob = repo.patch_blob();
-        let pages = layout
-            .pages
-            .iter()
-            .map(|range| Page {
-                buffer: storage(
-                    "patch page",
-                    // An empty model still gets a (tiny) page to bind.
-                    if range.is_empty() {
-                        &[0; 8]
-                    } else {
-                        &blob[range.start as usize..range.end as usize]
-                    },
-                    wgpu::BufferUsages::empty(),
-                ),
+        let mut order: Vec<usize> = (0..tets.len()).collect();
+        order.sort_by_key(|&i| layout.placed[i].start);
+        let mut pages = Vec::with_capacity(layout.pages.len());
+        for range in &layout.pages {
+            let bytes = page_bytes(repo, range, &order, &layout.placed)?;
+            pages.push(Page {
+                buffer: storage("patch page", &bytes, wgpu::BufferUsages::empty()),
                 blob_range: range.clone(),
-            })
-            .collect();
+            });
+        }
         Ok(ResidentModel {
             records: storage("slot records", record_bytes, wgpu::BufferUsages::empty()),
             locations: storage("locations", location_bytes, wgpu::BufferUsages::empty()),
@@ -330,12 +323,71 @@ pub(crate) fn tree_depths(repo: &Repository) -> u32 {
 /// The page layout, before upload.
 #[derive(Debug)]
 struct PageLayout {
+    /// Each page's range of the decoded patch blob.
     pages: Vec<std::ops::Range<u64>>,
+    /// Each tet's patch's range of the decoded patch blob.
+    placed: Vec<std::ops::Range<u64>>,
     locations: Vec<PatchLocation>,
     lists: Vec<SelectionList>,
     entry_count: u32,
     /// `ResidentModel::page_simplices` (at least one entry).
     page_simplices: Vec<u32>,
+}
+
+/// Where each tet's patch lies in the patch blob as drawn: where the record says in a raw
+/// repository; in a packed one, the decoded patches back to back in blob order.
+fn decoded_ranges(
+    repo: &Repository,
+    order: &[usize],
+) -> Result<Vec<std::ops::Range<u64>>, ResidentError> {
+    let tets = repo.tets();
+    let mut placed = vec![0..0; tets.len()];
+    let mut at = 0u64;
+    for &i in order {
+        placed[i] = match repo.codec() {
+            PatchCodec::Raw => {
+                let t = &tets[i];
+                t.patch_offset..t.patch_offset + t.patch_bytes as u64
+            }
+            PatchCodec::Packed => {
+                let size = repo.decoded_patch_bytes(i)? as u64;
+                at += size;
+                at - size..at
+            }
+        };
+    }
+    Ok(placed)
+}
+
+/// The bytes of page `range` of the patch blob as drawn: a slice of the map, or the page's
+/// patches decoded (the tets in `order` whose `placed` range lies in it).
+fn page_bytes<'a>(
+    repo: &'a Repository,
+    range: &std::ops::Range<u64>,
+    order: &[usize],
+    placed: &[std::ops::Range<u64>],
+) -> Result<std::borrow::Cow<'a, [u8]>, ResidentError> {
+    if range.is_empty() {
+        // An empty model still gets a (tiny) page to bind.
+        return Ok(std::borrow::Cow::Owned(vec![0; 8]));
+    }
+    match repo.codec() {
+        PatchCodec::Raw => Ok(std::borrow::Cow::Borrowed(
+            &repo.patch_blob()[range.start as usize..range.end as usize],
+        )),
+        PatchCodec::Packed => {
+            let mut bytes = vec![0u8; (range.end - range.start) as usize];
+            let inside = order
+                .iter()
+                .filter(|&&i| range.start <= placed[i].start && placed[i].end <= range.end);
+            for &i in inside {
+                let to = (placed[i].start - range.start) as usize
+                    ..(placed[i].end - range.start) as usize;
+                repo.read_patch(i, &mut bytes[to])?;
+            }
+            Ok(std::borrow::Cow::Owned(bytes))
+        }
+    }
 }
 
 /// Greedy pages: patches in blob order, a new page whenever the next patch would end beyond
@@ -344,15 +396,15 @@ fn lay_out_pages(repo: &Repository, limit: u64) -> Result<PageLayout, ResidentEr
     let tets = repo.tets();
     let mut order: Vec<usize> = (0..tets.len()).collect();
     order.sort_by_key(|&i| tets[i].patch_offset);
+    let placed = decoded_ranges(repo, &order)?;
     let mut pages: Vec<std::ops::Range<u64>> = Vec::new();
     let mut page_of = vec![0usize; tets.len()];
     for &i in &order {
-        let t = &tets[i];
-        let (start, end) = (t.patch_offset, t.patch_offset + t.patch_bytes as u64);
-        if t.patch_bytes as u64 > limit {
+        let (start, end) = (placed[i].start, placed[i].end);
+        if end - start > limit {
             return Err(ResidentError::PatchTooLarge {
                 tet: i,
-                bytes: t.patch_bytes as u64,
+                bytes: end - start,
                 limit,
             });
         }
@@ -412,7 +464,7 @@ fn lay_out_pages(repo: &Repository, limit: u64) -> Result<PageLayout, ResidentEr
         }
         let page = page_of[i];
         let wide = t.vertex_count as usize > MAX_U16_PATCH_VERTICES;
-        let in_page = t.patch_offset - pages[page].start;
+        let in_page = placed[i].start - pages[page].start;
         let strip_offset =
             strip_byte_offset(t.vertex_count as usize, repo.header().attributes) as u64;
         let index_bytes = if wide { 4 } else { 2 };
@@ -425,6 +477,7 @@ fn lay_out_pages(repo: &Repository, limit: u64) -> Result<PageLayout, ResidentEr
     }
     Ok(PageLayout {
         pages,
+        placed,
         locations,
         lists,
         entry_count: next,

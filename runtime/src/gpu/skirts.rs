@@ -46,6 +46,7 @@ impl SkirtSource {
         for (i, tet) in repo.tets().iter().enumerate() {
             if tet.is_leaf() {
                 let patch = repo.patch(i)?;
+                let patch = patch.view();
                 let ids: Vec<u32> = patch.global_ids().collect();
                 input.extend(patch.triangles().map(|t| t.map(|v| ids[v as usize])));
             }
@@ -77,6 +78,7 @@ impl SkirtSource {
         let mut position: HashMap<u32, [i32; 3]> = HashMap::new();
         for &i in selection {
             let patch = repo.patch(i as usize)?;
+            let patch = patch.view();
             let ids: Vec<u32> = patch.global_ids().collect();
             for (v, &id) in ids.iter().enumerate() {
                 position

@@ -16,6 +16,7 @@
 //! view whose units have still smaller patches runs out of slots first and settles coarser,
 //! as it would for bytes). Neither is ever larger than the whole model needs.
 
+use tessera_core::repository::patch::drawn_patch_bytes;
 use tessera_core::repository::reader::Repository;
 
 use super::device::GpuContext;
@@ -111,11 +112,12 @@ fn model_needs(repo: &Repository) -> ModelNeeds {
     let mut per_level = [(0u64, 0u64); 64];
     let mut patches = PatchSizes::new();
     // One pass over the directory, its pages dropped behind it (`scan_tets`).
+    let attributes = repo.header().attributes;
     repo.scan_tets(|_, t| {
         let level = &mut per_level[(t.level as usize).min(63)];
         level.0 += 1;
-        level.1 += (t.patch_bytes as u64).next_multiple_of(8);
-        patches.add(t);
+        level.1 += drawn_patch_bytes(t, attributes).next_multiple_of(8);
+        patches.add(t, attributes);
     });
     let patches = patches.finish();
     let simplices: u64 = per_level.iter().map(|l| l.0).sum();

@@ -14,6 +14,7 @@
 //! nothing here is sized by the model's simplex or diamond count.
 
 use tessera_core::repository::format::TetRecord;
+use tessera_core::repository::patch::drawn_patch_bytes;
 use tessera_core::repository::reader::Repository;
 
 use super::device::GpuContext;
@@ -167,20 +168,21 @@ impl PatchSizes {
         }
     }
 
-    pub(crate) fn add(&mut self, t: &TetRecord) {
+    /// Counts `t`, a record of a repository with the `attributes` mask.
+    pub(crate) fn add(&mut self, t: &TetRecord, attributes: u32) {
         if t.strip_index_count != 0 {
             self.nonempty += 1;
-            self.smallest = self
-                .smallest
-                .min((t.patch_bytes as u64).next_multiple_of(8).max(8));
+            let drawn = drawn_patch_bytes(t, attributes);
+            self.smallest = self.smallest.min(drawn.next_multiple_of(8).max(8));
         }
     }
 
-    /// The sizes of a table held in memory (tests; the streamer scans the map).
-    pub fn of(tets: &[TetRecord]) -> PatchSizes {
+    /// The sizes of a table held in memory, of a repository with the `attributes` mask
+    /// (tests; the streamer scans the map).
+    pub fn of(tets: &[TetRecord], attributes: u32) -> PatchSizes {
         let mut sizes = PatchSizes::new();
         for t in tets {
-            sizes.add(t);
+            sizes.add(t, attributes);
         }
         sizes.finish()
     }

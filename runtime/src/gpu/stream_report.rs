@@ -65,6 +65,9 @@ pub struct GpuStreamStats {
     pub pool_bytes: u64,
     /// Bytes written into the pool (units uploaded, roots included).
     pub uploaded_bytes: u64,
+    /// Seconds the loader thread spent reading (and decoding, when packed) the units it
+    /// delivered, summed.
+    pub read_seconds: f64,
     /// Pool fragmentation (1 − largest free range / free bytes) now.
     pub fragmentation: f64,
     /// Frames a loaded unit waited for pool space, summed.

@@ -26,6 +26,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 
 use tessera_core::cut::diamond_rhos;
+use tessera_core::repository::patch::drawn_patch_bytes;
 use tessera_core::repository::reader::Repository;
 
 use super::device::{GpuContext, GpuFailure};
@@ -63,11 +64,11 @@ fn fits_a_page(
     simplices: &[u32],
     layout: &super::stream_pool::PoolLayout,
 ) -> bool {
-    let tets = repo.tets();
+    let (tets, attributes) = (repo.tets(), repo.header().attributes);
     let (mut bytes, mut nonempty) = (0u64, 0u64);
     for &s in simplices {
         let t = &tets[s as usize];
-        bytes += (t.patch_bytes as u64).next_multiple_of(8);
+        bytes += drawn_patch_bytes(t, attributes).next_multiple_of(8);
         nonempty += u64::from(t.strip_index_count != 0);
     }
     bytes.max(8) <= layout.page_bytes && nonempty <= layout.patch_capacity as u64
@@ -422,7 +423,13 @@ impl GpuStreamer {
             }
             !done
         });
-        self.ready.extend(self.loader.finished());
+        let finished = self.loader.finished();
+        for unit in &finished {
+            if let Ok(bytes) = &unit.result {
+                self.stats.read_seconds += bytes.read_seconds;
+            }
+        }
+        self.ready.extend(finished);
         let (mut uploaded, mut uploaded_bytes) = (0, 0u64);
         let mut waiting = VecDeque::new();
         while let Some(unit) = self.ready.pop_front() {

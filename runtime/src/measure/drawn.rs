@@ -35,6 +35,7 @@ pub fn drawn_cut(repo: &Repository, selection: &[u32]) -> Result<DrawnSurface, R
     let mut surface = DrawnSurface::default();
     for &simplex in selection {
         let patch = repo.patch(simplex as usize)?;
+        let patch = patch.view();
         let base = surface.positions.len() as u32;
         surface.positions.extend((0..patch.vertex_count()).map(|i| {
             let p = dequantize_position(patch.position(i), h.bbox_min, h.position_step);
@@ -115,6 +116,7 @@ mod tests {
             tets,
             patch_blob: blob,
             id_blob: ids,
+            codec: tessera_core::repository::PatchCodec::Raw,
         };
         let mut bytes = Vec::new();
         write_repository(&mut bytes, &contents).unwrap();

@@ -39,6 +39,8 @@ pub struct StreamedFrame {
     pub loads: usize,
     pub loaded_bytes: u64,
     pub evictions: usize,
+    /// Seconds spent reading (and decoding, when packed) the units that landed this frame.
+    pub read_seconds: f64,
     /// Totals after the frame.
     pub stats: ResidencyStats,
 }
@@ -83,6 +85,7 @@ impl<'r> CpuStreamer<'r> {
         cull: &CullTests,
     ) -> StreamedFrame {
         self.frame += 1;
+        let mut read_seconds = 0.0;
         while let Some(&(due, unit)) = self.in_flight.front() {
             if due > self.frame {
                 break;
@@ -90,7 +93,10 @@ impl<'r> CpuStreamer<'r> {
             self.in_flight.pop_front();
             let simplices = self.residency.units().simplices(unit);
             let ok = match read_unit(self.repo, simplices) {
-                Ok(_) => true,
+                Ok(read) => {
+                    read_seconds += read.read_seconds;
+                    true
+                }
                 Err(e) => {
                     self.failures.push((unit, e));
                     false
@@ -124,6 +130,7 @@ impl<'r> CpuStreamer<'r> {
             loads: plan.load.len(),
             loaded_bytes,
             evictions: plan.evict.len(),
+            read_seconds,
             stats: self.residency.stats(),
         }
     }

@@ -1,7 +1,8 @@
 //! The loader thread: reads units through the memory map, off the render thread.
 //!
-//! A unit's patches are copied out of the map into one buffer (what the GPU upload takes),
-//! each patch's checksum checked the first time it is read (`Repository::patch_bytes`): a
+//! A unit's patches are copied out of the map into one buffer (what the GPU upload takes) —
+//! decoded on the way when the repository is packed (`Repository::read_patch`), so the render
+//! thread never decodes — each patch's checksum checked the first time it is read: a
 //! damaged patch fails the whole unit, naming the simplex, and the residency marks the unit
 //! broken so its diamond never refines. The process holds no other copy of the repository:
 //! the map is the only one, and the page cache decides what stays in memory.
@@ -28,18 +29,22 @@ pub struct UnitBytes {
     /// Simplex, byte offset in `bytes`, byte length.
     pub patches: Vec<(u32, usize, usize)>,
     pub bytes: Vec<u8>,
+    /// Time spent reading the patches out of the map (decoding them when packed), seconds.
+    pub read_seconds: f64,
 }
 
 /// Reads unit `simplices` from `repo` (the work the thread does; callable directly).
 pub fn read_unit(repo: &Repository, simplices: &[u32]) -> Result<UnitBytes, RepositoryError> {
+    let start = std::time::Instant::now();
     let mut out = UnitBytes::default();
     for &t in simplices {
-        let bytes = repo.patch_bytes(t as usize)?;
+        let size = repo.decoded_patch_bytes(t as usize)?;
         let at = out.bytes.len().next_multiple_of(8);
-        out.bytes.resize(at, 0);
-        out.bytes.extend_from_slice(bytes);
-        out.patches.push((t, at, bytes.len()));
+        out.bytes.resize(at + size, 0);
+        repo.read_patch(t as usize, &mut out.bytes[at..])?;
+        out.patches.push((t, at, size));
     }
+    out.read_seconds = start.elapsed().as_secs_f64();
     Ok(out)
 }
 

@@ -15,6 +15,7 @@
 //! simplices and 27,532 diamonds; computed, not measured.)
 
 use tessera_core::repository::format::{DiamondRecord, TetRecord, NO_INDEX};
+use tessera_core::repository::patch::drawn_patch_bytes;
 use tessera_core::repository::reader::Repository;
 
 /// Compressed rows: row `r` is `items[starts[r]..starts[r + 1]]`.
@@ -69,7 +70,14 @@ pub struct UnitTable {
 
 impl UnitTable {
     /// Derives the units from a validated directory (`Repository::diamonds`, `tets`).
-    pub fn new(diamonds: &[DiamondRecord], tets: &[TetRecord], root_count: usize) -> UnitTable {
+    /// `drawn`: a patch's size on the GPU (`patch::drawn_patch_bytes` with the repository's
+    /// attributes).
+    pub fn new(
+        diamonds: &[DiamondRecord],
+        tets: &[TetRecord],
+        root_count: usize,
+        drawn: &dyn Fn(&TetRecord) -> u64,
+    ) -> UnitTable {
         let created = Rows::from_pairs(
             diamonds.len(),
             tets.iter().enumerate().filter_map(|(i, t)| {
@@ -81,11 +89,11 @@ impl UnitTable {
                 created
                     .row(d)
                     .iter()
-                    .map(|&t| tets[t as usize].patch_bytes as u64)
+                    .map(|&t| drawn(&tets[t as usize]))
                     .sum()
             })
             .collect();
-        let root_bytes = (0..root_count).map(|t| tets[t].patch_bytes as u64).sum();
+        let root_bytes = (0..root_count).map(|t| drawn(&tets[t])).sum();
         Self::with_created(diamonds, created, unit_bytes, root_count, root_bytes)
     }
 
@@ -98,13 +106,15 @@ impl UnitTable {
         let mut starts = vec![0u32; diamonds.len() + 1];
         let mut unit_bytes = vec![0u64; diamonds.len()];
         let mut root_bytes = 0;
+        let attributes = repo.header().attributes;
         repo.scan_tets(|i, t| {
+            let drawn = drawn_patch_bytes(t, attributes);
             if t.parent_diamond != NO_INDEX {
                 starts[t.parent_diamond as usize + 1] += 1;
-                unit_bytes[t.parent_diamond as usize] += t.patch_bytes as u64;
+                unit_bytes[t.parent_diamond as usize] += drawn;
             }
             if i < root_count {
-                root_bytes += t.patch_bytes as u64;
+                root_bytes += drawn;
             }
         });
         for r in 0..diamonds.len() {

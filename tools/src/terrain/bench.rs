@@ -299,6 +299,7 @@ fn tessera_surface(
     let mut out = Vec::new();
     for &i in cut {
         let patch = repo.patch(i as usize)?;
+        let patch = patch.view();
         let positions: Vec<[f64; 3]> = (0..patch.vertex_count())
             .map(|v| {
                 let p = dequantize_position(patch.position(v), h.bbox_min, h.position_step);
