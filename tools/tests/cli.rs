@@ -1010,3 +1010,71 @@ fn bench_terrain_measures_roam_rustic_and_tessera() {
     let out = tessera(&["bench", "terrain", dem.to_str().unwrap(), "--frames", "1"]);
     assert_eq!(out.status.code(), Some(2));
 }
+
+/// `build --no-compress` stores the patches as drawn, the default packs them (`info` says
+/// which, and the per-level sizes), and both draw the same pixels: the packed patches decode,
+/// on the loader thread and on upload, to exactly the raw bytes.
+#[test]
+fn packed_and_raw_repositories_draw_the_same_pixels() {
+    let dir = tempfile::tempdir().unwrap();
+    let packed = build_bunny(dir.path());
+    let raw = dir.path().join("bunny-raw.tsr");
+    let out = tessera(&[
+        "build",
+        bunny().to_str().unwrap(),
+        "-o",
+        raw.to_str().unwrap(),
+        "--no-compress",
+    ]);
+    assert!(out.status.success());
+    let mut infos = Vec::new();
+    for (repo, codec) in [(&packed, "packed"), (&raw, "raw")] {
+        let info = json(&tessera(&["info", repo.to_str().unwrap(), "--json"]));
+        assert_eq!(info["patch_codec"], codec, "{info}");
+        let levels = info["levels"].as_array().unwrap();
+        let stored: u64 = levels
+            .iter()
+            .map(|l| l["stored_bytes"].as_u64().unwrap())
+            .sum();
+        assert_eq!(stored, info["patch_blob_bytes"].as_u64().unwrap(), "{info}");
+        infos.push(info);
+    }
+    assert_eq!(
+        infos[0]["patch_decoded_bytes"],
+        infos[1]["patch_decoded_bytes"]
+    );
+    assert_eq!(
+        infos[1]["patch_decoded_bytes"],
+        infos[1]["patch_stored_bytes"]
+    );
+    assert!(infos[0]["repository_bytes"].as_u64() < infos[1]["repository_bytes"].as_u64());
+    // The whole-model upload (`render`) and the streaming one (`render --gpu-budget`).
+    for budget in [None, Some("2")] {
+        let mut images = Vec::new();
+        for repo in [&packed, &raw] {
+            let png = dir.path().join("frame.png");
+            let mut args = vec![
+                "render",
+                repo.to_str().unwrap(),
+                "-o",
+                png.to_str().unwrap(),
+                "--size",
+                "200x150",
+            ];
+            if let Some(mib) = budget {
+                args.extend(["--gpu-budget", mib]);
+            }
+            let out = tessera(&args);
+            assert!(
+                out.status.success(),
+                "{}",
+                String::from_utf8_lossy(&out.stderr)
+            );
+            images.push(std::fs::read(&png).unwrap());
+        }
+        assert!(
+            images[0] == images[1],
+            "budget {budget:?}: the pictures differ"
+        );
+    }
+}
