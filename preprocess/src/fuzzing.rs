@@ -318,7 +318,10 @@ pub fn packed_patch(data: &[u8]) -> bool {
     // n ≤ 65,535 here: u16 indices, restart 0xFFFF.
     for (k, c) in strip.chunks_exact(2).take(m).enumerate() {
         let i = u16::from_le_bytes([c[0], c[1]]);
-        assert!(i == u16::MAX || (i as usize) < n, "strip index {k} is {i} of {n}");
+        assert!(
+            i == u16::MAX || (i as usize) < n,
+            "strip index {k} is {i} of {n}"
+        );
     }
     let mut again = Vec::new();
     pack_patch(&out, n, m, attributes, &mut again);

@@ -19,6 +19,7 @@ mod cmd_gen;
 mod cmd_gen_mesh;
 mod cmd_info;
 mod cmd_render;
+mod cmd_repack;
 mod demo_terrain;
 mod gpu_args;
 mod input;
@@ -49,6 +50,9 @@ enum Command {
     Build(cmd_build::BuildArgs),
     /// Describe a repository.
     Info(cmd_info::InfoArgs),
+    /// Rewrite a repository with its patches packed (the default) or stored as drawn
+    /// (`--no-compress`), without a rebuild.
+    Repack(cmd_repack::RepackArgs),
     /// Render a view of a repository to PNG on the GPU (lavapipe works).
     Render(cmd_render::RenderArgs),
     /// Check the cuts of a repository for cracks, non-manifold edges and monotonicity.
@@ -77,6 +81,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Build(args) => cmd_build::run(args),
         Command::Info(args) => cmd_info::run(args),
+        Command::Repack(args) => cmd_repack::run(args),
         Command::Render(args) => cmd_render::run(args),
         Command::Check(args) => cmd_check::run(args),
         Command::Demo(args) => cmd_demo::run(args),

@@ -1012,8 +1012,9 @@ fn bench_terrain_measures_roam_rustic_and_tessera() {
 }
 
 /// `build --no-compress` stores the patches as drawn, the default packs them (`info` says
-/// which, and the per-level sizes), and both draw the same pixels: the packed patches decode,
-/// on the loader thread and on upload, to exactly the raw bytes.
+/// which, and the per-level sizes), `repack` turns either into the other byte for byte, and
+/// both draw the same pixels: the packed patches decode, on the loader thread and on upload,
+/// to exactly the raw bytes.
 #[test]
 fn packed_and_raw_repositories_draw_the_same_pixels() {
     let dir = tempfile::tempdir().unwrap();
@@ -1048,6 +1049,50 @@ fn packed_and_raw_repositories_draw_the_same_pixels() {
         infos[1]["patch_stored_bytes"]
     );
     assert!(infos[0]["repository_bytes"].as_u64() < infos[1]["repository_bytes"].as_u64());
+    // `repack` turns one into the other, byte for byte, without a rebuild.
+    for (from, to, flags) in [
+        (&raw, &packed, vec![]),
+        (&packed, &raw, vec!["--no-compress"]),
+    ] {
+        let out_path = dir.path().join("repacked.tsr");
+        let mut args = vec![
+            "repack",
+            from.to_str().unwrap(),
+            "-o",
+            out_path.to_str().unwrap(),
+        ];
+        args.extend(flags);
+        let out = tessera(&args);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert!(std::fs::read(&out_path).unwrap() == std::fs::read(to).unwrap());
+    }
+    // A damaged source is refused (exit 2) and nothing is written.
+    let mut damaged = std::fs::read(&raw).unwrap();
+    let last_patch_byte = damaged.len() - infos[1]["id_blob_bytes"].as_u64().unwrap() as usize - 9;
+    damaged[last_patch_byte] ^= 0x10;
+    let damaged_path = dir.path().join("damaged.tsr");
+    std::fs::write(&damaged_path, damaged).unwrap();
+    let out_path = dir.path().join("never.tsr");
+    let out = tessera(&[
+        "repack",
+        damaged_path.to_str().unwrap(),
+        "-o",
+        out_path.to_str().unwrap(),
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("damaged") && !stderr.contains("panicked"),
+        "{stderr}"
+    );
+    assert!(!out_path.exists());
+    // Nor may the output be the input.
+    let out = tessera(&["repack", raw.to_str().unwrap(), "-o", raw.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(2));
     // The whole-model upload (`render`) and the streaming one (`render --gpu-budget`).
     for budget in [None, Some("2")] {
         let mut images = Vec::new();

@@ -10,6 +10,7 @@
 //!   CPU's checks need them, the GPU does not);
 //! - `writer`: `write_repository[_file]` (temporary file, fsync, rename; stale temporaries of
 //!   killed writers removed);
+//! - `repack`: a repository rewritten with its patches packed or raw, without a rebuild;
 //! - `streamed_writer`: `write_repository_streamed`, the same file with the blobs fed a tet
 //!   at a time (the out-of-core build);
 //! - `directory_check`: the header's and the tables' checks, shared by reader and writer;
@@ -24,6 +25,7 @@ pub mod global_ids;
 pub mod packed;
 pub mod patch;
 pub mod reader;
+pub mod repack;
 pub mod streamed_writer;
 pub mod strip;
 pub mod writer;

@@ -1,0 +1,104 @@
+//! Rewriting a repository with its patches stored another way (`tessera repack`): a raw
+//! repository made before packing, or with `build --no-compress`, becomes a packed one without
+//! a rebuild, and back. Everything but the patch blob's bytes and the records' patch
+//! placement stays as it is.
+//!
+//! Two passes over the patches, neither holding more than one: the first validates each patch
+//! and computes its new size and checksum (the streaming writer lays the directory out before
+//! any blob byte), the second feeds the same bytes to the writer, which checks each against
+//! its record. Memory: the directory.
+
+use std::io;
+use std::path::Path;
+
+use super::format::{patch_checksum, PatchCodec, TetRecord};
+use super::packed::pack_patch;
+use super::reader::{Repository, RepositoryError};
+use super::streamed_writer::{write_repository_streamed, BlobFeed, RepositoryDirectory};
+
+/// The stored bytes of tet `i`'s patch under `codec`, appended to `out`.
+fn stored(
+    source: &Repository,
+    i: usize,
+    codec: PatchCodec,
+    scratch: &mut Vec<u8>,
+    out: &mut Vec<u8>,
+) -> Result<(), RepositoryError> {
+    let size = source.decoded_patch_bytes(i)?;
+    let t = &source.tets()[i];
+    match codec {
+        PatchCodec::Raw => {
+            let at = out.len();
+            out.resize(at + size, 0);
+            source.read_patch(i, &mut out[at..])
+        }
+        PatchCodec::Packed => {
+            scratch.resize(size, 0);
+            source.read_patch(i, scratch)?;
+            pack_patch(
+                scratch,
+                t.vertex_count as usize,
+                t.strip_index_count as usize,
+                source.header().attributes,
+                out,
+            );
+            Ok(())
+        }
+    }
+}
+
+/// Writes `source` to `path` (atomically, as every writer) with its patches stored as `codec`
+/// says; returns the file's size. Every patch is validated first (`Repository::patch`): a
+/// damaged source is an error naming the tet, and nothing is written.
+pub fn repack(source: &Repository, codec: PatchCodec, path: &Path) -> Result<u64, RepositoryError> {
+    let (mut scratch, mut bytes) = (Vec::new(), Vec::new());
+    let (mut patch_at, mut id_at) = (0u64, 0u64);
+    let mut tets: Vec<TetRecord> = Vec::with_capacity(source.tets().len());
+    for (i, t) in source.tets().iter().enumerate() {
+        source.patch(i)?;
+        bytes.clear();
+        stored(source, i, codec, &mut scratch, &mut bytes)?;
+        tets.push(TetRecord {
+            patch_offset: patch_at,
+            patch_bytes: bytes.len() as u32,
+            patch_checksum: patch_checksum(&bytes),
+            id_offset: id_at,
+            ..*t
+        });
+        patch_at += bytes.len() as u64;
+        id_at += t.id_bytes as u64;
+    }
+    let directory = RepositoryDirectory {
+        header: *source.header(),
+        diamonds: source.diamonds().to_vec(),
+        tets,
+        codec,
+    };
+    let mut feed = Feed {
+        source,
+        codec,
+        scratch: Vec::new(),
+    };
+    write_repository_streamed(path, &directory, &mut feed)
+}
+
+struct Feed<'a> {
+    source: &'a Repository,
+    codec: PatchCodec,
+    scratch: Vec<u8>,
+}
+
+impl BlobFeed for Feed<'_> {
+    fn patch(&mut self, tet: usize, out: &mut Vec<u8>) -> io::Result<()> {
+        stored(self.source, tet, self.codec, &mut self.scratch, out)
+            .map_err(|e| io::Error::new(io::ErrorKind::InvalidData, e))
+    }
+
+    fn ids(&mut self, tet: usize, out: &mut Vec<u8>) -> io::Result<()> {
+        let t = &self.source.tets()[tet];
+        // In range: the reader checked every id range against the id blob.
+        let start = t.id_offset as usize;
+        out.extend_from_slice(&self.source.id_blob()[start..start + t.id_bytes as usize]);
+        Ok(())
+    }
+}

@@ -1,0 +1,81 @@
+//! `tessera repack REPO -o OUT [--no-compress] [--json]`: the same repository with its patches
+//! packed (the default) or stored as drawn, without a rebuild — for repositories built before
+//! packing, or with `build --no-compress` (`core::repository::repack`).
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::Context;
+use clap::Args;
+use serde_json::json;
+use tessera_core::repository::repack::repack;
+use tessera_core::repository::{PatchCodec, Repository};
+
+use crate::Outcome;
+
+#[derive(Args)]
+pub struct RepackArgs {
+    /// Repository to read.
+    pub repository: PathBuf,
+    /// Repository to write (a temporary file, then renamed; may not be the input).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Store the patches as drawn instead of packed.
+    #[arg(long)]
+    pub no_compress: bool,
+    /// Print one JSON object on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+fn name(codec: PatchCodec) -> &'static str {
+    match codec {
+        PatchCodec::Raw => "raw",
+        PatchCodec::Packed => "packed",
+    }
+}
+
+pub fn run(args: RepackArgs) -> anyhow::Result<Outcome> {
+    let start = Instant::now();
+    let same_file = std::fs::canonicalize(&args.repository)
+        .ok()
+        .zip(std::fs::canonicalize(&args.output).ok())
+        .is_some_and(|(a, b)| a == b);
+    anyhow::ensure!(
+        !same_file,
+        "{}: the output may not be the input (the input stays mapped while it is read)",
+        args.output.display()
+    );
+    let source = Repository::open(&args.repository)
+        .with_context(|| format!("{}", args.repository.display()))?;
+    let codec = if args.no_compress {
+        PatchCodec::Raw
+    } else {
+        PatchCodec::Packed
+    };
+    let bytes = repack(&source, codec, &args.output)
+        .with_context(|| format!("{}", args.repository.display()))?;
+    let value = json!({
+        "input": args.repository,
+        "output": args.output,
+        "input_codec": name(source.codec()),
+        "output_codec": name(codec),
+        "input_bytes": source.file_bytes(),
+        "output_bytes": bytes,
+        "seconds": start.elapsed().as_secs_f64(),
+    });
+    if args.json {
+        println!("{value}");
+    } else {
+        println!(
+            "{} ({}, {} bytes) -> {} ({}, {bytes} bytes) in {:.2} s",
+            args.repository.display(),
+            name(source.codec()),
+            source.file_bytes(),
+            args.output.display(),
+            name(codec),
+            start.elapsed().as_secs_f64()
+        );
+    }
+    Ok(Outcome::Ok)
+}
