@@ -2,6 +2,7 @@
 //! simplification, saturation; then strips and the file).
 
 use rustc_hash::FxHashMap as HashMap;
+use std::cell::RefCell;
 use std::path::Path;
 use std::time::Instant;
 
@@ -14,6 +15,7 @@ use tessera_core::repository::format::{
 use tessera_core::repository::writer::RepositoryContents;
 use tessera_core::repository::{write_repository_streamed, BlobFeed, RepositoryDirectory};
 
+use crate::checkpoint::{save_levels, Checkpoint, CheckpointError, InputFacts, LevelsCheckpoint};
 use crate::external::{LeafGroups, StagedMesh};
 use crate::finished_patches::{FinishedPatches, PatchEncoding};
 use crate::frame::LatticeFrame;
@@ -24,7 +26,8 @@ use crate::hierarchy::{
 use crate::mesh::InputMesh;
 use crate::saturate::{nest_simplex_spheres, saturate, RADIUS_MARGIN};
 use crate::simplify::{
-    simplify_from_leaves, simplify_hierarchy, CurrentMesh, SimplifyError, SimplifySettings,
+    simplify_from_leaves, simplify_hierarchy, simplify_levels, CurrentMesh, LevelState,
+    SimplifyError, SimplifySettings,
 };
 use crate::vertex_table::LivePatch;
 
@@ -43,7 +46,7 @@ pub fn build_repository(
     out: &Path,
     on_stage: &(dyn Fn(&str) + Sync),
 ) -> Result<BuildSummary, BuildError> {
-    write_built(Source::Memory(mesh), config, out, on_stage)
+    write_built(Source::Memory(mesh), config, out, on_stage, None)
 }
 
 /// `build_repository` from a mesh staged on disk (`import::stage_mesh`), never loading it: the
@@ -60,7 +63,44 @@ pub fn build_repository_staged(
             "a staged mesh is built under a memory budget".into(),
         ));
     }
-    write_built(Source::Staged(staged), config, out, on_stage)
+    write_built(Source::Staged(staged), config, out, on_stage, None)
+}
+
+/// `build_repository_staged` that keeps `checkpoint` (`checkpoint/mod.rs`) up to date after
+/// the leaves and after each level, and continues from it: from its `leaves` or `level-N`
+/// stage (then `staged` is not read and may be `None`), or from the start with `staged`. The
+/// bytes are those of `build_repository_staged`.
+pub fn build_repository_checkpointed(
+    staged: Option<&StagedMesh>,
+    config: &BuildConfig,
+    out: &Path,
+    on_stage: &(dyn Fn(&str) + Sync),
+    checkpoint: &mut Checkpoint,
+) -> Result<BuildSummary, BuildError> {
+    if config.memory.is_none() {
+        return Err(BuildError::Config(
+            "a checkpointed build is built under a memory budget".into(),
+        ));
+    }
+    let damaged = |e: std::io::Error| CheckpointError::Damaged {
+        dir: checkpoint.dir().to_path_buf(),
+        reason: e.to_string(),
+    };
+    let resumed = crate::checkpoint::load_levels(checkpoint).map_err(damaged)?;
+    let source = match (&resumed, staged) {
+        (Some(_), _) => Source::Resumed,
+        (None, Some(staged)) => Source::Staged(staged),
+        (None, None) => {
+            return Err(BuildError::Config(
+                "no staged mesh and no simplification state to resume from".into(),
+            ))
+        }
+    };
+    let resume = Resume {
+        checkpoint,
+        levels: resumed,
+    };
+    write_built(source, config, out, on_stage, Some(resume))
 }
 
 /// Where the build's mesh is.
@@ -68,6 +108,14 @@ pub fn build_repository_staged(
 enum Source<'a> {
     Memory(&'a InputMesh),
     Staged(&'a StagedMesh),
+    /// In the checkpoint's simplification state (`Resume::levels`).
+    Resumed,
+}
+
+/// A checkpointed build: its checkpoint, and the state it resumes from (if any).
+struct Resume<'c> {
+    checkpoint: &'c mut Checkpoint,
+    levels: Option<LevelsCheckpoint>,
 }
 
 fn write_built(
@@ -75,9 +123,10 @@ fn write_built(
     config: &BuildConfig,
     out: &Path,
     on_stage: &(dyn Fn(&str) + Sync),
+    resume: Option<Resume>,
 ) -> Result<BuildSummary, BuildError> {
     let start = Instant::now();
-    let mut built = build_parts(source, config, on_stage)?;
+    let mut built = build_parts(source, config, on_stage, resume)?;
     on_stage("write");
     let t = Instant::now();
     let mut feed = built.finished.feed(&built.order);
@@ -96,7 +145,7 @@ pub fn build_contents(
     config: &BuildConfig,
     on_stage: &(dyn Fn(&str) + Sync),
 ) -> Result<(RepositoryContents, BuildSummary), BuildError> {
-    let mut built = build_parts(Source::Memory(mesh), config, on_stage)?;
+    let mut built = build_parts(Source::Memory(mesh), config, on_stage, None)?;
     let mut feed = built.finished.feed(&built.order);
     let mut patch_blob = Vec::new();
     let mut id_blob = Vec::new();
@@ -140,10 +189,19 @@ fn build_parts(
     source: Source,
     config: &BuildConfig,
     on_stage: &(dyn Fn(&str) + Sync),
+    resume: Option<Resume>,
 ) -> Result<Built, BuildError> {
     validate_config(config)?;
     let bbox = match source {
         Source::Memory(mesh) => validate(mesh)?,
+        Source::Resumed => {
+            resume
+                .as_ref()
+                .and_then(|r| r.levels.as_ref())
+                .expect("a resumed build has its state")
+                .facts
+                .bbox
+        }
         Source::Staged(staged) => crate::staged_build::validate_staged(
             staged,
             config.memory.as_ref().expect("checked by the caller"),
@@ -153,7 +211,7 @@ fn build_parts(
         .num_threads(config.threads.unwrap_or(0))
         .build()
         .map_err(|e| BuildError::Config(e.to_string()))?;
-    pool.install(|| build_in_pool(source, bbox, config, on_stage))
+    pool.install(|| build_in_pool(source, bbox, config, on_stage, resume))
 }
 
 /// The mesh's checks (`staged_build::validate_staged` makes the same on disk); returns its
@@ -236,7 +294,12 @@ fn build_in_pool(
     (bbox_min, bbox_max): ([f64; 3], [f64; 3]),
     config: &BuildConfig,
     on_stage: &(dyn Fn(&str) + Sync),
+    resume: Option<Resume>,
 ) -> Result<Built, BuildError> {
+    let (mut checkpoint, levels) = match resume {
+        Some(r) => (Some(r.checkpoint), r.levels),
+        None => (None, None),
+    };
     let mut stages = Vec::new();
     let mut stage = |name: &'static str, t: Instant| stages.push((name, t.elapsed().as_secs_f64()));
     let (input_vertices, input_triangles, attributes) = match source {
@@ -257,6 +320,23 @@ fn build_in_pool(
                     | (a.uvs.is_some() as u32 * ATTR_UVS),
             )
         }
+        Source::Resumed => {
+            let f = &levels
+                .as_ref()
+                .expect("a resumed build has its state")
+                .facts;
+            (f.vertices, f.triangles, f.attributes)
+        }
+    };
+    let facts = InputFacts {
+        bbox: (bbox_min, bbox_max),
+        vertices: input_vertices,
+        triangles: input_triangles,
+        attributes,
+    };
+    let (resumed_hierarchy, resumed_state, resumed_finished) = match levels {
+        Some(l) => (Some(l.hierarchy), Some(l.state), Some(l.finished)),
+        None => (None, None, None),
     };
 
     // Where everything sits: bounding box, repository origin (its minimum corner: every build
@@ -269,54 +349,22 @@ fn build_in_pool(
     let model_size = crate::frame::diagonal(bbox_min, bbox_max).max(f64::MIN_POSITIVE);
 
     // 1. Hierarchy: each triangle in the leaf holding its barycentre.
-    on_stage("hierarchy");
-    let t = Instant::now();
     let leaf_cap = match config.construction {
         Construction::LeafTriangles(n) => n,
         Construction::Levels(_) => config.domain.default_leaf_triangles(),
     };
-    let (mut hierarchy, current) = match (source, &config.memory) {
-        (Source::Staged(staged), Some(memory)) => crate::staged_build::hierarchy_and_counts(
-            staged,
-            frame,
-            config.construction,
-            leaf_cap,
-            memory,
-        )?,
-        (Source::Staged(_), None) => unreachable!("a staged build has a budget"),
-        (Source::Memory(mesh), None) => {
-            let barycenters: Vec<[f64; 3]> = mesh
-                .triangles
-                .par_iter()
-                .map(|tri| frame.barycentre(tri.map(|v| mesh.positions[v as usize])))
-                .collect();
-            // The simplifier's sharing counts are independent of the hierarchy: both at once.
-            rayon::join(
-                || build_hierarchy(frame, &barycenters, config.construction),
-                || CurrentMesh::new(mesh),
-            )
-        }
-        (Source::Memory(mesh), Some(memory)) => {
-            let budget = BucketBudget::new(memory.bucket_triangles(leaf_cap), &memory.temp_dir);
-            let source = MeshBarycentres {
-                frame: &frame,
-                mesh,
-            };
-            let hierarchy = build_hierarchy_bucketed(frame, &source, config.construction, &budget)
-                .map_err(|source| BuildError::Temporary {
-                    dir: memory.temp_dir.clone(),
-                    source,
-                })?;
-            let current =
-                CurrentMesh::new_within(mesh, memory.bytes as usize / 4, &memory.temp_dir)
-                    .map_err(|source| BuildError::Temporary {
-                        dir: memory.temp_dir.clone(),
-                        source,
-                    })?;
-            (hierarchy, current)
+    let t = Instant::now();
+    let (mut hierarchy, current) = match (source, &config.memory, resumed_hierarchy) {
+        (Source::Resumed, _, Some(hierarchy)) => (hierarchy, None),
+        (Source::Resumed, _, None) => unreachable!("a resumed build has its state"),
+        (source, memory, _) => {
+            on_stage("hierarchy");
+            let (hierarchy, current) =
+                hierarchy_and_counts(source, memory, &frame, leaf_cap, config)?;
+            stage("hierarchy", t);
+            (hierarchy, Some(current))
         }
     };
-    stage("hierarchy", t);
 
     // 2. Simplification, diamond by diamond, finest first, borders locked; each patch
     //    encoded (strips, quantised positions, attributes) as soon as it is final.
@@ -327,7 +375,12 @@ fn build_in_pool(
         dir: spill_dir.map_or_else(Default::default, Path::to_path_buf),
         source,
     };
-    let mut finished = FinishedPatches::new(spill_dir).map_err(temporary)?;
+    let finished = match (resumed_finished, checkpoint.as_deref()) {
+        (Some(finished), _) => finished,
+        (None, Some(c)) => FinishedPatches::new_named(c.dir()).map_err(temporary)?,
+        (None, None) => FinishedPatches::new(spill_dir).map_err(temporary)?,
+    };
+    let finished = RefCell::new(finished);
     let encoding = PatchEncoding {
         numbering_table: crate::simplify::numbering_table(input_vertices, spill_dir.is_some()),
         origin,
@@ -335,13 +388,32 @@ fn build_in_pool(
         step,
         attributes,
     };
-    let mut sink = |patches: &[(SimplexKey, &LivePatch)]| finished.add(patches, &encoding);
+    let mut sink =
+        |patches: &[(SimplexKey, &LivePatch)]| finished.borrow_mut().add(patches, &encoding);
+    // The staged build's leaves' lists go to the groups, which drop each once it is made.
+    let lists = match source {
+        Source::Staged(_) => std::mem::take(&mut hierarchy.leaf_triangles),
+        _ => Default::default(),
+    };
+    let hierarchy = hierarchy;
+    let checkpoint_dir = checkpoint.as_deref().map(|c| c.dir().to_path_buf());
+    // A checkpointed build saves its state after the leaves and after each level.
+    let mut after_level = |state: &LevelState| match checkpoint.as_deref_mut() {
+        Some(c) => save_levels(c, &facts, &hierarchy, state, &mut finished.borrow_mut()),
+        None => Ok(()),
+    };
     let simplified = match (source, &config.memory) {
+        (Source::Resumed, _) => simplify_levels(
+            resumed_state.expect("a resumed build has its state"),
+            &hierarchy,
+            &config.simplify,
+            spill_dir,
+            &mut sink,
+            &mut after_level,
+        ),
         (Source::Staged(staged), Some(memory)) => {
             let simplifier_of =
                 crate::staged_build::simplifier_positions(staged, &hierarchy.frame, memory)?;
-            // The leaves' lists go to the groups, which drop each once it is made.
-            let lists = std::mem::take(&mut hierarchy.leaf_triangles);
             let mut groups = LeafGroups::new(
                 staged,
                 lists,
@@ -349,7 +421,8 @@ fn build_in_pool(
                 crate::staged_build::leaf_group_triangles(memory),
             );
             // Once the last group is made, nothing reads the staged mesh again: its files are
-            // emptied (the caller still owns them), which frees their disk space.
+            // emptied (the caller still owns them; a checkpoint's copies stay until the
+            // checkpoint no longer needs them), which frees their disk space.
             let mut next = || {
                 let group = groups.next_group()?;
                 if group.is_none() {
@@ -357,21 +430,38 @@ fn build_in_pool(
                 }
                 Ok(group)
             };
-            simplify_from_leaves(
-                &mut next,
-                input_vertices,
-                &hierarchy,
-                current,
-                &config.simplify,
-                spill_dir,
-                &mut sink,
-            )
+            let current = current.expect("counted with the hierarchy");
+            match checkpoint_dir {
+                None => simplify_from_leaves(
+                    &mut next,
+                    input_vertices,
+                    &hierarchy,
+                    current,
+                    &config.simplify,
+                    spill_dir,
+                    &mut sink,
+                ),
+                Some(dir) => {
+                    LevelState::from_leaves_in(&mut next, input_vertices, current, &dir, &mut sink)
+                        .and_then(|state| {
+                            after_level(&state)?;
+                            simplify_levels(
+                                state,
+                                &hierarchy,
+                                &config.simplify,
+                                spill_dir,
+                                &mut sink,
+                                &mut after_level,
+                            )
+                        })
+                }
+            }
         }
         (Source::Staged(_), None) => unreachable!("a staged build has a budget"),
         (Source::Memory(mesh), _) => simplify_hierarchy(
             mesh,
             &hierarchy,
-            current,
+            current.expect("counted with the hierarchy"),
             &config.simplify,
             spill_dir,
             &mut sink,
@@ -381,6 +471,7 @@ fn build_in_pool(
         SimplifyError::Conformity(e) => BuildError::Conformity(e),
         SimplifyError::Finished(e) => temporary(e),
     })?;
+    let finished = finished.into_inner();
     stage("simplify", t);
 
     // 3. Table order: breadth-first from the roots, so roots come first and siblings are
@@ -521,6 +612,60 @@ fn build_in_pool(
         order,
         finished,
         summary,
+    })
+}
+
+/// The hierarchy and the use counts, from the mesh in memory or staged on disk.
+fn hierarchy_and_counts(
+    source: Source,
+    memory: &Option<MemoryBudget>,
+    frame: &LatticeFrame,
+    leaf_cap: usize,
+    config: &BuildConfig,
+) -> Result<(Hierarchy, CurrentMesh), BuildError> {
+    let frame = *frame;
+    Ok(match (source, memory) {
+        (Source::Staged(staged), Some(memory)) => crate::staged_build::hierarchy_and_counts(
+            staged,
+            frame,
+            config.construction,
+            leaf_cap,
+            memory,
+        )?,
+        (Source::Staged(_), None) | (Source::Resumed, _) => {
+            unreachable!("a staged build has a budget; a resumed one its hierarchy")
+        }
+        (Source::Memory(mesh), None) => {
+            let barycenters: Vec<[f64; 3]> = mesh
+                .triangles
+                .par_iter()
+                .map(|tri| frame.barycentre(tri.map(|v| mesh.positions[v as usize])))
+                .collect();
+            // The simplifier's sharing counts are independent of the hierarchy: both at once.
+            rayon::join(
+                || build_hierarchy(frame, &barycenters, config.construction),
+                || CurrentMesh::new(mesh),
+            )
+        }
+        (Source::Memory(mesh), Some(memory)) => {
+            let budget = BucketBudget::new(memory.bucket_triangles(leaf_cap), &memory.temp_dir);
+            let source = MeshBarycentres {
+                frame: &frame,
+                mesh,
+            };
+            let hierarchy = build_hierarchy_bucketed(frame, &source, config.construction, &budget)
+                .map_err(|source| BuildError::Temporary {
+                    dir: memory.temp_dir.clone(),
+                    source,
+                })?;
+            let current =
+                CurrentMesh::new_within(mesh, memory.bytes as usize / 4, &memory.temp_dir)
+                    .map_err(|source| BuildError::Temporary {
+                        dir: memory.temp_dir.clone(),
+                        source,
+                    })?;
+            (hierarchy, current)
+        }
     })
 }
 

@@ -141,6 +141,8 @@ pub enum BuildError {
     Repository(#[from] RepositoryError),
     #[error(transparent)]
     Conformity(#[from] crate::simplify::ConformityError),
+    #[error(transparent)]
+    Checkpoint(#[from] crate::checkpoint::CheckpointError),
     #[error("temporary files in {dir}: {source}")]
     Temporary {
         dir: std::path::PathBuf,
