@@ -20,7 +20,7 @@ use tessera_preprocess::checkpoint::{checkpoint_dir, manifest_for, Checkpoint, F
 use tessera_preprocess::{BuildConfig, BuildError};
 
 /// Environment variable of the tests' faults: `kill-after-stage:NAME` kills the build (SIGKILL)
-/// once stage NAME is committed.
+/// once stage NAME is committed (`NAME*`: the first stage whose name starts with NAME).
 pub const FAULT_VAR: &str = "TESSERA_BUILD_FAULT";
 
 /// Opens or creates the build's checkpoint, or removes a stale one. `checkpointable`: the
@@ -90,7 +90,14 @@ pub fn prepare(
     };
     checkpoint.on_commit(|stage| {
         let fault = std::env::var(FAULT_VAR).unwrap_or_default();
-        if fault.strip_prefix("kill-after-stage:") == Some(stage) {
+        let matches = match fault.strip_prefix("kill-after-stage:") {
+            Some(name) => match name.strip_suffix('*') {
+                Some(prefix) => stage.starts_with(prefix),
+                None => name == stage,
+            },
+            None => false,
+        };
+        if matches {
             // A kill -9 at a stage boundary, for the tests.
             unsafe { libc::kill(libc::getpid(), libc::SIGKILL) };
         }

@@ -41,7 +41,8 @@ fn invalid(what: impl Into<String>) -> io::Error {
 }
 
 /// Saves the state after `state.levels_done()` levels and commits stage `leaves` (none yet)
-/// or `level-N`.
+/// or `level-N` — after a level only when one is due (`Checkpoint::level_due`): levels
+/// merged since the last checkpoint are merged again by a resumed build.
 pub(crate) fn save_levels(
     checkpoint: &mut Checkpoint,
     facts: &InputFacts,
@@ -49,6 +50,10 @@ pub(crate) fn save_levels(
     state: &LevelState,
     finished: &mut FinishedPatches,
 ) -> io::Result<()> {
+    if state.levels_done() > 0 && !checkpoint.level_due() {
+        return Ok(());
+    }
+    let start = std::time::Instant::now();
     let mut files = Vec::new();
     // The hierarchy once; later stages name the same file.
     let written = checkpoint
@@ -77,6 +82,7 @@ pub(crate) fn save_levels(
     values.insert("input_triangles".into(), facts.triangles as u64);
     values.insert("attributes".into(), facts.attributes as u64);
     values.insert("levels_done".into(), done as u64);
+    checkpoint.level_saved(start);
     checkpoint.commit(StageRecord {
         name: if done == 0 {
             "leaves".into()

@@ -29,6 +29,7 @@ pub use staged::{open_staged, save_staged};
 use std::collections::BTreeMap;
 use std::io;
 use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
 
 use crate::BuildConfig;
 
@@ -76,7 +77,15 @@ pub struct Checkpoint {
     dir: PathBuf,
     manifest: Manifest,
     on_commit: Option<OnCommit>,
+    /// When the last level's checkpoint ended and what it cost (`level_due`).
+    last_level: Option<(Instant, Duration)>,
 }
+
+/// The least time between two level checkpoints, and how many times its own cost a checkpoint
+/// waits after the last one: a level's checkpoint fsyncs the live and finished patches' files,
+/// which after every level of a 5 M-triangle build cost a quarter of its simplification.
+const LEVEL_INTERVAL: Duration = Duration::from_secs(1);
+const LEVEL_COST_FACTOR: u32 = 10;
 
 /// The manifest of a build of `input` with `config`, before any stage.
 pub fn manifest_for(input: Fingerprint, config: &BuildConfig) -> Manifest {
@@ -117,6 +126,7 @@ impl Checkpoint {
             dir: dir.to_path_buf(),
             manifest,
             on_commit: None,
+            last_level: None,
         };
         checkpoint.write_manifest().map_err(io_at)?;
         Ok(checkpoint)
@@ -180,6 +190,7 @@ impl Checkpoint {
             dir: dir.to_path_buf(),
             manifest,
             on_commit: None,
+            last_level: None,
         };
         checkpoint
             .remove_unlisted()
@@ -206,6 +217,19 @@ impl Checkpoint {
     /// Called with each stage's name once it is committed (progress, and the tests' faults).
     pub fn on_commit(&mut self, f: impl Fn(&str) + Send + Sync + 'static) {
         self.on_commit = Some(Box::new(f));
+    }
+
+    /// Whether a level's checkpoint is due: at least `LEVEL_INTERVAL` and ten times the last
+    /// one's cost since it ended (the work a kill loses stays small, the checkpoints' cost
+    /// within about a tenth of the build).
+    pub(crate) fn level_due(&self) -> bool {
+        self.last_level
+            .is_none_or(|(end, cost)| end.elapsed() >= LEVEL_INTERVAL.max(cost * LEVEL_COST_FACTOR))
+    }
+
+    /// Records that a level's checkpoint started at `start` ended now.
+    pub(crate) fn level_saved(&mut self, start: Instant) {
+        self.last_level = Some((Instant::now(), start.elapsed()));
     }
 
     pub(crate) fn path(&self, name: &str) -> PathBuf {
