@@ -23,6 +23,10 @@ use tessera_preprocess::{BuildConfig, BuildError};
 /// once stage NAME is committed (`NAME*`: the first stage whose name starts with NAME).
 pub const FAULT_VAR: &str = "TESSERA_BUILD_FAULT";
 
+/// Environment variable: `1` checkpoints after every level (the tests', so that a fault can
+/// name a level), instead of when one is due.
+pub const EVERY_LEVEL_VAR: &str = "TESSERA_CHECKPOINT_EVERY_LEVEL";
+
 /// Opens or creates the build's checkpoint, or removes a stale one. `checkpointable`: the
 /// build stages a mesh file under a memory budget.
 pub fn prepare(
@@ -88,6 +92,9 @@ pub fn prepare(
             Checkpoint::create(&dir, manifest)?
         }
     };
+    if std::env::var(EVERY_LEVEL_VAR).is_ok_and(|v| v == "1") {
+        checkpoint.every_level();
+    }
     checkpoint.on_commit(|stage| {
         let fault = std::env::var(FAULT_VAR).unwrap_or_default();
         let matches = match fault.strip_prefix("kill-after-stage:") {

@@ -79,6 +79,8 @@ pub struct Checkpoint {
     on_commit: Option<OnCommit>,
     /// When the last level's checkpoint ended and what it cost (`level_due`).
     last_level: Option<(Instant, Duration)>,
+    /// The least time between level checkpoints and the factor of their cost.
+    pacing: (Duration, u32),
 }
 
 /// The least time between two level checkpoints, and how many times its own cost a checkpoint
@@ -127,6 +129,7 @@ impl Checkpoint {
             manifest,
             on_commit: None,
             last_level: None,
+            pacing: (LEVEL_INTERVAL, LEVEL_COST_FACTOR),
         };
         checkpoint.write_manifest().map_err(io_at)?;
         Ok(checkpoint)
@@ -191,6 +194,7 @@ impl Checkpoint {
             manifest,
             on_commit: None,
             last_level: None,
+            pacing: (LEVEL_INTERVAL, LEVEL_COST_FACTOR),
         };
         checkpoint
             .remove_unlisted()
@@ -223,8 +227,14 @@ impl Checkpoint {
     /// one's cost since it ended (the work a kill loses stays small, the checkpoints' cost
     /// within about a tenth of the build).
     pub(crate) fn level_due(&self) -> bool {
+        let (interval, factor) = self.pacing;
         self.last_level
-            .is_none_or(|(end, cost)| end.elapsed() >= LEVEL_INTERVAL.max(cost * LEVEL_COST_FACTOR))
+            .is_none_or(|(end, cost)| end.elapsed() >= interval.max(cost * factor))
+    }
+
+    /// Checkpoints after every level (the tests', to stop at a given level).
+    pub fn every_level(&mut self) {
+        self.pacing = (Duration::ZERO, 0);
     }
 
     /// Records that a level's checkpoint started at `start` ended now.
