@@ -7,6 +7,7 @@
 
 pub mod build;
 mod build_config;
+mod build_tables;
 pub mod checkpoint;
 pub mod dem;
 pub mod diamond_square;

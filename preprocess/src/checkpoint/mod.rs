@@ -31,6 +31,7 @@ use std::io;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
+use crate::external::temp_usage::Charge;
 use crate::BuildConfig;
 
 /// The checkpoint directory of a build of `output` whose temporary files go to `temp_dir`.
@@ -81,6 +82,9 @@ pub struct Checkpoint {
     last_level: Option<(Instant, Duration)>,
     /// The least time between level checkpoints and the factor of their cost.
     pacing: (Duration, u32),
+    /// The listed files' bytes in `temp_bytes_peak`, but for the live and finished patches'
+    /// (their stores count them).
+    held: Charge,
 }
 
 /// The least time between two level checkpoints, and how many times its own cost a checkpoint
@@ -130,6 +134,7 @@ impl Checkpoint {
             on_commit: None,
             last_level: None,
             pacing: (LEVEL_INTERVAL, LEVEL_COST_FACTOR),
+            held: Charge::new(),
         };
         checkpoint.write_manifest().map_err(io_at)?;
         Ok(checkpoint)
@@ -195,6 +200,7 @@ impl Checkpoint {
             on_commit: None,
             last_level: None,
             pacing: (LEVEL_INTERVAL, LEVEL_COST_FACTOR),
+            held: Charge::new(),
         };
         checkpoint
             .remove_unlisted()
@@ -275,8 +281,19 @@ impl Checkpoint {
         bytes::write_atomic(&self.path(MANIFEST), text.as_bytes())
     }
 
-    /// Removes every file the manifest does not name.
+    /// Removes every file the manifest does not name (and charges the ones it names to the
+    /// temporary bytes).
     fn remove_unlisted(&self) -> io::Result<()> {
+        let charged = self
+            .manifest
+            .stages
+            .iter()
+            .flat_map(|s| &s.files)
+            .filter(|f| !f.name.starts_with("live-") && !f.name.starts_with("finished-"))
+            .map(|f| f.bytes)
+            .sum();
+        self.held.release();
+        self.held.grow(charged);
         let listed: Vec<&str> = self
             .manifest
             .stages
