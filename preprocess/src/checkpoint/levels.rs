@@ -197,3 +197,46 @@ fn decode_hierarchy(bytes: &[u8]) -> io::Result<Hierarchy> {
         leaf_triangles: Default::default(),
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::hierarchy::{build_hierarchy, Construction};
+
+    #[test]
+    fn a_hierarchy_comes_back_from_its_split_diamonds_and_damage_is_an_error() {
+        for dim in [2u8, 3] {
+            let frame = LatticeFrame::around_box([0.0; 3], [1.0, 2.0, 0.5], 12, dim);
+            // Barycentres clustered towards one corner: an adaptive, uneven hierarchy.
+            let mut x = 0x2545_f491_4f6c_dd1du64;
+            let mut next = || {
+                x ^= x << 13;
+                x ^= x >> 7;
+                x ^= x << 17;
+                (x >> 11) as f64 / (1u64 << 53) as f64
+            };
+            let side = (1u32 << 12) as f64;
+            let points: Vec<[f64; 3]> = (0..20_000)
+                .map(|_| [0; 3].map(|_| next().powi(3) * side))
+                .map(|p| if dim == 2 { [p[0], p[1], 0.0] } else { p })
+                .collect();
+            let h = build_hierarchy(frame, &points, Construction::LeafTriangles(64));
+            assert!(h.diamonds.len() > 50, "{}", h.diamonds.len());
+            let bytes = encode_hierarchy(&h);
+            let back = decode_hierarchy(&bytes).unwrap();
+            assert_eq!(back.diamonds, h.diamonds);
+            assert_eq!(back.frame, h.frame);
+            let mut leaves: Vec<_> = h.mesh.leaves().map(|s| s.key).collect();
+            let mut back_leaves: Vec<_> = back.mesh.leaves().map(|s| s.key).collect();
+            leaves.sort_unstable();
+            back_leaves.sort_unstable();
+            assert_eq!(back_leaves, leaves);
+            // A diamond list that is not closed (a parent left out), or cut short: an error.
+            let mut e = Enc::default();
+            e.0.extend_from_slice(&bytes[..1 + 7 * 8 + 4]);
+            e.list(&h.diamonds[1..], |e, d| d.id.iter().for_each(|&x| e.i32(x)));
+            assert!(decode_hierarchy(&e.0).is_err());
+            assert!(decode_hierarchy(&bytes[..bytes.len() - 3]).is_err());
+        }
+    }
+}
