@@ -1,5 +1,5 @@
 //! `tessera build INPUT|- -o OUT.tsr [--leaf-triangles N | --levels L] [--threads N] [--json]`
-//! `[--memory SIZE [--temp DIR]] [--heightfield] [--raw-size WxH] [--variable NAME]`
+//! `[--memory SIZE [--temp DIR] [--resume]] [--heightfield] [--raw-size WxH] [--variable NAME]`
 //! `[--spacing M] [--exaggeration X]`
 //!
 //! A mesh builds the 3D hierarchy (tetrahedra); a DEM (by extension) or `--heightfield` the 2D
@@ -44,8 +44,9 @@ pub struct BuildArgs {
     /// still hold the mesh (ARCHITECTURE.md). The repository is the same bytes either way.
     #[arg(long, value_name = "SIZE", value_parser = parse_size)]
     pub memory: Option<u64>,
-    /// Directory of the temporary files of `--memory` (default: the output's directory). The
-    /// files have no names: nothing is left behind, even when the build is killed.
+    /// Directory of the temporary files of `--memory` and of the build's checkpoint (default:
+    /// the output's directory). The working files have no names; the checkpoint
+    /// (`.OUT.tessera-build/`) is what a killed build leaves for `--resume`.
     #[arg(long, value_name = "DIR", requires = "memory")]
     pub temp: Option<PathBuf>,
     /// Continue the build of the same input, flags and output that was killed or failed, from
