@@ -12,7 +12,10 @@ use tessera_core::repository::writer::RepositoryContents;
 use tessera_core::repository::{write_repository_streamed, BlobFeed, RepositoryDirectory};
 
 use crate::build_tables::{assemble, Built, Parts};
-use crate::checkpoint::{save_levels, Checkpoint, CheckpointError, InputFacts, LevelsCheckpoint};
+use crate::checkpoint::{
+    save_hierarchy, save_levels, Checkpoint, CheckpointError, HierarchyCheckpoint, InputFacts,
+    LevelsCheckpoint,
+};
 use crate::external::{LeafGroups, StagedMesh};
 use crate::finished_patches::{FinishedPatches, PatchEncoding};
 use crate::frame::LatticeFrame;
@@ -83,6 +86,7 @@ pub fn build_repository_checkpointed(
         reason: e.to_string(),
     };
     let resumed = crate::checkpoint::load_levels(checkpoint).map_err(damaged)?;
+    let hierarchy = crate::checkpoint::load_hierarchy(checkpoint).map_err(damaged)?;
     let source = match (&resumed, staged) {
         (Some(_), _) => Source::Resumed,
         (None, Some(staged)) => Source::Staged(staged),
@@ -94,6 +98,7 @@ pub fn build_repository_checkpointed(
     };
     let resume = Resume {
         checkpoint,
+        hierarchy,
         levels: resumed,
     };
     write_built(source, config, out, on_stage, Some(resume))
@@ -111,6 +116,8 @@ enum Source<'a> {
 /// A checkpointed build: its checkpoint, and the state it resumes from (if any).
 struct Resume<'c> {
     checkpoint: &'c mut Checkpoint,
+    /// The hierarchy and counts (stage `hierarchy`; the mesh is still the staged one).
+    hierarchy: Option<HierarchyCheckpoint>,
     levels: Option<LevelsCheckpoint>,
 }
 
@@ -179,8 +186,10 @@ fn build_parts(
     resume: Option<Resume>,
 ) -> Result<Built, BuildError> {
     validate_config(config)?;
+    let checked = resume.as_ref().and_then(|r| r.hierarchy.as_ref());
     let bbox = match source {
         Source::Memory(mesh) => validate(mesh)?,
+        Source::Staged(_) if checked.is_some() => checked.expect("checked").facts.bbox,
         Source::Resumed => {
             resume
                 .as_ref()
@@ -283,9 +292,9 @@ fn build_in_pool(
     on_stage: &(dyn Fn(&str) + Sync),
     resume: Option<Resume>,
 ) -> Result<Built, BuildError> {
-    let (mut checkpoint, levels) = match resume {
-        Some(r) => (Some(r.checkpoint), r.levels),
-        None => (None, None),
+    let (mut checkpoint, resumed_counts, levels) = match resume {
+        Some(r) => (Some(r.checkpoint), r.hierarchy, r.levels),
+        None => (None, None, None),
     };
     let mut stages = Vec::new();
     let mut stage = |name: &'static str, t: Instant| stages.push((name, t.elapsed().as_secs_f64()));
@@ -344,10 +353,22 @@ fn build_in_pool(
     let (mut hierarchy, current) = match (source, &config.memory, resumed_hierarchy) {
         (Source::Resumed, _, Some(hierarchy)) => (hierarchy, None),
         (Source::Resumed, _, None) => unreachable!("a resumed build has its state"),
+        (_, _, _) if resumed_counts.is_some() => {
+            let r = resumed_counts.expect("checked");
+            (r.hierarchy, Some(r.current))
+        }
         (source, memory, _) => {
             on_stage("hierarchy");
             let (hierarchy, current) =
                 hierarchy_and_counts(source, memory, &frame, leaf_cap, config)?;
+            if let (Some(c), Source::Staged(_)) = (checkpoint.as_deref_mut(), source) {
+                save_hierarchy(c, &facts, &hierarchy, &current).map_err(|source| {
+                    BuildError::Temporary {
+                        dir: c.dir().to_path_buf(),
+                        source,
+                    }
+                })?;
+            }
             stage("hierarchy", t);
             (hierarchy, Some(current))
         }

@@ -218,7 +218,10 @@ fn load_or_resume(
     use tessera_preprocess::checkpoint::{open_staged, save_staged};
     let domain = crate::input::mesh_domain(&args.heightfield);
     if let Some(c) = &checkpoint {
-        if let Some(stage) = c.last_stage().filter(|s| s.name != "staged") {
+        if let Some(stage) = c
+            .last_stage()
+            .filter(|s| s.name != "staged" && s.name != "hierarchy")
+        {
             return Ok(BuildInput::Resumed {
                 domain,
                 description: format!("mesh (resumed after stage {})", stage.name),

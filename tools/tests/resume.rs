@@ -1,4 +1,4 @@
-//! `build --resume` (issue 12, "resumable, crash-safe"): a build killed (SIGKILL) at a stage
+//! `build --resume` (issue 12, "resumable, crash-safe"): a build killed (SIGKILL) after each stage
 //! boundary or mid-stage leaves nothing at the output path, and `--resume` then gives the bytes
 //! of an uninterrupted build, whatever the thread count; a checkpoint of another build is
 //! refused, naming the difference; a damaged one is refused; without `--resume` a leftover
@@ -118,12 +118,14 @@ fn a_build_killed_after_each_stage_resumes_to_the_same_bytes() {
     let input = generate(dir.path(), 150_000);
     let expected = reference(&input, dir.path());
     let output = dir.path().join("out.tsr");
-    for (stage, threads) in [
+    let stages = [
         ("staged", "1"),
+        ("hierarchy", "3"),
         ("leaves", "3"),
         ("level-2", "1"),
         ("level-5", "2"),
-    ] {
+    ];
+    for (stage, threads) in stages {
         kill_after(&input, &output, stage);
         resume_to(&input, &output, threads, &expected, stage);
     }

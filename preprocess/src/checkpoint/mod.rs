@@ -5,6 +5,8 @@
 //! Stages, each a task with files in and out:
 //! - `staged`: the welded mesh's record files (`external/staged.rs`), copied out of the
 //!   import's unnamed temporaries (`staged.rs` here);
+//! - `hierarchy`: the hierarchy with its leaves' triangle lists and the use counts
+//!   (`hierarchy.rs`; the staged mesh's files stay, the leaves are made from them);
 //! - `leaves`: the hierarchy (its split diamonds), the current mesh's use counts, the leaves'
 //!   live patches and their finished (encoded) patches — the simplification's state before its
 //!   first level (`levels.rs`);
@@ -17,12 +19,14 @@
 //! committed, the files of the stages it supersedes are removed.
 
 mod bytes;
+mod hierarchy;
 mod levels;
 pub mod manifest;
 mod staged;
 
 pub(crate) use bytes::{Dec, Enc};
-pub(crate) use levels::{load_levels, save_levels, InputFacts, LevelsCheckpoint};
+pub(crate) use hierarchy::{load_hierarchy, save_hierarchy, HierarchyCheckpoint, InputFacts};
+pub(crate) use levels::{load_levels, save_levels, LevelsCheckpoint};
 pub use manifest::{FileRecord, Fingerprint, Manifest, StageRecord, CHECKPOINT_FORMAT};
 pub use staged::{open_staged, save_staged};
 
@@ -257,14 +261,25 @@ impl Checkpoint {
     /// stage of the same kind (`level-`) is replaced, the manifest is rewritten atomically and
     /// the files it no longer names are removed.
     pub(crate) fn commit(&mut self, stage: StageRecord) -> io::Result<()> {
+        self.commit_keeping(stage, false)
+    }
+
+    /// `commit`, keeping the earlier stages' files when `keep_earlier`.
+    pub(crate) fn commit_keeping(
+        &mut self,
+        stage: StageRecord,
+        keep_earlier: bool,
+    ) -> io::Result<()> {
         for f in &stage.files {
             std::fs::File::open(self.path(&f.name))?.sync_data()?;
         }
         let kind = |name: &str| name.split('-').next().unwrap_or_default().to_string();
         let new_kind = kind(&stage.name);
         self.manifest.stages.retain(|s| kind(&s.name) != new_kind);
-        for s in &mut self.manifest.stages {
-            s.files.clear();
+        if !keep_earlier {
+            for s in &mut self.manifest.stages {
+                s.files.clear();
+            }
         }
         let name = stage.name.clone();
         self.manifest.stages.push(stage);

@@ -66,10 +66,15 @@ pub fn save_staged(checkpoint: &mut Checkpoint, staged: &StagedMesh) -> io::Resu
     })
 }
 
-/// The staged mesh of a checkpoint whose last stage is `staged` (its files read-only: the
+/// The staged mesh of a checkpoint whose last stage is `staged` or `hierarchy` (its files read-only: the
 /// build's `discard` leaves them to the checkpoint).
 pub fn open_staged(checkpoint: &Checkpoint) -> io::Result<Option<StagedMesh>> {
-    let Some(stage) = checkpoint.last_stage().filter(|s| s.name == "staged") else {
+    let last = checkpoint.last_stage().map(|s| s.name.as_str());
+    if !matches!(last, Some("staged" | "hierarchy")) {
+        return Ok(None);
+    }
+    let stages = &checkpoint.manifest().stages;
+    let Some(stage) = stages.iter().find(|s| s.name == "staged") else {
         return Ok(None);
     };
     fn open<T: Pod>(

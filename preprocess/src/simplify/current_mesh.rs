@@ -157,7 +157,7 @@ impl CurrentMesh {
     }
 
     /// The counts, for a build's checkpoint (`decode` reads them back).
-    pub(super) fn encode(&self, e: &mut crate::checkpoint::Enc) {
+    pub(crate) fn encode(&self, e: &mut crate::checkpoint::Enc) {
         e.list(&self.shards, |e, shard| {
             e.0.extend_from_slice(bytemuck::cast_slice(&shard[..]));
             // (The count comes first: `Enc::list`'s own.)
@@ -171,7 +171,7 @@ impl CurrentMesh {
     }
 
     /// The counts `encode` wrote for `vertex_count` vertices.
-    pub(super) fn decode(
+    pub(crate) fn decode(
         d: &mut crate::checkpoint::Dec,
         vertex_count: usize,
     ) -> std::io::Result<Self> {
