@@ -145,7 +145,7 @@ impl Checkpoint {
     }
 
     /// The checkpoint at `dir` if it has a manifest: an error when it was made by another
-    /// build than `expected` describes, or when a file of its last stage is missing or damaged.
+    /// build than `expected` describes, or when a file it lists is missing or damaged.
     /// What the killed build wrote after its last manifest is cut back or removed.
     pub fn open(dir: &Path, expected: Manifest) -> Result<Option<Checkpoint>, CheckpointError> {
         let damaged = |reason: String| CheckpointError::Damaged {
@@ -172,7 +172,7 @@ impl Checkpoint {
                 now,
             });
         }
-        for f in manifest.stages.last().map_or(&[][..], |s| &s.files[..]) {
+        for f in manifest.stages.iter().flat_map(|s| &s.files) {
             let path = dir.join(&f.name);
             let len = std::fs::metadata(&path)
                 .map_err(|e| damaged(format!("{}: {e}", f.name)))?
