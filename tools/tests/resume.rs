@@ -251,3 +251,80 @@ fn resume_needs_a_memory_budget_and_an_input_file() {
     );
     assert!(output.exists() && !checkpoint_of(&output).exists());
 }
+
+/// A grid with normals, colours and uvs (every attribute the staged mesh and the live patches
+/// carry), as an ASCII PLY.
+fn attributed_grid(path: &Path) {
+    use std::fmt::Write as _;
+    let n = 90usize;
+    let mut text = format!(
+        "ply\nformat ascii 1.0\nelement vertex {}\nproperty float x\nproperty float y\n\
+         property float z\nproperty float nx\nproperty float ny\nproperty float nz\n\
+         property uchar red\nproperty uchar green\nproperty uchar blue\nproperty uchar alpha\n\
+         property float u\nproperty float v\nelement face {}\n\
+         property list uchar int vertex_indices\nend_header\n",
+        n * n,
+        2 * (n - 1) * (n - 1)
+    );
+    for j in 0..n {
+        for i in 0..n {
+            let (x, y) = (i as f32 / n as f32, j as f32 / n as f32);
+            let z = 0.1 * (7.0 * x).sin() * (5.0 * y).cos();
+            let (r, g) = ((i * 3) % 256, (j * 5) % 256);
+            writeln!(
+                text,
+                "{x} {y} {z} {} {} 1 {r} {g} 7 255 {x} {y}",
+                x - 0.5,
+                y - 0.5
+            )
+            .unwrap();
+        }
+    }
+    for j in 0..n - 1 {
+        for i in 0..n - 1 {
+            let v = j * n + i;
+            writeln!(
+                text,
+                "3 {} {} {}\n3 {} {} {}",
+                v,
+                v + 1,
+                v + n + 1,
+                v,
+                v + n + 1,
+                v + n
+            )
+            .unwrap();
+        }
+    }
+    std::fs::write(path, text).unwrap();
+}
+
+#[test]
+fn a_mesh_with_every_attribute_resumes_to_the_same_bytes() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("attributed.ply");
+    attributed_grid(&input);
+    let small = ["--leaf-triangles", "64"];
+    let reference = dir.path().join("reference.tsr");
+    let out = build(&input, &reference, &small, &[]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let expected = std::fs::read(reference).unwrap();
+    let output = dir.path().join("out.tsr");
+    for stage in ["staged", "hierarchy", "leaves", "level-3"] {
+        let _ = std::fs::remove_file(&output);
+        let fault = format!("kill-after-stage:{stage}");
+        let env = [
+            ("TESSERA_BUILD_FAULT", fault.as_str()),
+            ("TESSERA_CHECKPOINT_EVERY_LEVEL", "1"),
+        ];
+        let out = build(&input, &output, &small, &env);
+        assert_eq!(out.status.signal(), Some(9), "{stage}: {}", stderr(&out));
+        assert!(!output.exists());
+        let out = build(&input, &output, &[&small[..], &["--resume"]].concat(), &[]);
+        assert!(out.status.success(), "{stage}: {}", stderr(&out));
+        assert!(
+            std::fs::read(&output).unwrap() == expected,
+            "resumed after {stage}: other bytes"
+        );
+    }
+}
