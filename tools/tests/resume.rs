@@ -241,6 +241,13 @@ fn resume_needs_a_memory_budget_and_an_input_file() {
     assert_eq!(out.status.code(), Some(2));
     assert!(stderr(&out).contains("standard input"), "{}", stderr(&out));
     assert!(!output.exists());
+    // A build that fails on its input removes its checkpoint (a resume would fail alike).
+    let broken = dir.path().join("broken.ply");
+    let bytes = std::fs::read(&input).unwrap();
+    std::fs::write(&broken, &bytes[..bytes.len() - 100]).unwrap();
+    let out = build(&broken, &output, &[], &[]);
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+    assert!(!output.exists() && !checkpoint_of(&output).exists());
     // --resume with no checkpoint builds from the start.
     let out = build(&input, &output, &["--resume"], &[]);
     assert!(out.status.success(), "{}", stderr(&out));
