@@ -66,9 +66,10 @@ pub fn build_repository_staged(
 }
 
 /// `build_repository_staged` that keeps `checkpoint` (`checkpoint/mod.rs`) up to date after
-/// the leaves and after each level, and continues from it: from its `leaves` or `level-N`
-/// stage (then `staged` is not read and may be `None`), or from the start with `staged`. The
-/// bytes are those of `build_repository_staged`.
+/// the hierarchy, the leaves and levels, and continues from it: from its `hierarchy` stage
+/// (with `staged`, the checkpoint's own), from its `leaves` or `level-N` stage (then `staged`
+/// is not read and may be `None`), or from the start with `staged`. The bytes are those of
+/// `build_repository_staged`.
 pub fn build_repository_checkpointed(
     staged: Option<&StagedMesh>,
     config: &BuildConfig,
