@@ -197,6 +197,16 @@ fn a_checkpoint_of_another_build_or_a_damaged_one_is_refused() {
     assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
     assert!(stderr(&out).contains("input path"), "{}", stderr(&out));
     assert!(!output.exists());
+    // Made by another tessera: refused.
+    let manifest = checkpoint_of(&output).join("manifest.json");
+    let text = std::fs::read_to_string(&manifest).unwrap();
+    let other_version = text.replace("\"tessera_version\": \"", "\"tessera_version\": \"0.0.1 ");
+    assert_ne!(other_version, text);
+    std::fs::write(&manifest, other_version).unwrap();
+    let out = build(&input, &output, &["--resume"], &[]);
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+    assert!(stderr(&out).contains("tessera version"), "{}", stderr(&out));
+    std::fs::write(&manifest, text).unwrap();
     // A damaged file of the last stage: refused.
     let hierarchy = checkpoint_of(&output).join("hierarchy.bin");
     let mut bytes = std::fs::read(&hierarchy).unwrap();

@@ -114,11 +114,34 @@ pub fn manifest_for(input: Fingerprint, config: &BuildConfig) -> Manifest {
     );
     Manifest {
         format: CHECKPOINT_FORMAT,
-        tessera_version: env!("CARGO_PKG_VERSION").to_string(),
+        tessera_version: version(),
         input,
         flags,
         stages: Vec::new(),
     }
+}
+
+/// The crate's version and the running executable's size and modification time: a rebuilt
+/// tessera (whose algorithms may give other bytes) does not resume another's checkpoint.
+fn version() -> String {
+    let exe = std::env::current_exe().and_then(std::fs::metadata);
+    let identity = exe.ok().and_then(|m| {
+        let modified = m
+            .modified()
+            .ok()?
+            .duration_since(std::time::UNIX_EPOCH)
+            .ok()?;
+        Some(format!(
+            "executable {} bytes, modified {} ns",
+            m.len(),
+            modified.as_nanos()
+        ))
+    });
+    format!(
+        "{} ({})",
+        env!("CARGO_PKG_VERSION"),
+        identity.as_deref().unwrap_or("executable unknown")
+    )
 }
 
 impl Checkpoint {
