@@ -1,19 +1,21 @@
 //! The build driver: input mesh → repository, as a list of steps (seed 001: construction,
 //! simplification, saturation; then strips and the file).
 
-use rustc_hash::FxHashMap as HashMap;
+use std::cell::RefCell;
 use std::path::Path;
 use std::time::Instant;
 
 use rayon::prelude::*;
-use tessera_core::bounds::round_up_f32;
-use tessera_core::leb::{DiamondId, Simplex, SimplexKey};
-use tessera_core::repository::format::{
-    DiamondRecord, Header, TetRecord, ATTR_COLORS, ATTR_NORMALS, ATTR_UVS, NO_INDEX, POSITION_BITS,
-};
+use tessera_core::leb::SimplexKey;
+use tessera_core::repository::format::{ATTR_COLORS, ATTR_NORMALS, ATTR_UVS, POSITION_BITS};
 use tessera_core::repository::writer::RepositoryContents;
 use tessera_core::repository::{write_repository_streamed, BlobFeed, RepositoryDirectory};
 
+use crate::build_tables::{assemble, Built, Parts};
+use crate::checkpoint::{
+    save_hierarchy, save_levels, Checkpoint, CheckpointError, HierarchyCheckpoint, InputFacts,
+    LevelsCheckpoint,
+};
 use crate::external::{LeafGroups, StagedMesh};
 use crate::finished_patches::{FinishedPatches, PatchEncoding};
 use crate::frame::LatticeFrame;
@@ -22,9 +24,9 @@ use crate::hierarchy::{
     MeshBarycentres,
 };
 use crate::mesh::InputMesh;
-use crate::saturate::{nest_simplex_spheres, saturate, RADIUS_MARGIN};
 use crate::simplify::{
-    simplify_from_leaves, simplify_hierarchy, CurrentMesh, SimplifyError, SimplifySettings,
+    simplify_from_leaves, simplify_hierarchy, simplify_levels, CurrentMesh, LevelState,
+    SimplifyError, SimplifySettings,
 };
 use crate::vertex_table::LivePatch;
 
@@ -43,7 +45,7 @@ pub fn build_repository(
     out: &Path,
     on_stage: &(dyn Fn(&str) + Sync),
 ) -> Result<BuildSummary, BuildError> {
-    write_built(Source::Memory(mesh), config, out, on_stage)
+    write_built(Source::Memory(mesh), config, out, on_stage, None)
 }
 
 /// `build_repository` from a mesh staged on disk (`import::stage_mesh`), never loading it: the
@@ -60,7 +62,47 @@ pub fn build_repository_staged(
             "a staged mesh is built under a memory budget".into(),
         ));
     }
-    write_built(Source::Staged(staged), config, out, on_stage)
+    write_built(Source::Staged(staged), config, out, on_stage, None)
+}
+
+/// `build_repository_staged` that keeps `checkpoint` (`checkpoint/mod.rs`) up to date after
+/// the hierarchy, the leaves and levels, and continues from it: from its `hierarchy` stage
+/// (with `staged`, the checkpoint's own), from its `leaves` or `level-N` stage (then `staged`
+/// is not read and may be `None`), or from the start with `staged`. The bytes are those of
+/// `build_repository_staged`.
+pub fn build_repository_checkpointed(
+    staged: Option<&StagedMesh>,
+    config: &BuildConfig,
+    out: &Path,
+    on_stage: &(dyn Fn(&str) + Sync),
+    checkpoint: &mut Checkpoint,
+) -> Result<BuildSummary, BuildError> {
+    if config.memory.is_none() {
+        return Err(BuildError::Config(
+            "a checkpointed build is built under a memory budget".into(),
+        ));
+    }
+    let damaged = |e: std::io::Error| CheckpointError::Damaged {
+        dir: checkpoint.dir().to_path_buf(),
+        reason: e.to_string(),
+    };
+    let resumed = crate::checkpoint::load_levels(checkpoint).map_err(damaged)?;
+    let hierarchy = crate::checkpoint::load_hierarchy(checkpoint).map_err(damaged)?;
+    let source = match (&resumed, staged) {
+        (Some(_), _) => Source::Resumed,
+        (None, Some(staged)) => Source::Staged(staged),
+        (None, None) => {
+            return Err(BuildError::Config(
+                "no staged mesh and no simplification state to resume from".into(),
+            ))
+        }
+    };
+    let resume = Resume {
+        checkpoint,
+        hierarchy,
+        levels: resumed,
+    };
+    write_built(source, config, out, on_stage, Some(resume))
 }
 
 /// Where the build's mesh is.
@@ -68,6 +110,16 @@ pub fn build_repository_staged(
 enum Source<'a> {
     Memory(&'a InputMesh),
     Staged(&'a StagedMesh),
+    /// In the checkpoint's simplification state (`Resume::levels`).
+    Resumed,
+}
+
+/// A checkpointed build: its checkpoint, and the state it resumes from (if any).
+struct Resume<'c> {
+    checkpoint: &'c mut Checkpoint,
+    /// The hierarchy and counts (stage `hierarchy`; the mesh is still the staged one).
+    hierarchy: Option<HierarchyCheckpoint>,
+    levels: Option<LevelsCheckpoint>,
 }
 
 fn write_built(
@@ -75,9 +127,10 @@ fn write_built(
     config: &BuildConfig,
     out: &Path,
     on_stage: &(dyn Fn(&str) + Sync),
+    resume: Option<Resume>,
 ) -> Result<BuildSummary, BuildError> {
     let start = Instant::now();
-    let mut built = build_parts(source, config, on_stage)?;
+    let mut built = build_parts(source, config, on_stage, resume)?;
     on_stage("write");
     let t = Instant::now();
     let mut feed = built.finished.feed(&built.order);
@@ -96,7 +149,7 @@ pub fn build_contents(
     config: &BuildConfig,
     on_stage: &(dyn Fn(&str) + Sync),
 ) -> Result<(RepositoryContents, BuildSummary), BuildError> {
-    let mut built = build_parts(Source::Memory(mesh), config, on_stage)?;
+    let mut built = build_parts(Source::Memory(mesh), config, on_stage, None)?;
     let mut feed = built.finished.feed(&built.order);
     let mut patch_blob = Vec::new();
     let mut id_blob = Vec::new();
@@ -129,23 +182,25 @@ pub fn build_contents(
     Ok((contents, built.summary))
 }
 
-/// A built repository before it is written: its directory, its tet table's simplices in
-/// order, and their encoded patches.
-struct Built {
-    directory: RepositoryDirectory,
-    order: Vec<SimplexKey>,
-    finished: FinishedPatches,
-    summary: BuildSummary,
-}
-
 fn build_parts(
     source: Source,
     config: &BuildConfig,
     on_stage: &(dyn Fn(&str) + Sync),
+    resume: Option<Resume>,
 ) -> Result<Built, BuildError> {
     validate_config(config)?;
+    let checked = resume.as_ref().and_then(|r| r.hierarchy.as_ref());
     let bbox = match source {
         Source::Memory(mesh) => validate(mesh)?,
+        Source::Staged(_) if checked.is_some() => checked.expect("checked").facts.bbox,
+        Source::Resumed => {
+            resume
+                .as_ref()
+                .and_then(|r| r.levels.as_ref())
+                .expect("a resumed build has its state")
+                .facts
+                .bbox
+        }
         Source::Staged(staged) => crate::staged_build::validate_staged(
             staged,
             config.memory.as_ref().expect("checked by the caller"),
@@ -155,7 +210,7 @@ fn build_parts(
         .num_threads(config.threads.unwrap_or(0))
         .build()
         .map_err(|e| BuildError::Config(e.to_string()))?;
-    pool.install(|| build_in_pool(source, bbox, config, on_stage))
+    pool.install(|| build_in_pool(source, bbox, config, on_stage, resume))
 }
 
 /// The mesh's checks (`staged_build::validate_staged` makes the same on disk); returns its
@@ -238,7 +293,12 @@ fn build_in_pool(
     (bbox_min, bbox_max): ([f64; 3], [f64; 3]),
     config: &BuildConfig,
     on_stage: &(dyn Fn(&str) + Sync),
+    resume: Option<Resume>,
 ) -> Result<Built, BuildError> {
+    let (mut checkpoint, resumed_counts, levels) = match resume {
+        Some(r) => (Some(r.checkpoint), r.hierarchy, r.levels),
+        None => (None, None, None),
+    };
     let mut stages = Vec::new();
     let mut stage = |name: &'static str, t: Instant| stages.push((name, t.elapsed().as_secs_f64()));
     let (input_vertices, input_triangles, attributes) = match source {
@@ -259,6 +319,23 @@ fn build_in_pool(
                     | (a.uvs.is_some() as u32 * ATTR_UVS),
             )
         }
+        Source::Resumed => {
+            let f = &levels
+                .as_ref()
+                .expect("a resumed build has its state")
+                .facts;
+            (f.vertices, f.triangles, f.attributes)
+        }
+    };
+    let facts = InputFacts {
+        bbox: (bbox_min, bbox_max),
+        vertices: input_vertices,
+        triangles: input_triangles,
+        attributes,
+    };
+    let (resumed_hierarchy, resumed_state, resumed_finished) = match levels {
+        Some(l) => (Some(l.hierarchy), Some(l.state), Some(l.finished)),
+        None => (None, None, None),
     };
 
     // Where everything sits: bounding box, repository origin (its minimum corner: every build
@@ -271,13 +348,168 @@ fn build_in_pool(
     let model_size = crate::frame::diagonal(bbox_min, bbox_max).max(f64::MIN_POSITIVE);
 
     // 1. Hierarchy: each triangle in the leaf holding its barycentre.
-    on_stage("hierarchy");
-    let t = Instant::now();
     let leaf_cap = match config.construction {
         Construction::LeafTriangles(n) => n,
         Construction::Levels(_) => config.domain.default_leaf_triangles(),
     };
-    let (mut hierarchy, current) = match (source, &config.memory) {
+    let t = Instant::now();
+    let (mut hierarchy, current) = match (source, &config.memory, resumed_hierarchy) {
+        (Source::Resumed, _, Some(hierarchy)) => (hierarchy, None),
+        (Source::Resumed, _, None) => unreachable!("a resumed build has its state"),
+        (_, _, _) if resumed_counts.is_some() => {
+            let r = resumed_counts.expect("checked");
+            (r.hierarchy, Some(r.current))
+        }
+        (source, memory, _) => {
+            on_stage("hierarchy");
+            let (hierarchy, current) =
+                hierarchy_and_counts(source, memory, &frame, leaf_cap, config)?;
+            if let (Some(c), Source::Staged(_)) = (checkpoint.as_deref_mut(), source) {
+                save_hierarchy(c, &facts, &hierarchy, &current).map_err(|source| {
+                    BuildError::Temporary {
+                        dir: c.dir().to_path_buf(),
+                        source,
+                    }
+                })?;
+            }
+            stage("hierarchy", t);
+            (hierarchy, Some(current))
+        }
+    };
+
+    // 2. Simplification, diamond by diamond, finest first, borders locked; each patch
+    //    encoded (strips, quantised positions, attributes) as soon as it is final.
+    on_stage("simplify");
+    let t = Instant::now();
+    let spill_dir = config.memory.as_ref().map(|m| m.temp_dir.as_path());
+    let temporary = |source| BuildError::Temporary {
+        dir: spill_dir.map_or_else(Default::default, Path::to_path_buf),
+        source,
+    };
+    let finished = match (resumed_finished, checkpoint.as_deref()) {
+        (Some(finished), _) => finished,
+        (None, Some(c)) => FinishedPatches::new_named(c.dir()).map_err(temporary)?,
+        (None, None) => FinishedPatches::new(spill_dir).map_err(temporary)?,
+    };
+    let finished = RefCell::new(finished);
+    let encoding = PatchEncoding {
+        numbering_table: crate::simplify::numbering_table(input_vertices, spill_dir.is_some()),
+        origin,
+        bbox_min,
+        step,
+        attributes,
+        codec: config.codec,
+    };
+    let mut sink =
+        |patches: &[(SimplexKey, &LivePatch)]| finished.borrow_mut().add(patches, &encoding);
+    // The staged build's leaves' lists go to the groups, which drop each once it is made.
+    let lists = match source {
+        Source::Staged(_) => std::mem::take(&mut hierarchy.leaf_triangles),
+        _ => Default::default(),
+    };
+    let hierarchy = hierarchy;
+    let checkpoint_dir = checkpoint.as_deref().map(|c| c.dir().to_path_buf());
+    // A checkpointed build saves its state after the leaves and after each level.
+    let mut after_level = |state: &LevelState| match checkpoint.as_deref_mut() {
+        Some(c) => save_levels(c, &facts, &hierarchy, state, &mut finished.borrow_mut()),
+        None => Ok(()),
+    };
+    let simplified = match (source, &config.memory) {
+        (Source::Resumed, _) => simplify_levels(
+            resumed_state.expect("a resumed build has its state"),
+            &hierarchy,
+            &config.simplify,
+            spill_dir,
+            &mut sink,
+            &mut after_level,
+        ),
+        (Source::Staged(staged), Some(memory)) => {
+            let simplifier_of =
+                crate::staged_build::simplifier_positions(staged, &hierarchy.frame, memory)?;
+            let mut groups = LeafGroups::new(
+                staged,
+                lists,
+                &simplifier_of,
+                crate::staged_build::leaf_group_triangles(memory),
+            );
+            // Once the last group is made, nothing reads the staged mesh again: its files are
+            // emptied (the caller still owns them; a checkpoint's copies stay until the
+            // checkpoint no longer needs them), which frees their disk space.
+            let mut next = || {
+                let group = groups.next_group()?;
+                if group.is_none() {
+                    staged.discard()?;
+                }
+                Ok(group)
+            };
+            let current = current.expect("counted with the hierarchy");
+            match checkpoint_dir {
+                None => simplify_from_leaves(
+                    &mut next,
+                    input_vertices,
+                    &hierarchy,
+                    current,
+                    &config.simplify,
+                    spill_dir,
+                    &mut sink,
+                ),
+                Some(dir) => {
+                    LevelState::from_leaves_in(&mut next, input_vertices, current, &dir, &mut sink)
+                        .and_then(|state| {
+                            after_level(&state)?;
+                            simplify_levels(
+                                state,
+                                &hierarchy,
+                                &config.simplify,
+                                spill_dir,
+                                &mut sink,
+                                &mut after_level,
+                            )
+                        })
+                }
+            }
+        }
+        (Source::Staged(_), None) => unreachable!("a staged build has a budget"),
+        (Source::Memory(mesh), _) => simplify_hierarchy(
+            mesh,
+            &hierarchy,
+            current.expect("counted with the hierarchy"),
+            &config.simplify,
+            spill_dir,
+            &mut sink,
+        ),
+    }
+    .map_err(|e| match e {
+        SimplifyError::Conformity(e) => BuildError::Conformity(e),
+        SimplifyError::Finished(e) => temporary(e),
+    })?;
+    let finished = finished.into_inner();
+    stage("simplify", t);
+
+    let stages = std::mem::take(&mut stages);
+    let parts = Parts {
+        hierarchy,
+        simplified,
+        finished,
+        facts,
+        frame,
+        step,
+        model_size,
+        stages,
+    };
+    Ok(assemble(parts, config, on_stage))
+}
+
+/// The hierarchy and the use counts, from the mesh in memory or staged on disk.
+fn hierarchy_and_counts(
+    source: Source,
+    memory: &Option<MemoryBudget>,
+    frame: &LatticeFrame,
+    leaf_cap: usize,
+    config: &BuildConfig,
+) -> Result<(Hierarchy, CurrentMesh), BuildError> {
+    let frame = *frame;
+    Ok(match (source, memory) {
         (Source::Staged(staged), Some(memory)) => crate::staged_build::hierarchy_and_counts(
             staged,
             frame,
@@ -285,7 +517,9 @@ fn build_in_pool(
             leaf_cap,
             memory,
         )?,
-        (Source::Staged(_), None) => unreachable!("a staged build has a budget"),
+        (Source::Staged(_), None) | (Source::Resumed, _) => {
+            unreachable!("a staged build has a budget; a resumed one its hierarchy")
+        }
         (Source::Memory(mesh), None) => {
             let barycenters: Vec<[f64; 3]> = mesh
                 .triangles
@@ -317,253 +551,7 @@ fn build_in_pool(
                     })?;
             (hierarchy, current)
         }
-    };
-    stage("hierarchy", t);
-
-    // 2. Simplification, diamond by diamond, finest first, borders locked; each patch
-    //    encoded (strips, quantised positions, attributes) as soon as it is final.
-    on_stage("simplify");
-    let t = Instant::now();
-    let spill_dir = config.memory.as_ref().map(|m| m.temp_dir.as_path());
-    let temporary = |source| BuildError::Temporary {
-        dir: spill_dir.map_or_else(Default::default, Path::to_path_buf),
-        source,
-    };
-    let mut finished = FinishedPatches::new(spill_dir).map_err(temporary)?;
-    let encoding = PatchEncoding {
-        numbering_table: crate::simplify::numbering_table(input_vertices, spill_dir.is_some()),
-        origin,
-        bbox_min,
-        step,
-        attributes,
-        codec: config.codec,
-    };
-    let mut sink = |patches: &[(SimplexKey, &LivePatch)]| finished.add(patches, &encoding);
-    let simplified = match (source, &config.memory) {
-        (Source::Staged(staged), Some(memory)) => {
-            let simplifier_of =
-                crate::staged_build::simplifier_positions(staged, &hierarchy.frame, memory)?;
-            // The leaves' lists go to the groups, which drop each once it is made.
-            let lists = std::mem::take(&mut hierarchy.leaf_triangles);
-            let mut groups = LeafGroups::new(
-                staged,
-                lists,
-                &simplifier_of,
-                crate::staged_build::leaf_group_triangles(memory),
-            );
-            // Once the last group is made, nothing reads the staged mesh again: its files are
-            // emptied (the caller still owns them), which frees their disk space.
-            let mut next = || {
-                let group = groups.next_group()?;
-                if group.is_none() {
-                    staged.discard()?;
-                }
-                Ok(group)
-            };
-            simplify_from_leaves(
-                &mut next,
-                input_vertices,
-                &hierarchy,
-                current,
-                &config.simplify,
-                spill_dir,
-                &mut sink,
-            )
-        }
-        (Source::Staged(_), None) => unreachable!("a staged build has a budget"),
-        (Source::Memory(mesh), _) => simplify_hierarchy(
-            mesh,
-            &hierarchy,
-            current,
-            &config.simplify,
-            spill_dir,
-            &mut sink,
-        ),
-    }
-    .map_err(|e| match e {
-        SimplifyError::Conformity(e) => BuildError::Conformity(e),
-        SimplifyError::Finished(e) => temporary(e),
-    })?;
-    stage("simplify", t);
-
-    // 3. Table order: breadth-first from the roots, so roots come first and siblings are
-    //    adjacent; saturation of errors and spheres over the diamond DAG.
-    on_stage("saturate");
-    let t = Instant::now();
-    let simplices = breadth_first(&hierarchy);
-    let patch_sphere = |key| finished.get(key).sphere;
-    let error_floor = step.iter().copied().fold(model_size * 1e-9, f64::max);
-    // Patches are stored on the position lattice: each vertex within half a step per axis of
-    // its input position, while the simplifier measured its error on the input's positions.
-    // A drawn patch is within own(D) + this of the input, so every own error counts it.
-    let quantisation_error = 0.5 * crate::frame::diagonal([0.0; 3], step);
-    let saturated = saturate(
-        &hierarchy,
-        origin,
-        &simplified.own_error,
-        quantisation_error,
-        &patch_sphere,
-        error_floor,
-        model_size,
-    );
-    // Diamond table in (level, id) order.
-    let mut diamond_order: Vec<usize> = (0..hierarchy.diamonds.len()).collect();
-    diamond_order.sort_by_key(|&i| (hierarchy.diamonds[i].level, hierarchy.diamonds[i].id));
-    let table_index: HashMap<DiamondId, u32> = diamond_order
-        .iter()
-        .enumerate()
-        .map(|(row, &i)| (hierarchy.diamonds[i].id, row as u32))
-        .collect();
-    let diamonds: Vec<DiamondRecord> = diamond_order
-        .iter()
-        .map(|&i| {
-            let d = &hierarchy.diamonds[i];
-            let (center, radius) = saturated.sphere[i].to_f32();
-            let mut parents = [NO_INDEX; 4];
-            for (slot, p) in parents.iter_mut().zip(&d.parents) {
-                *slot = table_index[p];
-            }
-            DiamondRecord {
-                center,
-                radius,
-                error: round_up_f32(saturated.error[i]),
-                parents,
-                parent_count: d.parents.len() as u8,
-                tet_count: d.simplices.len() as u8,
-                phase: d.phase(),
-                pad: 0,
-                level: d.level as u32,
-                id: d.id,
-            }
-        })
-        .collect();
-    stage("saturate", t);
-
-    // 4. The tet table: each record points into the blobs, laid out in table order.
-    on_stage("tables");
-    let t = Instant::now();
-    let mut tets = Vec::with_capacity(simplices.len());
-    let mut spheres = Vec::with_capacity(simplices.len());
-    let (mut patch_offset, mut id_offset) = (0u64, 0u64);
-    for entry in &simplices {
-        let p = finished.get(entry.simplex.key);
-        let (center, radius) = p.sphere.to_f32();
-        let diamond = table_index
-            .get(&entry.simplex.split_point())
-            .copied()
-            .unwrap_or(NO_INDEX);
-        tets.push(TetRecord {
-            center,
-            radius,
-            cone_axis: p.cone.axis,
-            cone_cos: p.cone.cos,
-            diamond: if entry.first_child == NO_INDEX {
-                NO_INDEX
-            } else {
-                diamond
-            },
-            parent_diamond: entry.parent_diamond.map_or(NO_INDEX, |p| table_index[&p]),
-            first_child: entry.first_child,
-            level: entry.simplex.level() as u32,
-            patch_offset,
-            patch_bytes: p.patch_bytes,
-            vertex_count: p.vertex_count,
-            strip_index_count: p.strip_index_count,
-            triangle_count: p.triangle_count,
-            id_offset,
-            id_bytes: p.id_bytes,
-            patch_checksum: p.patch_checksum,
-        });
-        spheres.push(p.sphere);
-        patch_offset += p.patch_bytes as u64;
-        id_offset += p.id_bytes as u64;
-    }
-    nest_simplex_spheres(&mut tets, &mut spheres, RADIUS_MARGIN * model_size);
-    let order: Vec<SimplexKey> = simplices.iter().map(|e| e.simplex.key).collect();
-    drop(simplices);
-    stage("tables", t);
-
-    let header = Header {
-        dimension: config.domain.dim() as u32,
-        attributes,
-        root_tet_count: hierarchy.mesh.roots().len() as u64,
-        input_vertex_count: input_vertices as u64,
-        input_triangle_count: input_triangles as u64,
-        origin,
-        bbox_min,
-        bbox_max,
-        position_step: step,
-        lattice_origin: [0, 1, 2].map(|i| frame.model_origin[i] + frame.origin[i]),
-        lattice_unit: frame.unit,
-        lattice_bits: frame.bits,
-        ..bytemuck::Zeroable::zeroed()
-    };
-    let summary = BuildSummary {
-        input_triangles,
-        input_vertices,
-        tetrahedra: tets.len(),
-        leaves: hierarchy.mesh.leaf_count(),
-        diamonds: diamonds.len(),
-        depth: hierarchy.depth(),
-        patch_triangles: tets.iter().map(|t| t.triangle_count as usize).sum(),
-        locked_vertices: simplified.locked_vertices,
-        resimplified_diamonds: simplified.resimplified,
-        root_error: diamonds.first().map_or(0.0, |d| d.error as f64),
-        position_step: step,
-        quantisation_error,
-        repository_bytes: 0,
-        seconds: 0.0,
-        stages,
-    };
-    Ok(Built {
-        directory: RepositoryDirectory {
-            header,
-            diamonds,
-            tets,
-            codec: config.codec,
-        },
-        order,
-        finished,
-        summary,
     })
-}
-
-/// One row of the simplex table.
-struct TableEntry {
-    simplex: Simplex,
-    parent_diamond: Option<DiamondId>,
-    first_child: u32,
-}
-
-fn breadth_first(hierarchy: &Hierarchy) -> Vec<TableEntry> {
-    let mut table: Vec<TableEntry> = hierarchy
-        .mesh
-        .roots()
-        .iter()
-        .map(|&simplex| TableEntry {
-            simplex,
-            parent_diamond: None,
-            first_child: NO_INDEX,
-        })
-        .collect();
-    let mut i = 0;
-    while i < table.len() {
-        let s = table[i].simplex;
-        // A simplex at the lattice resolution has no integer midpoint: its truncated
-        // `split_point` may be another diamond's id, but it is never split.
-        if s.can_split() && hierarchy.mesh.is_split(s.split_point()) {
-            table[i].first_child = table.len() as u32;
-            for c in s.children() {
-                table.push(TableEntry {
-                    simplex: c,
-                    parent_diamond: Some(s.split_point()),
-                    first_child: NO_INDEX,
-                });
-            }
-        }
-        i += 1;
-    }
-    table
 }
 
 fn bounding_box(positions: &[[f64; 3]]) -> ([f64; 3], [f64; 3]) {

@@ -39,7 +39,8 @@ pub struct BuildConfig {
 }
 
 /// How much memory the out-of-core stages may use, and where their temporary files go (all
-/// unnamed: nothing is left behind, even when the build is killed).
+/// unnamed: nothing is left behind, even when the build is killed — but for a checkpointed
+/// build's checkpoint, `build_repository_checkpointed`, which is what a resume starts from).
 ///
 /// Out of core today: the import of a mesh file (`import::stage_mesh`, done by the caller, who
 /// then calls `build_repository_staged`: the mesh is never loaded), the hierarchy's
@@ -145,6 +146,8 @@ pub enum BuildError {
     Repository(#[from] RepositoryError),
     #[error(transparent)]
     Conformity(#[from] crate::simplify::ConformityError),
+    #[error(transparent)]
+    Checkpoint(#[from] crate::checkpoint::CheckpointError),
     #[error("temporary files in {dir}: {source}")]
     Temporary {
         dir: std::path::PathBuf,

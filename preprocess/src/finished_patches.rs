@@ -27,6 +27,8 @@ use crate::external::temp_usage::Charge;
 use crate::strips::build_patch;
 use crate::vertex_table::LivePatch;
 
+mod checkpoint;
+
 /// What the tet table needs of one encoded patch.
 #[derive(Clone, Copy, Debug)]
 pub struct FinishedPatch {
@@ -74,20 +76,31 @@ struct Spill {
     writer: BufWriter<File>,
     bytes: u64,
     charge: Charge,
+    /// CRC-32 of the bytes appended (a checkpoint's record of the file).
+    crc: crc32fast::Hasher,
 }
 
 impl Spill {
     fn new(dir: &Path) -> io::Result<Spill> {
-        Ok(Spill {
-            writer: BufWriter::with_capacity(1 << 20, tempfile::tempfile_in(dir)?),
-            bytes: 0,
-            charge: Charge::new(),
-        })
+        Ok(Spill::at_end(tempfile::tempfile_in(dir)?, 0, 0))
+    }
+
+    /// Appending to `file`, which holds `bytes` bytes of CRC-32 `crc` (positioned at its end).
+    fn at_end(file: File, bytes: u64, crc: u32) -> Spill {
+        let charge = Charge::new();
+        charge.grow(bytes);
+        Spill {
+            writer: BufWriter::with_capacity(1 << 20, file),
+            bytes,
+            charge,
+            crc: crc32fast::Hasher::new_with_initial_len(crc, bytes),
+        }
     }
 
     fn append(&mut self, bytes: &[u8]) -> io::Result<u64> {
         let at = self.bytes;
         self.writer.write_all(bytes)?;
+        self.crc.update(bytes);
         self.bytes += bytes.len() as u64;
         self.charge.grow(bytes.len() as u64);
         Ok(at)

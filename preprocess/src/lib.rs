@@ -7,6 +7,8 @@
 
 pub mod build;
 mod build_config;
+mod build_tables;
+pub mod checkpoint;
 pub mod dem;
 pub mod diamond_square;
 pub mod external;
@@ -26,8 +28,8 @@ pub mod strips;
 pub mod vertex_table;
 
 pub use build::{
-    build_contents, build_repository, build_repository_staged, BuildConfig, BuildError,
-    BuildSummary, Domain, MemoryBudget,
+    build_contents, build_repository, build_repository_checkpointed, build_repository_staged,
+    BuildConfig, BuildError, BuildSummary, Domain, MemoryBudget,
 };
 pub use hierarchy::Construction;
 pub use mesh::InputMesh;

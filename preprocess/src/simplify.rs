@@ -35,6 +35,7 @@ mod conformity;
 mod current_mesh;
 mod distribute;
 mod edge_census;
+mod levels;
 mod live_store;
 mod local_edges;
 mod positions;
@@ -53,12 +54,11 @@ use crate::hierarchy::Hierarchy;
 use crate::local_mesh::local_mesh;
 use crate::mesh::InputMesh;
 use crate::vertex_table::{LivePatch, VertexTable};
-use batches::{merge_effect, query_edges, split_batch, MergeEffect, Pending};
+use batches::{merge_effect, MergeEffect};
 use coincident::cancel_coincident_pairs;
 use conformity::{border_break, BorderBreak};
 use current_mesh::{edge_key, triangle_edges};
 use distribute::distribute;
-use edge_census::count_edges;
 use live_store::LiveStore;
 use local_edges::LocalEdges;
 pub(crate) use positions::numbering_table;
@@ -67,6 +67,7 @@ pub use positions::{simplifier_position, ulp_step};
 use result_spill::{Held, Payload, ResultSpill};
 
 pub use current_mesh::CurrentMesh;
+pub use levels::{simplify_levels, LevelState};
 
 /// The simplifier's own error of every split diamond (the patches went to the caller's
 /// `finished` as they were made).
@@ -251,146 +252,15 @@ pub fn simplify_from_leaves(
     leaves: &mut LeafSource,
     vertex_count: usize,
     hierarchy: &Hierarchy,
-    mut current: CurrentMesh,
+    current: CurrentMesh,
     settings: &SimplifySettings,
     spill_dir: Option<&std::path::Path>,
     finished: &mut FinishedPatchSink,
 ) -> Result<Simplified, SimplifyError> {
-    let frame = &hierarchy.frame;
-    let ctx = Context {
-        frame,
-        numbering_table: numbering_table(vertex_count, spill_dir.is_some()),
-        size: frame.model_size(),
-        settings: *settings,
-    };
-    // The current mesh is the patches of these simplices: the leaves, then each merged
-    // diamond's simplices in place of their children.
-    let mut patches = LiveStore::new(spill_dir)?;
-    let mut live: HashSet<SimplexKey> = HashSet::default();
-    while let Some(group) = leaves()? {
-        let list: Vec<(SimplexKey, &LivePatch)> = group.iter().map(|(k, p)| (*k, p)).collect();
-        finished(&list)?;
-        drop(list);
-        for (key, patch) in group {
-            live.insert(key);
-            patches.insert(key, patch)?;
-        }
-    }
-    crate::external::allocator::release_freed_memory();
-    let mut own_error = vec![0.0f32; hierarchy.diamonds.len()];
-    let mut locked_vertices = 0;
-    let mut resimplified = 0;
-    let mut by_level: Vec<usize> = (0..hierarchy.diamonds.len()).collect();
-    by_level.sort_by_key(|&i| std::cmp::Reverse(hierarchy.diamonds[i].level));
-    for level_group in
-        by_level.chunk_by(|&a, &b| hierarchy.diamonds[a].level == hierarchy.diamonds[b].level)
-    {
-        let no_extra = HashSet::default();
-        let spill = ResultSpill::new(spill_dir)?;
-        let mut pending: Vec<Pending> = level_group
-            .par_iter()
-            .map(|&d| {
-                Ok(Pending {
-                    result: simplify_diamond(
-                        &ctx,
-                        d,
-                        &hierarchy.diamonds[d],
-                        &patches,
-                        &current,
-                        &no_extra,
-                        &spill,
-                    )?,
-                    extra_locks: HashSet::default(),
-                    attempts: 0,
-                })
-            })
-            .collect::<std::io::Result<_>>()?;
-        while !pending.is_empty() {
-            // The rest of the mesh's counts of the edges the pending diamonds share with it.
-            let live_list: Vec<SimplexKey> = live.iter().copied().collect();
-            let counts = count_edges(&query_edges(&pending), &live_list, &|k| {
-                patches.triangles(k)
-            })?;
-            for p in &mut pending {
-                p.result.resolve(&counts);
-            }
-            if let Some(error) = pending
-                .iter()
-                .find_map(|p| p.result.conformity_error(hierarchy))
-            {
-                return Err(error.into());
-            }
-            let (clean, dirty) = split_batch(pending, &counts);
-            resimplified += dirty.len();
-            // The batch merges a group of diamonds at a time (their payloads back in memory):
-            // count changes are sums, so the counts do not depend on the grouping.
-            let mut clean = clean.into_iter().peekable();
-            while clean.peek().is_some() {
-                let group: Vec<Pending> = clean.by_ref().take(MERGE_GROUP).collect();
-                let mut merged = Vec::with_capacity(group.len());
-                for p in group {
-                    let mut r = p.result;
-                    let Payload {
-                        patches: made,
-                        vertices,
-                    } = spill.take(std::mem::replace(
-                        &mut r.payload,
-                        Held::Memory(Payload::default()),
-                    ))?;
-                    r.effect.changes.vertices = vertices;
-                    merged.push((r, made));
-                }
-                current.merge(merged.iter().map(|(r, _)| &r.effect.changes));
-                let list: Vec<(SimplexKey, &LivePatch)> = merged
-                    .iter()
-                    .flat_map(|(_, made)| made.iter().map(|(k, patch)| (*k, patch)))
-                    .collect();
-                finished(&list)?;
-                drop(list);
-                for (r, made) in merged {
-                    own_error[r.diamond] = r.error;
-                    locked_vertices += r.locked;
-                    for s in &hierarchy.diamonds[r.diamond].simplices {
-                        for c in s.children() {
-                            live.remove(&c.key);
-                            patches.remove(&c.key)?;
-                        }
-                        live.insert(s.key);
-                    }
-                    for (key, patch) in made {
-                        patches.insert(key, patch)?;
-                    }
-                }
-            }
-            // Simplify the others again against the mesh with the batch merged, with more
-            // locks.
-            pending = dirty
-                .into_par_iter()
-                .map(|(mut p, blocked)| {
-                    let d = p.result.diamond;
-                    // Its children are still live: what it gathered is theirs.
-                    let (gathered, ..) = gather_patches(&hierarchy.diamonds[d], &patches)?;
-                    p.lock_more(&blocked, &gathered);
-                    p.result = simplify_diamond(
-                        &ctx,
-                        d,
-                        &hierarchy.diamonds[d],
-                        &patches,
-                        &current,
-                        &p.extra_locks,
-                        &spill,
-                    )?;
-                    Ok(p)
-                })
-                .collect::<std::io::Result<_>>()?;
-        }
-        patches.compact()?;
-        crate::external::allocator::release_freed_memory();
-    }
-    Ok(Simplified {
-        own_error,
-        locked_vertices,
-        resimplified,
+    let store = LiveStore::new(spill_dir)?;
+    let state = LevelState::from_leaves(leaves, vertex_count, current, store, finished)?;
+    simplify_levels(state, hierarchy, settings, spill_dir, finished, &mut |_| {
+        Ok(())
     })
 }
 

@@ -1,5 +1,5 @@
 //! `tessera build INPUT|- -o OUT.tsr [--leaf-triangles N | --levels L] [--threads N] [--json]`
-//! `[--memory SIZE [--temp DIR]] [--heightfield] [--raw-size WxH] [--variable NAME]`
+//! `[--memory SIZE [--temp DIR] [--resume]] [--heightfield] [--raw-size WxH] [--variable NAME]`
 //! `[--spacing M] [--exaggeration X] [--no-compress]`
 //!
 //! A mesh builds the 3D hierarchy (tetrahedra); a DEM (by extension) or `--heightfield` the 2D
@@ -13,9 +13,10 @@ use anyhow::Context;
 use clap::Args;
 use serde_json::json;
 use tessera_core::repository::format::{PatchCodec, POSITION_BITS};
+use tessera_preprocess::checkpoint::Checkpoint;
 use tessera_preprocess::{
-    build_repository, build_repository_staged, BuildConfig, BuildSummary, Construction,
-    MemoryBudget,
+    build_repository, build_repository_checkpointed, build_repository_staged, BuildConfig,
+    BuildSummary, Construction, Domain, MemoryBudget,
 };
 
 use crate::progress::Stages;
@@ -43,14 +44,21 @@ pub struct BuildArgs {
     /// still hold the mesh (ARCHITECTURE.md). The repository is the same bytes either way.
     #[arg(long, value_name = "SIZE", value_parser = parse_size)]
     pub memory: Option<u64>,
-    /// Directory of the temporary files of `--memory` (default: the output's directory). The
-    /// files have no names: nothing is left behind, even when the build is killed.
+    /// Directory of the temporary files of `--memory` and of the build's checkpoint (default:
+    /// the output's directory). The working files have no names; the checkpoint
+    /// (`.OUT.tessera-build/`) is what a killed build leaves for `--resume`.
     #[arg(long, value_name = "DIR", requires = "memory")]
     pub temp: Option<PathBuf>,
     /// Store the patches as they are drawn instead of packed (meshoptimizer's vertex and
     /// index-sequence codecs, lossless; decoded by the loader): larger files, no decoding.
     #[arg(long)]
     pub no_compress: bool,
+    /// Continue the build of the same input, flags and output that was killed or failed, from
+    /// its checkpoint (`.OUT.tessera-build/` beside the output or in `--temp`); the repository
+    /// is the same bytes. Needs `--memory` and an input file. Without `--resume` a leftover
+    /// checkpoint is removed and the build starts over.
+    #[arg(long)]
+    pub resume: bool,
     /// Print one JSON object on stdout.
     #[arg(long)]
     pub json: bool,
@@ -88,23 +96,28 @@ pub fn run(args: BuildArgs) -> anyhow::Result<Outcome> {
         }
     };
     let staging = memory.as_ref().map(|m| (m.temp_dir.as_path(), m.bytes));
-    let input = crate::input::load_build_input(&args.input, &args.heightfield, staging)?;
-    let mut config = BuildConfig {
-        threads: args.threads,
-        memory: memory.clone(),
-        codec: if args.no_compress {
-            PatchCodec::Raw
-        } else {
-            PatchCodec::Packed
-        },
-        ..BuildConfig::for_domain(input.domain())
+    // A mesh file staged under a budget keeps a checkpoint (`build_checkpoint.rs`).
+    let staged_mesh =
+        memory.is_some() && crate::input::is_plain_mesh(&args.input, &args.heightfield)?;
+    let mesh_config = configure(&args, crate::input::mesh_domain(&args.heightfield), &memory);
+    let mut checkpoint = crate::build_checkpoint::prepare(
+        &args.input,
+        &args.output,
+        memory.as_ref().map(|m| m.temp_dir.as_path()),
+        &mesh_config,
+        staged_mesh,
+        args.resume,
+    )?;
+    let input = match load_or_resume(&args, staging, checkpoint.as_mut()) {
+        Ok(input) => input,
+        Err(e) => {
+            if let Some(c) = checkpoint {
+                crate::build_checkpoint::after_failure(c, &e);
+            }
+            return Err(e);
+        }
     };
-    if let Some(n) = args.leaf_triangles {
-        config.construction = Construction::LeafTriangles(n);
-    }
-    if let Some(l) = args.levels {
-        config.construction = Construction::Levels(l);
-    }
+    let config = configure(&args, input.domain(), &memory);
     let import_seconds = start.elapsed().as_secs_f64();
     let name = if crate::input::is_stdin(&args.input) {
         "standard input".to_string()
@@ -115,15 +128,33 @@ pub fn run(args: BuildArgs) -> anyhow::Result<Outcome> {
         stages.stage(s);
         peaks.start(s);
     };
-    let summary = match &input {
-        BuildInput::Loaded(loaded) => {
+    let staged = match &input {
+        BuildInput::Staged { staged, .. } => Some(staged),
+        _ => None,
+    };
+    let built = match (&input, checkpoint.as_mut()) {
+        (_, Some(c)) => build_repository_checkpointed(staged, &config, &args.output, &on_stage, c),
+        (BuildInput::Loaded(loaded), None) => {
             build_repository(&loaded.mesh, &config, &args.output, &on_stage)
         }
-        BuildInput::Staged { staged, .. } => {
+        (BuildInput::Staged { staged, .. }, None) => {
             build_repository_staged(staged, &config, &args.output, &on_stage)
         }
+        (BuildInput::Resumed { .. }, None) => unreachable!("resumed from a checkpoint"),
     }
-    .with_context(|| format!("building {name}"))?;
+    .with_context(|| format!("building {name}"));
+    let summary = match (built, checkpoint) {
+        (Ok(summary), Some(c)) => {
+            c.remove().context("removing the build's checkpoint")?;
+            summary
+        }
+        (Ok(summary), None) => summary,
+        (Err(e), Some(c)) => {
+            crate::build_checkpoint::after_failure(c, &e);
+            return Err(e);
+        }
+        (Err(e), None) => return Err(e),
+    };
     stages.finish();
     let stage_peaks = peaks.finish();
     let seconds = start.elapsed().as_secs_f64();
@@ -163,6 +194,57 @@ pub fn run(args: BuildArgs) -> anyhow::Result<Outcome> {
         println!("wrote {}", args.output.display());
     }
     Ok(Outcome::Ok)
+}
+
+/// The build's configuration for an input of `domain`.
+fn configure(args: &BuildArgs, domain: Domain, memory: &Option<MemoryBudget>) -> BuildConfig {
+    let mut config = BuildConfig {
+        threads: args.threads,
+        memory: memory.clone(),
+        codec: if args.no_compress {
+            PatchCodec::Raw
+        } else {
+            PatchCodec::Packed
+        },
+        ..BuildConfig::for_domain(domain)
+    };
+    if let Some(n) = args.leaf_triangles {
+        config.construction = Construction::LeafTriangles(n);
+    }
+    if let Some(l) = args.levels {
+        config.construction = Construction::Levels(l);
+    }
+    config
+}
+
+/// The input: read (and staged, and saved as the checkpoint's first stage), or taken from the
+/// checkpoint (its staged mesh, or nothing when it holds the simplification's state).
+fn load_or_resume(
+    args: &BuildArgs,
+    staging: Option<(&std::path::Path, u64)>,
+    checkpoint: Option<&mut Checkpoint>,
+) -> anyhow::Result<BuildInput> {
+    use tessera_preprocess::checkpoint::{open_staged, save_staged};
+    let domain = crate::input::mesh_domain(&args.heightfield);
+    if let Some(c) = &checkpoint {
+        if let Some(stage) = c
+            .last_stage()
+            .filter(|s| s.name != "staged" && s.name != "hierarchy")
+        {
+            return Ok(BuildInput::Resumed {
+                domain,
+                description: format!("mesh (resumed after stage {})", stage.name),
+            });
+        }
+        if let Some(staged) = open_staged(c).context("opening the checkpoint's staged mesh")? {
+            return Ok(crate::input::staged_input(staged, &args.heightfield));
+        }
+    }
+    let input = crate::input::load_build_input(&args.input, &args.heightfield, staging)?;
+    if let (Some(c), BuildInput::Staged { staged, .. }) = (checkpoint, &input) {
+        save_staged(c, staged).with_context(|| format!("checkpoint {}", c.dir().display()))?;
+    }
+    Ok(input)
 }
 
 /// The `--json` object (stable keys).

@@ -166,27 +166,34 @@ pub enum BuildInput {
         domain: Domain,
         description: String,
     },
+    /// Nothing read: the build continues from its checkpoint's simplification state.
+    Resumed {
+        domain: Domain,
+        description: String,
+    },
 }
 
 impl BuildInput {
     pub fn domain(&self) -> Domain {
         match self {
             BuildInput::Loaded(input) => input.domain,
-            BuildInput::Staged { domain, .. } => *domain,
+            BuildInput::Staged { domain, .. } | BuildInput::Resumed { domain, .. } => *domain,
         }
     }
 
     pub fn grid(&self) -> Option<&HeightGrid> {
         match self {
             BuildInput::Loaded(input) => input.grid.as_ref(),
-            BuildInput::Staged { .. } => None,
+            BuildInput::Staged { .. } | BuildInput::Resumed { .. } => None,
         }
     }
 
     pub fn description(&self) -> &str {
         match self {
             BuildInput::Loaded(input) => &input.description,
-            BuildInput::Staged { description, .. } => description,
+            BuildInput::Staged { description, .. } | BuildInput::Resumed { description, .. } => {
+                description
+            }
         }
     }
 }
@@ -199,12 +206,7 @@ pub fn load_build_input(
     args: &HeightFieldArgs,
     staging: Option<(&Path, u64)>,
 ) -> anyhow::Result<BuildInput> {
-    let options = args.terrain_options()?;
-    let plain_mesh = DemFormat::from_path(path).is_none()
-        && options.vertical_exaggeration == 1.0
-        && args.raw_size.is_none()
-        && args.variable.is_none()
-        && args.spacing.is_none();
+    let plain_mesh = is_plain_mesh(path, args)?;
     let Some((dir, budget)) = staging.filter(|_| plain_mesh) else {
         return Ok(BuildInput::Loaded(load_input_staged(path, args, staging)?));
     };
@@ -221,17 +223,36 @@ pub fn load_build_input(
     } else {
         tessera_preprocess::import::stage_mesh(path, dir, budget as usize).map_err(import_error)?
     };
+    Ok(staged_input(staged, args))
+}
+
+/// Whether `path` is a mesh built as it is (not a height field, no exaggeration): what
+/// `build --memory` stages on disk, and what a checkpoint can resume.
+pub fn is_plain_mesh(path: &Path, args: &HeightFieldArgs) -> anyhow::Result<bool> {
+    let options = args.terrain_options()?;
+    Ok(DemFormat::from_path(path).is_none()
+        && options.vertical_exaggeration == 1.0
+        && args.raw_size.is_none()
+        && args.variable.is_none()
+        && args.spacing.is_none())
+}
+
+/// A staged mesh as `build`'s input.
+pub fn staged_input(
+    staged: tessera_preprocess::external::StagedMesh,
+    args: &HeightFieldArgs,
+) -> BuildInput {
     let domain = mesh_domain(args);
     let description = format!(
         "mesh ({} triangles, {} vertices; staged on disk)",
         staged.triangles.len(),
         staged.positions.len()
     );
-    Ok(BuildInput::Staged {
+    BuildInput::Staged {
         staged,
         domain,
         description,
-    })
+    }
 }
 
 /// An importer's error; an unknown extension also lists the height-field ones.
@@ -247,7 +268,7 @@ fn import_error(e: ImportError) -> anyhow::Error {
 }
 
 /// A mesh file builds the 3D hierarchy, or the 2D one with `--heightfield`.
-fn mesh_domain(args: &HeightFieldArgs) -> Domain {
+pub fn mesh_domain(args: &HeightFieldArgs) -> Domain {
     if args.heightfield {
         Domain::HeightField
     } else {

@@ -9,6 +9,7 @@ mod bench;
 mod bench_render_stream;
 mod bench_stream_loops;
 mod bench_stream_plot;
+mod build_checkpoint;
 mod cmd_bench;
 mod cmd_bench_render;
 mod cmd_bench_stream;

@@ -26,6 +26,8 @@ pub struct RecordFile<T: Pod> {
     file: File,
     records: u64,
     charge: Charge,
+    /// A checkpoint's file (`open_kept`): `discard` leaves it alone.
+    kept: bool,
     _record: PhantomData<T>,
 }
 
@@ -55,8 +57,12 @@ impl<T: Pod> RecordFile<T> {
         self.records * std::mem::size_of::<T>() as u64
     }
 
-    /// Empties the file (its disk space is freed; the records are gone, reading fails).
+    /// Empties the file (its disk space is freed; the records are gone, reading fails). A
+    /// checkpoint's file is left as it is (the checkpoint removes it when it no longer needs it).
     pub fn discard(&self) -> io::Result<()> {
+        if self.kept {
+            return Ok(());
+        }
         self.file.set_len(0)?;
         self.charge.release();
         Ok(())
@@ -69,6 +75,42 @@ impl<T: Pod> RecordFile<T> {
         Ok(RecordReader {
             reader: BufReader::with_capacity(IO_BUFFER, file),
             left: self.records,
+            _record: PhantomData,
+        })
+    }
+
+    /// Copies the records to a new file at `path`; returns the copy's CRC-32.
+    pub(crate) fn copy_to(&self, path: &Path) -> io::Result<u32> {
+        let mut from = self.file.try_clone()?;
+        from.seek(SeekFrom::Start(0))?;
+        let mut to = File::create(path)?;
+        let mut hasher = crc32fast::Hasher::new();
+        let mut buf = vec![0u8; IO_BUFFER];
+        let mut left = self.bytes();
+        while left > 0 {
+            let n = left.min(buf.len() as u64) as usize;
+            from.read_exact(&mut buf[..n])?;
+            hasher.update(&buf[..n]);
+            to.write_all(&buf[..n])?;
+            left -= n as u64;
+        }
+        Ok(hasher.finalize())
+    }
+
+    /// The records of a checkpoint's file (`copy_to`'s) of `bytes` bytes, opened read-only.
+    pub(crate) fn open_kept(path: &Path, bytes: u64) -> io::Result<RecordFile<T>> {
+        let size = std::mem::size_of::<T>() as u64;
+        if !bytes.is_multiple_of(size) || File::open(path)?.metadata()?.len() != bytes {
+            return Err(io::Error::new(
+                io::ErrorKind::InvalidData,
+                format!("{}: not {bytes} bytes of records", path.display()),
+            ));
+        }
+        Ok(RecordFile {
+            file: File::open(path)?,
+            records: bytes / size,
+            charge: Charge::new(),
+            kept: true,
             _record: PhantomData,
         })
     }
@@ -114,6 +156,7 @@ impl<T: Pod> RecordWriter<T> {
             file,
             records: self.records,
             charge: self.charge,
+            kept: false,
             _record: PhantomData,
         })
     }

@@ -156,6 +156,47 @@ impl CurrentMesh {
         }
     }
 
+    /// The counts, for a build's checkpoint (`decode` reads them back).
+    pub(crate) fn encode(&self, e: &mut crate::checkpoint::Enc) {
+        e.list(&self.shards, |e, shard| {
+            e.0.extend_from_slice(bytemuck::cast_slice(&shard[..]));
+            // (The count comes first: `Enc::list`'s own.)
+        });
+        let mut edges: Vec<(u64, u32)> = self.nonmanifold.iter().map(|(&k, &n)| (k, n)).collect();
+        edges.sort_unstable();
+        e.list(&edges, |e, &(k, n)| {
+            e.u64(k);
+            e.u32(n);
+        });
+    }
+
+    /// The counts `encode` wrote for `vertex_count` vertices.
+    pub(crate) fn decode(
+        d: &mut crate::checkpoint::Dec,
+        vertex_count: usize,
+    ) -> std::io::Result<Self> {
+        let shard_len =
+            |i: usize| (vertex_count.saturating_sub(i << SHARD_BITS)).min(1 << SHARD_BITS);
+        let mut i = 0;
+        let shards = d.list(0, |d| {
+            let shard = (0..shard_len(i)).map(|_| d.u32()).collect();
+            i += 1;
+            shard
+        })?;
+        let damaged = || std::io::Error::new(std::io::ErrorKind::InvalidData, "use counts");
+        if shards.len() != vertex_count.div_ceil(1 << SHARD_BITS).max(1) {
+            return Err(damaged());
+        }
+        let nonmanifold = d
+            .list(12, |d| Ok((d.u64()?, d.u32()?)))?
+            .into_iter()
+            .collect();
+        Ok(CurrentMesh {
+            shards,
+            nonmanifold,
+        })
+    }
+
     /// Triangles of the current mesh using vertex `v`.
     #[inline]
     pub(super) fn use_count(&self, v: u32) -> u32 {

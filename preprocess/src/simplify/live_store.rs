@@ -31,6 +31,24 @@ pub(super) struct DiskStore {
     end: u64,
     live_bytes: u64,
     charge: Charge,
+    /// In a build's checkpoint: the directory and the file's generation (`live-G.bin`, a new
+    /// one at each rewrite), and the CRC-32 of the bytes written so far.
+    named: Option<(std::path::PathBuf, u32)>,
+    crc: crc32fast::Hasher,
+}
+
+/// Where a checkpointed store's records are: its file's name, valid length and CRC-32, and
+/// each live patch's record (key, offset, bytes, triangles).
+pub(super) struct StoreCheckpoint {
+    pub generation: u32,
+    pub end: u64,
+    pub crc32: u32,
+    pub records: Vec<(SimplexKey, u64, u64, u32)>,
+}
+
+/// The name of a checkpointed store's file of `generation`.
+pub(super) fn live_file_name(generation: u32) -> String {
+    format!("live-{generation}.bin")
 }
 
 #[derive(Clone, Copy)]
@@ -58,7 +76,71 @@ impl LiveStore {
             end: 0,
             live_bytes: 0,
             charge: Charge::new(),
+            named: None,
+            crc: crc32fast::Hasher::new(),
         }))
+    }
+
+    /// An empty store in a named file of a build's checkpoint directory.
+    pub(super) fn new_named(dir: &Path) -> io::Result<LiveStore> {
+        Ok(LiveStore::Disk(DiskStore::named(dir, 0)?))
+    }
+
+    /// A checkpointed store again (its file cut back to the checkpoint's length).
+    pub(super) fn reopen(dir: &Path, at: StoreCheckpoint) -> io::Result<LiveStore> {
+        let path = dir.join(live_file_name(at.generation));
+        let file = std::fs::OpenOptions::new()
+            .read(true)
+            .write(true)
+            .open(path)?;
+        file.set_len(at.end)?;
+        let charge = Charge::new();
+        charge.grow(at.end);
+        let index: HashMap<SimplexKey, Record> = at
+            .records
+            .iter()
+            .map(|&(key, at, bytes, triangles)| {
+                (
+                    key,
+                    Record {
+                        at,
+                        bytes,
+                        triangles,
+                    },
+                )
+            })
+            .collect();
+        Ok(LiveStore::Disk(DiskStore {
+            file,
+            dir: dir.to_path_buf(),
+            live_bytes: index.values().map(|r| r.bytes).sum(),
+            index,
+            end: at.end,
+            charge,
+            named: Some((dir.to_path_buf(), at.generation)),
+            crc: crc32fast::Hasher::new_with_initial_len(at.crc32, at.end),
+        }))
+    }
+
+    /// Where a checkpointed store's records are (its file written so far is synced by the
+    /// checkpoint); `None` for a store that is not in a checkpoint.
+    pub(super) fn checkpoint(&self) -> Option<StoreCheckpoint> {
+        let LiveStore::Disk(store) = self else {
+            return None;
+        };
+        let (_, generation) = store.named.as_ref()?;
+        let mut records: Vec<(SimplexKey, u64, u64, u32)> = store
+            .index
+            .iter()
+            .map(|(k, r)| (*k, r.at, r.bytes, r.triangles))
+            .collect();
+        records.sort_unstable_by_key(|r| r.0);
+        Some(StoreCheckpoint {
+            generation: *generation,
+            end: store.end,
+            crc32: store.crc.clone().finalize(),
+            records,
+        })
     }
 
     /// The patch of `key`, if live.
@@ -131,13 +213,18 @@ impl DiskStore {
     /// A new file with only the live records, in their order.
     fn rewrite(&mut self) -> io::Result<()> {
         let store = self;
-        let mut fresh = DiskStore {
-            file: tempfile::tempfile_in(&store.dir)?,
-            dir: store.dir.clone(),
-            index: HashMap::default(),
-            end: 0,
-            live_bytes: 0,
-            charge: Charge::new(),
+        let mut fresh = match &store.named {
+            Some((dir, generation)) => DiskStore::named(dir, generation + 1)?,
+            None => DiskStore {
+                file: tempfile::tempfile_in(&store.dir)?,
+                dir: store.dir.clone(),
+                index: HashMap::default(),
+                end: 0,
+                live_bytes: 0,
+                charge: Charge::new(),
+                named: None,
+                crc: crc32fast::Hasher::new(),
+            },
         };
         let mut records: Vec<(SimplexKey, Record)> =
             store.index.iter().map(|(k, r)| (*k, *r)).collect();
@@ -149,9 +236,31 @@ impl DiskStore {
         Ok(())
     }
 
+    /// An empty store in the checkpoint's file of `generation` (the older file stays until
+    /// the checkpoint no longer names it).
+    fn named(dir: &Path, generation: u32) -> io::Result<DiskStore> {
+        let path = dir.join(live_file_name(generation));
+        Ok(DiskStore {
+            file: std::fs::OpenOptions::new()
+                .read(true)
+                .write(true)
+                .create(true)
+                .truncate(true)
+                .open(path)?,
+            dir: dir.to_path_buf(),
+            index: HashMap::default(),
+            end: 0,
+            live_bytes: 0,
+            charge: Charge::new(),
+            named: Some((dir.to_path_buf(), generation)),
+            crc: crc32fast::Hasher::new(),
+        })
+    }
+
     fn append(&mut self, key: SimplexKey, patch: &LivePatch) -> io::Result<()> {
         let bytes = encode_patch(patch);
         self.file.write_all_at(&bytes, self.end)?;
+        self.crc.update(&bytes);
         let record = Record {
             at: self.end,
             bytes: bytes.len() as u64,

@@ -1,0 +1,241 @@
+//! The build's last steps, once every patch is final: the table order (breadth-first from
+//! the roots), the saturation of errors and spheres over the diamond DAG, the diamond and tet
+//! tables, the header and the summary (`build.rs` is the driver).
+
+use rustc_hash::FxHashMap as HashMap;
+use std::time::Instant;
+
+use tessera_core::bounds::round_up_f32;
+use tessera_core::leb::{DiamondId, Simplex, SimplexKey};
+use tessera_core::repository::format::{DiamondRecord, Header, TetRecord, NO_INDEX};
+use tessera_core::repository::RepositoryDirectory;
+
+use crate::build_config::{BuildConfig, BuildSummary};
+use crate::checkpoint::InputFacts;
+use crate::finished_patches::FinishedPatches;
+use crate::frame::LatticeFrame;
+use crate::hierarchy::Hierarchy;
+use crate::saturate::{nest_simplex_spheres, saturate, RADIUS_MARGIN};
+use crate::simplify::Simplified;
+
+/// A built repository before it is written: its directory, its tet table's simplices in
+/// order, and their encoded patches.
+pub(crate) struct Built {
+    pub directory: RepositoryDirectory,
+    pub order: Vec<SimplexKey>,
+    pub finished: FinishedPatches,
+    pub summary: BuildSummary,
+}
+
+/// What the simplification leaves for the tables.
+pub(crate) struct Parts {
+    pub hierarchy: Hierarchy,
+    pub simplified: Simplified,
+    pub finished: FinishedPatches,
+    pub facts: InputFacts,
+    pub frame: LatticeFrame,
+    pub step: [f64; 3],
+    pub model_size: f64,
+    /// (stage, seconds) so far.
+    pub stages: Vec<(&'static str, f64)>,
+}
+
+pub(crate) fn assemble(
+    parts: Parts,
+    config: &BuildConfig,
+    on_stage: &(dyn Fn(&str) + Sync),
+) -> Built {
+    let Parts {
+        hierarchy,
+        simplified,
+        finished,
+        facts,
+        frame,
+        step,
+        model_size,
+        mut stages,
+    } = parts;
+    let mut stage = |name: &'static str, t: Instant| stages.push((name, t.elapsed().as_secs_f64()));
+    let (bbox_min, bbox_max) = facts.bbox;
+    let origin = bbox_min;
+    let (input_vertices, input_triangles, attributes) =
+        (facts.vertices, facts.triangles, facts.attributes);
+    // 3. Table order: breadth-first from the roots, so roots come first and siblings are
+    //    adjacent; saturation of errors and spheres over the diamond DAG.
+    on_stage("saturate");
+    let t = Instant::now();
+    let simplices = breadth_first(&hierarchy);
+    let patch_sphere = |key| finished.get(key).sphere;
+    let error_floor = step.iter().copied().fold(model_size * 1e-9, f64::max);
+    // Patches are stored on the position lattice: each vertex within half a step per axis of
+    // its input position, while the simplifier measured its error on the input's positions.
+    // A drawn patch is within own(D) + this of the input, so every own error counts it.
+    let quantisation_error = 0.5 * crate::frame::diagonal([0.0; 3], step);
+    let saturated = saturate(
+        &hierarchy,
+        origin,
+        &simplified.own_error,
+        quantisation_error,
+        &patch_sphere,
+        error_floor,
+        model_size,
+    );
+    // Diamond table in (level, id) order.
+    let mut diamond_order: Vec<usize> = (0..hierarchy.diamonds.len()).collect();
+    diamond_order.sort_by_key(|&i| (hierarchy.diamonds[i].level, hierarchy.diamonds[i].id));
+    let table_index: HashMap<DiamondId, u32> = diamond_order
+        .iter()
+        .enumerate()
+        .map(|(row, &i)| (hierarchy.diamonds[i].id, row as u32))
+        .collect();
+    let diamonds: Vec<DiamondRecord> = diamond_order
+        .iter()
+        .map(|&i| {
+            let d = &hierarchy.diamonds[i];
+            let (center, radius) = saturated.sphere[i].to_f32();
+            let mut parents = [NO_INDEX; 4];
+            for (slot, p) in parents.iter_mut().zip(&d.parents) {
+                *slot = table_index[p];
+            }
+            DiamondRecord {
+                center,
+                radius,
+                error: round_up_f32(saturated.error[i]),
+                parents,
+                parent_count: d.parents.len() as u8,
+                tet_count: d.simplices.len() as u8,
+                phase: d.phase(),
+                pad: 0,
+                level: d.level as u32,
+                id: d.id,
+            }
+        })
+        .collect();
+    stage("saturate", t);
+
+    // 4. The tet table: each record points into the blobs, laid out in table order.
+    on_stage("tables");
+    let t = Instant::now();
+    let mut tets = Vec::with_capacity(simplices.len());
+    let mut spheres = Vec::with_capacity(simplices.len());
+    let (mut patch_offset, mut id_offset) = (0u64, 0u64);
+    for entry in &simplices {
+        let p = finished.get(entry.simplex.key);
+        let (center, radius) = p.sphere.to_f32();
+        let diamond = table_index
+            .get(&entry.simplex.split_point())
+            .copied()
+            .unwrap_or(NO_INDEX);
+        tets.push(TetRecord {
+            center,
+            radius,
+            cone_axis: p.cone.axis,
+            cone_cos: p.cone.cos,
+            diamond: if entry.first_child == NO_INDEX {
+                NO_INDEX
+            } else {
+                diamond
+            },
+            parent_diamond: entry.parent_diamond.map_or(NO_INDEX, |p| table_index[&p]),
+            first_child: entry.first_child,
+            level: entry.simplex.level() as u32,
+            patch_offset,
+            patch_bytes: p.patch_bytes,
+            vertex_count: p.vertex_count,
+            strip_index_count: p.strip_index_count,
+            triangle_count: p.triangle_count,
+            id_offset,
+            id_bytes: p.id_bytes,
+            patch_checksum: p.patch_checksum,
+        });
+        spheres.push(p.sphere);
+        patch_offset += p.patch_bytes as u64;
+        id_offset += p.id_bytes as u64;
+    }
+    nest_simplex_spheres(&mut tets, &mut spheres, RADIUS_MARGIN * model_size);
+    let order: Vec<SimplexKey> = simplices.iter().map(|e| e.simplex.key).collect();
+    drop(simplices);
+    stage("tables", t);
+
+    let header = Header {
+        dimension: config.domain.dim() as u32,
+        attributes,
+        root_tet_count: hierarchy.mesh.roots().len() as u64,
+        input_vertex_count: input_vertices as u64,
+        input_triangle_count: input_triangles as u64,
+        origin,
+        bbox_min,
+        bbox_max,
+        position_step: step,
+        lattice_origin: [0, 1, 2].map(|i| frame.model_origin[i] + frame.origin[i]),
+        lattice_unit: frame.unit,
+        lattice_bits: frame.bits,
+        ..bytemuck::Zeroable::zeroed()
+    };
+    let summary = BuildSummary {
+        input_triangles,
+        input_vertices,
+        tetrahedra: tets.len(),
+        leaves: hierarchy.mesh.leaf_count(),
+        diamonds: diamonds.len(),
+        depth: hierarchy.depth(),
+        patch_triangles: tets.iter().map(|t| t.triangle_count as usize).sum(),
+        locked_vertices: simplified.locked_vertices,
+        resimplified_diamonds: simplified.resimplified,
+        root_error: diamonds.first().map_or(0.0, |d| d.error as f64),
+        position_step: step,
+        quantisation_error,
+        repository_bytes: 0,
+        seconds: 0.0,
+        stages,
+    };
+    Built {
+        directory: RepositoryDirectory {
+            header,
+            diamonds,
+            tets,
+            codec: config.codec,
+        },
+        order,
+        finished,
+        summary,
+    }
+}
+
+/// One row of the simplex table.
+struct TableEntry {
+    simplex: Simplex,
+    parent_diamond: Option<DiamondId>,
+    first_child: u32,
+}
+
+fn breadth_first(hierarchy: &Hierarchy) -> Vec<TableEntry> {
+    let mut table: Vec<TableEntry> = hierarchy
+        .mesh
+        .roots()
+        .iter()
+        .map(|&simplex| TableEntry {
+            simplex,
+            parent_diamond: None,
+            first_child: NO_INDEX,
+        })
+        .collect();
+    let mut i = 0;
+    while i < table.len() {
+        let s = table[i].simplex;
+        // A simplex at the lattice resolution has no integer midpoint: its truncated
+        // `split_point` may be another diamond's id, but it is never split.
+        if s.can_split() && hierarchy.mesh.is_split(s.split_point()) {
+            table[i].first_child = table.len() as u32;
+            for c in s.children() {
+                table.push(TableEntry {
+                    simplex: c,
+                    parent_diamond: Some(s.split_point()),
+                    first_child: NO_INDEX,
+                });
+            }
+        }
+        i += 1;
+    }
+    table
+}

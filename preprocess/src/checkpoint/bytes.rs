@@ -1,0 +1,176 @@
+//! The checkpoint's binary state files: little-endian fields appended to a buffer, read back
+//! with every read checked against the buffer's end (a damaged file is an error, never a
+//! panic), and written atomically (temporary name, fsync, rename).
+
+use std::fs::File;
+use std::io::{self, Write};
+use std::path::Path;
+
+use tessera_core::leb::SimplexKey;
+
+/// Fields appended to a buffer.
+#[derive(Default)]
+pub(crate) struct Enc(pub Vec<u8>);
+
+impl Enc {
+    pub fn u8(&mut self, v: u8) {
+        self.0.push(v);
+    }
+    pub fn u32(&mut self, v: u32) {
+        self.0.extend_from_slice(&v.to_le_bytes());
+    }
+    pub fn i32(&mut self, v: i32) {
+        self.0.extend_from_slice(&v.to_le_bytes());
+    }
+    pub fn u64(&mut self, v: u64) {
+        self.0.extend_from_slice(&v.to_le_bytes());
+    }
+    pub fn f32(&mut self, v: f32) {
+        self.u32(v.to_bits());
+    }
+    pub fn f64(&mut self, v: f64) {
+        self.u64(v.to_bits());
+    }
+    pub fn key(&mut self, k: SimplexKey) {
+        self.u8(k.root);
+        self.u32(k.level as u32);
+        self.u64(k.path as u64);
+        self.u64((k.path >> 64) as u64);
+    }
+    /// A count, then `items` each by `f`.
+    pub fn list<T>(&mut self, items: &[T], mut f: impl FnMut(&mut Enc, &T)) {
+        self.u64(items.len() as u64);
+        for item in items {
+            f(self, item);
+        }
+    }
+}
+
+/// Fields read back from a buffer.
+pub(crate) struct Dec<'a> {
+    bytes: &'a [u8],
+    at: usize,
+}
+
+fn damaged(what: &str) -> io::Error {
+    io::Error::new(io::ErrorKind::InvalidData, format!("damaged state: {what}"))
+}
+
+impl<'a> Dec<'a> {
+    pub fn new(bytes: &'a [u8]) -> Self {
+        Dec { bytes, at: 0 }
+    }
+    fn take<const N: usize>(&mut self) -> io::Result<[u8; N]> {
+        let end = self.at.checked_add(N).filter(|&e| e <= self.bytes.len());
+        let end = end.ok_or_else(|| damaged("truncated"))?;
+        let out = self.bytes[self.at..end].try_into().expect("N bytes");
+        self.at = end;
+        Ok(out)
+    }
+    pub fn u8(&mut self) -> io::Result<u8> {
+        Ok(self.take::<1>()?[0])
+    }
+    pub fn u32(&mut self) -> io::Result<u32> {
+        Ok(u32::from_le_bytes(self.take()?))
+    }
+    pub fn i32(&mut self) -> io::Result<i32> {
+        Ok(i32::from_le_bytes(self.take()?))
+    }
+    pub fn u64(&mut self) -> io::Result<u64> {
+        Ok(u64::from_le_bytes(self.take()?))
+    }
+    pub fn f32(&mut self) -> io::Result<f32> {
+        Ok(f32::from_bits(self.u32()?))
+    }
+    pub fn f64(&mut self) -> io::Result<f64> {
+        Ok(f64::from_bits(self.u64()?))
+    }
+    pub fn key(&mut self) -> io::Result<SimplexKey> {
+        let root = self.u8()?;
+        let level = u16::try_from(self.u32()?).map_err(|_| damaged("simplex level"))?;
+        let lo = self.u64()? as u128;
+        let hi = self.u64()? as u128;
+        Ok(SimplexKey {
+            root,
+            level,
+            path: lo | hi << 64,
+        })
+    }
+    /// A list written by `Enc::list`; its count is checked against the bytes left (each item
+    /// takes at least `min_item_bytes`) before anything is allocated.
+    pub fn list<T>(
+        &mut self,
+        min_item_bytes: usize,
+        mut f: impl FnMut(&mut Dec<'a>) -> io::Result<T>,
+    ) -> io::Result<Vec<T>> {
+        let n = self.u64()?;
+        let left = (self.bytes.len() - self.at) as u64;
+        if n.saturating_mul(min_item_bytes.max(1) as u64) > left {
+            return Err(damaged("a count larger than the file"));
+        }
+        (0..n).map(|_| f(self)).collect()
+    }
+    /// Fails unless every byte was read.
+    pub fn finish(&self) -> io::Result<()> {
+        if self.at == self.bytes.len() {
+            Ok(())
+        } else {
+            Err(damaged("trailing bytes"))
+        }
+    }
+}
+
+/// Writes `bytes` to `path` under a temporary name, fsyncs it and renames it into place (then
+/// fsyncs the directory): a reader sees the old file or the new one, never a part.
+pub(crate) fn write_atomic(path: &Path, bytes: &[u8]) -> io::Result<()> {
+    let mut name = path.file_name().unwrap_or_default().to_os_string();
+    name.push(".tmp");
+    let tmp = path.with_file_name(name);
+    let mut file = File::create(&tmp)?;
+    file.write_all(bytes)?;
+    file.sync_all()?;
+    drop(file);
+    std::fs::rename(&tmp, path)?;
+    sync_dir(path.parent().unwrap_or(Path::new(".")))
+}
+
+/// fsync of a directory (its entries' creations and renames).
+pub(crate) fn sync_dir(dir: &Path) -> io::Result<()> {
+    File::open(dir)?.sync_all()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fields_come_back_and_damage_is_an_error() {
+        let mut e = Enc::default();
+        let key = SimplexKey {
+            root: 5,
+            level: 61,
+            path: (1u128 << 100) | 77,
+        };
+        e.key(key);
+        e.f64(-0.1);
+        e.list(&[3u32, 4], |e, &v| e.u32(v));
+        let mut d = Dec::new(&e.0);
+        assert_eq!(d.key().unwrap(), key);
+        assert_eq!(d.f64().unwrap().to_bits(), (-0.1f64).to_bits());
+        assert_eq!(d.list(4, |d| d.u32()).unwrap(), vec![3, 4]);
+        d.finish().unwrap();
+        // Truncated anywhere: an error, never a panic.
+        for cut in 0..e.0.len() {
+            let mut d = Dec::new(&e.0[..cut]);
+            let read = d
+                .key()
+                .and_then(|_| d.f64())
+                .and_then(|_| d.list(4, |d| d.u32()));
+            assert!(read.is_err(), "cut at {cut} read as whole");
+        }
+        // A count larger than the file allocates nothing.
+        let mut huge = Enc::default();
+        huge.u64(u64::MAX);
+        assert!(Dec::new(&huge.0).list(4, |d| d.u32()).is_err());
+    }
+}

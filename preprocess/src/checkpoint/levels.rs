@@ -1,0 +1,100 @@
+//! Stages `leaves` and `level-N`: the simplification's state before its first level and after
+//! each. Files: `hierarchy.bin` (the frame and the split diamonds, written once: the hierarchy
+//! is rebuilt by splitting them again in (level, id) order), `state-N.bin` (the use counts,
+//! the live simplices and the indexes of the live and finished patches, `LevelState::encode`),
+//! and the append-only files those indexes point into (`live-G.bin`, `finished-*.bin`),
+//! recorded at their length and CRC-32 when the stage was committed. What the build knew of its
+//! input (bounding box, counts, attributes) is in the stage's values.
+
+use std::io;
+
+use super::hierarchy::{decode_hierarchy, encode_hierarchy, invalid, write_file, HIERARCHY};
+use super::{Checkpoint, Dec, Enc, FileRecord, InputFacts, StageRecord};
+use crate::finished_patches::FinishedPatches;
+use crate::hierarchy::Hierarchy;
+use crate::simplify::LevelState;
+
+/// A build's state between two levels, read back from its checkpoint.
+pub(crate) struct LevelsCheckpoint {
+    pub facts: InputFacts,
+    pub hierarchy: Hierarchy,
+    pub state: LevelState,
+    pub finished: FinishedPatches,
+}
+
+/// Saves the state after `state.levels_done()` levels and commits stage `leaves` (none yet)
+/// or `level-N` — after a level only when one is due (`Checkpoint::level_due`): levels
+/// merged since the last checkpoint are merged again by a resumed build.
+pub(crate) fn save_levels(
+    checkpoint: &mut Checkpoint,
+    facts: &InputFacts,
+    hierarchy: &Hierarchy,
+    state: &LevelState,
+    finished: &mut FinishedPatches,
+) -> io::Result<()> {
+    if state.levels_done() > 0 && !checkpoint.level_due() {
+        return Ok(());
+    }
+    let start = std::time::Instant::now();
+    let mut files = Vec::new();
+    // The hierarchy once; later stages name the same file.
+    let written = checkpoint
+        .last_stage()
+        .and_then(|s| s.files.iter().find(|f| f.name == HIERARCHY))
+        .cloned();
+    files.push(match written {
+        Some(record) => record,
+        None => write_file(checkpoint, HIERARCHY, &encode_hierarchy(hierarchy))?,
+    });
+    let mut e = Enc::default();
+    state.encode(&mut e)?;
+    files.extend(finished.encode_checkpoint(&mut e)?);
+    let (name, bytes, crc32) = state
+        .store_file()
+        .ok_or_else(|| io::Error::other("the live patches are not in the checkpoint"))?;
+    files.push(FileRecord { name, bytes, crc32 });
+    let done = state.levels_done();
+    files.push(write_file(checkpoint, &format!("state-{done}.bin"), &e.0)?);
+    let mut values = facts.values();
+    values.insert("levels_done".into(), done as u64);
+    checkpoint.level_saved(start);
+    checkpoint.commit(StageRecord {
+        name: if done == 0 {
+            "leaves".into()
+        } else {
+            format!("level-{done}")
+        },
+        files,
+        values,
+    })
+}
+
+/// The state of a checkpoint whose last stage is `leaves` or `level-N`.
+pub(crate) fn load_levels(checkpoint: &Checkpoint) -> io::Result<Option<LevelsCheckpoint>> {
+    let Some(stage) = checkpoint
+        .last_stage()
+        .filter(|s| s.name == "leaves" || s.name.starts_with("level-"))
+    else {
+        return Ok(None);
+    };
+    let facts = InputFacts::from_values(&stage.values)?;
+    let done = *stage
+        .values
+        .get("levels_done")
+        .ok_or_else(|| invalid("no levels_done"))?;
+    let hierarchy = decode_hierarchy(&std::fs::read(checkpoint.path(HIERARCHY))?)?;
+    let bytes = std::fs::read(checkpoint.path(&format!("state-{done}.bin")))?;
+    let mut d = Dec::new(&bytes);
+    let state = LevelState::decode(&mut d, checkpoint.dir())?;
+    let finished = FinishedPatches::decode_checkpoint(&mut d, checkpoint.dir(), &stage.files)?;
+    d.finish()?;
+    if state.levels_done() as u64 != done {
+        return Err(invalid("the state is not the stage's"));
+    }
+    Ok(Some(LevelsCheckpoint {
+        facts,
+        hierarchy,
+        state,
+        finished,
+    }))
+}

@@ -1,0 +1,111 @@
+//! Stage `staged`: the welded mesh's record files, copied out of the import's unnamed
+//! temporaries into the checkpoint, with what welding counted; and opened again by a resumed
+//! build, which then skips the import.
+
+use std::collections::BTreeMap;
+use std::io;
+
+use bytemuck::Pod;
+
+use super::{Checkpoint, FileRecord, StageRecord};
+use crate::external::staged::VertexAttributes;
+use crate::external::{RecordFile, StagedMesh};
+
+const COUNTS: [&str; 6] = [
+    "raw_vertices",
+    "raw_triangles",
+    "welded_vertices",
+    "degenerate_triangles",
+    "duplicate_triangles",
+    "unreferenced_vertices",
+];
+
+/// Copies `staged` into the checkpoint and commits stage `staged`.
+pub fn save_staged(checkpoint: &mut Checkpoint, staged: &StagedMesh) -> io::Result<()> {
+    fn copy<T: Pod>(
+        c: &Checkpoint,
+        name: &str,
+        file: Option<&RecordFile<T>>,
+        files: &mut Vec<FileRecord>,
+    ) -> io::Result<()> {
+        if let Some(file) = file {
+            let name = format!("staged-{name}.bin");
+            let crc32 = file.copy_to(&c.path(&name))?;
+            files.push(FileRecord {
+                name,
+                bytes: file.bytes(),
+                crc32,
+            });
+        }
+        Ok(())
+    }
+    let mut files = Vec::new();
+    let a = &staged.attributes;
+    copy(checkpoint, "positions", Some(&staged.positions), &mut files)?;
+    copy(checkpoint, "triangles", Some(&staged.triangles), &mut files)?;
+    copy(checkpoint, "normals", a.normals.as_ref(), &mut files)?;
+    copy(checkpoint, "colors", a.colors.as_ref(), &mut files)?;
+    copy(checkpoint, "uvs", a.uvs.as_ref(), &mut files)?;
+    let counts = [
+        staged.raw_vertices,
+        staged.raw_triangles,
+        staged.welded_vertices,
+        staged.degenerate_triangles,
+        staged.duplicate_triangles,
+        staged.unreferenced_vertices,
+    ];
+    let values: BTreeMap<String, u64> = COUNTS
+        .iter()
+        .zip(counts)
+        .map(|(k, v)| (k.to_string(), v))
+        .collect();
+    checkpoint.commit(StageRecord {
+        name: "staged".into(),
+        files,
+        values,
+    })
+}
+
+/// The staged mesh of a checkpoint whose last stage is `staged` or `hierarchy` (its files read-only: the
+/// build's `discard` leaves them to the checkpoint).
+pub fn open_staged(checkpoint: &Checkpoint) -> io::Result<Option<StagedMesh>> {
+    let last = checkpoint.last_stage().map(|s| s.name.as_str());
+    if !matches!(last, Some("staged" | "hierarchy")) {
+        return Ok(None);
+    }
+    let stages = &checkpoint.manifest().stages;
+    let Some(stage) = stages.iter().find(|s| s.name == "staged") else {
+        return Ok(None);
+    };
+    fn open<T: Pod>(
+        c: &Checkpoint,
+        stage: &StageRecord,
+        name: &str,
+    ) -> io::Result<Option<RecordFile<T>>> {
+        let name = format!("staged-{name}.bin");
+        stage
+            .files
+            .iter()
+            .find(|f| f.name == name)
+            .map(|f| RecordFile::open_kept(&c.path(&f.name), f.bytes))
+            .transpose()
+    }
+    let missing =
+        |what: &str| io::Error::new(io::ErrorKind::InvalidData, format!("no {what} file"));
+    let count = |k: &str| stage.values.get(k).copied().ok_or_else(|| missing(k));
+    Ok(Some(StagedMesh {
+        positions: open(checkpoint, stage, "positions")?.ok_or_else(|| missing("positions"))?,
+        triangles: open(checkpoint, stage, "triangles")?.ok_or_else(|| missing("triangles"))?,
+        attributes: VertexAttributes {
+            normals: open(checkpoint, stage, "normals")?,
+            colors: open(checkpoint, stage, "colors")?,
+            uvs: open(checkpoint, stage, "uvs")?,
+        },
+        raw_vertices: count(COUNTS[0])?,
+        raw_triangles: count(COUNTS[1])?,
+        welded_vertices: count(COUNTS[2])?,
+        degenerate_triangles: count(COUNTS[3])?,
+        duplicate_triangles: count(COUNTS[4])?,
+        unreferenced_vertices: count(COUNTS[5])?,
+    }))
+}

@@ -1,0 +1,312 @@
+//! The simplification's levels, finest first, and the state between two levels
+//! (`LevelState`): the live patches, the current mesh's counts and what the levels merged so
+//! far found. A build's checkpoint saves that state after each level (`encode`, with the live
+//! store's records) and a resumed build continues from it with the levels left: every level
+//! depends only on that state, so the bytes are those of an uninterrupted build.
+
+use rayon::prelude::*;
+use rustc_hash::FxHashSet as HashSet;
+use tessera_core::leb::SimplexKey;
+
+use super::batches::{query_edges, split_batch, Pending};
+use super::edge_census::count_edges;
+use super::live_store::{LiveStore, StoreCheckpoint};
+use super::result_spill::{Held, Payload, ResultSpill};
+use super::{
+    gather_patches, numbering_table, simplify_diamond, Context, CurrentMesh, FinishedPatchSink,
+    LeafSource, Simplified, SimplifyError, SimplifySettings, MERGE_GROUP,
+};
+use crate::checkpoint::{Dec, Enc};
+use crate::hierarchy::Hierarchy;
+use crate::vertex_table::LivePatch;
+
+/// The simplification between two levels.
+pub struct LevelState {
+    /// The current mesh's patches: the leaves, then each merged diamond's simplices in place of
+    /// their children.
+    patches: LiveStore,
+    /// The simplices of the current mesh (some have no patch: no triangle).
+    live: HashSet<SimplexKey>,
+    current: CurrentMesh,
+    own_error: Vec<f32>,
+    locked_vertices: usize,
+    resimplified: usize,
+    /// Levels merged so far.
+    levels_done: usize,
+    vertex_count: usize,
+}
+
+impl LevelState {
+    /// The state before the first level: every leaf's patch (from `leaves`, a group at a time)
+    /// handed to `finished` and kept in `patches`.
+    pub(super) fn from_leaves(
+        leaves: &mut LeafSource,
+        vertex_count: usize,
+        current: CurrentMesh,
+        mut patches: LiveStore,
+        finished: &mut FinishedPatchSink,
+    ) -> Result<LevelState, SimplifyError> {
+        let mut live: HashSet<SimplexKey> = HashSet::default();
+        while let Some(group) = leaves()? {
+            let list: Vec<(SimplexKey, &LivePatch)> = group.iter().map(|(k, p)| (*k, p)).collect();
+            finished(&list)?;
+            drop(list);
+            for (key, patch) in group {
+                live.insert(key);
+                patches.insert(key, patch)?;
+            }
+        }
+        crate::external::allocator::release_freed_memory();
+        Ok(LevelState {
+            patches,
+            live,
+            current,
+            own_error: Vec::new(),
+            locked_vertices: 0,
+            resimplified: 0,
+            levels_done: 0,
+            vertex_count,
+        })
+    }
+
+    /// `from_leaves` with the live patches in a named file of the checkpoint directory `dir`.
+    pub fn from_leaves_in(
+        leaves: &mut LeafSource,
+        vertex_count: usize,
+        current: CurrentMesh,
+        dir: &std::path::Path,
+        finished: &mut FinishedPatchSink,
+    ) -> Result<LevelState, SimplifyError> {
+        let store = LiveStore::new_named(dir)?;
+        Self::from_leaves(leaves, vertex_count, current, store, finished)
+    }
+
+    /// Levels merged so far.
+    pub fn levels_done(&self) -> usize {
+        self.levels_done
+    }
+
+    /// The live store's file (name, valid bytes, CRC-32), `None` unless it is named.
+    pub fn store_file(&self) -> Option<(String, u64, u32)> {
+        let c = self.patches.checkpoint()?;
+        Some((
+            super::live_store::live_file_name(c.generation),
+            c.end,
+            c.crc32,
+        ))
+    }
+
+    /// Everything but the live store's records' bytes (which stay in its named file).
+    pub(crate) fn encode(&self, e: &mut Enc) -> std::io::Result<()> {
+        let store = self.patches.checkpoint().ok_or_else(|| {
+            std::io::Error::other("the live patches are not in the checkpoint directory")
+        })?;
+        e.u64(self.vertex_count as u64);
+        e.u64(self.levels_done as u64);
+        e.u64(self.locked_vertices as u64);
+        e.u64(self.resimplified as u64);
+        e.list(&self.own_error, |e, &x| e.f32(x));
+        let mut live: Vec<SimplexKey> = self.live.iter().copied().collect();
+        live.sort_unstable();
+        e.list(&live, |e, &k| e.key(k));
+        e.u32(store.generation);
+        e.u64(store.end);
+        e.u32(store.crc32);
+        e.list(&store.records, |e, &(k, at, bytes, triangles)| {
+            e.key(k);
+            e.u64(at);
+            e.u64(bytes);
+            e.u32(triangles);
+        });
+        self.current.encode(e);
+        Ok(())
+    }
+
+    /// The state `encode` wrote, its live store reopened in `dir`.
+    pub(crate) fn decode(d: &mut Dec, dir: &std::path::Path) -> std::io::Result<LevelState> {
+        let vertex_count = d.u64()? as usize;
+        let levels_done = d.u64()? as usize;
+        let locked_vertices = d.u64()? as usize;
+        let resimplified = d.u64()? as usize;
+        let own_error = d.list(4, |d| d.f32())?;
+        let live = d.list(21, |d| d.key())?.into_iter().collect();
+        let generation = d.u32()?;
+        let end = d.u64()?;
+        let crc32 = d.u32()?;
+        let records = d.list(41, |d| Ok((d.key()?, d.u64()?, d.u64()?, d.u32()?)))?;
+        if records
+            .iter()
+            .any(|&(_, at, bytes, _)| at.saturating_add(bytes) > end)
+        {
+            return Err(std::io::Error::new(
+                std::io::ErrorKind::InvalidData,
+                "a live patch beyond its file",
+            ));
+        }
+        let current = CurrentMesh::decode(d, vertex_count)?;
+        let patches = LiveStore::reopen(
+            dir,
+            StoreCheckpoint {
+                generation,
+                end,
+                crc32,
+                records,
+            },
+        )?;
+        Ok(LevelState {
+            patches,
+            live,
+            current,
+            own_error,
+            locked_vertices,
+            resimplified,
+            levels_done,
+            vertex_count,
+        })
+    }
+}
+
+/// Merges the levels `state` has not merged yet, finest first, calling `after_level` after
+/// each (a build's checkpoint).
+pub fn simplify_levels(
+    mut state: LevelState,
+    hierarchy: &Hierarchy,
+    settings: &SimplifySettings,
+    spill_dir: Option<&std::path::Path>,
+    finished: &mut FinishedPatchSink,
+    after_level: &mut dyn FnMut(&LevelState) -> std::io::Result<()>,
+) -> Result<Simplified, SimplifyError> {
+    let frame = &hierarchy.frame;
+    let ctx = Context {
+        frame,
+        numbering_table: numbering_table(state.vertex_count, spill_dir.is_some()),
+        size: frame.model_size(),
+        settings: *settings,
+    };
+    if state.own_error.is_empty() {
+        state.own_error = vec![0.0f32; hierarchy.diamonds.len()];
+    }
+    if state.own_error.len() != hierarchy.diamonds.len() {
+        return Err(SimplifyError::Finished(std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            "the simplification's state is not this hierarchy's",
+        )));
+    }
+    let mut by_level: Vec<usize> = (0..hierarchy.diamonds.len()).collect();
+    by_level.sort_by_key(|&i| std::cmp::Reverse(hierarchy.diamonds[i].level));
+    let levels: Vec<&[usize]> = by_level
+        .chunk_by(|&a, &b| hierarchy.diamonds[a].level == hierarchy.diamonds[b].level)
+        .collect();
+    for level_group in levels.into_iter().skip(state.levels_done) {
+        let no_extra = HashSet::default();
+        let spill = ResultSpill::new(spill_dir)?;
+        let mut pending: Vec<Pending> = level_group
+            .par_iter()
+            .map(|&d| {
+                Ok(Pending {
+                    result: simplify_diamond(
+                        &ctx,
+                        d,
+                        &hierarchy.diamonds[d],
+                        &state.patches,
+                        &state.current,
+                        &no_extra,
+                        &spill,
+                    )?,
+                    extra_locks: HashSet::default(),
+                    attempts: 0,
+                })
+            })
+            .collect::<std::io::Result<_>>()?;
+        while !pending.is_empty() {
+            // The rest of the mesh's counts of the edges the pending diamonds share with it.
+            let live_list: Vec<SimplexKey> = state.live.iter().copied().collect();
+            let counts = count_edges(&query_edges(&pending), &live_list, &|k| {
+                state.patches.triangles(k)
+            })?;
+            for p in &mut pending {
+                p.result.resolve(&counts);
+            }
+            if let Some(error) = pending
+                .iter()
+                .find_map(|p| p.result.conformity_error(hierarchy))
+            {
+                return Err(error.into());
+            }
+            let (clean, dirty) = split_batch(pending, &counts);
+            state.resimplified += dirty.len();
+            // The batch merges a group of diamonds at a time (their payloads back in memory):
+            // count changes are sums, so the counts do not depend on the grouping.
+            let mut clean = clean.into_iter().peekable();
+            while clean.peek().is_some() {
+                let group: Vec<Pending> = clean.by_ref().take(MERGE_GROUP).collect();
+                let mut merged = Vec::with_capacity(group.len());
+                for p in group {
+                    let mut r = p.result;
+                    let Payload {
+                        patches: made,
+                        vertices,
+                    } = spill.take(std::mem::replace(
+                        &mut r.payload,
+                        Held::Memory(Payload::default()),
+                    ))?;
+                    r.effect.changes.vertices = vertices;
+                    merged.push((r, made));
+                }
+                state
+                    .current
+                    .merge(merged.iter().map(|(r, _)| &r.effect.changes));
+                let list: Vec<(SimplexKey, &LivePatch)> = merged
+                    .iter()
+                    .flat_map(|(_, made)| made.iter().map(|(k, patch)| (*k, patch)))
+                    .collect();
+                finished(&list)?;
+                drop(list);
+                for (r, made) in merged {
+                    state.own_error[r.diamond] = r.error;
+                    state.locked_vertices += r.locked;
+                    for s in &hierarchy.diamonds[r.diamond].simplices {
+                        for c in s.children() {
+                            state.live.remove(&c.key);
+                            state.patches.remove(&c.key)?;
+                        }
+                        state.live.insert(s.key);
+                    }
+                    for (key, patch) in made {
+                        state.patches.insert(key, patch)?;
+                    }
+                }
+            }
+            // Simplify the others again against the mesh with the batch merged, with more
+            // locks.
+            pending = dirty
+                .into_par_iter()
+                .map(|(mut p, blocked)| {
+                    let d = p.result.diamond;
+                    // Its children are still live: what it gathered is theirs.
+                    let (gathered, ..) = gather_patches(&hierarchy.diamonds[d], &state.patches)?;
+                    p.lock_more(&blocked, &gathered);
+                    p.result = simplify_diamond(
+                        &ctx,
+                        d,
+                        &hierarchy.diamonds[d],
+                        &state.patches,
+                        &state.current,
+                        &p.extra_locks,
+                        &spill,
+                    )?;
+                    Ok(p)
+                })
+                .collect::<std::io::Result<_>>()?;
+        }
+        state.patches.compact()?;
+        crate::external::allocator::release_freed_memory();
+        state.levels_done += 1;
+        after_level(&state)?;
+    }
+    Ok(Simplified {
+        own_error: state.own_error,
+        locked_vertices: state.locked_vertices,
+        resimplified: state.resimplified,
+    })
+}

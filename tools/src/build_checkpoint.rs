@@ -1,0 +1,141 @@
+//! `build`'s checkpoint (`--resume`): where it is, whether this build keeps one, and what to do
+//! with one that is there. The checkpoint itself is `tessera_preprocess::checkpoint`.
+//!
+//! - A build keeps a checkpoint when it stages its input (a mesh file with `--memory`); from
+//!   standard input, or for a height field, it keeps none and `--resume` is refused.
+//! - Without `--resume`, a checkpoint left by an earlier build of the same output is removed
+//!   (said on stderr) and the build starts over.
+//! - With `--resume`, a checkpoint made by another build (input, flags, version) is refused,
+//!   naming the difference (exit 2, nothing written, the checkpoint left as it is); none at all
+//!   starts the build from the beginning.
+//! - On success the checkpoint is removed. On failure it is kept only when it can serve a
+//!   resume: the failure was the file system's (disk full, a temporary file refused) and some
+//!   stage is complete; a failure of the input or of the build's checks would recur, so the
+//!   checkpoint is removed.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context};
+use tessera_preprocess::checkpoint::{checkpoint_dir, manifest_for, Checkpoint, Fingerprint};
+use tessera_preprocess::{BuildConfig, BuildError};
+
+/// Environment variable of the tests' faults: `kill-after-stage:NAME` kills the build (SIGKILL)
+/// once stage NAME is committed (`NAME*`: the first stage whose name starts with NAME).
+pub const FAULT_VAR: &str = "TESSERA_BUILD_FAULT";
+
+/// Environment variable: `1` checkpoints after every level (the tests', so that a fault can
+/// name a level), instead of when one is due.
+pub const EVERY_LEVEL_VAR: &str = "TESSERA_CHECKPOINT_EVERY_LEVEL";
+
+/// Opens or creates the build's checkpoint, or removes a stale one. `checkpointable`: the
+/// build stages a mesh file under a memory budget.
+pub fn prepare(
+    input: &Path,
+    output: &Path,
+    temp_dir: Option<&Path>,
+    config: &BuildConfig,
+    checkpointable: bool,
+    resume: bool,
+) -> anyhow::Result<Option<Checkpoint>> {
+    let is_stdin = crate::input::is_stdin(input);
+    if resume {
+        if temp_dir.is_none() {
+            bail!(
+                "--resume continues a build made with --memory: only a build under a memory \
+                 budget keeps a checkpoint"
+            );
+        }
+        if is_stdin {
+            bail!(
+                "--resume cannot continue a build from standard input: its input cannot be \
+                 checked against the checkpoint's (give the input's path)"
+            );
+        }
+        if !checkpointable {
+            bail!("--resume continues a mesh build: a height field's build keeps no checkpoint");
+        }
+    }
+    let dir = checkpoint_dir(output, &default_dir(output, temp_dir));
+    if !resume && dir.exists() {
+        std::fs::remove_dir_all(&dir)
+            .with_context(|| format!("removing the stale checkpoint {}", dir.display()))?;
+        eprintln!(
+            "removed the checkpoint an earlier build of {} left at {} (--resume continues one)",
+            output.display(),
+            dir.display()
+        );
+    }
+    if !checkpointable || is_stdin {
+        return Ok(None);
+    }
+    let fingerprint = match Fingerprint::of(input) {
+        Ok(f) => f,
+        // The import names the problem with the input.
+        Err(_) if !resume => return Ok(None),
+        Err(e) => return Err(e).with_context(|| format!("reading {}", input.display())),
+    };
+    let manifest = manifest_for(fingerprint, config);
+    let mut checkpoint = match resume.then(|| Checkpoint::open(&dir, manifest.clone())) {
+        Some(Ok(Some(c))) => {
+            let stage = c.last_stage().map_or("none", |s| s.name.as_str());
+            eprintln!("resuming from {} (last stage: {stage})", dir.display());
+            c
+        }
+        Some(Err(e)) => return Err(e.into()),
+        Some(Ok(None)) | None => {
+            if resume {
+                eprintln!(
+                    "no checkpoint at {}: building from the start",
+                    dir.display()
+                );
+            }
+            Checkpoint::create(&dir, manifest)?
+        }
+    };
+    if std::env::var(EVERY_LEVEL_VAR).is_ok_and(|v| v == "1") {
+        checkpoint.every_level();
+    }
+    checkpoint.on_commit(|stage| {
+        let fault = std::env::var(FAULT_VAR).unwrap_or_default();
+        let matches = match fault.strip_prefix("kill-after-stage:") {
+            Some(name) => match name.strip_suffix('*') {
+                Some(prefix) => stage.starts_with(prefix),
+                None => name == stage,
+            },
+            None => false,
+        };
+        if matches {
+            // A kill -9 at a stage boundary, for the tests.
+            unsafe { libc::kill(libc::getpid(), libc::SIGKILL) };
+        }
+    });
+    Ok(Some(checkpoint))
+}
+
+/// Where the checkpoint goes: `--temp`, or the output's directory.
+fn default_dir(output: &Path, temp_dir: Option<&Path>) -> PathBuf {
+    match (temp_dir, output.parent()) {
+        (Some(dir), _) => dir.to_path_buf(),
+        (None, Some(dir)) if !dir.as_os_str().is_empty() => dir.to_path_buf(),
+        _ => PathBuf::from("."),
+    }
+}
+
+/// After a failed build: keeps the checkpoint when it can serve a resume (see the module
+/// comment), removes it otherwise.
+pub fn after_failure(checkpoint: Checkpoint, error: &anyhow::Error) {
+    let io_failure = error.chain().any(|c| {
+        matches!(
+            c.downcast_ref::<BuildError>(),
+            Some(BuildError::Temporary { .. })
+        )
+    });
+    if io_failure && checkpoint.last_stage().is_some() {
+        eprintln!(
+            "the checkpoint {} is kept: once the cause is fixed, rerun with --resume",
+            checkpoint.dir().display()
+        );
+    } else {
+        let _ = checkpoint.remove();
+    }
+}
