@@ -8,6 +8,8 @@
 //! - With `--resume`, a checkpoint made by another build (input, flags, version) is refused,
 //!   naming the difference (exit 2, nothing written, the checkpoint left as it is); none at all
 //!   starts the build from the beginning.
+//! - A build holds its checkpoint locked (`flock`): a second build of the same output at the
+//!   same time is refused rather than remove the first one's files.
 //! - On success the checkpoint is removed. On failure it is kept only when it can serve a
 //!   resume: the failure was the file system's (disk full, a temporary file refused) and some
 //!   stage is complete; a failure of the input or of the build's checks would recur, so the
@@ -36,7 +38,7 @@ pub fn prepare(
     config: &BuildConfig,
     checkpointable: bool,
     resume: bool,
-) -> anyhow::Result<Option<Checkpoint>> {
+) -> anyhow::Result<Option<Prepared>> {
     let is_stdin = crate::input::is_stdin(input);
     if resume {
         if temp_dir.is_none() {
@@ -56,6 +58,8 @@ pub fn prepare(
         }
     }
     let dir = checkpoint_dir(output, &default_dir(output, temp_dir));
+    // Another build of the same output holds its checkpoint locked: neither removes the other's.
+    let held = lock(&dir, output)?;
     if !resume && dir.exists() {
         std::fs::remove_dir_all(&dir)
             .with_context(|| format!("removing the stale checkpoint {}", dir.display()))?;
@@ -75,10 +79,12 @@ pub fn prepare(
         Err(e) => return Err(e).with_context(|| format!("reading {}", input.display())),
     };
     let manifest = manifest_for(fingerprint, config);
+    let mut resumed = false;
     let mut checkpoint = match resume.then(|| Checkpoint::open(&dir, manifest.clone())) {
         Some(Ok(Some(c))) => {
             let stage = c.last_stage().map_or("none", |s| s.name.as_str());
             eprintln!("resuming from {} (last stage: {stage})", dir.display());
+            resumed = true;
             c
         }
         Some(Err(e)) => return Err(e.into()),
@@ -91,6 +97,12 @@ pub fn prepare(
             }
             Checkpoint::create(&dir, manifest)?
         }
+    };
+    // The lock taken above when the directory is the same; a new directory's otherwise (a
+    // second lock of the same directory by this process would conflict with the first).
+    let lock = match held {
+        Some(file) if resumed => file,
+        _ => lock(&dir, output)?.context("the checkpoint directory vanished")?,
     };
     if std::env::var(EVERY_LEVEL_VAR).is_ok_and(|v| v == "1") {
         checkpoint.every_level();
@@ -109,7 +121,35 @@ pub fn prepare(
             unsafe { libc::kill(libc::getpid(), libc::SIGKILL) };
         }
     });
-    Ok(Some(checkpoint))
+    Ok(Some(Prepared { checkpoint, lock }))
+}
+
+/// A build's checkpoint, locked (`flock`) for as long as the build holds it.
+pub struct Prepared {
+    pub checkpoint: Checkpoint,
+    /// Held until the build ends.
+    pub lock: std::fs::File,
+}
+
+/// Locks the checkpoint directory `dir` if there is one (an exclusive `flock` on the
+/// directory, released when the process ends, killed or not); an error when another build
+/// holds it.
+fn lock(dir: &Path, output: &Path) -> anyhow::Result<Option<std::fs::File>> {
+    use std::os::fd::AsRawFd;
+    let file = match std::fs::File::open(dir) {
+        Ok(file) => file,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+        Err(e) => return Err(e).with_context(|| format!("opening {}", dir.display())),
+    };
+    // SAFETY: flock on a descriptor this function owns.
+    if unsafe { libc::flock(file.as_raw_fd(), libc::LOCK_EX | libc::LOCK_NB) } != 0 {
+        bail!(
+            "another build of {} is running: it holds {} (wait for it, or stop it)",
+            output.display(),
+            dir.display()
+        );
+    }
+    Ok(Some(file))
 }
 
 /// Where the checkpoint goes: `--temp`, or the output's directory.

@@ -100,7 +100,7 @@ pub fn run(args: BuildArgs) -> anyhow::Result<Outcome> {
     let staged_mesh =
         memory.is_some() && crate::input::is_plain_mesh(&args.input, &args.heightfield)?;
     let mesh_config = configure(&args, crate::input::mesh_domain(&args.heightfield), &memory);
-    let mut checkpoint = crate::build_checkpoint::prepare(
+    let prepared = crate::build_checkpoint::prepare(
         &args.input,
         &args.output,
         memory.as_ref().map(|m| m.temp_dir.as_path()),
@@ -108,6 +108,11 @@ pub fn run(args: BuildArgs) -> anyhow::Result<Outcome> {
         staged_mesh,
         args.resume,
     )?;
+    // (The lock is held until the build ends.)
+    let (mut checkpoint, _lock) = match prepared {
+        Some(p) => (Some(p.checkpoint), Some(p.lock)),
+        None => (None, None),
+    };
     let input = match load_or_resume(&args, staging, checkpoint.as_mut()) {
         Ok(input) => input,
         Err(e) => {

@@ -355,3 +355,37 @@ fn a_mesh_with_every_attribute_resumes_to_the_same_bytes_under_another_budget() 
         );
     }
 }
+
+#[test]
+fn a_second_build_of_the_same_output_is_refused_while_the_first_runs() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = generate(dir.path(), 300_000);
+    let output = dir.path().join("out.tsr");
+    let (i, o) = (input.to_str().unwrap(), output.to_str().unwrap());
+    let mut first = Command::new(TESSERA)
+        .args(["build", i, "-o", o, "--memory", "64M"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let manifest = checkpoint_of(&output).join("manifest.json");
+    let start = Instant::now();
+    while !manifest.exists() {
+        assert!(first.try_wait().unwrap().is_none(), "the build ended first");
+        assert!(start.elapsed() < Duration::from_secs(60));
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    // (The lock is taken just after the manifest is first written.)
+    std::thread::sleep(Duration::from_millis(50));
+    for extra in [&[][..], &["--resume"][..]] {
+        let out = build(&input, &output, extra, &[]);
+        assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+        assert!(
+            stderr(&out).contains("another build of"),
+            "{}",
+            stderr(&out)
+        );
+    }
+    assert!(first.wait().unwrap().success(), "the first build failed");
+    assert!(output.exists() && !checkpoint_of(&output).exists());
+}
