@@ -607,3 +607,46 @@ fn a_paused_camera_leaves_no_request_that_lower_priority_units_make_room_for() {
         }
     }
 }
+
+/// A load the GPU pool cannot place for want of one free range (fragmentation) is given back
+/// (`withdraw`): absent again and not issued again, so a still camera settles, until an
+/// eviction frees room; units may be evicted for such room only below the waiting unit's
+/// priority (`stream/residency/space.rs`).
+#[test]
+fn a_withdrawn_load_waits_for_an_eviction_and_space_victims_rank_below_it() {
+    use tessera_runtime::stream::Residency;
+    let units = hand_units(&[(&[], &[50, 50]), (&[], &[75, 75])]);
+    let mut residency = Residency::new(units, 1 << 20).unwrap();
+    residency.feedback(&[], &[(0, 1.0), (1, 0.5)]);
+    let plan = residency.plan(u64::MAX);
+    assert_eq!(plan.load, vec![0, 1]);
+    residency.complete(0, true);
+    // The next frame: unit 1 loaded, but no page can take it, and unit 0 (in use, priority
+    // 1) outranks it: given back.
+    residency.feedback(&[], &[(0, 1.0), (1, 0.5)]);
+    assert!(!residency.may_evict_for(0, 1));
+    residency.withdraw(1);
+    residency.check_invariants().unwrap();
+    assert_eq!(residency.state(1), UnitState::Absent);
+    assert_eq!(residency.stats().withdrawn_loads, 1);
+    assert_eq!(residency.stats().loading_units, 0);
+    // The same view again and again: 1 is wanted but not issued again, nothing loads.
+    for _ in 0..3 {
+        residency.feedback(&[], &[(0, 1.0), (1, 0.5)]);
+        let plan = residency.plan(u64::MAX);
+        assert!(plan.load.is_empty() && plan.evict.is_empty(), "{plan:?}");
+        assert_eq!(residency.stats().pending_units, 1);
+    }
+    // The view turns to 1 alone: unit 0 is unused now, below 1's priority, and may go for
+    // room; its eviction lets 1 be issued again.
+    residency.feedback(&[], &[(1, 2.0)]);
+    assert!(residency.may_evict_for(0, 1));
+    residency.evict_for_space(0);
+    residency.check_invariants().unwrap();
+    let plan = residency.plan(u64::MAX);
+    assert_eq!(plan.load, vec![1]);
+    residency.complete(1, true);
+    residency.check_invariants().unwrap();
+    assert_eq!(residency.stats().space_evictions, 1);
+    assert!(residency.may_refine()[1] && !residency.may_refine()[0]);
+}

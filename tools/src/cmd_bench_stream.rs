@@ -324,6 +324,10 @@ pub fn run(args: StreamBenchArgs) -> anyhow::Result<Outcome> {
             "loaded_bytes": stats.loaded_bytes,
             "loads": stats.loads,
             "evictions": stats.evictions,
+            // Of which for contiguous pool room, and loads given back for want of it
+            // (runtime/src/stream/residency/space.rs).
+            "space_evictions": stats.space_evictions,
+            "withdrawn_loads": stats.withdrawn_loads,
             "broken_units": stats.broken_units,
             "frame_ms_median": ms[ms.len() / 2],
             "read_ms_total": rows.iter().map(|r| r.read_ms).sum::<f64>(),

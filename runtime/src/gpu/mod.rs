@@ -26,6 +26,7 @@ pub mod feedback;
 pub mod frame;
 pub mod frame_request;
 pub mod full_mesh;
+pub mod pool_space;
 pub mod position_probe;
 pub mod records;
 pub mod renderer;

@@ -140,6 +140,26 @@ impl PoolAllocator {
     pub fn capacity_bytes(&self) -> u64 {
         self.page_bytes * self.pages.len() as u64
     }
+
+    /// Number of pages.
+    pub fn page_count(&self) -> usize {
+        self.pages.len()
+    }
+
+    /// Page `page`'s free ranges (offset, length), sorted and coalesced.
+    pub fn free_ranges(&self, page: usize) -> &[(u64, u64)] {
+        &self.pages[page].free
+    }
+
+    /// Non-empty patches placed in page `page`.
+    pub fn page_patches(&self, page: usize) -> u32 {
+        self.pages[page].patches
+    }
+
+    /// Most non-empty patches a page holds.
+    pub fn patch_capacity(&self) -> u32 {
+        self.patch_capacity
+    }
 }
 
 /// The pool's shape for a byte budget.

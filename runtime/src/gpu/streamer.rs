@@ -408,6 +408,57 @@ impl GpuStreamer {
         }
     }
 
+    /// Unit `u` (read as `bytes`) fits the budget but no page: evicts the units that free a
+    /// range for it, when the residency allows them for `u`, and returns true (it waits for
+    /// the room, retired once no frame in flight draws the victims); otherwise gives the
+    /// load back (`Residency::withdraw`) and returns false.
+    fn make_room(&mut self, u: u32, bytes: &UnitBytes) -> bool {
+        let tets = self.repo.tets();
+        let patches = bytes
+            .patches
+            .iter()
+            .filter(|&&(t, _, _)| tets[t as usize].strip_index_count != 0)
+            .count() as u32;
+        let placed: Vec<(u32, Placement)> = self
+            .placed
+            .iter()
+            .enumerate()
+            .filter_map(|(v, p)| p.map(|p| (v as u32, p)))
+            .collect();
+        let residency = &self.residency;
+        let victims = super::pool_space::units_to_evict(
+            &self.pool,
+            &placed,
+            bytes.bytes.len() as u64,
+            patches,
+            &|v| residency.may_evict_for(v, u),
+        );
+        let victims = match victims {
+            // The range exists: record slots ran out; any one allowed unit frees some.
+            Some(v) if v.is_empty() => placed
+                .iter()
+                .map(|&(v, _)| v)
+                .find(|&v| self.residency.may_evict_for(v, u))
+                .into_iter()
+                .collect(),
+            Some(v) => v,
+            None => Vec::new(),
+        };
+        if victims.is_empty() {
+            self.residency.withdraw(u);
+            return false;
+        }
+        for v in victims {
+            self.residency.evict_for_space(v);
+            if let Some(placed) = self.placed[v as usize].take() {
+                self.resident_patches -= self.residency.units().simplices(v).len();
+                let pairs = self.pairs.remove(&v).unwrap_or_default();
+                self.retired.push((self.submitted, placed, pairs));
+            }
+        }
+        true
+    }
+
     /// Steps 1–3 of the module comment; returns the units uploaded.
     fn land(&mut self, ctx: &GpuContext, renderer: &mut Renderer) -> Result<usize, RenderError> {
         let _ = ctx.device.poll(wgpu::PollType::Poll);
@@ -450,7 +501,14 @@ impl GpuStreamer {
                         }
                         None => {
                             self.stats.space_waits += 1;
-                            waiting.push_back(unit);
+                            // Retired ranges free up within a frame or two: make room only
+                            // when nothing else will (`stream/residency/space.rs`).
+                            let keep = over
+                                || !self.retired.is_empty()
+                                || self.make_room(unit.unit, bytes);
+                            if keep {
+                                waiting.push_back(unit);
+                            }
                         }
                     }
                 }

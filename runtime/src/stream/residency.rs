@@ -75,6 +75,11 @@ pub struct ResidencyStats {
     pub too_large_units: usize,
     /// Units wanted in the latest frame but neither resident nor loading.
     pub pending_units: usize,
+    /// Units evicted because the GPU pool had the bytes but not in one range
+    /// (`evict_for_space`), and loads given back because no such eviction could help
+    /// (`withdraw`).
+    pub space_evictions: u64,
+    pub withdrawn_loads: u64,
 }
 
 /// What `plan` decided: load these units (in this order), after evicting those.
@@ -118,6 +123,10 @@ pub struct Residency {
     /// `track_changes`.
     changed: Vec<u32>,
     track_changes: bool,
+    /// Per unit: a load given back for want of contiguous pool space (`withdraw`), not issued
+    /// again until an eviction frees some; and the units so marked.
+    deferred: Vec<bool>,
+    deferred_units: Vec<u32>,
     stats: ResidencyStats,
 }
 
@@ -173,6 +182,8 @@ impl Residency {
             flags_changed: true,
             changed: Vec::new(),
             track_changes: false,
+            deferred: vec![false; n],
+            deferred_units: Vec::new(),
             stats,
         })
     }
@@ -310,7 +321,10 @@ impl Residency {
         victims.sort_by_key(|&d| Reverse(self.victim_order(d)));
         let mut issued_bytes = 0u64;
         for &u in &order {
-            if self.state[u as usize] != UnitState::Absent || self.touched[u as usize] != frame {
+            if self.state[u as usize] != UnitState::Absent
+                || self.touched[u as usize] != frame
+                || self.deferred[u as usize]
+            {
                 continue;
             }
             let bytes = self.units.bytes(u);
@@ -483,6 +497,10 @@ impl Residency {
         self.stats.resident_records -= self.units.simplices(v).len() as u64;
         self.stats.resident_units -= 1;
         self.stats.evictions += 1;
+        // Room was made: the loads given back for want of it may be issued again.
+        for u in self.deferred_units.drain(..) {
+            self.deferred[u as usize] = false;
+        }
     }
 
     fn set_may_refine(&mut self, d: u32, value: bool) {
@@ -548,3 +566,5 @@ impl Residency {
         }
     }
 }
+
+mod space;
