@@ -194,6 +194,10 @@ pub struct GpuContext {
     pub backend: Backend,
     pub limits: wgpu::Limits,
     pub capabilities: Capabilities,
+    /// The instance and adapter the device was made from: a window's surface (`tessera
+    /// view`) is created on this instance and must be supported by this adapter.
+    pub instance: wgpu::Instance,
+    pub adapter: wgpu::Adapter,
     faults: Arc<FaultState>,
 }
 
@@ -339,6 +343,8 @@ impl GpuContext {
             info,
             backend,
             limits,
+            adapter: adapter.clone(),
+            instance,
         })
     }
 

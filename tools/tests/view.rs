@@ -1,0 +1,212 @@
+//! `tessera view`: a script run in a real window under Xvfb (lavapipe) takes screenshots with
+//! model pixels, fewer triangles at a higher tolerance, a patches mode unlike the lit one, a
+//! reset key back to the first view and an overlay drawn into the window; without a display,
+//! or with a bad script line, it exits 2 with a message.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn tessera() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_tessera"))
+}
+
+fn ok(out: &Output) {
+    assert!(
+        out.status.success(),
+        "status {:?}\nstdout {}\nstderr {}",
+        out.status,
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+fn bunny_repository(dir: &Path) -> PathBuf {
+    let bunny = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../testdata/mesh/bunny00.off");
+    let repo = dir.join("bunny.tsr");
+    ok(&tessera()
+        .args([
+            "build",
+            bunny.to_str().unwrap(),
+            "-o",
+            repo.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap());
+    repo
+}
+
+/// Whether `xvfb-run` is on the PATH.
+fn xvfb_run() -> bool {
+    Command::new("sh")
+        .args(["-c", "command -v xvfb-run"])
+        .output()
+        .is_ok_and(|o| o.status.success())
+}
+
+/// Pixels that are neither the renderer's background nor the letterbox's black.
+fn model_pixels(image: &image::RgbaImage) -> usize {
+    image
+        .pixels()
+        .filter(|p| {
+            let [r, g, b, _] = p.0;
+            let background =
+                (r.abs_diff(28) <= 2) && (g.abs_diff(31) <= 2) && (b.abs_diff(38) <= 2);
+            !background && (r, g, b) != (0, 0, 0)
+        })
+        .count()
+}
+
+fn differing_pixels(a: &image::RgbaImage, b: &image::RgbaImage) -> usize {
+    assert_eq!(a.dimensions(), b.dimensions());
+    a.pixels().zip(b.pixels()).filter(|(p, q)| p != q).count()
+}
+
+#[test]
+fn view_runs_a_script_in_a_window_under_xvfb() {
+    if !xvfb_run() {
+        eprintln!("skipped: xvfb-run is not installed (Debian package `xvfb`)");
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let repo = bunny_repository(dir.path());
+    let shot = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let script = [
+        r#"{"overlay":false}"#.to_string(),
+        r#"{"orbit":[30,20,1.2]}"#.to_string(),
+        r#"{"tolerance":1}"#.to_string(),
+        format!(r#"{{"screenshot":"{}"}}"#, shot("lit1.png")),
+        r#"{"tolerance":16}"#.to_string(),
+        format!(r#"{{"screenshot":"{}"}}"#, shot("lit16.png")),
+        r#"{"tolerance":1}"#.to_string(),
+        r#"{"mode":"patches"}"#.to_string(),
+        format!(r#"{{"screenshot":"{}"}}"#, shot("patches1.png")),
+        r#"{"mode":"lit"}"#.to_string(),
+        r#"{"orbit":[150,-30,3]}"#.to_string(),
+        r#"{"wait_frames":3}"#.to_string(),
+        r#"{"key":"r"}"#.to_string(),
+        format!(r#"{{"screenshot":"{}"}}"#, shot("reset.png")),
+        r#"{"overlay":true}"#.to_string(),
+        format!(r#"{{"screenshot":"{}"}}"#, shot("overlay.png")),
+    ]
+    .join("\n");
+    let script_path = dir.path().join("s.jsonl");
+    std::fs::write(&script_path, script).unwrap();
+    let started = std::time::Instant::now();
+    let out = Command::new("xvfb-run")
+        .args(["-a", "-s", "-screen 0 1024x768x24"])
+        .arg(env!("CARGO_BIN_EXE_tessera"))
+        .args([
+            "view",
+            repo.to_str().unwrap(),
+            "--size",
+            "480x360",
+            "--orbit",
+            "30,20,1.2",
+            "--backend",
+            "vulkan",
+            "--script",
+            script_path.to_str().unwrap(),
+            "--json",
+        ])
+        .output()
+        .unwrap();
+    eprintln!(
+        "view ran {:.1} s\n{}{}",
+        started.elapsed().as_secs_f64(),
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    ok(&out);
+    let records: Vec<serde_json::Value> = String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("one JSON object a line"))
+        .collect();
+    assert_eq!(records.len(), 5, "one record per screenshot");
+    for r in &records {
+        for key in [
+            "path",
+            "triangles",
+            "patches",
+            "tolerance",
+            "gpu_ms",
+            "resident_bytes",
+        ] {
+            assert!(r.get(key).is_some(), "{key} missing from {r}");
+        }
+        assert_eq!(r["settled"], true, "{r}");
+    }
+    let images: Vec<image::RgbaImage> = records
+        .iter()
+        .map(|r| {
+            let path = r["path"].as_str().unwrap();
+            assert!(std::fs::read(path).unwrap().starts_with(b"\x89PNG"));
+            image::open(path).unwrap().to_rgba8()
+        })
+        .collect();
+    let [lit1, lit16, patches1, reset, overlay] = &images[..] else {
+        unreachable!()
+    };
+    assert_eq!(lit1.dimensions(), (480, 360), "the window's size");
+    let n = (480 * 360) as usize;
+    let model = model_pixels(lit1);
+    assert!(model > n / 20, "{model} model pixels of {n}");
+    assert!(model_pixels(lit16) > n / 20, "τ 16 draws the model too");
+    let triangles = |i: usize| records[i]["triangles"].as_u64().unwrap();
+    assert!(
+        triangles(1) < triangles(0),
+        "τ 16 draws {} triangles, τ 1 {}",
+        triangles(1),
+        triangles(0)
+    );
+    assert!(
+        differing_pixels(lit1, patches1) > model / 4,
+        "patches ≠ lit"
+    );
+    // `R` comes back to the first view: the same cut, the same image.
+    assert_eq!(triangles(3), triangles(0));
+    assert_eq!(differing_pixels(lit1, reset), 0, "reset view ≠ first view");
+    // The overlay is part of the window's content.
+    assert!(
+        differing_pixels(reset, overlay) > n / 50,
+        "no overlay drawn"
+    );
+    assert!(
+        started.elapsed().as_secs() < 120,
+        "the script took {:?}",
+        started.elapsed()
+    );
+}
+
+#[test]
+fn view_without_a_display_exits_2_saying_so() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = tessera()
+        .args(["view", dir.path().join("missing.tsr").to_str().unwrap()])
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("no display") && stderr.contains("DISPLAY"),
+        "{stderr}"
+    );
+}
+
+#[test]
+fn view_names_a_bad_script_line_and_exits_2() {
+    let dir = tempfile::tempdir().unwrap();
+    let script = dir.path().join("bad.jsonl");
+    std::fs::write(&script, "{\"tolerance\":2}\n{\"fly\":true}\n").unwrap();
+    let out = tessera()
+        .args(["view", "any.tsr", "--script", script.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("line 2") && stderr.contains("unknown action \"fly\""),
+        "{stderr}"
+    );
+}
