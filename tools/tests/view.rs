@@ -87,6 +87,9 @@ fn view_runs_a_script_in_a_window_under_xvfb() {
         format!(r#"{{"screenshot":"{}"}}"#, shot("reset.png")),
         r#"{"overlay":true}"#.to_string(),
         format!(r#"{{"screenshot":"{}"}}"#, shot("overlay.png")),
+        r#"{"overlay":false}"#.to_string(),
+        r#"{"resize":[640,360]}"#.to_string(),
+        format!(r#"{{"screenshot":"{}"}}"#, shot("wide.png")),
     ]
     .join("\n");
     let script_path = dir.path().join("s.jsonl");
@@ -121,7 +124,7 @@ fn view_runs_a_script_in_a_window_under_xvfb() {
         .lines()
         .map(|l| serde_json::from_str(l).expect("one JSON object a line"))
         .collect();
-    assert_eq!(records.len(), 5, "one record per screenshot");
+    assert_eq!(records.len(), 6, "one record per screenshot");
     for r in &records {
         for key in [
             "path",
@@ -143,7 +146,7 @@ fn view_runs_a_script_in_a_window_under_xvfb() {
             image::open(path).unwrap().to_rgba8()
         })
         .collect();
-    let [lit1, lit16, patches1, reset, overlay] = &images[..] else {
+    let [lit1, lit16, patches1, reset, overlay, wide] = &images[..] else {
         unreachable!()
     };
     assert_eq!(lit1.dimensions(), (480, 360), "the window's size");
@@ -170,6 +173,16 @@ fn view_runs_a_script_in_a_window_under_xvfb() {
         differing_pixels(reset, overlay) > n / 50,
         "no overlay drawn"
     );
+    // Resized: the surface and canvas follow the window; the 480×360 image is letterboxed
+    // into 640×360 (black bars of 80 pixels each side), the model drawn between them.
+    assert_eq!(wide.dimensions(), (640, 360));
+    let bar = |x: u32| (0..360).all(|y| wide.get_pixel(x, y).0 == [0, 0, 0, 255]);
+    assert!(
+        bar(0) && bar(79) && bar(560) && bar(639),
+        "no letterbox bars"
+    );
+    assert!(!bar(80) || !bar(320));
+    assert!(model_pixels(wide) > n / 20);
     assert!(
         started.elapsed().as_secs() < 120,
         "the script took {:?}",

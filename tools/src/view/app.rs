@@ -31,6 +31,9 @@ use crate::gpu_args::device_failure;
 /// Most frames a screenshot waits for the stream to settle (as `render --max-frames`).
 pub const SETTLE_FRAMES: u32 = 1000;
 
+/// Most frames a scripted resize waits for the window to take its new size.
+pub const RESIZE_FRAMES: u32 = 300;
+
 /// What the script is doing.
 enum Step {
     /// Running the next actions.
@@ -41,6 +44,8 @@ enum Step {
     Settle(PathBuf, u32),
     /// Capturing the next frame.
     Capture(PathBuf),
+    /// Waiting for the window to have this size (frames waited so far).
+    Resize(u32, u32, u32),
 }
 
 /// Everything made once the window exists.
@@ -234,6 +239,16 @@ impl App {
                 Action::Screenshot(path) => self.step = Step::Settle(path, 0),
                 Action::Key(c) => self.key(c),
                 Action::Overlay(on) => self.show_overlay = on,
+                Action::Resize(width, height) => {
+                    if let Some(w) = &self.win {
+                        let size = PhysicalSize::new(width, height);
+                        // Applied at once on some platforms: then no `Resized` may follow.
+                        if let Some(now) = w.window.request_inner_size(size) {
+                            self.resize(now);
+                        }
+                    }
+                    self.step = Step::Resize(width, height, 0);
+                }
             }
         }
         true
@@ -404,6 +419,20 @@ impl App {
                 Step::Settle(path, n + 1)
             }
             Step::Settle(path, _) => Step::Capture(path),
+            Step::Resize(width, height, _)
+                if (w.config.width, w.config.height) == (width, height) =>
+            {
+                Step::Next
+            }
+            Step::Resize(width, height, n) if n + 1 < RESIZE_FRAMES => {
+                Step::Resize(width, height, n + 1)
+            }
+            Step::Resize(width, height, _) => anyhow::bail!(
+                "the window was not resized to {width}×{height} within {RESIZE_FRAMES} frames \
+                 (it is {}×{})",
+                w.config.width,
+                w.config.height
+            ),
             Step::Capture(path) => {
                 let image = w.canvas.read(&self.ctx)?;
                 crate::output::save_png(&image, &path)?;

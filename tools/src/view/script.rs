@@ -25,6 +25,9 @@ pub enum Action {
     Key(char),
     /// `{"overlay": true|false}`: show or hide the overlay.
     Overlay(bool),
+    /// `{"resize": [width, height]}`: asks for this window size and waits until the window
+    /// has it (an error after `RESIZE_FRAMES` frames).
+    Resize(u32, u32),
 }
 
 /// Keys a script may press (`Action::Key`).
@@ -107,10 +110,25 @@ fn parse_line(line: &str) -> Result<Action, String> {
             }
         }
         "overlay" => Action::Overlay(arg.as_bool().ok_or("\"overlay\" takes true or false")?),
+        "resize" => {
+            let size = arg
+                .as_array()
+                .filter(|a| a.len() == 2)
+                .and_then(|a| {
+                    let side = |v: &serde_json::Value| {
+                        v.as_u64()
+                            .filter(|&n| (1..=16384).contains(&n))
+                            .map(|n| n as u32)
+                    };
+                    Some((side(&a[0])?, side(&a[1])?))
+                })
+                .ok_or("\"resize\" takes [width, height], 1 to 16384 pixels")?;
+            Action::Resize(size.0, size.1)
+        }
         other => {
             return Err(format!(
                 "unknown action {other:?}: orbit, tolerance, mode, wait_frames, screenshot, \
-                 key, overlay"
+                 key, overlay, resize"
             ))
         }
     })
@@ -131,6 +149,7 @@ mod tests {
 {"screenshot":"a.png"}
 {"key":"R"}
 {"overlay":false}
+{"resize":[300,200]}
 "#;
         assert_eq!(
             parse(text).unwrap(),
@@ -142,6 +161,7 @@ mod tests {
                 Action::Screenshot("a.png".into()),
                 Action::Key('r'),
                 Action::Overlay(false),
+                Action::Resize(300, 200),
             ]
         );
     }
@@ -157,6 +177,7 @@ mod tests {
             ("{\"tolerance\":-1}", "line 1: tolerance -1 must be"),
             ("not json", "line 1: not JSON"),
             ("{\"key\":\"q\"}", "unknown key"),
+            ("{\"resize\":[0,10]}", "\"resize\" takes"),
             ("{\"mode\":\"x\",\"tolerance\":1}", "exactly one action"),
         ] {
             let e = parse(text).unwrap_err();
