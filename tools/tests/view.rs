@@ -1,10 +1,16 @@
 //! `tessera view`: a script run in a real window under Xvfb (lavapipe) takes screenshots with
 //! model pixels, fewer triangles at a higher tolerance, a patches mode unlike the lit one, a
-//! reset key back to the first view and an overlay drawn into the window; without a display,
-//! or with a bad script line, it exits 2 with a message.
+//! reset key back to the first view and an overlay drawn into the window; the X server shows
+//! what the viewer captures; without a display, or with a bad script line, it exits 2 with a
+//! message.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
+use std::sync::Mutex;
+use std::time::{Duration, Instant};
+
+/// One Xvfb at a time: parallel `xvfb-run -a` may pick the same display number.
+static XVFB: Mutex<()> = Mutex::new(());
 
 fn tessera() -> Command {
     Command::new(env!("CARGO_BIN_EXE_tessera"))
@@ -67,6 +73,7 @@ fn view_runs_a_script_in_a_window_under_xvfb() {
         eprintln!("skipped: xvfb-run is not installed (Debian package `xvfb`)");
         return;
     }
+    let _xvfb = XVFB.lock().unwrap_or_else(|e| e.into_inner());
     let dir = tempfile::tempdir().unwrap();
     let repo = bunny_repository(dir.path());
     let shot = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
@@ -187,6 +194,106 @@ fn view_runs_a_script_in_a_window_under_xvfb() {
         started.elapsed().as_secs() < 120,
         "the script took {:?}",
         started.elapsed()
+    );
+}
+
+/// The mapped top-level window of `size` on the X server `display`, as it shows it (RGBA).
+fn grab_window(display: &str, size: (u16, u16)) -> image::RgbaImage {
+    use x11rb::connection::Connection;
+    use x11rb::protocol::xproto::{ConnectionExt, ImageFormat, MapState};
+    let (conn, screen) = x11rb::connect(Some(display)).expect("connect to Xvfb");
+    let root = conn.setup().roots[screen].root;
+    let windows: Vec<u32> = conn
+        .query_tree(root)
+        .unwrap()
+        .reply()
+        .unwrap()
+        .children
+        .into_iter()
+        .filter(|&w| {
+            let mapped = conn
+                .get_window_attributes(w)
+                .unwrap()
+                .reply()
+                .unwrap()
+                .map_state
+                == MapState::VIEWABLE;
+            let g = conn.get_geometry(w).unwrap().reply().unwrap();
+            mapped && (g.width, g.height) == size
+        })
+        .collect();
+    assert_eq!(windows.len(), 1, "one mapped {size:?} window");
+    let reply = conn
+        .get_image(ImageFormat::Z_PIXMAP, windows[0], 0, 0, size.0, size.1, !0)
+        .unwrap()
+        .reply()
+        .unwrap();
+    let (w, h) = (size.0 as u32, size.1 as u32);
+    assert_eq!(reply.depth, 24);
+    assert_eq!(reply.data.len(), (4 * w * h) as usize, "32 bits a pixel");
+    // Depth 24 in 32 bits, least significant byte first: B, G, R, unused.
+    let rgba = reply
+        .data
+        .chunks_exact(4)
+        .flat_map(|p| [p[2], p[1], p[0], 255])
+        .collect();
+    image::RgbaImage::from_raw(w, h, rgba).unwrap()
+}
+
+#[test]
+fn the_x_display_shows_what_the_viewer_captures() {
+    if !xvfb_run() {
+        eprintln!("skipped: xvfb-run is not installed (Debian package `xvfb`)");
+        return;
+    }
+    let _xvfb = XVFB.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = tempfile::tempdir().unwrap();
+    let repo = bunny_repository(dir.path());
+    let (shot, info) = (dir.path().join("still.png"), dir.path().join("display"));
+    // The screenshot, then frames of the same still view while the test reads the window.
+    let script = format!(
+        "{{\"overlay\":false}}\n{{\"screenshot\":{:?}}}\n{{\"wait_frames\":400}}\n",
+        shot.to_str().unwrap()
+    );
+    let script_path = dir.path().join("still.jsonl");
+    std::fs::write(&script_path, script).unwrap();
+    let child = Command::new("xvfb-run")
+        .args(["-a", "-s", "-screen 0 1024x768x24", "sh", "-c"])
+        .arg(r#"printf '%s\n%s\n' "$DISPLAY" "$XAUTHORITY" > "$0.part" && mv "$0.part" "$0" && exec "$@""#)
+        .arg(&info)
+        .arg(env!("CARGO_BIN_EXE_tessera"))
+        .args(["view", repo.to_str().unwrap(), "--size", "400x300", "--backend", "vulkan"])
+        .arg("--script")
+        .arg(&script_path)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let started = Instant::now();
+    while !shot.exists() && started.elapsed() < Duration::from_secs(60) {
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    let grabbed = shot.exists().then(|| {
+        let text = std::fs::read_to_string(&info).unwrap();
+        let mut lines = text.lines();
+        let (display, auth) = (lines.next().unwrap(), lines.next().unwrap_or(""));
+        std::env::set_var("XAUTHORITY", auth);
+        grab_window(display, (400, 300))
+    });
+    let out = child.wait_with_output().unwrap();
+    eprintln!("{}", String::from_utf8_lossy(&out.stderr));
+    ok(&out);
+    let grabbed = grabbed.expect("the viewer wrote its screenshot");
+    let captured = image::open(&shot).unwrap().to_rgba8();
+    assert!(model_pixels(&captured) > 400 * 300 / 20);
+    let off = grabbed
+        .pixels()
+        .zip(captured.pixels())
+        .filter(|(p, q)| (0..3).any(|c| p.0[c].abs_diff(q.0[c]) > 1))
+        .count();
+    assert_eq!(
+        off, 0,
+        "pixels of the X display unlike the viewer's capture"
     );
 }
 
