@@ -97,6 +97,16 @@ fn view_runs_a_script_in_a_window_under_xvfb() {
         r#"{"overlay":false}"#.to_string(),
         r#"{"resize":[640,360]}"#.to_string(),
         format!(r#"{{"screenshot":"{}"}}"#, shot("wide.png")),
+        r#"{"resize":[480,360]}"#.to_string(),
+        r#"{"key":"r"}"#.to_string(),
+        r#"{"drag":[100,180,250,200]}"#.to_string(),
+        format!(r#"{{"screenshot":"{}"}}"#, shot("dragged.png")),
+        r#"{"key":"r"}"#.to_string(),
+        r#"{"right_drag":[240,180,300,140]}"#.to_string(),
+        format!(r#"{{"screenshot":"{}"}}"#, shot("panned.png")),
+        r#"{"key":"r"}"#.to_string(),
+        r#"{"wheel":-4}"#.to_string(),
+        format!(r#"{{"screenshot":"{}"}}"#, shot("zoomed_out.png")),
     ]
     .join("\n");
     let script_path = dir.path().join("s.jsonl");
@@ -131,7 +141,7 @@ fn view_runs_a_script_in_a_window_under_xvfb() {
         .lines()
         .map(|l| serde_json::from_str(l).expect("one JSON object a line"))
         .collect();
-    assert_eq!(records.len(), 6, "one record per screenshot");
+    assert_eq!(records.len(), 9, "one record per screenshot");
     for r in &records {
         for key in [
             "path",
@@ -153,7 +163,8 @@ fn view_runs_a_script_in_a_window_under_xvfb() {
             image::open(path).unwrap().to_rgba8()
         })
         .collect();
-    let [lit1, lit16, patches1, reset, overlay, wide] = &images[..] else {
+    let [lit1, lit16, patches1, reset, overlay, wide, dragged, panned, zoomed_out] = &images[..]
+    else {
         unreachable!()
     };
     assert_eq!(lit1.dimensions(), (480, 360), "the window's size");
@@ -190,6 +201,28 @@ fn view_runs_a_script_in_a_window_under_xvfb() {
     );
     assert!(!bar(80) || !bar(320));
     assert!(model_pixels(wide) > n / 20);
+    // The mouse's navigation, scripted: an orbit drag, a pan drag and the wheel move the view.
+    for (name, image) in [
+        ("drag", dragged),
+        ("right drag", panned),
+        ("wheel", zoomed_out),
+    ] {
+        assert_eq!(image.dimensions(), (480, 360));
+        assert!(
+            model_pixels(image) > n / 50,
+            "{name}: the model left the view"
+        );
+        assert!(
+            differing_pixels(lit1, image) > n / 20,
+            "{name} did not move the view"
+        );
+    }
+    assert!(
+        triangles(8) < triangles(0),
+        "zoomed out: {} triangles, not fewer than {}",
+        triangles(8),
+        triangles(0)
+    );
     assert!(
         started.elapsed().as_secs() < 120,
         "the script took {:?}",

@@ -25,11 +25,15 @@ use winit::window::{Window, WindowId};
 use super::blit::{letterbox, Blit};
 use super::navigation::Navigation;
 use super::overlay::{self, Controls, Stats};
+use super::pointer::{Button, Pointer};
 use super::script::Action;
 use crate::gpu_args::device_failure;
 
 /// Most frames a screenshot waits for the stream to settle (as `render --max-frames`).
 pub const SETTLE_FRAMES: u32 = 1000;
+
+/// Cursor moves of a scripted drag.
+const DRAG_STEPS: u32 = 8;
 
 /// Most frames a scripted resize waits for the window to take its new size.
 pub const RESIZE_FRAMES: u32 = 300;
@@ -79,8 +83,7 @@ pub struct App {
     show_overlay: bool,
     stats: Stats,
     last_frame: Option<Instant>,
-    cursor: Option<(f64, f64)>,
-    dragging: [bool; 2],
+    pointer: Pointer,
     win: Option<Window_>,
 }
 
@@ -113,8 +116,7 @@ impl App {
             show_overlay: true,
             stats,
             last_frame: None,
-            cursor: None,
-            dragging: [false; 2],
+            pointer: Pointer::default(),
             win: None,
         }
     }
@@ -239,6 +241,12 @@ impl App {
                 Action::Screenshot(path) => self.step = Step::Settle(path, 0),
                 Action::Key(c) => self.key(c),
                 Action::Overlay(on) => self.show_overlay = on,
+                Action::Drag(button, line) => {
+                    let height = self.win.as_ref().map_or(1, |w| w.config.height);
+                    let steps = DRAG_STEPS;
+                    (self.pointer).drag(button, line, steps, &mut self.navigation, height);
+                }
+                Action::Wheel(lines) => self.navigation.zoom(lines),
                 Action::Resize(width, height) => {
                     if let Some(w) = &self.win {
                         let size = PhysicalSize::new(width, height);
@@ -461,29 +469,21 @@ impl App {
 
     /// Mouse and keyboard not taken by the overlay.
     fn input(&mut self, event: &WindowEvent) {
+        let height = self.win.as_ref().map_or(1, |w| w.config.height);
         match event {
             WindowEvent::MouseInput { state, button, .. } => {
                 let down = *state == ElementState::Pressed;
                 match button {
-                    MouseButton::Left => self.dragging[0] = down,
-                    MouseButton::Right => self.dragging[1] = down,
+                    MouseButton::Left => self.pointer.button(Button::Left, down),
+                    MouseButton::Right => self.pointer.button(Button::Right, down),
                     _ => {}
                 }
             }
             WindowEvent::CursorMoved { position, .. } => {
-                let now = (position.x, position.y);
-                if let Some((x, y)) = self.cursor {
-                    let (dx, dy) = (now.0 - x, now.1 - y);
-                    if self.dragging[0] {
-                        self.navigation.rotate(dx, dy);
-                    } else if self.dragging[1] {
-                        let height = self.win.as_ref().map_or(1, |w| w.config.height);
-                        self.navigation.pan_by(dx, dy, height);
-                    }
-                }
-                self.cursor = Some(now);
+                self.pointer
+                    .moved(position.x, position.y, &mut self.navigation, height)
             }
-            WindowEvent::CursorLeft { .. } => self.cursor = None,
+            WindowEvent::CursorLeft { .. } => self.pointer.left_window(),
             WindowEvent::MouseWheel { delta, .. } => self.navigation.zoom(match delta {
                 MouseScrollDelta::LineDelta(_, y) => *y as f64,
                 MouseScrollDelta::PixelDelta(p) => p.y / 40.0,

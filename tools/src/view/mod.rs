@@ -4,13 +4,14 @@
 //! A winit window with a wgpu surface; each frame the streaming renderer of `render` draws the
 //! camera into its offscreen target at `--size`, which is scaled (letterboxed) into the window
 //! with an egui overlay on top (`app.rs`). Files: `app` (event loop, frames, input), `blit`
-//! (texture to target), `navigation` (orbit, pan, zoom, reset), `overlay` (statistics and
-//! controls), `script` (`--script` actions).
+//! (texture to target), `navigation` (orbit, pan, zoom, reset), `pointer` (mouse drags and
+//! wheel to navigation), `overlay` (statistics and controls), `script` (`--script` actions).
 
 mod app;
 mod blit;
 mod navigation;
 mod overlay;
+mod pointer;
 mod script;
 
 use std::path::PathBuf;

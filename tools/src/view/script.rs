@@ -4,6 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
+use super::pointer::Button;
 use crate::cmd_render::Mode;
 
 /// One scripted action.
@@ -28,6 +29,11 @@ pub enum Action {
     /// `{"resize": [width, height]}`: asks for this window size and waits until the window
     /// has it (an error after `RESIZE_FRAMES` frames).
     Resize(u32, u32),
+    /// `{"drag":[x0,y0,x1,y1]}` (left button: orbit) or `{"right_drag":[x0,y0,x1,y1]}`
+    /// (pan), window pixels: as the mouse would, in one frame (the overlay does not take it).
+    Drag(Button, [f64; 4]),
+    /// `{"wheel": lines}`: zoom, as the mouse wheel (positive: towards the model).
+    Wheel(f64),
 }
 
 /// Keys a script may press (`Action::Key`).
@@ -110,6 +116,25 @@ fn parse_line(line: &str) -> Result<Action, String> {
             }
         }
         "overlay" => Action::Overlay(arg.as_bool().ok_or("\"overlay\" takes true or false")?),
+        "drag" | "right_drag" => {
+            let a = arg
+                .as_array()
+                .filter(|a| a.len() == 4)
+                .ok_or_else(|| format!("{name:?} takes [x0, y0, x1, y1]"))?;
+            let line = [
+                number(&a[0])?,
+                number(&a[1])?,
+                number(&a[2])?,
+                number(&a[3])?,
+            ];
+            let button = if name == "drag" {
+                Button::Left
+            } else {
+                Button::Right
+            };
+            Action::Drag(button, line)
+        }
+        "wheel" => Action::Wheel(number(arg)?),
         "resize" => {
             let size = arg
                 .as_array()
@@ -128,7 +153,7 @@ fn parse_line(line: &str) -> Result<Action, String> {
         other => {
             return Err(format!(
                 "unknown action {other:?}: orbit, tolerance, mode, wait_frames, screenshot, \
-                 key, overlay, resize"
+                 key, overlay, resize, drag, right_drag, wheel"
             ))
         }
     })
@@ -150,6 +175,9 @@ mod tests {
 {"key":"R"}
 {"overlay":false}
 {"resize":[300,200]}
+{"drag":[1,2,3,4]}
+{"right_drag":[5,6,7,8.5]}
+{"wheel":-2}
 "#;
         assert_eq!(
             parse(text).unwrap(),
@@ -162,6 +190,9 @@ mod tests {
                 Action::Key('r'),
                 Action::Overlay(false),
                 Action::Resize(300, 200),
+                Action::Drag(Button::Left, [1.0, 2.0, 3.0, 4.0]),
+                Action::Drag(Button::Right, [5.0, 6.0, 7.0, 8.5]),
+                Action::Wheel(-2.0),
             ]
         );
     }
