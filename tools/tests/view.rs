@@ -273,12 +273,19 @@ fn grab_window(display: &str, size: (u16, u16)) -> image::RgbaImage {
     image::RgbaImage::from_raw(w, h, rgba).unwrap()
 }
 
+/// On Vulkan (lavapipe) and GL (llvmpipe through EGL): `.ci/run` installs both.
 #[test]
 fn the_x_display_shows_what_the_viewer_captures() {
     if !xvfb_run() {
         eprintln!("skipped: xvfb-run is not installed (Debian package `xvfb`)");
         return;
     }
+    for backend in ["vulkan", "gl"] {
+        x_display_matches_the_capture(backend);
+    }
+}
+
+fn x_display_matches_the_capture(backend: &str) {
     let _xvfb = XVFB.lock().unwrap_or_else(|e| e.into_inner());
     let dir = tempfile::tempdir().unwrap();
     let repo = bunny_repository(dir.path());
@@ -295,7 +302,7 @@ fn the_x_display_shows_what_the_viewer_captures() {
         .arg(r#"printf '%s\n%s\n' "$DISPLAY" "$XAUTHORITY" > "$0.part" && mv "$0.part" "$0" && exec "$@""#)
         .arg(&info)
         .arg(env!("CARGO_BIN_EXE_tessera"))
-        .args(["view", repo.to_str().unwrap(), "--size", "400x300", "--backend", "vulkan"])
+        .args(["view", repo.to_str().unwrap(), "--size", "400x300", "--backend", backend])
         .arg("--script")
         .arg(&script_path)
         .stdout(std::process::Stdio::piped())
@@ -318,7 +325,7 @@ fn the_x_display_shows_what_the_viewer_captures() {
     ok(&out);
     let grabbed = grabbed.expect("the viewer wrote its screenshot");
     let captured = image::open(&shot).unwrap().to_rgba8();
-    assert!(model_pixels(&captured) > 400 * 300 / 20);
+    assert!(model_pixels(&captured) > 400 * 300 / 20, "{backend}");
     let off = grabbed
         .pixels()
         .zip(captured.pixels())

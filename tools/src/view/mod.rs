@@ -99,7 +99,9 @@ pub fn run(args: ViewArgs) -> anyhow::Result<Outcome> {
         anyhow::bail!("--up must not be the zero vector");
     }
     let navigation = navigation::Navigation::new(h.bbox_min, h.bbox_max, up, args.fov, args.orbit);
-    let ctx = args.gpu.context()?;
+    let ctx = args
+        .gpu
+        .context_for_display(Box::new(event_loop.owned_display_handle()))?;
     let budget_bytes = args.gpu.budget_bytes(&ctx);
     let streaming = args.gpu.streaming(&ctx, shared, args.size)?;
     let controls = overlay::Controls {
