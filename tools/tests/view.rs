@@ -9,6 +9,10 @@ use std::process::{Command, Output};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
+/// Xvfb's arguments: `-noreset`, or the server resets when its last client leaves and
+/// signals xvfb-run, which can make xvfb-run's own clean-up fail (exit 5).
+const XVFB_ARGS: &str = "-screen 0 1024x768x24 -noreset";
+
 /// One Xvfb at a time: parallel `xvfb-run -a` may pick the same display number.
 static XVFB: Mutex<()> = Mutex::new(());
 
@@ -113,7 +117,7 @@ fn view_runs_a_script_in_a_window_under_xvfb() {
     std::fs::write(&script_path, script).unwrap();
     let started = std::time::Instant::now();
     let out = Command::new("xvfb-run")
-        .args(["-a", "-s", "-screen 0 1024x768x24"])
+        .args(["-a", "-s", XVFB_ARGS])
         .arg(env!("CARGO_BIN_EXE_tessera"))
         .args([
             "view",
@@ -230,10 +234,13 @@ fn view_runs_a_script_in_a_window_under_xvfb() {
     );
 }
 
-/// The mapped top-level window of `size` on the X server `display`, as it shows it (RGBA).
-fn grab_window(display: &str, size: (u16, u16)) -> image::RgbaImage {
+/// The mapped top-level window of `size` on the X server `display`, as it shows it (RGBA);
+/// then, if `close`, asks it to close as a window manager would (WM_DELETE_WINDOW).
+fn grab_window(display: &str, size: (u16, u16), close: bool) -> image::RgbaImage {
     use x11rb::connection::Connection;
-    use x11rb::protocol::xproto::{ConnectionExt, ImageFormat, MapState};
+    use x11rb::protocol::xproto::{
+        ClientMessageEvent, ConnectionExt, EventMask, ImageFormat, MapState,
+    };
     let (conn, screen) = x11rb::connect(Some(display)).expect("connect to Xvfb");
     let root = conn.setup().roots[screen].root;
     let windows: Vec<u32> = conn
@@ -261,6 +268,16 @@ fn grab_window(display: &str, size: (u16, u16)) -> image::RgbaImage {
         .unwrap()
         .reply()
         .unwrap();
+    if close {
+        let atom = |name: &[u8]| conn.intern_atom(false, name).unwrap().reply().unwrap().atom;
+        let (protocols, delete) = (atom(b"WM_PROTOCOLS"), atom(b"WM_DELETE_WINDOW"));
+        let event = ClientMessageEvent::new(32, windows[0], protocols, [delete, 0, 0, 0, 0]);
+        // Checked: a round trip, the server has sent it on.
+        conn.send_event(false, windows[0], EventMask::NO_EVENT, event)
+            .unwrap()
+            .check()
+            .unwrap();
+    }
     let (w, h) = (size.0 as u32, size.1 as u32);
     assert_eq!(reply.depth, 24);
     assert_eq!(reply.data.len(), (4 * w * h) as usize, "32 bits a pixel");
@@ -290,23 +307,25 @@ fn x_display_matches_the_capture(backend: &str) {
     let dir = tempfile::tempdir().unwrap();
     let repo = bunny_repository(dir.path());
     let (shot, info) = (dir.path().join("still.png"), dir.path().join("display"));
-    // The screenshot, then frames of the same still view while the test reads the window.
+    // The screenshot, then frames of the same still view while the test reads the window and
+    // closes it (the window manager's close: WM_DELETE_WINDOW).
     let script = format!(
-        "{{\"overlay\":false}}\n{{\"screenshot\":{:?}}}\n{{\"wait_frames\":400}}\n",
+        "{{\"overlay\":false}}\n{{\"screenshot\":{:?}}}\n{{\"wait_frames\":1000000}}\n",
         shot.to_str().unwrap()
     );
     let script_path = dir.path().join("still.jsonl");
+    let stderr_path = dir.path().join("stderr.txt");
     std::fs::write(&script_path, script).unwrap();
     let child = Command::new("xvfb-run")
-        .args(["-a", "-s", "-screen 0 1024x768x24", "sh", "-c"])
-        .arg(r#"printf '%s\n%s\n' "$DISPLAY" "$XAUTHORITY" > "$0.part" && mv "$0.part" "$0" && exec "$@""#)
+        .args(["-a", "-s", XVFB_ARGS, "sh", "-c"])
+        .arg(r#"printf '%s\n%s\n%s\n' "$DISPLAY" "$XAUTHORITY" "$$" > "$0.part" && mv "$0.part" "$0" && exec "$@""#)
         .arg(&info)
         .arg(env!("CARGO_BIN_EXE_tessera"))
         .args(["view", repo.to_str().unwrap(), "--size", "400x300", "--backend", backend])
         .arg("--script")
         .arg(&script_path)
         .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::piped())
+        .stderr(std::fs::File::create(&stderr_path).unwrap())
         .spawn()
         .unwrap();
     let started = Instant::now();
@@ -318,12 +337,43 @@ fn x_display_matches_the_capture(backend: &str) {
         let mut lines = text.lines();
         let (display, auth) = (lines.next().unwrap(), lines.next().unwrap_or(""));
         std::env::set_var("XAUTHORITY", auth);
-        grab_window(display, (400, 300))
+        grab_window(display, (400, 300), true)
     });
+    let mut child = child;
+    let closing = Instant::now();
+    let mut sent = 1;
+    while child.try_wait().unwrap().is_none() {
+        if closing.elapsed() > Duration::from_secs(sent) && grabbed.is_some() {
+            // Not closed yet: ask again (and count it: once should do).
+            sent += 1;
+            eprintln!("{backend}: close sent again");
+            let text = std::fs::read_to_string(&info).unwrap();
+            let _ = grab_window(text.lines().next().unwrap(), (400, 300), true);
+        }
+        if closing.elapsed() > Duration::from_secs(60) {
+            // The viewer (the shell's pid: it exec'd), then xvfb-run.
+            let text = std::fs::read_to_string(&info).unwrap_or_default();
+            if let Some(pid) = text.lines().nth(2) {
+                let _ = Command::new("kill").arg(pid).status();
+            }
+            child.kill().unwrap();
+            panic!(
+                "{backend}: the viewer did not exit after its window was closed\n{}",
+                std::fs::read_to_string(&stderr_path).unwrap_or_default()
+            );
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
     let out = child.wait_with_output().unwrap();
-    eprintln!("{}", String::from_utf8_lossy(&out.stderr));
-    ok(&out);
+    let stderr = std::fs::read_to_string(&stderr_path).unwrap();
+    eprintln!("{stderr}");
     let grabbed = grabbed.expect("the viewer wrote its screenshot");
+    // Closed mid-script: a clean exit 2 saying so (never a crash).
+    assert_eq!(out.status.code(), Some(2), "{backend}: {stderr}");
+    assert!(
+        stderr.contains("the window was closed before the script ended"),
+        "{stderr}"
+    );
     let captured = image::open(&shot).unwrap().to_rgba8();
     assert!(model_pixels(&captured) > 400 * 300 / 20, "{backend}");
     let off = grabbed

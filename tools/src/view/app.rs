@@ -262,6 +262,12 @@ impl App {
         true
     }
 
+    /// Script actions not finished yet (0 without a script).
+    fn script_left(&self) -> usize {
+        let running = usize::from(!matches!(self.step, Step::Next));
+        self.script.as_ref().map_or(0, |s| s.len() + running)
+    }
+
     fn key(&mut self, c: char) {
         match c {
             'r' => self.navigation.reset(),
@@ -513,7 +519,15 @@ impl ApplicationHandler for App {
         let Some(w) = self.win.as_mut() else { return };
         let consumed = w.egui.on_window_event(&w.window, &event).consumed;
         match event {
-            WindowEvent::CloseRequested => event_loop.exit(),
+            WindowEvent::CloseRequested => match self.script_left() {
+                0 => event_loop.exit(),
+                left => self.fail(
+                    event_loop,
+                    anyhow::anyhow!(
+                        "the window was closed before the script ended ({left} actions left)"
+                    ),
+                ),
+            },
             WindowEvent::Resized(size) => self.resize(size),
             WindowEvent::RedrawRequested => match self.frame() {
                 Ok(true) => event_loop.exit(),
@@ -538,10 +552,14 @@ impl ApplicationHandler for App {
     }
 
     fn about_to_wait(&mut self, event_loop: &ActiveEventLoop) {
-        // Continuous frames: the stream keeps loading while the view is still.
-        event_loop.set_control_flow(ControlFlow::Poll);
-        if let Some(w) = &self.win {
-            w.window.request_redraw();
+        // Continuous frames: the stream keeps loading while the view is still. A minimised
+        // (zero-size) window waits for its next event instead.
+        match &self.win {
+            Some(w) if w.config.width > 0 && w.config.height > 0 => {
+                event_loop.set_control_flow(ControlFlow::Poll);
+                w.window.request_redraw();
+            }
+            _ => event_loop.set_control_flow(ControlFlow::Wait),
         }
     }
 }
