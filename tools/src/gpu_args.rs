@@ -49,6 +49,22 @@ impl GpuArgs {
         })?)
     }
 
+    /// `context`, on an instance that knows the display of the window it will draw into
+    /// (`tessera view`; the GL backend needs it to present).
+    pub fn context_for_display(
+        &self,
+        display: Box<dyn wgpu::wgt::WgpuHasDisplayHandle>,
+    ) -> anyhow::Result<GpuContext> {
+        Ok(GpuContext::open_with_display(
+            &DeviceOptions {
+                adapter: self.adapter.clone(),
+                backend: self.backend,
+                limits: None,
+            },
+            display,
+        )?)
+    }
+
     /// Our renderer of `repo` at `size`, within the budget.
     pub fn renderer(
         &self,

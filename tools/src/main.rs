@@ -28,6 +28,7 @@ mod output;
 mod peak_rss;
 mod progress;
 mod terrain;
+mod view;
 
 use std::process::ExitCode;
 
@@ -69,6 +70,9 @@ enum Command {
     /// Generate inputs: `gen terrain` (diamond-square with a map of regions, seed 002), `gen mesh`
     /// (a closed procedural mesh of any size, streamed as binary PLY).
     Gen(cmd_gen::GenArgs),
+    /// Browse a repository in a window (orbit, pan, zoom; overlay with statistics and the
+    /// tolerance); `--script FILE` runs scripted actions and screenshots, then exits.
+    View(view::ViewArgs),
 }
 
 /// What a command reports: success, or a check that found problems (exit 1).
@@ -88,6 +92,7 @@ fn main() -> ExitCode {
         Command::Demo(args) => cmd_demo::run(args),
         Command::Bench(args) => cmd_bench::run(args),
         Command::Gen(args) => cmd_gen::run(args),
+        Command::View(args) => view::run(args),
     };
     match result {
         Ok(Outcome::Ok) => ExitCode::SUCCESS,

@@ -194,6 +194,10 @@ pub struct GpuContext {
     pub backend: Backend,
     pub limits: wgpu::Limits,
     pub capabilities: Capabilities,
+    /// The instance and adapter the device was made from: a window's surface (`tessera
+    /// view`) is created on this instance and must be supported by this adapter.
+    pub instance: wgpu::Instance,
+    pub adapter: wgpu::Adapter,
     faults: Arc<FaultState>,
 }
 
@@ -224,19 +228,32 @@ impl GpuContext {
     /// Opens the device `options` describe (`new`, with a backend that overrides
     /// `WGPU_BACKEND`).
     pub fn open(options: &DeviceOptions) -> Result<GpuContext, DeviceError> {
-        pollster::block_on(Self::new_async(options))
+        pollster::block_on(Self::new_async(options, None))
     }
 
-    async fn new_async(options: &DeviceOptions) -> Result<GpuContext, DeviceError> {
+    /// `open`, on an instance that knows the display a window's surface will be made on
+    /// (`tessera view`): wgpu's GL backend needs it to present; Vulkan, Metal and DX12 ignore
+    /// it.
+    pub fn open_with_display(
+        options: &DeviceOptions,
+        display: Box<dyn wgpu::wgt::WgpuHasDisplayHandle>,
+    ) -> Result<GpuContext, DeviceError> {
+        pollster::block_on(Self::new_async(options, Some(display)))
+    }
+
+    async fn new_async(
+        options: &DeviceOptions,
+        display: Option<Box<dyn wgpu::wgt::WgpuHasDisplayHandle>>,
+    ) -> Result<GpuContext, DeviceError> {
         let wanted = options.adapter.as_deref();
-        let instance = wgpu::Instance::new(instance_descriptor(options.backend));
+        let instance = wgpu::Instance::new(instance_descriptor(options.backend, display));
         let backends = options
             .backend
             .map_or(wgpu::Backends::all(), Backend::backends);
         let adapters = instance.enumerate_adapters(backends).await;
         if adapters.is_empty() {
             if let Some(backend) = options.backend {
-                let everywhere = wgpu::Instance::new(instance_descriptor(None))
+                let everywhere = wgpu::Instance::new(instance_descriptor(None, None))
                     .enumerate_adapters(wgpu::Backends::all())
                     .await;
                 return Err(DeviceError::NoAdapterOnBackend {
@@ -339,6 +356,8 @@ impl GpuContext {
             info,
             backend,
             limits,
+            adapter: adapter.clone(),
+            instance,
         })
     }
 
@@ -479,13 +498,17 @@ fn usable(adapter: &wgpu::Adapter) -> Result<(), String> {
 }
 
 /// The instance: backends and flags from wgpu's environment variables (`backend`, when given,
-/// replaces `WGPU_BACKEND`), except that wgpu's validation of indirect draws is off unless
+/// replaces `WGPU_BACKEND`), the display windows will be on when given, except that wgpu's validation of indirect draws is off unless
 /// `WGPU_VALIDATION_INDIRECT_CALL=1` asks for it: it costs CPU time every frame and protects
 /// against indirect arguments that address outside the bound buffers: ours draw no vertex
 /// buffers (vertices are pulled, WGSL storage reads are bounds-checked) and the compaction
 /// keeps every indexed draw inside its page's index region.
-fn instance_descriptor(backend: Option<Backend>) -> wgpu::InstanceDescriptor {
+fn instance_descriptor(
+    backend: Option<Backend>,
+    display: Option<Box<dyn wgpu::wgt::WgpuHasDisplayHandle>>,
+) -> wgpu::InstanceDescriptor {
     let mut descriptor = wgpu::InstanceDescriptor::new_without_display_handle();
+    descriptor.display = display;
     descriptor.flags = wgpu::InstanceFlags::from_build_config();
     descriptor
         .flags

@@ -328,6 +328,11 @@ impl Renderer {
         &self.model
     }
 
+    /// The offscreen target the frames are drawn into (`tessera view` samples its colour).
+    pub fn target(&self) -> &RenderTarget {
+        &self.target
+    }
+
     /// Target size.
     pub fn size(&self) -> (u32, u32) {
         (self.target.width, self.target.height)

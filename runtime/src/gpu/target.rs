@@ -91,7 +91,10 @@ impl RenderTarget {
         let color = texture(
             "colour target",
             COLOR_FORMAT,
-            wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+            // Sampled by `tessera view`, which draws the image into its window.
+            wgpu::TextureUsages::RENDER_ATTACHMENT
+                | wgpu::TextureUsages::COPY_SRC
+                | wgpu::TextureUsages::TEXTURE_BINDING,
         );
         let depth = texture(
             "depth target",

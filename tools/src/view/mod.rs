@@ -1,0 +1,127 @@
+//! `tessera view REPO [--size WxH] [--tolerance PX] [--orbit AZ,EL,DIST] [--mode ..]
+//! [--gpu-budget MB] [--backend ..] [--script FILE] [--json]`: an interactive viewer.
+//!
+//! A winit window with a wgpu surface; each frame the streaming renderer of `render` draws the
+//! camera into its offscreen target at `--size`, which is scaled (letterboxed) into the window
+//! with an egui overlay on top (`app.rs`). Files: `app` (event loop, frames, input), `blit`
+//! (texture to target), `navigation` (orbit, pan, zoom, reset), `pointer` (mouse drags and
+//! wheel to navigation), `overlay` (statistics and controls), `script` (`--script` actions).
+
+mod app;
+mod blit;
+mod navigation;
+mod overlay;
+mod pointer;
+mod script;
+
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use clap::Args;
+use tessera_core::repository::reader::Repository;
+use winit::event_loop::EventLoop;
+
+use crate::cmd_render::{default_up, parse_size, parse_vec3, Mode};
+use crate::Outcome;
+
+#[derive(Args)]
+pub struct ViewArgs {
+    /// Repository file.
+    pub repository: PathBuf,
+    /// Render size, WIDTHxHEIGHT (the window opens at this size; a resized window shows the
+    /// image scaled, letterboxed).
+    #[arg(long, default_value = "1280x720", value_parser = parse_size)]
+    pub size: (u32, u32),
+    /// Pixel tolerance τ at start (the overlay's slider changes it).
+    #[arg(long, default_value_t = 1.0)]
+    pub tolerance: f32,
+    /// Initial view: azimuth and elevation in degrees, distance in bounding radii (`R` comes
+    /// back to it).
+    #[arg(long, value_parser = parse_vec3, default_value = "30,20,2.5")]
+    pub orbit: [f64; 3],
+    /// Up direction (default 0,1,0 for meshes, 0,0,1 for terrains).
+    #[arg(long, value_parser = parse_vec3)]
+    pub up: Option<[f64; 3]>,
+    /// Vertical field of view, degrees.
+    #[arg(long, default_value_t = 60.0)]
+    pub fov: f64,
+    /// Display mode at start.
+    #[arg(long, value_enum, default_value_t = Mode::Lit)]
+    pub mode: Mode,
+    #[command(flatten)]
+    pub gpu: crate::gpu_args::GpuArgs,
+    /// Run the JSON-lines script in the window, then exit (README.md lists the actions).
+    #[arg(long)]
+    pub script: Option<PathBuf>,
+    /// Print one JSON object per screenshot on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Ok when a display server is named in the environment, else what is missing.
+fn display_present() -> anyhow::Result<()> {
+    let set = |name: &str| std::env::var_os(name).is_some_and(|v| !v.is_empty());
+    if cfg!(all(unix, not(target_os = "macos"))) && !set("DISPLAY") && !set("WAYLAND_DISPLAY") {
+        anyhow::bail!(
+            "no display: neither DISPLAY nor WAYLAND_DISPLAY is set, so `tessera view` cannot \
+             open a window (run it in a desktop session, or under `xvfb-run -a`; `tessera \
+             render` writes PNGs without a display)"
+        );
+    }
+    Ok(())
+}
+
+pub fn run(args: ViewArgs) -> anyhow::Result<Outcome> {
+    if !(args.tolerance >= 0.0 && args.tolerance.is_finite()) {
+        anyhow::bail!("--tolerance {} must be a finite number ≥ 0", args.tolerance);
+    }
+    if args.orbit[2] <= 0.0 {
+        anyhow::bail!("--orbit distance {} must be positive", args.orbit[2]);
+    }
+    if !(args.fov > 0.0 && args.fov < 180.0) {
+        anyhow::bail!("--fov {} must be between 0 and 180 degrees", args.fov);
+    }
+    // The script first: a bad line is reported before any window opens.
+    let script = args.script.as_deref().map(script::load).transpose()?;
+    display_present()?;
+    let event_loop = EventLoop::new().map_err(|e| {
+        let named = |n: &str| std::env::var(n).map_or(String::new(), |v| format!(" {n}={v:?}"));
+        anyhow::anyhow!(
+            "cannot open a window: winit could not connect to the display{}{}: {e}",
+            named("DISPLAY"),
+            named("WAYLAND_DISPLAY")
+        )
+    })?;
+    let shared = Arc::new(Repository::open(&args.repository)?);
+    let h = *shared.header();
+    let up = args.up.unwrap_or(default_up(h.dimension));
+    if up == [0.0; 3] {
+        anyhow::bail!("--up must not be the zero vector");
+    }
+    let navigation = navigation::Navigation::new(h.bbox_min, h.bbox_max, up, args.fov, args.orbit);
+    let ctx = args
+        .gpu
+        .context_for_display(Box::new(event_loop.owned_display_handle()))?;
+    let budget_bytes = args.gpu.budget_bytes(&ctx);
+    let streaming = args.gpu.streaming(&ctx, shared, args.size)?;
+    let controls = overlay::Controls {
+        tolerance: args.tolerance,
+        mode: args.mode,
+    };
+    let mut app = app::App::new(
+        ctx,
+        streaming,
+        navigation,
+        controls,
+        budget_bytes,
+        script,
+        args.json,
+    );
+    event_loop
+        .run_app(&mut app)
+        .map_err(|e| anyhow::anyhow!("the window's event loop failed: {e}"))?;
+    match app.error.take() {
+        Some(e) => Err(e),
+        None => Ok(Outcome::Ok),
+    }
+}

@@ -1,0 +1,422 @@
+//! `tessera view`: a script run in a real window under Xvfb (lavapipe) takes screenshots with
+//! model pixels, fewer triangles at a higher tolerance, a patches mode unlike the lit one, a
+//! reset key back to the first view and an overlay drawn into the window; the X server shows
+//! what the viewer captures; without a display, or with a bad script line, it exits 2 with a
+//! message.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use std::sync::Mutex;
+use std::time::{Duration, Instant};
+
+/// Xvfb's arguments: `-noreset`, or the server resets when its last client leaves and
+/// signals xvfb-run, which can make xvfb-run's own clean-up fail (exit 5).
+const XVFB_ARGS: &str = "-screen 0 1024x768x24 -noreset";
+
+/// One Xvfb at a time: parallel `xvfb-run -a` may pick the same display number.
+static XVFB: Mutex<()> = Mutex::new(());
+
+fn tessera() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_tessera"))
+}
+
+fn ok(out: &Output) {
+    assert!(
+        out.status.success(),
+        "status {:?}\nstdout {}\nstderr {}",
+        out.status,
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+fn bunny_repository(dir: &Path) -> PathBuf {
+    let bunny = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../testdata/mesh/bunny00.off");
+    let repo = dir.join("bunny.tsr");
+    ok(&tessera()
+        .args([
+            "build",
+            bunny.to_str().unwrap(),
+            "-o",
+            repo.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap());
+    repo
+}
+
+/// Whether `xvfb-run` is on the PATH.
+fn xvfb_run() -> bool {
+    Command::new("sh")
+        .args(["-c", "command -v xvfb-run"])
+        .output()
+        .is_ok_and(|o| o.status.success())
+}
+
+/// Pixels that are neither the renderer's background nor the letterbox's black.
+fn model_pixels(image: &image::RgbaImage) -> usize {
+    image
+        .pixels()
+        .filter(|p| {
+            let [r, g, b, _] = p.0;
+            let background =
+                (r.abs_diff(28) <= 2) && (g.abs_diff(31) <= 2) && (b.abs_diff(38) <= 2);
+            !background && (r, g, b) != (0, 0, 0)
+        })
+        .count()
+}
+
+fn differing_pixels(a: &image::RgbaImage, b: &image::RgbaImage) -> usize {
+    assert_eq!(a.dimensions(), b.dimensions());
+    a.pixels().zip(b.pixels()).filter(|(p, q)| p != q).count()
+}
+
+#[test]
+fn view_runs_a_script_in_a_window_under_xvfb() {
+    if !xvfb_run() {
+        eprintln!("skipped: xvfb-run is not installed (Debian package `xvfb`)");
+        return;
+    }
+    let _xvfb = XVFB.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = tempfile::tempdir().unwrap();
+    let repo = bunny_repository(dir.path());
+    let shot = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let script = [
+        r#"{"overlay":false}"#.to_string(),
+        r#"{"orbit":[30,20,1.2]}"#.to_string(),
+        r#"{"tolerance":1}"#.to_string(),
+        format!(r#"{{"screenshot":"{}"}}"#, shot("lit1.png")),
+        r#"{"tolerance":16}"#.to_string(),
+        format!(r#"{{"screenshot":"{}"}}"#, shot("lit16.png")),
+        r#"{"tolerance":1}"#.to_string(),
+        r#"{"mode":"patches"}"#.to_string(),
+        format!(r#"{{"screenshot":"{}"}}"#, shot("patches1.png")),
+        r#"{"mode":"lit"}"#.to_string(),
+        r#"{"orbit":[150,-30,3]}"#.to_string(),
+        r#"{"wait_frames":3}"#.to_string(),
+        r#"{"key":"r"}"#.to_string(),
+        format!(r#"{{"screenshot":"{}"}}"#, shot("reset.png")),
+        r#"{"overlay":true}"#.to_string(),
+        format!(r#"{{"screenshot":"{}"}}"#, shot("overlay.png")),
+        r#"{"overlay":false}"#.to_string(),
+        r#"{"resize":[640,360]}"#.to_string(),
+        format!(r#"{{"screenshot":"{}"}}"#, shot("wide.png")),
+        r#"{"resize":[480,360]}"#.to_string(),
+        r#"{"key":"r"}"#.to_string(),
+        r#"{"drag":[100,180,250,200]}"#.to_string(),
+        format!(r#"{{"screenshot":"{}"}}"#, shot("dragged.png")),
+        r#"{"key":"r"}"#.to_string(),
+        r#"{"right_drag":[240,180,300,140]}"#.to_string(),
+        format!(r#"{{"screenshot":"{}"}}"#, shot("panned.png")),
+        r#"{"key":"r"}"#.to_string(),
+        r#"{"wheel":-4}"#.to_string(),
+        format!(r#"{{"screenshot":"{}"}}"#, shot("zoomed_out.png")),
+    ]
+    .join("\n");
+    let script_path = dir.path().join("s.jsonl");
+    std::fs::write(&script_path, script).unwrap();
+    let started = std::time::Instant::now();
+    let out = Command::new("xvfb-run")
+        .args(["-a", "-s", XVFB_ARGS])
+        .arg(env!("CARGO_BIN_EXE_tessera"))
+        .args([
+            "view",
+            repo.to_str().unwrap(),
+            "--size",
+            "480x360",
+            "--orbit",
+            "30,20,1.2",
+            "--backend",
+            "vulkan",
+            "--script",
+            script_path.to_str().unwrap(),
+            "--json",
+        ])
+        .output()
+        .unwrap();
+    eprintln!(
+        "view ran {:.1} s\n{}{}",
+        started.elapsed().as_secs_f64(),
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    ok(&out);
+    let records: Vec<serde_json::Value> = String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("one JSON object a line"))
+        .collect();
+    assert_eq!(records.len(), 9, "one record per screenshot");
+    for r in &records {
+        for key in [
+            "path",
+            "triangles",
+            "patches",
+            "tolerance",
+            "gpu_ms",
+            "resident_bytes",
+        ] {
+            assert!(r.get(key).is_some(), "{key} missing from {r}");
+        }
+        assert_eq!(r["settled"], true, "{r}");
+    }
+    let images: Vec<image::RgbaImage> = records
+        .iter()
+        .map(|r| {
+            let path = r["path"].as_str().unwrap();
+            assert!(std::fs::read(path).unwrap().starts_with(b"\x89PNG"));
+            image::open(path).unwrap().to_rgba8()
+        })
+        .collect();
+    let [lit1, lit16, patches1, reset, overlay, wide, dragged, panned, zoomed_out] = &images[..]
+    else {
+        unreachable!()
+    };
+    assert_eq!(lit1.dimensions(), (480, 360), "the window's size");
+    let n = (480 * 360) as usize;
+    let model = model_pixels(lit1);
+    assert!(model > n / 20, "{model} model pixels of {n}");
+    assert!(model_pixels(lit16) > n / 20, "τ 16 draws the model too");
+    let triangles = |i: usize| records[i]["triangles"].as_u64().unwrap();
+    assert!(
+        triangles(1) < triangles(0),
+        "τ 16 draws {} triangles, τ 1 {}",
+        triangles(1),
+        triangles(0)
+    );
+    assert!(
+        differing_pixels(lit1, patches1) > model / 4,
+        "patches ≠ lit"
+    );
+    // `R` comes back to the first view: the same cut, the same image.
+    assert_eq!(triangles(3), triangles(0));
+    assert_eq!(differing_pixels(lit1, reset), 0, "reset view ≠ first view");
+    // The overlay is part of the window's content.
+    assert!(
+        differing_pixels(reset, overlay) > n / 50,
+        "no overlay drawn"
+    );
+    // Resized: the surface and canvas follow the window; the 480×360 image is letterboxed
+    // into 640×360 (black bars of 80 pixels each side), the model drawn between them.
+    assert_eq!(wide.dimensions(), (640, 360));
+    let bar = |x: u32| (0..360).all(|y| wide.get_pixel(x, y).0 == [0, 0, 0, 255]);
+    assert!(
+        bar(0) && bar(79) && bar(560) && bar(639),
+        "no letterbox bars"
+    );
+    assert!(!bar(80) || !bar(320));
+    assert!(model_pixels(wide) > n / 20);
+    // The mouse's navigation, scripted: an orbit drag, a pan drag and the wheel move the view.
+    for (name, image) in [
+        ("drag", dragged),
+        ("right drag", panned),
+        ("wheel", zoomed_out),
+    ] {
+        assert_eq!(image.dimensions(), (480, 360));
+        assert!(
+            model_pixels(image) > n / 50,
+            "{name}: the model left the view"
+        );
+        assert!(
+            differing_pixels(lit1, image) > n / 20,
+            "{name} did not move the view"
+        );
+    }
+    assert!(
+        triangles(8) < triangles(0),
+        "zoomed out: {} triangles, not fewer than {}",
+        triangles(8),
+        triangles(0)
+    );
+    assert!(
+        started.elapsed().as_secs() < 120,
+        "the script took {:?}",
+        started.elapsed()
+    );
+}
+
+/// The mapped top-level window of `size` on the X server `display`, as it shows it (RGBA);
+/// then, if `close`, asks it to close as a window manager would (WM_DELETE_WINDOW).
+fn grab_window(display: &str, size: (u16, u16), close: bool) -> image::RgbaImage {
+    use x11rb::connection::Connection;
+    use x11rb::protocol::xproto::{
+        ClientMessageEvent, ConnectionExt, EventMask, ImageFormat, MapState,
+    };
+    let (conn, screen) = x11rb::connect(Some(display)).expect("connect to Xvfb");
+    let root = conn.setup().roots[screen].root;
+    let windows: Vec<u32> = conn
+        .query_tree(root)
+        .unwrap()
+        .reply()
+        .unwrap()
+        .children
+        .into_iter()
+        .filter(|&w| {
+            let mapped = conn
+                .get_window_attributes(w)
+                .unwrap()
+                .reply()
+                .unwrap()
+                .map_state
+                == MapState::VIEWABLE;
+            let g = conn.get_geometry(w).unwrap().reply().unwrap();
+            mapped && (g.width, g.height) == size
+        })
+        .collect();
+    assert_eq!(windows.len(), 1, "one mapped {size:?} window");
+    let reply = conn
+        .get_image(ImageFormat::Z_PIXMAP, windows[0], 0, 0, size.0, size.1, !0)
+        .unwrap()
+        .reply()
+        .unwrap();
+    if close {
+        let atom = |name: &[u8]| conn.intern_atom(false, name).unwrap().reply().unwrap().atom;
+        let (protocols, delete) = (atom(b"WM_PROTOCOLS"), atom(b"WM_DELETE_WINDOW"));
+        let event = ClientMessageEvent::new(32, windows[0], protocols, [delete, 0, 0, 0, 0]);
+        // Checked: a round trip, the server has sent it on.
+        conn.send_event(false, windows[0], EventMask::NO_EVENT, event)
+            .unwrap()
+            .check()
+            .unwrap();
+    }
+    let (w, h) = (size.0 as u32, size.1 as u32);
+    assert_eq!(reply.depth, 24);
+    assert_eq!(reply.data.len(), (4 * w * h) as usize, "32 bits a pixel");
+    // Depth 24 in 32 bits, least significant byte first: B, G, R, unused.
+    let rgba = reply
+        .data
+        .chunks_exact(4)
+        .flat_map(|p| [p[2], p[1], p[0], 255])
+        .collect();
+    image::RgbaImage::from_raw(w, h, rgba).unwrap()
+}
+
+/// On Vulkan (lavapipe) and GL (llvmpipe through EGL): `.ci/run` installs both.
+#[test]
+fn the_x_display_shows_what_the_viewer_captures() {
+    if !xvfb_run() {
+        eprintln!("skipped: xvfb-run is not installed (Debian package `xvfb`)");
+        return;
+    }
+    for backend in ["vulkan", "gl"] {
+        x_display_matches_the_capture(backend);
+    }
+}
+
+fn x_display_matches_the_capture(backend: &str) {
+    let _xvfb = XVFB.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = tempfile::tempdir().unwrap();
+    let repo = bunny_repository(dir.path());
+    let (shot, info) = (dir.path().join("still.png"), dir.path().join("display"));
+    // The screenshot, then frames of the same still view while the test reads the window and
+    // closes it (the window manager's close: WM_DELETE_WINDOW).
+    let script = format!(
+        "{{\"overlay\":false}}\n{{\"screenshot\":{:?}}}\n{{\"wait_frames\":1000000}}\n",
+        shot.to_str().unwrap()
+    );
+    let script_path = dir.path().join("still.jsonl");
+    let stderr_path = dir.path().join("stderr.txt");
+    std::fs::write(&script_path, script).unwrap();
+    let child = Command::new("xvfb-run")
+        .args(["-a", "-s", XVFB_ARGS, "sh", "-c"])
+        .arg(r#"printf '%s\n%s\n%s\n' "$DISPLAY" "$XAUTHORITY" "$$" > "$0.part" && mv "$0.part" "$0" && exec "$@""#)
+        .arg(&info)
+        .arg(env!("CARGO_BIN_EXE_tessera"))
+        .args(["view", repo.to_str().unwrap(), "--size", "400x300", "--backend", backend])
+        .arg("--script")
+        .arg(&script_path)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::fs::File::create(&stderr_path).unwrap())
+        .spawn()
+        .unwrap();
+    let started = Instant::now();
+    while !shot.exists() && started.elapsed() < Duration::from_secs(60) {
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    let grabbed = shot.exists().then(|| {
+        let text = std::fs::read_to_string(&info).unwrap();
+        let mut lines = text.lines();
+        let (display, auth) = (lines.next().unwrap(), lines.next().unwrap_or(""));
+        std::env::set_var("XAUTHORITY", auth);
+        grab_window(display, (400, 300), true)
+    });
+    let mut child = child;
+    let closing = Instant::now();
+    let mut sent = 1;
+    while child.try_wait().unwrap().is_none() {
+        if closing.elapsed() > Duration::from_secs(sent) && grabbed.is_some() {
+            // Not closed yet: ask again (and count it: once should do).
+            sent += 1;
+            eprintln!("{backend}: close sent again");
+            let text = std::fs::read_to_string(&info).unwrap();
+            let _ = grab_window(text.lines().next().unwrap(), (400, 300), true);
+        }
+        if closing.elapsed() > Duration::from_secs(60) {
+            // The viewer (the shell's pid: it exec'd), then xvfb-run.
+            let text = std::fs::read_to_string(&info).unwrap_or_default();
+            if let Some(pid) = text.lines().nth(2) {
+                let _ = Command::new("kill").arg(pid).status();
+            }
+            child.kill().unwrap();
+            panic!(
+                "{backend}: the viewer did not exit after its window was closed\n{}",
+                std::fs::read_to_string(&stderr_path).unwrap_or_default()
+            );
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    let out = child.wait_with_output().unwrap();
+    let stderr = std::fs::read_to_string(&stderr_path).unwrap();
+    eprintln!("{stderr}");
+    let grabbed = grabbed.expect("the viewer wrote its screenshot");
+    // Closed mid-script: a clean exit 2 saying so (never a crash).
+    assert_eq!(out.status.code(), Some(2), "{backend}: {stderr}");
+    assert!(
+        stderr.contains("the window was closed before the script ended"),
+        "{stderr}"
+    );
+    let captured = image::open(&shot).unwrap().to_rgba8();
+    assert!(model_pixels(&captured) > 400 * 300 / 20, "{backend}");
+    let off = grabbed
+        .pixels()
+        .zip(captured.pixels())
+        .filter(|(p, q)| (0..3).any(|c| p.0[c].abs_diff(q.0[c]) > 1))
+        .count();
+    assert_eq!(
+        off, 0,
+        "pixels of the X display unlike the viewer's capture"
+    );
+}
+
+#[test]
+fn view_without_a_display_exits_2_saying_so() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = tessera()
+        .args(["view", dir.path().join("missing.tsr").to_str().unwrap()])
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("no display") && stderr.contains("DISPLAY"),
+        "{stderr}"
+    );
+}
+
+#[test]
+fn view_names_a_bad_script_line_and_exits_2() {
+    let dir = tempfile::tempdir().unwrap();
+    let script = dir.path().join("bad.jsonl");
+    std::fs::write(&script, "{\"tolerance\":2}\n{\"fly\":true}\n").unwrap();
+    let out = tessera()
+        .args(["view", "any.tsr", "--script", script.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("line 2") && stderr.contains("unknown action \"fly\""),
+        "{stderr}"
+    );
+}
