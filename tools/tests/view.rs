@@ -116,8 +116,9 @@ fn view_runs_a_script_in_a_window_under_xvfb() {
     let script_path = dir.path().join("s.jsonl");
     std::fs::write(&script_path, script).unwrap();
     let started = std::time::Instant::now();
-    let out = Command::new("xvfb-run")
-        .args(["-a", "-s", XVFB_ARGS])
+    // Bounded: a viewer that hung would otherwise hold CI until its hard limit (exit 124).
+    let out = Command::new("timeout")
+        .args(["-k", "10", "300", "xvfb-run", "-a", "-s", XVFB_ARGS])
         .arg(env!("CARGO_BIN_EXE_tessera"))
         .args([
             "view",
