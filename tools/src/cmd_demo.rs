@@ -103,6 +103,14 @@ pub struct DemoArgs {
     /// `--source` of `tessera bench render`.
     #[arg(long)]
     pub save_mesh: Option<PathBuf>,
+    /// Then open the demo model in `tessera view` (a window: needs a display; checked before
+    /// the demo starts). The demo's exit code stands unless the viewer fails.
+    #[arg(long)]
+    pub view: bool,
+    /// With `--view`: run this `tessera view --script` in the window, then exit (tests and
+    /// pipelines).
+    #[arg(long, requires = "view")]
+    pub view_script: Option<PathBuf>,
 }
 
 impl DemoArgs {
@@ -124,6 +132,10 @@ pub fn run(args: DemoArgs) -> anyhow::Result<Outcome> {
             args.refine,
             20u64 << (2 * levels)
         );
+    }
+    // A window needs a display: said before the long part (exit 2).
+    if args.view {
+        crate::view::display_present()?;
     }
     // Where the frames go, before the long part: a bad directory fails fast (exit 2).
     let frames_dir = (!args.no_frames).then_some(args.frames_dir.as_path());
@@ -192,6 +204,19 @@ pub fn run(args: DemoArgs) -> anyhow::Result<Outcome> {
     }
     if let Some(p) = &args.save_mesh {
         println!("mesh written to {}", p.display());
+    }
+    if args.view {
+        drop(repo);
+        crate::view::run(crate::view::ViewArgs {
+            repository: path.clone(),
+            script: args.view_script.clone(),
+            gpu: crate::gpu_args::GpuArgs {
+                adapter: args.adapter.clone(),
+                backend: args.backend,
+                gpu_budget: None,
+            },
+            ..crate::view::ViewArgs::defaults(path.clone())
+        })?;
     }
     match &args.output {
         Some(p) => println!("repository kept at {}", p.display()),

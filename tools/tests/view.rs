@@ -421,3 +421,62 @@ fn view_names_a_bad_script_line_and_exits_2() {
         "{stderr}"
     );
 }
+
+/// `demo --view` opens the demo model in the viewer once the demo is done (here a small demo
+/// and a script that takes one screenshot), and without a display says so before the demo's
+/// long part (exit 2 at once).
+#[test]
+fn demo_view_opens_the_demo_model_in_the_viewer() {
+    let dir = tempfile::tempdir().unwrap();
+    let started = Instant::now();
+    let out = tessera()
+        .args(["demo", "--view", "--no-frames"])
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("no display"), "{stderr}");
+    assert!(
+        started.elapsed() < Duration::from_secs(10),
+        "not said up front"
+    );
+    if !xvfb_run() {
+        eprintln!("skipped the window part: xvfb-run is not installed (apt-get install xvfb)");
+        return;
+    }
+    let _one = XVFB.lock().unwrap_or_else(|e| e.into_inner());
+    let shot = dir.path().join("demo.png");
+    let script = dir.path().join("s.jsonl");
+    std::fs::write(
+        &script,
+        format!(r#"{{"screenshot":"{}"}}"#, shot.to_str().unwrap()),
+    )
+    .unwrap();
+    let out = Command::new("timeout")
+        .args(["-k", "10", "300", "xvfb-run", "-a", "-s", XVFB_ARGS])
+        .arg(env!("CARGO_BIN_EXE_tessera"))
+        .args([
+            "demo",
+            "--subdivisions",
+            "4",
+            "--views",
+            "4",
+            "--no-frames",
+            "--backend",
+            "vulkan",
+            "--view",
+            "--view-script",
+            script.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    ok(&out);
+    let image = image::open(&shot).unwrap().to_rgba8();
+    assert!(
+        model_pixels(&image) > 1000,
+        "{} model pixels",
+        model_pixels(&image)
+    );
+}

@@ -58,8 +58,30 @@ pub struct ViewArgs {
     pub json: bool,
 }
 
+impl ViewArgs {
+    /// The command line's defaults for `repository` (`demo --view`).
+    pub fn defaults(repository: PathBuf) -> ViewArgs {
+        ViewArgs {
+            repository,
+            size: (1280, 720),
+            tolerance: 1.0,
+            orbit: [30.0, 20.0, 2.5],
+            up: None,
+            fov: 60.0,
+            mode: Mode::Lit,
+            gpu: crate::gpu_args::GpuArgs {
+                adapter: None,
+                backend: None,
+                gpu_budget: None,
+            },
+            script: None,
+            json: false,
+        }
+    }
+}
+
 /// Ok when a display server is named in the environment, else what is missing.
-fn display_present() -> anyhow::Result<()> {
+pub fn display_present() -> anyhow::Result<()> {
     let set = |name: &str| std::env::var_os(name).is_some_and(|v| !v.is_empty());
     if cfg!(all(unix, not(target_os = "macos"))) && !set("DISPLAY") && !set("WAYLAND_DISPLAY") {
         anyhow::bail!(
@@ -123,5 +145,35 @@ pub fn run(args: ViewArgs) -> anyhow::Result<Outcome> {
     match app.error.take() {
         Some(e) => Err(e),
         None => Ok(Outcome::Ok),
+    }
+}
+
+#[cfg(test)]
+mod defaults_tests {
+    use clap::Parser;
+
+    use super::ViewArgs;
+
+    #[derive(Parser)]
+    struct Wrapper {
+        #[command(flatten)]
+        view: ViewArgs,
+    }
+
+    /// `ViewArgs::defaults` (what `demo --view` opens with) is what the command line gives.
+    #[test]
+    fn the_defaults_are_the_command_lines() {
+        let parsed = Wrapper::parse_from(["tessera", "model.tsr"]).view;
+        let made = ViewArgs::defaults("model.tsr".into());
+        assert_eq!(parsed.repository, made.repository);
+        assert_eq!(parsed.size, made.size);
+        assert_eq!(parsed.tolerance, made.tolerance);
+        assert_eq!(parsed.orbit, made.orbit);
+        assert_eq!(parsed.up, made.up);
+        assert_eq!(parsed.fov, made.fov);
+        assert_eq!(parsed.mode, made.mode);
+        assert_eq!(parsed.script, made.script);
+        assert_eq!(parsed.json, made.json);
+        assert_eq!(parsed.gpu.gpu_budget, made.gpu.gpu_budget);
     }
 }
