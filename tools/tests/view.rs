@@ -111,6 +111,9 @@ fn view_runs_a_script_in_a_window_under_xvfb() {
         r#"{"key":"r"}"#.to_string(),
         r#"{"wheel":-4}"#.to_string(),
         format!(r#"{{"screenshot":"{}"}}"#, shot("zoomed_out.png")),
+        // The screenshot key: the window as it is, to tessera-view-001.png in the viewer's
+        // current directory (a tenth record, its path absolute).
+        r#"{"key":"s"}"#.to_string(),
     ]
     .join("\n");
     let script_path = dir.path().join("s.jsonl");
@@ -133,8 +136,13 @@ fn view_runs_a_script_in_a_window_under_xvfb() {
             script_path.to_str().unwrap(),
             "--json",
         ])
+        .current_dir(dir.path())
         .output()
         .unwrap();
+    let key_shot = image::open(dir.path().join("tessera-view-001.png"))
+        .expect("the screenshot key wrote tessera-view-001.png")
+        .to_rgba8();
+    assert!(model_pixels(&key_shot) > 1000);
     eprintln!(
         "view ran {:.1} s\n{}{}",
         started.elapsed().as_secs_f64(),
@@ -146,7 +154,15 @@ fn view_runs_a_script_in_a_window_under_xvfb() {
         .lines()
         .map(|l| serde_json::from_str(l).expect("one JSON object a line"))
         .collect();
-    assert_eq!(records.len(), 9, "one record per screenshot");
+    assert_eq!(
+        records.len(),
+        10,
+        "one record per screenshot, the key's included"
+    );
+    assert_eq!(
+        records[9]["path"].as_str().map(PathBuf::from),
+        Some(dir.path().join("tessera-view-001.png"))
+    );
     for r in &records {
         for key in [
             "path",
@@ -168,7 +184,8 @@ fn view_runs_a_script_in_a_window_under_xvfb() {
             image::open(path).unwrap().to_rgba8()
         })
         .collect();
-    let [lit1, lit16, patches1, reset, overlay, wide, dragged, panned, zoomed_out] = &images[..]
+    let [lit1, lit16, patches1, reset, overlay, wide, dragged, panned, zoomed_out, _key] =
+        &images[..]
     else {
         unreachable!()
     };

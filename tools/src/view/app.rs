@@ -272,6 +272,9 @@ impl App {
         match c {
             'r' => self.navigation.reset(),
             'h' => self.show_overlay = !self.show_overlay,
+            // The window's content as it is, at the next frame, to the first free
+            // `tessera-view-NNN.png` of the current directory.
+            's' => self.step = Step::Capture(next_screenshot_path()),
             _ => {}
         }
     }
@@ -450,6 +453,7 @@ impl App {
             Step::Capture(path) => {
                 let image = w.canvas.read(&self.ctx)?;
                 crate::output::save_png(&image, &path)?;
+                eprintln!("screenshot: {}", path.display());
                 if self.json {
                     println!(
                         "{}",
@@ -562,4 +566,14 @@ impl ApplicationHandler for App {
             _ => event_loop.set_control_flow(ControlFlow::Wait),
         }
     }
+}
+
+/// The first `tessera-view-NNN.png` (NNN from 001) not in the current directory, absolute
+/// when the current directory is known.
+fn next_screenshot_path() -> PathBuf {
+    let dir = std::env::current_dir().unwrap_or_default();
+    (1..)
+        .map(|n| dir.join(format!("tessera-view-{n:03}.png")))
+        .find(|p| !p.exists())
+        .expect("a free name")
 }

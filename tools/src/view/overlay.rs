@@ -86,6 +86,6 @@ pub fn ui(ctx: &egui::Context, stats: &Stats, controls: &mut Controls) {
                     ui.radio_value(&mut controls.mode, mode, name);
                 }
             });
-            ui.label("drag: orbit   right drag: pan   wheel: zoom   R: reset   H: overlay");
+            ui.label("drag: orbit   right drag: pan   wheel: zoom   R: reset   H: overlay   S: screenshot");
         });
 }

@@ -22,7 +22,8 @@ pub enum Action {
     /// `{"screenshot": "PATH"}`: once the stream has settled for the current view (or after
     /// `SETTLE_FRAMES`), the window's content as PNG.
     Screenshot(PathBuf),
-    /// `{"key": "r"}`: as if the key were pressed (`r` reset, `h` overlay on/off).
+    /// `{"key": "r"}`: as if the key were pressed (`r` reset, `h` overlay on/off, `s` a
+    /// screenshot to `tessera-view-NNN.png` in the current directory, at the next frame).
     Key(char),
     /// `{"overlay": true|false}`: show or hide the overlay.
     Overlay(bool),
@@ -37,7 +38,7 @@ pub enum Action {
 }
 
 /// Keys a script may press (`Action::Key`).
-pub const KEYS: &[char] = &['r', 'h'];
+pub const KEYS: &[char] = &['r', 'h', 's'];
 
 /// Reads and parses a script file.
 pub fn load(path: &Path) -> anyhow::Result<Vec<Action>> {
