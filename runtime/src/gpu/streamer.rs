@@ -30,12 +30,12 @@ use tessera_core::repository::patch::drawn_patch_bytes;
 use tessera_core::repository::reader::Repository;
 
 use super::device::{GpuContext, GpuFailure};
-use super::records::{PairSlots, SlotRecord, CHILDREN_OFFSET, SLOT_RECORD_BYTES};
+use super::records::{PairSlots, CHILDREN_OFFSET, SLOT_RECORD_BYTES};
 use super::renderer::{FrameRequest, Readback, RenderError, Renderer, RendererOptions};
-use super::resident::{PatchLocation, ResidentModel, PATCH_LOCATION_BYTES};
+use super::resident::ResidentModel;
 use super::stream_budget::fixed_bytes;
-use super::stream_pool::{location_at, pool_model, Placement, PoolAllocator};
-use crate::stream::loader::{read_unit, UnitBytes};
+use super::stream_pool::{pool_model, Placement, PoolAllocator};
+use crate::stream::loader::read_unit;
 use crate::stream::{stream_frame, LoadedUnit, Loader, Residency, StreamFrame, UnitTable};
 use tessera_core::repository::format::NO_INDEX;
 
@@ -268,98 +268,6 @@ impl GpuStreamer {
         }
     }
 
-    /// Places `bytes` in the pool and writes them, and each patch's slot record (no child
-    /// link) and location into its slot (`slots[k]` for patch k); `None` when no page has room.
-    fn place(
-        &mut self,
-        ctx: &GpuContext,
-        renderer: &mut Renderer,
-        bytes: &UnitBytes,
-        slots: &[u32],
-    ) -> Option<Placement> {
-        let tets = self.repo.tets();
-        let diamonds = self.repo.diamonds();
-        let nonempty = bytes
-            .patches
-            .iter()
-            .filter(|&&(t, _, _)| tets[t as usize].strip_index_count != 0)
-            .count() as u32;
-        let placed = self.pool.allocate(bytes.bytes.len() as u64, nonempty)?;
-        let model = renderer.model();
-        let page = &model.pages[placed.page as usize].buffer;
-        let mut data = bytes.bytes.clone();
-        data.resize(data.len().next_multiple_of(4).max(4), 0);
-        ctx.queue.write_buffer(page, placed.offset, &data);
-        // Records and locations, one write per run of consecutive slots (a pair, or the
-        // roots).
-        let (mut records, mut locations) = (Vec::new(), Vec::new());
-        let mut run_start = 0;
-        for (k, &(t, at, _)) in bytes.patches.iter().enumerate() {
-            let tet = &tets[t as usize];
-            let diamond = (tet.diamond != NO_INDEX).then(|| &diamonds[tet.diamond as usize]);
-            records.push(SlotRecord::new(t, tet, diamond, NO_INDEX));
-            let mut location: PatchLocation =
-                location_at(&self.repo, tet, placed.page, placed.offset + at as u64);
-            if location.page == placed.page {
-                location.first_entry = self.first_entries[placed.page as usize];
-            }
-            locations.push(location);
-            let last = k + 1 == slots.len() || slots[k + 1] != slots[k] + 1;
-            if last {
-                let slot = slots[run_start] as u64;
-                ctx.queue.write_buffer(
-                    &model.records,
-                    slot * SLOT_RECORD_BYTES,
-                    bytemuck::cast_slice(&records),
-                );
-                ctx.queue.write_buffer(
-                    &model.locations,
-                    slot * PATCH_LOCATION_BYTES,
-                    bytemuck::cast_slice(&locations),
-                );
-                records.clear();
-                locations.clear();
-                run_start = k + 1;
-            }
-        }
-        for (&(t, _, _), &slot) in bytes.patches.iter().zip(slots) {
-            renderer.set_slot_simplex(slot, t);
-        }
-        self.stats.uploaded_bytes += placed.bytes;
-        self.resident_patches += bytes.patches.len();
-        Some(placed)
-    }
-
-    /// Places unit `u`: a slot pair per child pair, then its bytes (`place`); `None` (nothing
-    /// taken) when either pool has no room.
-    fn place_unit(
-        &mut self,
-        ctx: &GpuContext,
-        renderer: &mut Renderer,
-        u: u32,
-        bytes: &UnitBytes,
-    ) -> Option<Placement> {
-        let n = bytes.patches.len();
-        debug_assert!(
-            n.is_multiple_of(2),
-            "unit {u}: {n} simplices, not child pairs"
-        );
-        let pairs = self.slots.allocate_pairs(n / 2)?;
-        let slots: Vec<u32> = (0..n).map(|k| pairs[k / 2] + (k % 2) as u32).collect();
-        match self.place(ctx, renderer, bytes, &slots) {
-            Some(placed) => {
-                self.pairs.insert(u, pairs);
-                Some(placed)
-            }
-            None => {
-                for p in pairs {
-                    self.slots.free(p);
-                }
-                None
-            }
-        }
-    }
-
     /// Step 3: writes the child link of every simplex of diamond `d` that is in a slot now:
     /// the slot of its children's pair in R(d) when `d` may refine, else `NO_INDEX`. The
     /// simplices of `d` were created by its parents (the roots when it has none), so they are
@@ -406,57 +314,6 @@ impl GpuStreamer {
                 }
             }
         }
-    }
-
-    /// Unit `u` (read as `bytes`) fits the budget but no page: evicts the units that free a
-    /// range for it, when the residency allows them for `u`, and returns true (it waits for
-    /// the room, retired once no frame in flight draws the victims); otherwise gives the
-    /// load back (`Residency::withdraw`) and returns false.
-    fn make_room(&mut self, u: u32, bytes: &UnitBytes) -> bool {
-        let tets = self.repo.tets();
-        let patches = bytes
-            .patches
-            .iter()
-            .filter(|&&(t, _, _)| tets[t as usize].strip_index_count != 0)
-            .count() as u32;
-        let placed: Vec<(u32, Placement)> = self
-            .placed
-            .iter()
-            .enumerate()
-            .filter_map(|(v, p)| p.map(|p| (v as u32, p)))
-            .collect();
-        let residency = &self.residency;
-        let victims = super::pool_space::units_to_evict(
-            &self.pool,
-            &placed,
-            bytes.bytes.len() as u64,
-            patches,
-            &|v| residency.may_evict_for(v, u),
-        );
-        let victims = match victims {
-            // The range exists: record slots ran out; any one allowed unit frees some.
-            Some(v) if v.is_empty() => placed
-                .iter()
-                .map(|&(v, _)| v)
-                .find(|&v| self.residency.may_evict_for(v, u))
-                .into_iter()
-                .collect(),
-            Some(v) => v,
-            None => Vec::new(),
-        };
-        if victims.is_empty() {
-            self.residency.withdraw(u);
-            return false;
-        }
-        for v in victims {
-            self.residency.evict_for_space(v);
-            if let Some(placed) = self.placed[v as usize].take() {
-                self.resident_patches -= self.residency.units().simplices(v).len();
-                let pairs = self.pairs.remove(&v).unwrap_or_default();
-                self.retired.push((self.submitted, placed, pairs));
-            }
-        }
-        true
     }
 
     /// Steps 1–3 of the module comment; returns the units uploaded.
@@ -608,12 +465,7 @@ impl GpuStreamer {
             self.residency.feedback(&fb.refined, &fb.wanted);
             let plan = self.residency.plan(self.upload_bytes_per_frame);
             for &u in &plan.evict {
-                // Drawn at the latest by the frame just submitted.
-                if let Some(placed) = self.placed[u as usize].take() {
-                    self.resident_patches -= self.residency.units().simplices(u).len();
-                    let pairs = self.pairs.remove(&u).unwrap_or_default();
-                    self.retired.push((self.submitted, placed, pairs));
-                }
+                self.retire(u);
             }
             evictions += plan.evict.len();
             loads.extend(plan.load);
@@ -639,3 +491,5 @@ impl GpuStreamer {
         })
     }
 }
+
+mod placement;
