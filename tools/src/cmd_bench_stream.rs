@@ -252,10 +252,7 @@ pub fn run(args: StreamBenchArgs) -> anyhow::Result<Outcome> {
     let probe = Repository::open(&args.repository)?;
     let cams = cameras(&args, &probe, size)?;
     let file_bytes = probe.file_bytes();
-    let codec = match probe.codec() {
-        tessera_core::repository::PatchCodec::Raw => "raw",
-        tessera_core::repository::PatchCodec::Packed => "packed",
-    };
+    let codec = probe.codec().name();
     drop(probe);
     let settings = StreamSettings {
         budget_bytes: (args.gpu_budget * (1u64 << 20) as f64) as u64,

@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use clap::Args;
 use serde_json::json;
-use tessera_core::repository::format::{section_name, PatchCodec};
+use tessera_core::repository::format::section_name;
 use tessera_core::repository::patch::drawn_patch_bytes;
 use tessera_core::repository::reader::Repository;
 
@@ -60,10 +60,7 @@ pub fn run(args: InfoArgs) -> anyhow::Result<Outcome> {
                    "decoded_bytes": drawn})
         })
         .collect();
-    let codec = match repo.codec() {
-        PatchCodec::Raw => "raw",
-        PatchCodec::Packed => "packed",
-    };
+    let codec = repo.codec().name();
     let value = json!({
         "format_version": h.version,
         "dimension": h.dimension,

@@ -28,13 +28,6 @@ pub struct RepackArgs {
     pub json: bool,
 }
 
-fn name(codec: PatchCodec) -> &'static str {
-    match codec {
-        PatchCodec::Raw => "raw",
-        PatchCodec::Packed => "packed",
-    }
-}
-
 pub fn run(args: RepackArgs) -> anyhow::Result<Outcome> {
     let start = Instant::now();
     let same_file = std::fs::canonicalize(&args.repository)
@@ -58,8 +51,8 @@ pub fn run(args: RepackArgs) -> anyhow::Result<Outcome> {
     let value = json!({
         "input": args.repository,
         "output": args.output,
-        "input_codec": name(source.codec()),
-        "output_codec": name(codec),
+        "input_codec": source.codec().name(),
+        "output_codec": codec.name(),
         "input_bytes": source.file_bytes(),
         "output_bytes": bytes,
         "seconds": start.elapsed().as_secs_f64(),
@@ -70,10 +63,10 @@ pub fn run(args: RepackArgs) -> anyhow::Result<Outcome> {
         println!(
             "{} ({}, {} bytes) -> {} ({}, {bytes} bytes) in {:.2} s",
             args.repository.display(),
-            name(source.codec()),
+            source.codec().name(),
             source.file_bytes(),
             args.output.display(),
-            name(codec),
+            codec.name(),
             start.elapsed().as_secs_f64()
         );
     }

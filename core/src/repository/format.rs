@@ -105,6 +105,14 @@ pub enum PatchCodec {
 }
 
 impl PatchCodec {
+    /// Its name in messages and JSON: `"raw"` or `"packed"`.
+    pub fn name(self) -> &'static str {
+        match self {
+            PatchCodec::Raw => "raw",
+            PatchCodec::Packed => "packed",
+        }
+    }
+
     /// The section kind of this codec's patch blob.
     pub fn section_kind(self) -> u32 {
         match self {
