@@ -12,7 +12,10 @@
 //! budget is not made here but in `stream_pool.rs` (a pool of pages that units come and go in).
 
 use bytemuck::{Pod, Zeroable};
-use tessera_core::repository::patch::{strip_byte_offset, MAX_U16_PATCH_VERTICES};
+use tessera_core::repository::format::TetRecord;
+use tessera_core::repository::patch::{
+    strip_byte_offset, PatchSource, PatchView, MAX_U16_PATCH_VERTICES,
+};
 use tessera_core::repository::reader::{Repository, RepositoryError};
 use tessera_core::repository::PatchCodec;
 use wgpu::util::DeviceExt;
@@ -172,8 +175,9 @@ pub fn max_pages_within(binding: u64) -> u64 {
 }
 
 impl ResidentModel {
-    /// Validates every patch (`Repository::validate_patches`), lays the blob out in pages and
-    /// uploads everything, if it fits in `budget_bytes`.
+    /// Validates every patch (`Repository::validate_patches` for a raw repository; a packed
+    /// one's patches as they are decoded into their pages, once), lays the blob out in pages
+    /// and uploads everything, if it fits in `budget_bytes`.
     ///
     /// Each page's index region holds `min(its slots, one storage binding / 12 B,
     /// index_slots)` strip slots (`index_slots`: `None` for `DEFAULT_INDEX_SLOTS`).
@@ -192,7 +196,9 @@ impl ResidentModel {
                 max,
             });
         }
-        repo.validate_patches()?;
+        if repo.codec() == PatchCodec::Raw {
+            repo.validate_patches()?;
+        }
         let limit = page_limit(&ctx.limits);
         let mut layout = lay_out_pages(repo, limit)?;
         let max_pages = max_pages(&ctx.limits);
@@ -277,7 +283,7 @@ impl ResidentModel {
         for range in &layout.pages {
             let bytes = page_bytes(repo, range, &order, &layout.placed)?;
             pages.push(Page {
-                buffer: storage("patch page", &bytes, wgpu::BufferUsages::empty()),
+                buffer: storage("patch page", bytes.bytes(), wgpu::BufferUsages::empty()),
                 blob_range: range.clone(),
             });
         }
@@ -366,26 +372,63 @@ fn page_bytes<'a>(
     range: &std::ops::Range<u64>,
     order: &[usize],
     placed: &[std::ops::Range<u64>],
-) -> Result<std::borrow::Cow<'a, [u8]>, ResidentError> {
+) -> Result<PageBytes<'a>, ResidentError> {
     if range.is_empty() {
         // An empty model still gets a (tiny) page to bind.
-        return Ok(std::borrow::Cow::Owned(vec![0; 8]));
+        return Ok(PageBytes::Decoded(vec![0], 8));
     }
+    let len = (range.end - range.start) as usize;
     match repo.codec() {
-        PatchCodec::Raw => Ok(std::borrow::Cow::Borrowed(
+        PatchCodec::Raw => Ok(PageBytes::Mapped(
             &repo.patch_blob()[range.start as usize..range.end as usize],
         )),
         PatchCodec::Packed => {
-            let mut bytes = vec![0u8; (range.end - range.start) as usize];
+            repo.verify_ids()?;
+            // 8-aligned words, so each decoded patch is parsed in place.
+            let mut words = vec![0u64; len.div_ceil(8)];
             let inside = order
                 .iter()
                 .filter(|&&i| range.start <= placed[i].start && placed[i].end <= range.end);
             for &i in inside {
                 let to = (placed[i].start - range.start) as usize
                     ..(placed[i].end - range.start) as usize;
-                repo.read_patch(i, &mut bytes[to])?;
+                let bytes: &mut [u8] = bytemuck::cast_slice_mut(&mut words);
+                repo.read_patch(i, &mut bytes[to.clone()])?;
+                // What `validate_patches` checks of a patch, on the decoded bytes here.
+                let source = PatchSource {
+                    patch_blob: &bytemuck::cast_slice(&words)[..len],
+                    id_blob: repo.id_blob(),
+                    attributes: repo.header().attributes,
+                    input_vertex_count: repo.header().input_vertex_count,
+                };
+                let record = TetRecord {
+                    patch_offset: to.start as u64,
+                    patch_bytes: to.len() as u32,
+                    ..repo.tets()[i]
+                };
+                PatchView::parse(&source, &record).map_err(|e| match e {
+                    RepositoryError::Corrupt(m) => {
+                        RepositoryError::Corrupt(format!("tet {i}: {m}"))
+                    }
+                    other => other,
+                })?;
             }
-            Ok(std::borrow::Cow::Owned(bytes))
+            Ok(PageBytes::Decoded(words, len))
+        }
+    }
+}
+
+/// A page's bytes as drawn: borrowed from the map, or decoded into 8-aligned words.
+enum PageBytes<'a> {
+    Mapped(&'a [u8]),
+    Decoded(Vec<u64>, usize),
+}
+
+impl PageBytes<'_> {
+    fn bytes(&self) -> &[u8] {
+        match self {
+            PageBytes::Mapped(bytes) => bytes,
+            PageBytes::Decoded(words, len) => &bytemuck::cast_slice(words)[..*len],
         }
     }
 }
