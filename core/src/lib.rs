@@ -7,6 +7,7 @@ pub mod bounds;
 pub mod cull;
 pub mod cut;
 pub mod eye_relative;
+pub mod hausdorff;
 pub mod leb;
 pub mod metric;
 pub mod repository;

@@ -15,7 +15,7 @@ use crate::checkpoint::InputFacts;
 use crate::finished_patches::FinishedPatches;
 use crate::frame::LatticeFrame;
 use crate::hierarchy::Hierarchy;
-use crate::saturate::{nest_simplex_spheres, saturate, RADIUS_MARGIN};
+use crate::saturate::{nest_simplex_spheres, saturate, OwnErrors, RADIUS_MARGIN};
 use crate::simplify::Simplified;
 
 /// A built repository before it is written: its directory, its tet table's simplices in
@@ -74,7 +74,10 @@ pub(crate) fn assemble(
     let saturated = saturate(
         &hierarchy,
         origin,
-        &simplified.own_error,
+        OwnErrors {
+            errors: &simplified.own_error,
+            are_bounds: config.simplify.bounded_errors,
+        },
         quantisation_error,
         &patch_sphere,
         error_floor,

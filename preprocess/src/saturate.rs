@@ -1,9 +1,22 @@
 //! Saturation (seed 001, "Saturation technique"): bottom-up over the diamond DAG,
-//! err(D) = max(own(D) + quantisation, floor, max over split children C of err(C)·(1 + ERROR_MARGIN)) and
+//! chain(D) = own(D) + max over split children C of chain(C) (0 below the leaves) when the
+//! own errors are bounds (`SimplifySettings::bounded_errors`), else
+//! chain(D) = max(own(D), chain(C)) (meshoptimizer's estimates, the seed's rule),
+//! err(D) = max(chain(D) + quantisation, floor, max over C of err(C)·(1 + ERROR_MARGIN)), and
 //! sphere(D) ⊇ D's patches and every child's sphere grown by `radius_margin`, so that
 //! ρ(parent) ≥ ρ(child) holds for every eye even after f32 rounding (DESIGN.md, "Float
 //! robustness"): far eyes are covered by the relative error margin, near eyes by the absolute
 //! radius margin.
+//!
+//! Why the chain sum makes err a bound: own(D) then bounds
+//! the two-sided Hausdorff distance between the patches D gathers (its children's) and the
+//! ones it keeps (`simplify.rs`). Coarsening the leaves to any conforming cut merges diamonds
+//! one at a time, each replacing its children's patches by its own. A point of the cut on a
+//! patch of D was moved there from the leaves through a descending chain of merged diamonds,
+//! each move no longer than that diamond's own error, so it lies within chain(D) of the input
+//! surface; a point of the input is carried up an ascending chain that ends at a drawn
+//! diamond D', within chain(D') of the cut. The stored patches stand within `quantisation`
+//! of the positions measured.
 
 use rustc_hash::FxHashMap as HashMap;
 
@@ -18,22 +31,32 @@ pub const ERROR_MARGIN: f64 = 1e-5;
 /// Absolute growth of the radius from child to parent, as a fraction of the model's size.
 pub const RADIUS_MARGIN: f64 = 1e-5;
 
+/// The own error of each split diamond (indexed like `Hierarchy::diamonds`, model units).
+#[derive(Clone, Copy, Debug)]
+pub struct OwnErrors<'a> {
+    pub errors: &'a [f32],
+    /// Each bounds the two-sided distance between what the diamond gathers and what it keeps
+    /// (`SimplifySettings::bounded_errors`): chains sum. Otherwise they are estimates, and
+    /// chains take the maximum.
+    pub are_bounds: bool,
+}
+
 /// Saturated error and sphere per split diamond (indexed like `Hierarchy::diamonds`).
 pub struct Saturated {
     pub error: Vec<f64>,
     pub sphere: Vec<Sphere>,
 }
 
-/// `patch_sphere` gives the bounding sphere of a simplex's patch (relative to the repository
-/// origin); `quantisation_error` (≥ 0) is added to every own error: the simplifier measures
-/// on the input's positions, the stored patches stand on the position lattice, within that
-/// distance of them; `error_floor` (> 0) keeps every split diamond's error positive, so τ = 0
+/// `own` holds each diamond's own error; `patch_sphere` gives the bounding sphere of a simplex's patch (relative to the
+/// repository origin); `quantisation_error` (≥ 0) is added once to every chain: the own errors
+/// are measured on the input's positions, the stored patches stand on the position lattice,
+/// within that distance of them; `error_floor` (> 0) keeps every split diamond's error positive, so τ = 0
 /// selects the leaves; `model_size` scales the radius margin; `origin` is the repository
 /// origin.
 pub fn saturate(
     hierarchy: &Hierarchy,
     origin: [f64; 3],
-    own_error: &[f32],
+    own: OwnErrors,
     quantisation_error: f64,
     patch_sphere: &impl Fn(SimplexKey) -> Sphere,
     error_floor: f64,
@@ -47,13 +70,25 @@ pub fn saturate(
         .collect();
     let n = hierarchy.diamonds.len();
     let mut error = vec![0.0f64; n];
+    let mut chain = vec![0.0f64; n];
     let mut sphere = vec![Sphere::EMPTY; n];
     // Children come after their parents (a level deeper), so the reverse order visits children
     // first.
     let margin = RADIUS_MARGIN * model_size;
     for i in (0..n).rev() {
         let d = &hierarchy.diamonds[i];
-        let mut e = (own_error[i] as f64 + quantisation_error).max(error_floor);
+        let below = d
+            .children
+            .iter()
+            .filter_map(|c| index.get(c))
+            .map(|&c| chain[c])
+            .fold(0.0f64, f64::max);
+        let own_error = own.errors[i] as f64;
+        chain[i] = match own.are_bounds {
+            true => own_error + below,
+            false => own_error.max(below),
+        };
+        let mut e = (chain[i] + quantisation_error).max(error_floor);
         let mut s = d
             .simplices
             .iter()
@@ -136,7 +171,7 @@ mod tests {
     use crate::hierarchy::{build_hierarchy, Construction};
 
     #[test]
-    fn the_quantisation_error_is_added_to_every_own_error() {
+    fn own_errors_add_up_along_chains_and_the_quantisation_error_is_added_once() {
         let frame = LatticeFrame::around_box([0.0; 3], [1.0; 3], 10, 3);
         let barycenters: Vec<[f64; 3]> = (0..64)
             .map(|i| [0, 1, 2].map(|k| ((i * (7 + 5 * k) + 3) % 64) as f64 / 64.0 + 0.004))
@@ -150,14 +185,44 @@ mod tests {
             radius: 0.5,
         };
         let floor = 0.1;
-        let without = saturate(&hierarchy, [0.0; 3], &own, 0.0, &sphere, floor, 1.0);
-        let with = saturate(&hierarchy, [0.0; 3], &own, 0.25, &sphere, floor, 1.0);
+        let bounds = |errors| OwnErrors {
+            errors,
+            are_bounds: true,
+        };
+        let without = saturate(&hierarchy, [0.0; 3], bounds(&own), 0.0, &sphere, floor, 1.0);
+        let with = saturate(
+            &hierarchy,
+            [0.0; 3],
+            bounds(&own),
+            0.25,
+            &sphere,
+            floor,
+            1.0,
+        );
         for (a, b) in without.error.iter().zip(&with.error) {
-            // err = (own + q)·(1 + margin)^k along the deepest chain below: at least own + q.
-            assert!(*b >= 1.25 && *b >= a + 0.25 - 1e-12, "{a} {b}");
+            // err = the own errors summed down the deepest chain, + q once: at least own + q.
+            assert!(*b >= 1.25 && (*b - (a + 0.25)).abs() < 1e-9, "{a} {b}");
+        }
+        // Own errors add up along chains: a diamond k levels above the deepest split ones
+        // has err = k + 1 (own 1 each).
+        for (i, d) in hierarchy.diamonds.iter().enumerate() {
+            let children: Vec<usize> = d
+                .children
+                .iter()
+                .filter_map(|c| hierarchy.diamonds.iter().position(|x| x.id == *c))
+                .collect();
+            let below = children
+                .iter()
+                .map(|&c| without.error[c])
+                .fold(0.0, f64::max);
+            assert!(
+                (without.error[i] - (1.0 + below)).abs() < 1e-9,
+                "diamond {i}: {} with children at {below}",
+                without.error[i]
+            );
         }
         // A floor above own + q still wins: it is a floor, not a term.
-        let floored = saturate(&hierarchy, [0.0; 3], &own, 0.25, &sphere, 5.0, 1.0);
+        let floored = saturate(&hierarchy, [0.0; 3], bounds(&own), 0.25, &sphere, 5.0, 1.0);
         assert!(floored.error.iter().all(|&e| e >= 5.0));
     }
 }

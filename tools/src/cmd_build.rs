@@ -53,6 +53,12 @@ pub struct BuildArgs {
     /// index-sequence codecs, lossless; decoded by the loader): larger files, no decoding.
     #[arg(long)]
     pub no_compress: bool,
+    /// Store errors that are bounds: each diamond's error is an upper bound on the two-sided
+    /// (Hausdorff) distance between its patches and the input surface, so a cut drawn at τ
+    /// is within τ of the input everywhere. Slower to build, and the errors are larger than
+    /// the default's estimates (ARCHITECTURE.md, "Stored errors")
+    #[arg(long)]
+    pub bounded_errors: bool,
     /// Continue the build of the same input, flags and output that was killed or failed, from
     /// its checkpoint (`.OUT.tessera-build/` beside the output or in `--temp`); the repository
     /// is the same bytes. Needs `--memory` and an input file. Without `--resume` a leftover
@@ -167,6 +173,8 @@ pub fn run(args: BuildArgs) -> anyhow::Result<Outcome> {
         let mut value = summary_json(&summary, seconds);
         value["import_seconds"] = json!(import_seconds);
         value["memory_budget_bytes"] = json!(args.memory);
+        // Whether the stored errors are bounds (`--bounded-errors`) or estimates.
+        value["bounded_errors"] = json!(args.bounded_errors);
         // The most the out-of-core stages' temporary files held at once (0 without --memory).
         value["temp_bytes_peak"] = json!(tessera_preprocess::external::temp_usage::peak());
         if let Some(stages) = value["stages"].as_array_mut() {
@@ -213,6 +221,7 @@ fn configure(args: &BuildArgs, domain: Domain, memory: &Option<MemoryBudget>) ->
         },
         ..BuildConfig::for_domain(domain)
     };
+    config.simplify.bounded_errors = args.bounded_errors;
     if let Some(n) = args.leaf_triangles {
         config.construction = Construction::LeafTriangles(n);
     }

@@ -110,6 +110,7 @@ pub fn manifest_for(input: Fingerprint, config: &BuildConfig) -> Manifest {
     flag("simplify.keep", s.keep.to_string());
     flag("simplify.normal_weight", s.normal_weight.to_string());
     flag("simplify.keep_borders", s.keep_borders.to_string());
+    flag("simplify.bounded_errors", s.bounded_errors.to_string());
     flag(
         "simplify.fault_ignore_locks",
         s.fault_ignore_locks.to_string(),

@@ -180,7 +180,6 @@ pub fn simplify_levels(
     let ctx = Context {
         frame,
         numbering_table: numbering_table(state.vertex_count, spill_dir.is_some()),
-        size: frame.model_size(),
         settings: *settings,
     };
     if state.own_error.is_empty() {

@@ -1,0 +1,40 @@
+//! `build --bounded-errors` from the command line: the JSON says which errors were stored,
+//! bounds are larger than estimates, and the repository still checks crack-free.
+
+use std::path::Path;
+use std::process::Command;
+
+fn run(args: &[&str]) -> serde_json::Value {
+    let out = Command::new(env!("CARGO_BIN_EXE_tessera"))
+        .args(args)
+        .output()
+        .expect("run tessera");
+    assert!(
+        out.status.success(),
+        "tessera {args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).expect("one JSON object")
+}
+
+#[test]
+fn bounded_errors_are_stored_larger_and_the_repository_checks_clean() {
+    let lion = Path::new(env!("CARGO_MANIFEST_DIR")).join("../testdata/mesh/lion-head.off");
+    assert!(lion.exists(), "run tools/fetch-testdata.sh first");
+    let dir = tempfile::tempdir().unwrap();
+    let build = |name: &str, extra: &[&str]| {
+        let out = dir.path().join(name);
+        let mut args = vec!["build", lion.to_str().unwrap(), "-o", out.to_str().unwrap()];
+        args.extend_from_slice(extra);
+        args.push("--json");
+        (run(&args), out)
+    };
+    let (estimated, _) = build("estimated.tsr", &[]);
+    let (bounded, repo) = build("bounded.tsr", &["--bounded-errors"]);
+    assert_eq!(estimated["bounded_errors"], false);
+    assert_eq!(bounded["bounded_errors"], true);
+    let root = |v: &serde_json::Value| v["root_error"].as_f64().unwrap();
+    assert!(root(&bounded) > root(&estimated), "{bounded} vs {estimated}");
+    let check = run(&["check", repo.to_str().unwrap(), "--json"]);
+    assert_eq!(check["cracks"], 0, "{check}");
+}
