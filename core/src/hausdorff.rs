@@ -53,10 +53,7 @@ pub fn directed_bound(positions: &[[f64; 3]], from: &[u32], to: &[u32], floor: f
     if remaining.is_empty() {
         return floor;
     }
-    let targets: Vec<[[f64; 3]; 3]> = to
-        .chunks_exact(3)
-        .map(|t| [0, 1, 2].map(|k| positions[t[k] as usize]))
-        .collect();
+    let targets = corner_positions(positions, to);
     if targets.is_empty() {
         return f64::INFINITY;
     }
@@ -115,10 +112,7 @@ pub fn sampled_directed(positions: &[[f64; 3]], from: &[u32], to: &[u32], steps:
     if from.len() < 3 {
         return 0.0;
     }
-    let targets: Vec<[[f64; 3]; 3]> = to
-        .chunks_exact(3)
-        .map(|t| [0, 1, 2].map(|k| positions[t[k] as usize]))
-        .collect();
+    let targets = corner_positions(positions, to);
     if targets.is_empty() {
         return f64::INFINITY;
     }
@@ -141,6 +135,14 @@ pub fn sampled_directed(positions: &[[f64; 3]], from: &[u32], to: &[u32], steps:
         }
     }
     largest
+}
+
+/// The corner positions of each triangle of a flat index list.
+fn corner_positions(positions: &[[f64; 3]], indices: &[u32]) -> Vec<[[f64; 3]; 3]> {
+    indices
+        .chunks_exact(3)
+        .map(|t| [0, 1, 2].map(|k| positions[t[k] as usize]))
+        .collect()
 }
 
 /// A corner of a piece of triangle, with its exact distance to the target set and the target

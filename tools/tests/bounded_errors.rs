@@ -34,7 +34,10 @@ fn bounded_errors_are_stored_larger_and_the_repository_checks_clean() {
     assert_eq!(estimated["bounded_errors"], false);
     assert_eq!(bounded["bounded_errors"], true);
     let root = |v: &serde_json::Value| v["root_error"].as_f64().unwrap();
-    assert!(root(&bounded) > root(&estimated), "{bounded} vs {estimated}");
+    assert!(
+        root(&bounded) > root(&estimated),
+        "{bounded} vs {estimated}"
+    );
     let check = run(&["check", repo.to_str().unwrap(), "--json"]);
     assert_eq!(check["cracks"], 0, "{check}");
 }
