@@ -45,10 +45,9 @@ pub fn directed_bound(positions: &[[f64; 3]], from: &[u32], to: &[u32], floor: f
         k
     };
     let shared: HashSet<[u32; 3]> = to.chunks_exact(3).map(sorted).collect();
-    let remaining: Vec<[[f64; 3]; 3]> = from
+    let remaining: Vec<&[u32]> = from
         .chunks_exact(3)
         .filter(|t| !shared.contains(&sorted(t)))
-        .map(|t| [0, 1, 2].map(|k| positions[t[k] as usize]))
         .collect();
     if remaining.is_empty() {
         return floor;
@@ -59,20 +58,39 @@ pub fn directed_bound(positions: &[[f64; 3]], from: &[u32], to: &[u32], floor: f
     }
     let grid = TriangleGrid::new(&targets);
     let mut search = Search::new(&grid);
+    // Each corner once: a vertex of a target triangle is at distance 0 from it, any other
+    // is queried (vertices are shared by about six triangles).
+    let mut corner_of: Vec<Option<Corner>> = vec![None; positions.len()];
+    for (index, t) in to.chunks_exact(3).enumerate() {
+        for &v in t {
+            corner_of[v as usize] = Some(Corner {
+                point: positions[v as usize],
+                distance: 0.0,
+                nearest: index,
+            });
+        }
+    }
+    let mut hint = None;
+    let mut corner = |v: u32, search: &mut Search| {
+        *corner_of[v as usize].get_or_insert_with(|| {
+            let c = search.nearest(positions[v as usize], hint);
+            hint = Some(c.nearest);
+            c
+        })
+    };
     // First every corner, so that the largest corner distance (a lower bound on the answer)
     // prunes from the start; then the triangles farthest away first.
     let mut pieces: Vec<[Corner; 3]> = remaining
         .iter()
-        .map(|t| {
-            let a = search.nearest(t[0], None);
-            let b = search.nearest(t[1], Some(a.nearest));
-            let c = search.nearest(t[2], Some(b.nearest));
-            [a, b, c]
-        })
+        .map(|t| [0, 1, 2].map(|k| corner(t[k], &mut search)))
         .collect();
     let farthest = |c: &[Corner; 3]| c.iter().map(|c| c.distance).fold(0.0f64, f64::max);
     let mut found = pieces.iter().map(farthest).fold(0.0f64, f64::max);
     pieces.sort_by(|a, b| farthest(b).total_cmp(&farthest(a)));
+    let remaining: Vec<[[f64; 3]; 3]> = remaining
+        .iter()
+        .map(|t| [0, 1, 2].map(|k| positions[t[k] as usize]))
+        .collect();
     let mean_edge = remaining.iter().map(longest_edge).sum::<f64>() / remaining.len() as f64;
     let resolution = (RESOLUTION * mean_edge).max(floor);
     let mut bound = 0.0f64; // the largest accepted piece bound (the upper bound)
@@ -81,8 +99,9 @@ pub fn directed_bound(positions: &[[f64; 3]], from: &[u32], to: &[u32], floor: f
         stack.push((a, b, c, 0));
         while let Some((a, b, c, depth)) = stack.pop() {
             found = found.max(a.distance).max(b.distance).max(c.distance);
-            let piece = piece_bound(&grid, &mut search, [&a, &b, &c]);
-            if piece <= (found * (1.0 + SLACK)).max(resolution) || depth == MAX_DEPTH {
+            let enough = (found * (1.0 + SLACK)).max(resolution);
+            let piece = piece_bound(&grid, &mut search, [&a, &b, &c], enough);
+            if piece <= enough || depth == MAX_DEPTH {
                 bound = bound.max(piece);
                 continue;
             }
@@ -154,30 +173,50 @@ struct Corner {
     nearest: usize,
 }
 
-/// The bound on max d(x, B) over the piece with these corners: the best of the convexity
-/// bound through each corner's nearest triangle and through the centre's, and the covering
-/// bound.
-fn piece_bound(grid: &TriangleGrid, search: &mut Search, corners: [&Corner; 3]) -> f64 {
+/// A bound on max d(x, B) over the piece with these corners: the covering bound, or the
+/// convexity bound through the nearest triangle of the piece's centre or of a corner,
+/// whichever is least; stops at the first at or below `enough` (the caller accepts any such).
+fn piece_bound(
+    grid: &TriangleGrid,
+    search: &mut Search,
+    corners: [&Corner; 3],
+    enough: f64,
+) -> f64 {
     let points = corners.map(|c| c.point);
-    let through = |t: usize| {
-        points
-            .iter()
-            .map(|&p| point_triangle_distance(p, &grid.triangles[t]))
-            .fold(0.0f64, f64::max)
-    };
+    let mut best = corners.iter().map(|c| c.distance).fold(0.0f64, f64::max)
+        + longest_edge(&points) / 3f64.sqrt();
+    if best <= enough {
+        return best;
+    }
     let centre = search.nearest(
         [0, 1, 2].map(|k| (points[0][k] + points[1][k] + points[2][k]) / 3.0),
         Some(corners[0].nearest),
     );
-    let convex = corners
-        .iter()
-        .map(|c| c.nearest)
-        .chain(std::iter::once(centre.nearest))
-        .map(through)
-        .fold(f64::INFINITY, f64::min);
-    let covering = corners.iter().map(|c| c.distance).fold(0.0f64, f64::max)
-        + longest_edge(&points) / 3f64.sqrt();
-    convex.min(covering)
+    let mut tried: [usize; 4] = [usize::MAX; 4];
+    let candidates = std::iter::once(centre.nearest).chain(corners.iter().map(|c| c.nearest));
+    for (slot, t) in candidates.enumerate() {
+        if tried[..slot].contains(&t) {
+            continue;
+        }
+        tried[slot] = t;
+        // The largest corner distance to t, given up once it cannot improve on `best`.
+        let mut through = 0.0f64;
+        for c in corners {
+            let d = match c.nearest == t {
+                true => c.distance,
+                false => point_triangle_distance(c.point, &grid.triangles[t]),
+            };
+            through = through.max(d);
+            if through >= best {
+                break;
+            }
+        }
+        best = best.min(through);
+        if best <= enough {
+            break;
+        }
+    }
+    best
 }
 
 fn midpoint(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
