@@ -4,52 +4,30 @@
 //! never above the largest error of the drawn diamonds. Sampling can only show a bound false:
 //! a sampled distance above the stored error fails the test.
 
+use tessera_core::cut::select_stateless;
 use tessera_core::hausdorff::sampled_directed;
-use tessera_core::repository::format::{dequantize_position, NO_INDEX};
-use tessera_core::repository::Repository;
+use tessera_core::repository::surface::patch_surface;
+use tessera_core::repository::{Repository, NO_INDEX};
 use tessera_preprocess::import::load_mesh;
 use tessera_preprocess::BuildConfig;
 use tessera_tests::{build, testdata};
 
-/// The triangles of the tets `keep` accepts, as one position list and flat indices.
-fn triangles(repo: &Repository, keep: impl Fn(usize) -> bool) -> (Vec<[f64; 3]>, Vec<u32>) {
-    let h = repo.header();
-    let mut positions = Vec::new();
-    let mut indices = Vec::new();
-    for t in (0..repo.tets().len()).filter(|&t| keep(t)) {
-        let patch = repo.patch(t).expect("patch");
-        let view = patch.view();
-        let first = positions.len() as u32;
-        positions.extend(
-            (0..view.vertex_count())
-                .map(|v| dequantize_position(view.position(v), h.bbox_min, h.position_step)),
-        );
-        indices.extend(view.triangles().flatten().map(|i| first + i));
-    }
-    (positions, indices)
-}
-
 /// Largest sampled two-sided distance between the cut at object-space threshold `epsilon`
 /// and the leaves, the largest error of the cut's diamonds, and the cut's triangles.
 fn cut_against_input(repo: &Repository, epsilon: f32) -> (f64, f64, usize) {
-    let error_of = |d: u32| match d {
-        NO_INDEX => 0.0,
-        d => repo.diamonds()[d as usize].error,
-    };
-    let drawn = |t: usize| {
-        let tet = &repo.tets()[t];
-        let parent = match tet.parent_diamond {
-            NO_INDEX => f32::INFINITY,
-            d => repo.diamonds()[d as usize].error,
-        };
-        error_of(tet.diamond) <= epsilon && epsilon < parent
-    };
-    let largest = (0..repo.tets().len())
-        .filter(|&t| drawn(t))
-        .map(|t| error_of(repo.tets()[t].diamond) as f64)
+    let errors: Vec<f32> = repo.diamonds().iter().map(|d| d.error).collect();
+    let tets = repo.tets();
+    let drawn = select_stateless(tets, &errors, epsilon);
+    let largest = drawn
+        .iter()
+        .map(|&t| match tets[t as usize].diamond {
+            NO_INDEX => 0.0,
+            d => errors[d as usize] as f64,
+        })
         .fold(0.0, f64::max);
-    let (cut_positions, cut) = triangles(repo, drawn);
-    let (leaf_positions, leaves) = triangles(repo, |t| repo.tets()[t].diamond == NO_INDEX);
+    let (cut_positions, cut) = patch_surface(repo, drawn.iter().map(|&t| t as usize)).unwrap();
+    let leaves = (0..tets.len()).filter(|&t| tets[t].diamond == NO_INDEX);
+    let (leaf_positions, leaves) = patch_surface(repo, leaves).unwrap();
     // One position list: the cut's vertices, then the leaves'.
     let offset = cut_positions.len() as u32;
     let positions: Vec<[f64; 3]> = cut_positions.into_iter().chain(leaf_positions).collect();

@@ -54,6 +54,9 @@ pub enum BenchWhat {
     /// A camera path under a residency budget, warm and cold: resident bytes, loads, missing
     /// units, max ρ/τ of the drawn cut and frame ms per frame (CPU traversal).
     Stream(crate::cmd_bench_stream::StreamBenchArgs),
+    /// Object-space cuts against the input: the sampled two-sided distance of each cut to the
+    /// leaves, against the largest error the cut's diamonds store (are they bounds?).
+    Errors(crate::cmd_bench_errors::ErrorsBenchArgs),
 }
 
 #[derive(Args)]
@@ -90,6 +93,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<Outcome> {
         Some(BenchWhat::Render(a)) => crate::cmd_bench_render::run(a),
         Some(BenchWhat::Terrain(a)) => crate::terrain::bench::run(a),
         Some(BenchWhat::Stream(a)) => crate::cmd_bench_stream::run(a),
+        Some(BenchWhat::Errors(a)) => crate::cmd_bench_errors::run(a),
         None => crate::bench::run(args.trade),
     }
 }

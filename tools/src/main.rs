@@ -11,6 +11,7 @@ mod bench_stream_loops;
 mod bench_stream_plot;
 mod build_checkpoint;
 mod cmd_bench;
+mod cmd_bench_errors;
 mod cmd_bench_render;
 mod cmd_bench_stream;
 mod cmd_build;

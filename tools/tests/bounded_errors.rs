@@ -1,5 +1,6 @@
 //! `build --bounded-errors` from the command line: the JSON says which errors were stored,
-//! bounds are larger than estimates, and the repository still checks crack-free.
+//! bounds are larger than estimates, the repository still checks crack-free, and
+//! `bench errors` measures its cuts within their stored errors.
 
 use std::path::Path;
 use std::process::Command;
@@ -40,4 +41,29 @@ fn bounded_errors_are_stored_larger_and_the_repository_checks_clean() {
     );
     let check = run(&["check", repo.to_str().unwrap(), "--json"]);
     assert_eq!(check["cracks"], 0, "{check}");
+    // `bench errors`: every cut of the bounded build stays within its largest stored error
+    // of the leaves (the leaves stand within the quantisation of the input, too).
+    let quantisation = bounded["quantisation_error"].as_f64().unwrap();
+    let measured = run(&[
+        "bench",
+        "errors",
+        repo.to_str().unwrap(),
+        "--cuts",
+        "5",
+        "--json",
+    ]);
+    let cuts = measured["cuts"].as_array().unwrap();
+    assert_eq!(cuts.len(), 5, "{measured}");
+    for cut in cuts {
+        let distance = cut["sampled_distance"].as_f64().unwrap();
+        let largest = cut["largest_drawn_error"].as_f64().unwrap();
+        assert!(cut["samples"].as_u64().unwrap() > 0, "{cut}");
+        assert!(distance <= largest + quantisation, "{cut}");
+    }
+    // Coarser cuts draw fewer triangles.
+    let triangles: Vec<u64> = cuts
+        .iter()
+        .map(|c| c["triangles"].as_u64().unwrap())
+        .collect();
+    assert!(triangles.windows(2).all(|w| w[0] >= w[1]), "{triangles:?}");
 }

@@ -28,6 +28,7 @@ pub mod reader;
 pub mod repack;
 pub mod streamed_writer;
 pub mod strip;
+pub mod surface;
 pub mod writer;
 
 pub use format::PatchCodec;

@@ -1,0 +1,161 @@
+//! `tessera bench errors REPO`: how far the cuts of a repository are from its input, against
+//! the errors it stores (issue 13: "stored errors that are bounds").
+//!
+//! Object-space cuts: a simplex is drawn iff err(its diamond) ≤ ε < err(its parent diamond),
+//! the run-time rule with distances taken out. For each ε (a geometric sweep from the
+//! smallest diamond error to the root's), the two-sided distance between the drawn patches
+//! and the leaves (the input on the position lattice) is sampled: `CUT_STEPS` a side on each
+//! drawn triangle, `LEAF_STEPS` on each leaf, exact nearest-triangle distances. A sample's
+//! distance is exact, so the largest is a lower bound on the true distance: a ratio
+//! `distance / largest drawn error` above 1 proves the stored errors are not bounds there; below
+//! 1 is what bounds (`build --bounded-errors`) must give. Comparing two builds of one input at
+//! equal measured distance (their triangles at the same `distance`) is the trade the errors
+//! buy.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::Context;
+use clap::Args;
+use serde_json::json;
+use tessera_core::cut::select_stateless;
+use tessera_core::hausdorff::sampled_directed;
+use tessera_core::repository::surface::patch_surface;
+use tessera_core::repository::{Repository, NO_INDEX};
+
+use crate::Outcome;
+
+/// Barycentric lattice steps a side on each drawn triangle (15 points).
+const CUT_STEPS: usize = 4;
+/// The same on each leaf triangle (6 points: corners and edge midpoints).
+const LEAF_STEPS: usize = 2;
+
+#[derive(Args)]
+pub struct ErrorsBenchArgs {
+    /// The repository.
+    pub repo: PathBuf,
+    /// Number of cuts, geometrically spaced from the smallest diamond error to the root's.
+    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(1..=64))]
+    pub cuts: u32,
+    /// Print one JSON object on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// One cut's figures.
+struct CutRow {
+    epsilon: f32,
+    tets: usize,
+    triangles: usize,
+    largest_error: f64,
+    distance: f64,
+    samples: u64,
+    seconds: f64,
+}
+
+pub fn run(args: ErrorsBenchArgs) -> anyhow::Result<Outcome> {
+    let repo = Repository::open(&args.repo)
+        .with_context(|| format!("cannot open {}", args.repo.display()))?;
+    let errors: Vec<f32> = repo.diamonds().iter().map(|d| d.error).collect();
+    let smallest = errors
+        .iter()
+        .copied()
+        .filter(|&e| e > 0.0)
+        .fold(f32::MAX, f32::min);
+    let root = errors.iter().copied().fold(0.0f32, f32::max);
+    if errors.is_empty() || root <= 0.0 {
+        anyhow::bail!(
+            "{} has no split diamond: nothing to cut",
+            args.repo.display()
+        );
+    }
+    let tets = repo.tets();
+    let leaves = (0..tets.len()).filter(|&t| tets[t].diamond == NO_INDEX);
+    let (leaf_positions, leaf_indices) = patch_surface(&repo, leaves)?;
+    let leaf_triangles = leaf_indices.len() / 3;
+    let mut rows = Vec::new();
+    for k in 0..args.cuts {
+        let start = Instant::now();
+        let f = if args.cuts == 1 {
+            1.0
+        } else {
+            k as f64 / (args.cuts - 1) as f64
+        };
+        let epsilon = (smallest as f64 * (root as f64 / smallest as f64).powf(f)) as f32;
+        let drawn = select_stateless(tets, &errors, epsilon);
+        let largest_error = drawn
+            .iter()
+            .map(|&t| match tets[t as usize].diamond {
+                NO_INDEX => 0.0,
+                d => errors[d as usize] as f64,
+            })
+            .fold(0.0, f64::max);
+        let (cut_positions, cut) = patch_surface(&repo, drawn.iter().map(|&t| t as usize))?;
+        // One position list: the cut's vertices, then the leaves'.
+        let offset = cut_positions.len() as u32;
+        let positions: Vec<[f64; 3]> = cut_positions
+            .into_iter()
+            .chain(leaf_positions.iter().copied())
+            .collect();
+        let leaves: Vec<u32> = leaf_indices.iter().map(|i| i + offset).collect();
+        let distance = sampled_directed(&positions, &cut, &leaves, CUT_STEPS)
+            .max(sampled_directed(&positions, &leaves, &cut, LEAF_STEPS));
+        let points = |steps: usize| ((steps + 1) * (steps + 2) / 2) as u64;
+        rows.push(CutRow {
+            epsilon,
+            tets: drawn.len(),
+            triangles: cut.len() / 3,
+            largest_error,
+            distance,
+            samples: (cut.len() / 3) as u64 * points(CUT_STEPS)
+                + leaf_triangles as u64 * points(LEAF_STEPS),
+            seconds: start.elapsed().as_secs_f64(),
+        });
+    }
+    if args.json {
+        let cuts: Vec<serde_json::Value> = rows
+            .iter()
+            .map(|r| {
+                json!({
+                    "epsilon": r.epsilon,
+                    "simplices": r.tets,
+                    "triangles": r.triangles,
+                    "largest_drawn_error": r.largest_error,
+                    "sampled_distance": r.distance,
+                    "ratio": r.distance / r.largest_error.max(f64::MIN_POSITIVE),
+                    "samples": r.samples,
+                    "seconds": r.seconds,
+                })
+            })
+            .collect();
+        println!(
+            "{}",
+            json!({
+                "repository": args.repo.display().to_string(),
+                "leaf_triangles": leaf_triangles,
+                "metric": {"space": "object", "sides": "two-sided", "distance": "sampled lower bound"},
+                "cuts": cuts,
+            })
+        );
+    } else {
+        println!(
+            "{}: {} leaf triangles; object-space cuts, two-sided distance to the leaves \
+             (sampled: a lower bound)",
+            args.repo.display(),
+            leaf_triangles
+        );
+        println!("        ε   triangles  largest error   distance  ratio    samples");
+        for r in &rows {
+            println!(
+                "{:9.3e} {:11} {:14.3e} {:10.3e} {:6.2} {:10}",
+                r.epsilon,
+                r.triangles,
+                r.largest_error,
+                r.distance,
+                r.distance / r.largest_error.max(f64::MIN_POSITIVE),
+                r.samples
+            );
+        }
+    }
+    Ok(Outcome::Ok)
+}
