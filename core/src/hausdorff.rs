@@ -213,10 +213,91 @@ fn piece_bound(
         }
         best = best.min(through);
         if best <= enough {
-            break;
+            return best;
+        }
+    }
+    // A piece across the edge between two nearest triangles: split it by a plane, and bound
+    // each side through its own triangle (`split_bound`).
+    let distinct: Vec<usize> = tried.iter().copied().filter(|&t| t != usize::MAX).collect();
+    for (i, &t1) in distinct.iter().enumerate() {
+        for &t2 in &distinct[i + 1..] {
+            best = best.min(split_bound(grid, &points, t1, t2, best));
+            if best <= enough {
+                return best;
+            }
         }
     }
     best
+}
+
+/// For any plane π, max over the piece P of d(x, B) ≤ the larger of max over P ∩ π⁺ of
+/// d(x, t1) and max over P ∩ π⁻ of d(x, t2); each side is convex, so its maximum is at a
+/// corner of that side (P's corners there and where P's edges cross π). π goes through the
+/// edge t1 and t2 share, halfway between their planes, or else halfway between their centres.
+/// Gives up (returns `give_up`) once a corner reaches it.
+fn split_bound(
+    grid: &TriangleGrid,
+    piece: &[[f64; 3]; 3],
+    t1: usize,
+    t2: usize,
+    give_up: f64,
+) -> f64 {
+    let (a, b) = (&grid.triangles[t1], &grid.triangles[t2]);
+    let centre = |t: &[[f64; 3]; 3]| [0, 1, 2].map(|k| (t[0][k] + t[1][k] + t[2][k]) / 3.0);
+    let shared: Vec<[f64; 3]> = a.iter().filter(|p| b.contains(p)).copied().collect();
+    let (origin, normal) = match shared.as_slice() {
+        [p, q] => {
+            let unit = |v: [f64; 3]| {
+                let n = dot(v, v).sqrt();
+                if n > 0.0 {
+                    v.map(|x| x / n)
+                } else {
+                    v
+                }
+            };
+            let na = unit(cross(sub(a[1], a[0]), sub(a[2], a[0])));
+            let nb = unit(cross(sub(b[1], b[0]), sub(b[2], b[0])));
+            let mean = [na[0] + nb[0], na[1] + nb[1], na[2] + nb[2]];
+            (*p, cross(sub(*q, *p), mean))
+        }
+        _ => {
+            let (ca, cb) = (centre(a), centre(b));
+            (midpoint(ca, cb), sub(ca, cb))
+        }
+    };
+    // t1's side positive.
+    let side = |x: [f64; 3]| dot(sub(x, origin), normal);
+    let sign = if side(centre(a)) >= 0.0 { 1.0 } else { -1.0 };
+    if dot(normal, normal) == 0.0 {
+        return give_up;
+    }
+    let mut largest = 0.0f64;
+    let mut measure = |x: [f64; 3], t: &[[f64; 3]; 3]| {
+        largest = largest.max(point_triangle_distance(x, t));
+        largest >= give_up
+    };
+    for i in 0..3 {
+        let (p, q) = (piece[i], piece[(i + 1) % 3]);
+        let (sp, sq) = (sign * side(p), sign * side(q));
+        // A corner on π is a corner of both sides.
+        let stop = match sp {
+            s if s > 0.0 => measure(p, a),
+            s if s < 0.0 => measure(p, b),
+            _ => measure(p, a) || measure(p, b),
+        };
+        if stop {
+            return give_up;
+        }
+        if (sp > 0.0 && sq < 0.0) || (sp < 0.0 && sq > 0.0) {
+            let t = sp / (sp - sq);
+            let x = [0, 1, 2].map(|k| p[k] + t * (q[k] - p[k]));
+            // On π: a corner of both sides.
+            if measure(x, a) || measure(x, b) {
+                return give_up;
+            }
+        }
+    }
+    largest
 }
 
 fn midpoint(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {

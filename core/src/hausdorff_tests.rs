@@ -53,6 +53,22 @@ fn parallel_squares_are_their_gap_apart() {
 }
 
 #[test]
+fn one_square_triangulated_two_ways_is_at_distance_zero() {
+    // The same unit square cut along either diagonal: every piece of one triangulation that
+    // crosses the other's diagonal is bounded on each side of it through its own triangle.
+    let positions = vec![
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [1.0, 1.0, 0.0],
+        [0.0, 1.0, 0.0],
+    ];
+    let one = [0, 1, 2, 0, 2, 3];
+    let other = [0, 1, 3, 1, 2, 3];
+    let h = two_sided_bound(&positions, &one, &other);
+    assert!(h <= 1e-12, "{h}");
+}
+
+#[test]
 fn identical_sets_are_at_distance_zero_and_empty_sets_are_infinitely_far() {
     let mut positions = Vec::new();
     let s = square(&mut positions, 0.0);
