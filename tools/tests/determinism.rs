@@ -2,7 +2,7 @@
 //! with or without `--memory` (issue 12, "Determinism"): a mesh and a height field, 1, 2 and 7
 //! threads; a generated 2 M-triangle mesh with shuffled vertices and 1000× varying density, a
 //! scan and a height field with `--memory 64M` and a budget small enough that every
-//! out-of-core stage spills.
+//! out-of-core stage spills; the same with `--bounded-errors`.
 
 use std::path::Path;
 use std::process::Command;
@@ -106,6 +106,36 @@ fn a_memory_budget_does_not_change_a_byte() {
                 "temporary files left in --temp"
             );
         }
+    }
+}
+
+#[test]
+fn bounded_errors_depend_neither_on_threads_nor_on_a_memory_budget() {
+    let dir = tempfile::tempdir().unwrap();
+    let temp = dir.path().join("temp");
+    std::fs::create_dir(&temp).unwrap();
+    for input in ["mesh/bunny00.off", "dem/jacksboro_fault_dem.npz"] {
+        let input = testdata(input);
+        let bounded = |name: &str, flags: &[&str]| {
+            let flags = [&["--bounded-errors"], flags].concat();
+            build_with(&input, &dir.path().join(name), &flags)
+        };
+        let reference = bounded("one.tsr", &["--threads", "1"]);
+        let estimated = build_with(&input, &dir.path().join("estimated.tsr"), &[]);
+        assert!(reference != estimated, "--bounded-errors changed nothing");
+        let threads = bounded("two.tsr", &["--threads", "2"]);
+        assert!(
+            threads == reference,
+            "{}: 2 threads differ",
+            input.display()
+        );
+        let budget = ["--memory", "1M", "--temp", temp.to_str().unwrap()];
+        let limited = bounded("limited.tsr", &budget);
+        assert!(
+            limited == reference,
+            "{}: --memory 1M differs",
+            input.display()
+        );
     }
 }
 
