@@ -343,7 +343,12 @@ fn build_in_pool(
     let origin = bbox_min;
     let frame =
         LatticeFrame::around_box(bbox_min, bbox_max, config.lattice_bits, config.domain.dim());
-    let levels = (1u64 << POSITION_BITS) as f64 - 1.0;
+    assert!(
+        (1..=POSITION_BITS).contains(&config.position_bits),
+        "position bits {} outside 1..={POSITION_BITS}",
+        config.position_bits
+    );
+    let levels = (1u64 << config.position_bits) as f64 - 1.0;
     let step = [0, 1, 2].map(|i| (bbox_max[i] - bbox_min[i]) / levels);
     let model_size = crate::frame::diagonal(bbox_min, bbox_max).max(f64::MIN_POSITIVE);
 

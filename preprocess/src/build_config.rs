@@ -1,6 +1,7 @@
 //! What controls a build and what it reports: `BuildConfig` (with its `Domain` and the
 //! `--memory` budget), `BuildError`, `BuildSummary`. The driver is `build.rs`.
 
+use tessera_core::repository::format::POSITION_BITS;
 use tessera_core::repository::{PatchCodec, RepositoryError};
 
 use crate::hierarchy::Construction;
@@ -36,6 +37,10 @@ pub struct BuildConfig {
     /// How the repository stores its patches: packed (the default) or raw (`--no-compress`).
     /// Either decodes to the same drawn bytes.
     pub codec: PatchCodec,
+    /// Bits per axis of the position grid (`--position-bits`, 1..=`POSITION_BITS`): the step
+    /// is the bounding box's extent / (2^bits − 1). Fewer bits make packed patches smaller and
+    /// the quantisation error (counted in every stored error) larger.
+    pub position_bits: u32,
 }
 
 /// How much memory the out-of-core stages may use, and where their temporary files go (all
@@ -103,6 +108,7 @@ impl BuildConfig {
             domain,
             memory: None,
             codec: PatchCodec::Packed,
+            position_bits: POSITION_BITS,
             simplify: SimplifySettings {
                 keep_borders: domain == Domain::Volume,
                 ..SimplifySettings::default()

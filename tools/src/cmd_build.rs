@@ -59,6 +59,12 @@ pub struct BuildArgs {
     /// the default's estimates (ARCHITECTURE.md, "Stored errors")
     #[arg(long)]
     pub bounded_errors: bool,
+    /// Bits per axis of the position grid over the bounding box (1–21, default 21): fewer
+    /// make the repository smaller and every stored error larger by the grid's half-diagonal
+    /// (printed, and `quantisation_error` in `--json`)
+    #[arg(long, value_name = "BITS", default_value_t = POSITION_BITS,
+          value_parser = clap::value_parser!(u32).range(1..=POSITION_BITS as i64))]
+    pub position_bits: u32,
     /// Continue the build of the same input, flags and output that was killed or failed, from
     /// its checkpoint (`.OUT.tessera-build/` beside the output or in `--temp`); the repository
     /// is the same bytes. Needs `--memory` and an input file. Without `--resume` a leftover
@@ -175,6 +181,7 @@ pub fn run(args: BuildArgs) -> anyhow::Result<Outcome> {
         value["memory_budget_bytes"] = json!(args.memory);
         // Whether the stored errors are bounds (`--bounded-errors`) or estimates.
         value["bounded_errors"] = json!(args.bounded_errors);
+        value["position_bits"] = json!(args.position_bits);
         // The most the out-of-core stages' temporary files held at once (0 without --memory).
         value["temp_bytes_peak"] = json!(tessera_preprocess::external::temp_usage::peak());
         if let Some(stages) = value["stages"].as_array_mut() {
@@ -203,7 +210,7 @@ pub fn run(args: BuildArgs) -> anyhow::Result<Outcome> {
         println!("{value}");
     } else {
         println!("{name}: {}", input.description());
-        print_summary(&summary, seconds, import_seconds);
+        print_summary(&summary, args.position_bits, seconds, import_seconds);
         println!("wrote {}", args.output.display());
     }
     Ok(Outcome::Ok)
@@ -222,6 +229,7 @@ fn configure(args: &BuildArgs, domain: Domain, memory: &Option<MemoryBudget>) ->
         ..BuildConfig::for_domain(domain)
     };
     config.simplify.bounded_errors = args.bounded_errors;
+    config.position_bits = args.position_bits;
     if let Some(n) = args.leaf_triangles {
         config.construction = Construction::LeafTriangles(n);
     }
@@ -284,7 +292,7 @@ pub fn summary_json(s: &BuildSummary, seconds: f64) -> serde_json::Value {
     })
 }
 
-pub fn print_summary(s: &BuildSummary, seconds: f64, import_seconds: f64) {
+pub fn print_summary(s: &BuildSummary, position_bits: u32, seconds: f64, import_seconds: f64) {
     println!(
         "input: {} triangles, {} vertices (import {:.2} s)",
         s.input_triangles, s.input_vertices, import_seconds
@@ -300,7 +308,7 @@ pub fn print_summary(s: &BuildSummary, seconds: f64, import_seconds: f64) {
         s.root_error
     );
     println!(
-        "positions: {POSITION_BITS} bits per axis, step {:.3e} × {:.3e} × {:.3e}; quantisation error {:.3e} \
+        "positions: {position_bits} bits per axis, step {:.3e} × {:.3e} × {:.3e}; quantisation error {:.3e} \
          (counted in every stored error)",
         s.position_step[0], s.position_step[1], s.position_step[2], s.quantisation_error
     );

@@ -192,7 +192,12 @@ pub fn run(args: DemoArgs) -> anyhow::Result<Outcome> {
     )?;
     stages.finish();
     println!("tessera demo: procedural displaced icosphere, {} subdivisions (generated in {generate_seconds:.2} s)", args.subdivisions);
-    crate::cmd_build::print_summary(&summary, summary.seconds, 0.0);
+    crate::cmd_build::print_summary(
+        &summary,
+        tessera_core::repository::format::POSITION_BITS,
+        summary.seconds,
+        0.0,
+    );
     crate::cmd_check::print_report(&report, check_seconds);
     match frames {
         Some(Ok(lines)) => lines.iter().for_each(|l| println!("{l}")),

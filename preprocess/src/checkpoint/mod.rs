@@ -106,6 +106,7 @@ pub fn manifest_for(input: Fingerprint, config: &BuildConfig) -> Manifest {
     flag("lattice_bits", config.lattice_bits.to_string());
     // The finished patches in the checkpoint are stored as this codec says.
     flag("codec", format!("{:?}", config.codec));
+    flag("position_bits", config.position_bits.to_string());
     let s = &config.simplify;
     flag("simplify.keep", s.keep.to_string());
     flag("simplify.normal_weight", s.normal_weight.to_string());
