@@ -61,6 +61,7 @@ pub fn run(args: InfoArgs) -> anyhow::Result<Outcome> {
         })
         .collect();
     let codec = repo.codec().name();
+    let bits = position_bits(h);
     let value = json!({
         "format_version": h.version,
         "dimension": h.dimension,
@@ -80,6 +81,8 @@ pub fn run(args: InfoArgs) -> anyhow::Result<Outcome> {
         "root_error": root_error,
         "bbox_min": h.bbox_min,
         "bbox_max": h.bbox_max,
+        "position_step": h.position_step,
+        "position_bits": bits,
         "repository_bytes": repo.file_bytes(),
         "patch_blob_bytes": patch_blob_bytes,
         "id_blob_bytes": id_blob_bytes,
@@ -107,6 +110,17 @@ pub fn run(args: InfoArgs) -> anyhow::Result<Outcome> {
              indices; root error {root_error:.3e}"
         );
         println!("  bbox: {:?} .. {:?}", h.bbox_min, h.bbox_max);
+        let step = h.position_step;
+        match bits {
+            Some(b) => println!(
+                "  positions: {b} bits per axis, step {:.3e} × {:.3e} × {:.3e}",
+                step[0], step[1], step[2]
+            ),
+            None => println!(
+                "  positions: step {:.3e} × {:.3e} × {:.3e}",
+                step[0], step[1], step[2]
+            ),
+        }
         println!(
             "  {} bytes: patches {} ({codec}; {drawn} decoded, what the GPU holds), global ids \
              {} (CPU checks)",
@@ -125,4 +139,21 @@ pub fn run(args: InfoArgs) -> anyhow::Result<Outcome> {
         }
     }
     Ok(Outcome::Ok)
+}
+
+/// The bits per axis of the position grid (`build --position-bits`): the one B with
+/// step = extent / (2^B − 1) on the widest axis; `None` for a flat box or a step no B gives
+/// (a repository written by other means).
+fn position_bits(h: &tessera_core::repository::Header) -> Option<u32> {
+    let (extent, step) = (0..3)
+        .map(|i| (h.bbox_max[i] - h.bbox_min[i], h.position_step[i]))
+        .max_by(|a, b| a.0.total_cmp(&b.0))?;
+    if !(extent > 0.0 && step > 0.0) {
+        return None;
+    }
+    let levels = (extent / step).round();
+    let bits = (levels + 1.0).log2().round();
+    let exact =
+        (1..=32).contains(&(bits as u32)) && ((2f64.powi(bits as i32) - 1.0) - levels).abs() < 0.5;
+    exact.then_some(bits as u32)
 }

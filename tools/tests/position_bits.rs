@@ -56,6 +56,10 @@ fn fewer_position_bits_give_a_smaller_repository_with_larger_errors() {
     assert!(bytes(&coarse) < bytes(&fine), "{fine} {coarse}");
     // Every stored error counts the quantisation: the root's is at least it.
     assert!(coarse["root_error"].as_f64().unwrap() >= q(&coarse));
+    for (name, bits) in [("21.tsr", 21), ("12.tsr", 12)] {
+        let info = json(&tessera(&["info", &path(name), "--json"]));
+        assert_eq!(info["position_bits"], bits, "{info}");
+    }
     let check = json(&tessera(&["check", &path("12.tsr"), "--json"]));
     assert_eq!(check["cracks"], 0, "{check}");
     for bad in ["0", "22"] {
