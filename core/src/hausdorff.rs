@@ -429,13 +429,15 @@ impl<'t> TriangleGrid<'t> {
                 .max(distance(t[2], t[0]));
         }
         let extent = (0..3).map(|k| max[k] - min[k]).fold(0.0f64, f64::max);
-        // Cells half a triangle wide, at most 32 a triangle and 256 along an axis.
+        // Cells half a triangle wide, at most 256 along an axis and 32 a triangle (4 for large
+        // sets, whose cell table would otherwise dwarf the triangles).
         let mut cell = (0.5 * edge_sum / triangles.len() as f64)
             .max(extent / 256.0)
             .max(f64::MIN_POSITIVE);
         let dims_for =
             |cell: f64| [0, 1, 2].map(|k| (((max[k] - min[k]) / cell) as usize).min(1 << 20) + 1);
-        while dims_for(cell).iter().product::<usize>() > 32 * triangles.len() + 64 {
+        let per_triangle = if triangles.len() > 100_000 { 4 } else { 32 };
+        while dims_for(cell).iter().product::<usize>() > per_triangle * triangles.len() + 64 {
             cell *= 1.5;
         }
         let dims = dims_for(cell);

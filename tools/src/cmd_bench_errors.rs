@@ -11,6 +11,9 @@
 //! 1 is what bounds (`build --bounded-errors`) must give. Comparing two builds of one input at
 //! equal measured distance (their triangles at the same `distance`) is the trade the errors
 //! buy.
+//!
+//! A measurement, not an out-of-core tool: it holds every leaf triangle in memory with a grid
+//! over them (221 MB peak on the dragon's 871 K leaves), so size it to the machine.
 
 use std::path::PathBuf;
 use std::time::Instant;
