@@ -21,10 +21,8 @@ use std::time::Instant;
 use anyhow::Context;
 use clap::Args;
 use serde_json::json;
-use tessera_core::cut::select_stateless;
-use tessera_core::hausdorff::sampled_directed;
-use tessera_core::repository::surface::patch_surface;
-use tessera_core::repository::{Repository, NO_INDEX};
+use tessera_core::repository::surface::{leaf_surface, measure_object_cut};
+use tessera_core::repository::Repository;
 
 use crate::Outcome;
 
@@ -72,10 +70,8 @@ pub fn run(args: ErrorsBenchArgs) -> anyhow::Result<Outcome> {
             args.repo.display()
         );
     }
-    let tets = repo.tets();
-    let leaves = (0..tets.len()).filter(|&t| tets[t].diamond == NO_INDEX);
-    let (leaf_positions, leaf_indices) = patch_surface(&repo, leaves)?;
-    let leaf_triangles = leaf_indices.len() / 3;
+    let leaves = leaf_surface(&repo)?;
+    let leaf_triangles = leaves.triangle_count();
     let mut rows = Vec::new();
     for k in 0..args.cuts {
         let start = Instant::now();
@@ -85,33 +81,14 @@ pub fn run(args: ErrorsBenchArgs) -> anyhow::Result<Outcome> {
             k as f64 / (args.cuts - 1) as f64
         };
         let epsilon = (smallest as f64 * (root as f64 / smallest as f64).powf(f)) as f32;
-        let drawn = select_stateless(tets, &errors, epsilon);
-        let largest_error = drawn
-            .iter()
-            .map(|&t| match tets[t as usize].diamond {
-                NO_INDEX => 0.0,
-                d => errors[d as usize] as f64,
-            })
-            .fold(0.0, f64::max);
-        let (cut_positions, cut) = patch_surface(&repo, drawn.iter().map(|&t| t as usize))?;
-        // One position list: the cut's vertices, then the leaves'.
-        let offset = cut_positions.len() as u32;
-        let positions: Vec<[f64; 3]> = cut_positions
-            .into_iter()
-            .chain(leaf_positions.iter().copied())
-            .collect();
-        let leaves: Vec<u32> = leaf_indices.iter().map(|i| i + offset).collect();
-        let distance = sampled_directed(&positions, &cut, &leaves, CUT_STEPS)
-            .max(sampled_directed(&positions, &leaves, &cut, LEAF_STEPS));
-        let points = |steps: usize| ((steps + 1) * (steps + 2) / 2) as u64;
+        let m = measure_object_cut(&repo, &leaves, epsilon, CUT_STEPS, LEAF_STEPS)?;
         rows.push(CutRow {
             epsilon,
-            tets: drawn.len(),
-            triangles: cut.len() / 3,
-            largest_error,
-            distance,
-            samples: (cut.len() / 3) as u64 * points(CUT_STEPS)
-                + leaf_triangles as u64 * points(LEAF_STEPS),
+            tets: m.simplices,
+            triangles: m.triangles,
+            largest_error: m.largest_error,
+            distance: m.distance,
+            samples: m.samples,
             seconds: start.elapsed().as_secs_f64(),
         });
     }
