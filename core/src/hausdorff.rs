@@ -128,12 +128,28 @@ fn longest_edge(t: &[[f64; 3]; 3]) -> f64 {
 /// edges included). What a measurement independent of the bound uses: it can only show a
 /// bound false, never prove it. Infinite when `to` is empty and `from` is not.
 pub fn sampled_directed(positions: &[[f64; 3]], from: &[u32], to: &[u32], steps: usize) -> f64 {
+    sampled_directed_weighted(positions, from, to, steps, |_, d| d)
+}
+
+/// `sampled_directed` with each sample's distance d at point p turned into `weigh(p, d)`
+/// first (a projection to pixels, say); the largest weighed value. Infinite distances (an
+/// empty `to`) are weighed too.
+pub fn sampled_directed_weighted(
+    positions: &[[f64; 3]],
+    from: &[u32],
+    to: &[u32],
+    steps: usize,
+    weigh: impl Fn([f64; 3], f64) -> f64,
+) -> f64 {
     if from.len() < 3 {
         return 0.0;
     }
     let targets = corner_positions(positions, to);
     if targets.is_empty() {
-        return f64::INFINITY;
+        return from
+            .chunks_exact(3)
+            .map(|t| weigh(positions[t[0] as usize], f64::INFINITY))
+            .fold(0.0, f64::max);
     }
     let grid = TriangleGrid::new(&targets);
     let mut search = Search::new(&grid);
@@ -149,7 +165,7 @@ pub fn sampled_directed(positions: &[[f64; 3]], from: &[u32], to: &[u32], steps:
                 let p = [0, 1, 2].map(|k| u * a[k] + v * b[k] + w * c[k]);
                 let nearest = search.nearest(p, hint);
                 hint = Some(nearest.nearest);
-                largest = largest.max(nearest.distance);
+                largest = largest.max(weigh(p, nearest.distance));
             }
         }
     }

@@ -39,6 +39,10 @@ pub struct CheckArgs {
     pub up: Option<[f64; 3]>,
     #[command(flatten)]
     pub device: crate::gpu_args::GpuArgs,
+    /// Also measure every cut against the repository's leaves in pixels, both ways, sampled:
+    /// the largest error against τ (`check_errors.rs`; reported, not failed)
+    #[arg(long)]
+    pub errors: bool,
     /// Print one JSON object on stdout.
     #[arg(long)]
     pub json: bool,
@@ -58,6 +62,14 @@ pub fn run(args: CheckArgs) -> anyhow::Result<Outcome> {
     let patches = decode_all_patches(&repo)?;
     let report = check_cuts(&repo, &patches, &config);
     let seconds = start.elapsed().as_secs_f64();
+    let errors = match args.errors {
+        true => Some(crate::check_errors::measure(
+            &repo,
+            args.views,
+            &args.tolerances,
+        )?),
+        false => None,
+    };
     let mut streaming = None;
     let gpu = if args.gpu {
         let start = Instant::now();
@@ -126,9 +138,15 @@ pub fn run(args: CheckArgs) -> anyhow::Result<Outcome> {
                 }
             }
         }
+        if let Some(e) = &errors {
+            value["errors"] = crate::check_errors::report_json(e);
+        }
         println!("{value}");
     } else {
         print_report(&report, seconds);
+        if let Some(e) = &errors {
+            crate::check_errors::print_report(e);
+        }
         if let Some((pixels, seconds, adapter, _)) = &gpu {
             print_pixel_report(pixels, *seconds, adapter);
         }

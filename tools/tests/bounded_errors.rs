@@ -1,6 +1,6 @@
 //! `build --bounded-errors` from the command line: the JSON says which errors were stored,
-//! bounds are larger than estimates, the repository still checks crack-free, and
-//! `bench errors` measures its cuts within their stored errors.
+//! bounds are larger than estimates, the repository still checks crack-free, and `bench
+//! errors` and `check --errors` measure its cuts within their stored errors and tolerances.
 
 use std::path::Path;
 use std::process::Command;
@@ -60,6 +60,21 @@ fn bounded_errors_are_stored_larger_and_the_repository_checks_clean() {
         assert!(cut["samples"].as_u64().unwrap() > 0, "{cut}");
         assert!(distance <= largest + quantisation, "{cut}");
     }
+    // `check --errors`: the screen-space cuts the check draws, measured against the leaves
+    // both ways, stay within their τ (f32 rounding of ρ aside).
+    let checked = run(&[
+        "check",
+        repo.to_str().unwrap(),
+        "--errors",
+        "--views",
+        "8",
+        "--json",
+    ]);
+    let errors = &checked["errors"];
+    assert_eq!(errors["cuts"], 8 * 5, "{checked}");
+    assert!(errors["samples"].as_u64().unwrap() > 0, "{checked}");
+    let over = errors["error_max_over_tolerance"].as_f64().unwrap();
+    assert!(over > 0.0 && over <= 1.0 + 1e-4, "{checked}");
     // Coarser cuts draw fewer triangles.
     let triangles: Vec<u64> = cuts
         .iter()

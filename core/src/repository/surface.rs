@@ -4,8 +4,9 @@
 
 use super::format::{dequantize_position, NO_INDEX};
 use super::reader::{Repository, RepositoryError};
-use crate::cut::select_stateless;
-use crate::hausdorff::sampled_directed;
+use crate::cut::{diamond_rhos, select_stateless};
+use crate::hausdorff::{sampled_directed, sampled_directed_weighted};
+use crate::metric::{eye_local, ScreenSpaceMetric};
 
 /// Triangles as one position list (model units) and a flat index list into it.
 #[derive(Clone, Debug, Default)]
@@ -105,5 +106,80 @@ pub fn measure_object_cut(
         distance,
         samples: cut.triangle_count() as u64 * points(cut_steps)
             + leaves.triangle_count() as u64 * points(leaf_steps),
+    })
+}
+
+/// One screen-space cut (the run-time rule for an eye, no culling) against the leaves.
+#[derive(Clone, Copy, Debug)]
+pub struct ScreenCutMeasure {
+    pub triangles: usize,
+    /// The largest sampled error in pixels, both ways (see `measure_screen_cut`).
+    pub max_px: f64,
+    pub samples: u64,
+}
+
+/// Measures the cut the rule draws at `tau` pixels for `eye` (model coordinates) with
+/// `metric`, against `leaves`, in pixels, in the terms the stored errors bound
+/// (`build --bounded-errors`):
+/// - a cut sample x at distance d from the leaves counts (d − q)·k / max(|x − eye|, near):
+///   x lies in its diamond's sphere, so |x − eye| is at least the distance ρ divides by;
+/// - a leaf sample y at distance d from the cut counts (d − q)·k / max(|y − eye| + d, near):
+///   the point of the cut y is carried to is at most that far from the eye;
+///
+/// with q the quantisation error (the leaves stand within it of the input the bounds are
+/// measured against). Each is a lower estimate of what the bound covers, so a value above τ
+/// shows the stored errors are not bounds for this view.
+pub fn measure_screen_cut(
+    repo: &Repository,
+    leaves: &PatchSurface,
+    eye: [f64; 3],
+    metric: &ScreenSpaceMetric,
+    tau: f32,
+    steps: (usize, usize),
+) -> Result<ScreenCutMeasure, RepositoryError> {
+    let h = repo.header();
+    let q = 0.5 * h.position_step.iter().map(|s| s * s).sum::<f64>().sqrt();
+    let rhos = diamond_rhos(repo.diamonds(), eye_local(eye, h.origin), metric);
+    let drawn = select_stateless(repo.tets(), &rhos, tau);
+    let cut = patch_surface(repo, drawn.iter().map(|&t| t as usize))?;
+    let offset = cut.positions.len() as u32;
+    let positions: Vec<[f64; 3]> = cut
+        .positions
+        .iter()
+        .chain(&leaves.positions)
+        .copied()
+        .collect();
+    let leaf_indices: Vec<u32> = leaves.indices.iter().map(|i| i + offset).collect();
+    let (k, near) = (metric.k as f64, metric.near as f64);
+    let from_eye = |p: [f64; 3]| {
+        let d = [p[0] - eye[0], p[1] - eye[1], p[2] - eye[2]];
+        (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt()
+    };
+    let forward = sampled_directed_weighted(
+        &positions,
+        &cut.indices,
+        &leaf_indices,
+        steps.0,
+        |p, d| match d.is_finite() {
+            true => (d - q).max(0.0) * k / from_eye(p).max(near),
+            false => f64::INFINITY,
+        },
+    );
+    let reverse = sampled_directed_weighted(
+        &positions,
+        &leaf_indices,
+        &cut.indices,
+        steps.1,
+        |p, d| match d.is_finite() {
+            true => (d - q).max(0.0) * k / (from_eye(p) + d).max(near),
+            false => f64::INFINITY,
+        },
+    );
+    let points = |steps: usize| ((steps + 1) * (steps + 2) / 2) as u64;
+    Ok(ScreenCutMeasure {
+        triangles: cut.triangle_count(),
+        max_px: forward.max(reverse),
+        samples: cut.triangle_count() as u64 * points(steps.0)
+            + leaves.triangle_count() as u64 * points(steps.1),
     })
 }
