@@ -11,3 +11,4 @@ pub mod hausdorff;
 pub mod leb;
 pub mod metric;
 pub mod repository;
+pub mod vec3;

@@ -16,6 +16,7 @@ use std::hash::{BuildHasherDefault, Hasher};
 use rayon::prelude::*;
 
 use crate::mesh::InputMesh;
+use tessera_core::vec3::{cross, dot, sub};
 
 /// Subdivision level of the standard demo mesh: 20·4^8 = 1,310,720 triangles,
 /// 10·4^8 + 2 = 655,362 vertices.
@@ -328,22 +329,6 @@ fn fade(t: f64) -> f64 {
 
 fn lerp(t: f64, a: f64, b: f64) -> f64 {
     a + t * (b - a)
-}
-
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
 fn scale(a: [f64; 3], s: f64) -> [f64; 3] {

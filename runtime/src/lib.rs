@@ -15,5 +15,6 @@ pub mod mesh_problem;
 pub mod pixel_check;
 pub mod stream;
 pub mod stream_pixel_check;
-pub mod vec3;
+/// The f64 vector helpers (they live in core, shared with the distance bounds).
+pub use tessera_core::vec3;
 pub mod views;

@@ -1,4 +1,5 @@
 use super::*;
+use crate::vec3::{length, sub};
 use proptest::prelude::*;
 
 /// Points spread over a triangle: a barycentric lattice with `n` steps a side.
@@ -124,7 +125,7 @@ fn point_triangle_distance_matches_the_nearest_lattice_point() {
         let exact = point_triangle_distance(p, &t);
         let sampled = points
             .iter()
-            .map(|&q| distance(p, q))
+            .map(|&q| length(sub(p, q)))
             .fold(f64::INFINITY, f64::min);
         assert!(
             exact <= sampled + 1e-12 && exact >= sampled - 0.02,

@@ -1,4 +1,4 @@
-//! The few f64 vector operations the camera and the measurements need, on plain arrays (the
+//! The few f64 vector operations the camera, the measurements and the distance bounds need, on plain arrays (the
 //! types the repository and the CLI use).
 
 pub fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {

@@ -19,6 +19,14 @@
 
 use std::collections::HashSet;
 
+use crate::vec3::{cross, dot, normalize, sub};
+use distance::longest_edge;
+pub use distance::point_triangle_distance;
+use grid::{Corner, Search, TriangleGrid};
+
+mod distance;
+mod grid;
+
 /// Deepest four-way split of a triangle (4^6 = 4,096 pieces at most).
 const MAX_DEPTH: u32 = 6;
 /// A branch stops when its bound is within this fraction of the largest distance found...
@@ -117,12 +125,6 @@ pub fn directed_bound(positions: &[[f64; 3]], from: &[u32], to: &[u32], floor: f
     bound.max(found).max(floor)
 }
 
-fn longest_edge(t: &[[f64; 3]; 3]) -> f64 {
-    distance(t[0], t[1])
-        .max(distance(t[1], t[2]))
-        .max(distance(t[2], t[0]))
-}
-
 /// A lower bound on h(from→to) by sampling: the largest exact distance to `to` of the points
 /// of a barycentric lattice with `steps` steps a side on each triangle of `from` (corners and
 /// edges included). What a measurement independent of the bound uses: it can only show a
@@ -178,15 +180,6 @@ fn corner_positions(positions: &[[f64; 3]], indices: &[u32]) -> Vec<[[f64; 3]; 3
         .chunks_exact(3)
         .map(|t| [0, 1, 2].map(|k| positions[t[k] as usize]))
         .collect()
-}
-
-/// A corner of a piece of triangle, with its exact distance to the target set and the target
-/// triangle that attains it.
-#[derive(Clone, Copy, Debug)]
-struct Corner {
-    point: [f64; 3],
-    distance: f64,
-    nearest: usize,
 }
 
 /// A bound on max d(x, B) over the piece with these corners: the covering bound, or the
@@ -263,14 +256,7 @@ fn split_bound(
     let shared: Vec<[f64; 3]> = a.iter().filter(|p| b.contains(p)).copied().collect();
     let (origin, normal) = match shared.as_slice() {
         [p, q] => {
-            let unit = |v: [f64; 3]| {
-                let n = dot(v, v).sqrt();
-                if n > 0.0 {
-                    v.map(|x| x / n)
-                } else {
-                    v
-                }
-            };
+            let unit = |v: [f64; 3]| normalize(v).unwrap_or(v);
             let na = unit(cross(sub(a[1], a[0]), sub(a[2], a[0])));
             let nb = unit(cross(sub(b[1], b[0]), sub(b[2], b[0])));
             let mean = [na[0] + nb[0], na[1] + nb[1], na[2] + nb[2]];
@@ -320,320 +306,5 @@ fn midpoint(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [0, 1, 2].map(|k| 0.5 * (a[k] + b[k]))
 }
 
-fn distance(a: [f64; 3], b: [f64; 3]) -> f64 {
-    let d = [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
-    (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt()
-}
-
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-/// Distance from `p` to the closest point of segment `ab`.
-fn point_segment_distance(p: [f64; 3], a: [f64; 3], b: [f64; 3]) -> f64 {
-    let ab = sub(b, a);
-    let len2 = dot(ab, ab);
-    let t = if len2 > 0.0 {
-        (dot(sub(p, a), ab) / len2).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    distance(p, [a[0] + t * ab[0], a[1] + t * ab[1], a[2] + t * ab[2]])
-}
-
-/// Exact distance from `p` to the triangle `t` (closed, degenerate ones included): the
-/// closest point by Voronoi regions (Ericson, "Real-Time Collision Detection", 5.1.5), or
-/// the nearest edge of a triangle without area. Never below the true distance: every branch
-/// measures to a point of the triangle.
-pub fn point_triangle_distance(p: [f64; 3], t: &[[f64; 3]; 3]) -> f64 {
-    let [a, b, c] = *t;
-    let ab = sub(b, a);
-    let ac = sub(c, a);
-    let normal = cross(ab, ac);
-    if dot(normal, normal) <= 1e-20 * dot(ab, ab) * dot(ac, ac) {
-        // Degenerate (a segment or a point): the regions below assume an area, so the
-        // nearest of the three edges.
-        return point_segment_distance(p, a, b)
-            .min(point_segment_distance(p, b, c))
-            .min(point_segment_distance(p, c, a));
-    }
-    let ap = sub(p, a);
-    let d1 = dot(ab, ap);
-    let d2 = dot(ac, ap);
-    if d1 <= 0.0 && d2 <= 0.0 {
-        return distance(p, a);
-    }
-    let bp = sub(p, b);
-    let d3 = dot(ab, bp);
-    let d4 = dot(ac, bp);
-    if d3 >= 0.0 && d4 <= d3 {
-        return distance(p, b);
-    }
-    let vc = d1 * d4 - d3 * d2;
-    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
-        return point_segment_distance(p, a, b);
-    }
-    let cp = sub(p, c);
-    let d5 = dot(ab, cp);
-    let d6 = dot(ac, cp);
-    if d6 >= 0.0 && d5 <= d6 {
-        return distance(p, c);
-    }
-    let vb = d5 * d2 - d1 * d6;
-    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
-        return point_segment_distance(p, a, c);
-    }
-    let va = d3 * d6 - d5 * d4;
-    if va <= 0.0 && d4 - d3 >= 0.0 && d5 - d6 >= 0.0 {
-        return point_segment_distance(p, b, c);
-    }
-    let denominator = va + vb + vc;
-    if denominator.is_finite() && denominator > 0.0 {
-        let v = vb / denominator;
-        let w = vc / denominator;
-        let q = [0, 1, 2].map(|k| a[k] + ab[k] * v + ac[k] * w);
-        let inside = distance(p, q);
-        if inside.is_finite() {
-            return inside;
-        }
-    }
-    // Degenerate (or overflowing) triangle: the nearest of its three edges.
-    point_segment_distance(p, a, b)
-        .min(point_segment_distance(p, b, c))
-        .min(point_segment_distance(p, c, a))
-}
-
-/// Triangles binned into a uniform grid by their bounding boxes.
-struct TriangleGrid<'t> {
-    triangles: &'t [[[f64; 3]; 3]],
-    /// Each triangle's bounding box (min, max): a cheap lower bound on its distance.
-    boxes: Vec<([f64; 3], [f64; 3])>,
-    min: [f64; 3],
-    cell: f64,
-    dims: [usize; 3],
-    /// Triangles of cell i: `items[starts[i]..starts[i + 1]]`.
-    starts: Vec<usize>,
-    items: Vec<u32>,
-}
-
-impl<'t> TriangleGrid<'t> {
-    fn new(triangles: &'t [[[f64; 3]; 3]]) -> Self {
-        let mut min = [f64::INFINITY; 3];
-        let mut max = [f64::NEG_INFINITY; 3];
-        let mut edge_sum = 0.0;
-        for t in triangles {
-            for p in t {
-                for k in 0..3 {
-                    min[k] = min[k].min(p[k]);
-                    max[k] = max[k].max(p[k]);
-                }
-            }
-            edge_sum += distance(t[0], t[1])
-                .max(distance(t[1], t[2]))
-                .max(distance(t[2], t[0]));
-        }
-        let extent = (0..3).map(|k| max[k] - min[k]).fold(0.0f64, f64::max);
-        // Cells half a triangle wide, at most 256 along an axis and 32 a triangle (4 for large
-        // sets, whose cell table would otherwise dwarf the triangles).
-        let mut cell = (0.5 * edge_sum / triangles.len() as f64)
-            .max(extent / 256.0)
-            .max(f64::MIN_POSITIVE);
-        let dims_for =
-            |cell: f64| [0, 1, 2].map(|k| (((max[k] - min[k]) / cell) as usize).min(1 << 20) + 1);
-        let per_triangle = if triangles.len() > 100_000 { 4 } else { 32 };
-        while dims_for(cell).iter().product::<usize>() > per_triangle * triangles.len() + 64 {
-            cell *= 1.5;
-        }
-        let dims = dims_for(cell);
-        let boxes = triangles
-            .iter()
-            .map(|t| {
-                (
-                    [0, 1, 2].map(|k| t[0][k].min(t[1][k]).min(t[2][k])),
-                    [0, 1, 2].map(|k| t[0][k].max(t[1][k]).max(t[2][k])),
-                )
-            })
-            .collect();
-        let mut grid = TriangleGrid {
-            triangles,
-            boxes,
-            min,
-            cell,
-            dims,
-            starts: Vec::new(),
-            items: Vec::new(),
-        };
-        let cells = dims.iter().product::<usize>();
-        let mut counts = vec![0usize; cells + 1];
-        for t in triangles {
-            grid.for_cells_of(t, |i| counts[i] += 1);
-        }
-        let mut at = 0;
-        for c in counts.iter_mut() {
-            let n = *c;
-            *c = at;
-            at += n;
-        }
-        let mut fill = counts.clone();
-        let mut items = vec![0u32; at];
-        for (index, t) in triangles.iter().enumerate() {
-            grid.for_cells_of(t, |i| {
-                items[fill[i]] = index as u32;
-                fill[i] += 1;
-            });
-        }
-        grid.starts = counts;
-        grid.items = items;
-        grid
-    }
-
-    fn cell_of(&self, p: [f64; 3]) -> [usize; 3] {
-        [0, 1, 2].map(|k| {
-            let c = ((p[k] - self.min[k]) / self.cell).floor();
-            if c.is_nan() || c < 0.0 {
-                0
-            } else {
-                (c as usize).min(self.dims[k] - 1)
-            }
-        })
-    }
-
-    fn index(&self, c: [usize; 3]) -> usize {
-        (c[2] * self.dims[1] + c[1]) * self.dims[0] + c[0]
-    }
-
-    fn for_cells_of(&self, t: &[[f64; 3]; 3], mut visit: impl FnMut(usize)) {
-        let lo = [0, 1, 2].map(|k| t[0][k].min(t[1][k]).min(t[2][k]));
-        let hi = [0, 1, 2].map(|k| t[0][k].max(t[1][k]).max(t[2][k]));
-        let (lo, hi) = (self.cell_of(lo), self.cell_of(hi));
-        for z in lo[2]..=hi[2] {
-            for y in lo[1]..=hi[1] {
-                for x in lo[0]..=hi[0] {
-                    visit(self.index([x, y, z]));
-                }
-            }
-        }
-    }
-}
-
-/// Nearest-triangle queries on one grid, with a visit stamp per triangle.
-struct Search<'g, 't> {
-    grid: &'g TriangleGrid<'t>,
-    stamp: Vec<u32>,
-    query: u32,
-}
-
-impl<'g, 't> Search<'g, 't> {
-    fn new(grid: &'g TriangleGrid<'t>) -> Self {
-        Search {
-            grid,
-            stamp: vec![0; grid.triangles.len()],
-            query: 0,
-        }
-    }
-
-    /// The exact nearest triangle to `p`, starting from `hint` (a triangle likely to be near).
-    /// Cells are visited in growing Chebyshev rings around `p`'s (clamped) cell; a triangle
-    /// not seen after ring r − 1 lies in cells at least r − 1 cells beyond `p`'s own along some
-    /// axis, so at least (r − 1) × cell + `p`'s distance to its cell's nearest face away (that
-    /// distance counts only for a `p` inside the grid), and the search ends once the best
-    /// distance is no larger. A triangle whose box is farther than the best is not measured.
-    fn nearest(&mut self, p: [f64; 3], hint: Option<usize>) -> Corner {
-        self.query = self.query.wrapping_add(1);
-        if self.query == 0 {
-            self.stamp.fill(0);
-            self.query = 1;
-        }
-        let grid = self.grid;
-        let centre = grid.cell_of(p);
-        let mut best = Corner {
-            point: p,
-            distance: f64::INFINITY,
-            nearest: 0,
-        };
-        if let Some(t) = hint {
-            self.stamp[t] = self.query;
-            best.distance = point_triangle_distance(p, &grid.triangles[t]);
-            best.nearest = t;
-        }
-        let inside = (0..3)
-            .all(|k| p[k] >= grid.min[k] && p[k] <= grid.min[k] + grid.dims[k] as f64 * grid.cell);
-        let gap = if inside {
-            (0..3)
-                .map(|k| {
-                    let lo = grid.min[k] + centre[k] as f64 * grid.cell;
-                    (p[k] - lo).min(lo + grid.cell - p[k]).max(0.0)
-                })
-                .fold(f64::INFINITY, f64::min)
-        } else {
-            0.0
-        };
-        let largest_ring = grid.dims.iter().copied().max().unwrap_or(1);
-        for ring in 0..=largest_ring {
-            if ring > 0 && best.distance <= (ring - 1) as f64 * grid.cell + gap {
-                break;
-            }
-            let lo = centre.map(|c| c.saturating_sub(ring));
-            let hi = [0, 1, 2].map(|k| (centre[k] + ring).min(grid.dims[k] - 1));
-            for z in lo[2]..=hi[2] {
-                for y in lo[1]..=hi[1] {
-                    // Off the ring in y and z, only the two x ends of the row are on it.
-                    let interior = z.abs_diff(centre[2]) < ring && y.abs_diff(centre[1]) < ring;
-                    let step = if interior { (2 * ring).max(1) } else { 1 };
-                    let first = if interior && centre[0] < ring {
-                        centre[0] + ring
-                    } else {
-                        lo[0]
-                    };
-                    for x in (first..=hi[0]).step_by(step) {
-                        if [x, y, z]
-                            .iter()
-                            .zip(&centre)
-                            .all(|(&i, &c)| i.abs_diff(c) != ring)
-                        {
-                            continue;
-                        }
-                        let cell = grid.index([x, y, z]);
-                        for &t in &grid.items[grid.starts[cell]..grid.starts[cell + 1]] {
-                            let t = t as usize;
-                            if self.stamp[t] == self.query {
-                                continue;
-                            }
-                            self.stamp[t] = self.query;
-                            let (lo, hi) = &grid.boxes[t];
-                            let outside = (0..3)
-                                .map(|k| (lo[k] - p[k]).max(p[k] - hi[k]).max(0.0))
-                                .map(|d| d * d)
-                                .sum::<f64>();
-                            if outside >= best.distance * best.distance {
-                                continue;
-                            }
-                            let d = point_triangle_distance(p, &grid.triangles[t]);
-                            if d < best.distance {
-                                best.distance = d;
-                                best.nearest = t;
-                            }
-                        }
-                    }
-                }
-            }
-        }
-        best
-    }
-}
-
 #[cfg(test)]
-#[path = "hausdorff_tests.rs"]
 mod tests;
