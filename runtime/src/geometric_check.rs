@@ -19,7 +19,7 @@ use tessera_core::cut::{diamond_rhos, restrict_rhos, select_stateless, select_to
 use tessera_core::metric::{eye_local, ScreenSpaceMetric};
 use tessera_core::repository::format::NO_INDEX;
 use tessera_core::repository::reader::Repository;
-use tessera_core::repository::RepositoryError;
+use tessera_core::repository::{Header, RepositoryError};
 
 use crate::border_loops::{edge_key, BorderLoops};
 use crate::views::check_views;
@@ -137,20 +137,26 @@ pub fn check_cuts(
     config: &CheckConfig,
 ) -> CheckReport {
     let header = repo.header();
-    let size = (0..3)
-        .map(|i| (header.bbox_max[i] - header.bbox_min[i]).powi(2))
-        .sum::<f64>()
-        .sqrt();
-    let metric = ScreenSpaceMetric::new(
-        config.viewport_height,
-        config.fov_degrees,
-        (size * 1e-4).max(1e-30),
-    );
+    let metric = check_metric(header, config);
     let eyes: Vec<CheckEye> = check_views(header.bbox_min, header.bbox_max, config.views)
         .into_iter()
         .map(|eye| CheckEye { eye, metric })
         .collect();
     check_cuts_at(repo, patches, &eyes, &config.tolerances)
+}
+
+/// The check's projection: `config`'s viewport and field of view, a near distance of 1e-4 of
+/// the model's diagonal.
+pub fn check_metric(header: &Header, config: &CheckConfig) -> ScreenSpaceMetric {
+    let size = (0..3)
+        .map(|i| (header.bbox_max[i] - header.bbox_min[i]).powi(2))
+        .sum::<f64>()
+        .sqrt();
+    ScreenSpaceMetric::new(
+        config.viewport_height,
+        config.fov_degrees,
+        (size * 1e-4).max(1e-30),
+    )
 }
 
 /// The input's edges and borders, against which any cut's triangles are checked.

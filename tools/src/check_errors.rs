@@ -8,10 +8,9 @@
 use std::time::Instant;
 
 use serde_json::json;
-use tessera_core::metric::ScreenSpaceMetric;
 use tessera_core::repository::surface::{leaf_surface, measure_screen_cut};
 use tessera_core::repository::Repository;
-use tessera_runtime::geometric_check::CheckConfig;
+use tessera_runtime::geometric_check::{check_metric, CheckConfig};
 use tessera_runtime::views::check_views;
 
 /// Lattice steps a side: 15 points on each drawn triangle, 6 on each leaf.
@@ -30,16 +29,7 @@ pub struct ErrorReport {
 pub fn measure(repo: &Repository, views: usize, tolerances: &[f32]) -> anyhow::Result<ErrorReport> {
     let start = Instant::now();
     let h = repo.header();
-    let config = CheckConfig::default();
-    let size = (0..3)
-        .map(|i| (h.bbox_max[i] - h.bbox_min[i]).powi(2))
-        .sum::<f64>()
-        .sqrt();
-    let metric = ScreenSpaceMetric::new(
-        config.viewport_height,
-        config.fov_degrees,
-        (size * 1e-4).max(1e-30),
-    );
+    let metric = check_metric(h, &CheckConfig::default());
     let leaves = leaf_surface(repo)?;
     let mut report = ErrorReport {
         cuts: 0,

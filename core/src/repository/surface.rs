@@ -5,8 +5,9 @@
 use super::format::{dequantize_position, NO_INDEX};
 use super::reader::{Repository, RepositoryError};
 use crate::cut::{diamond_rhos, select_stateless};
-use crate::hausdorff::{sampled_directed, sampled_directed_weighted};
+use crate::hausdorff::sampled_directed_weighted;
 use crate::metric::{eye_local, ScreenSpaceMetric};
+use crate::vec3::{length, sub};
 
 /// Triangles as one position list (model units) and a flat index list into it.
 #[derive(Clone, Debug, Default)]
@@ -86,26 +87,13 @@ pub fn measure_object_cut(
         })
         .fold(0.0, f64::max);
     let cut = patch_surface(repo, drawn.iter().map(|&t| t as usize))?;
-    // One position list: the cut's vertices, then the leaves'.
-    let offset = cut.positions.len() as u32;
-    let positions: Vec<[f64; 3]> = cut
-        .positions
-        .iter()
-        .chain(&leaves.positions)
-        .copied()
-        .collect();
-    let leaf_indices: Vec<u32> = leaves.indices.iter().map(|i| i + offset).collect();
-    let distance = sampled_directed(&positions, &cut.indices, &leaf_indices, cut_steps).max(
-        sampled_directed(&positions, &leaf_indices, &cut.indices, leaf_steps),
-    );
-    let points = |steps: usize| ((steps + 1) * (steps + 2) / 2) as u64;
+    let (distance, samples) = both_ways(&cut, leaves, (cut_steps, leaf_steps), |_, d| d, |_, d| d);
     Ok(CutMeasure {
         simplices: drawn.len(),
         triangles: cut.triangle_count(),
         largest_error,
         distance,
-        samples: cut.triangle_count() as u64 * points(cut_steps)
-            + leaves.triangle_count() as u64 * points(leaf_steps),
+        samples,
     })
 }
 
@@ -142,6 +130,39 @@ pub fn measure_screen_cut(
     let rhos = diamond_rhos(repo.diamonds(), eye_local(eye, h.origin), metric);
     let drawn = select_stateless(repo.tets(), &rhos, tau);
     let cut = patch_surface(repo, drawn.iter().map(|&t| t as usize))?;
+    let (k, near) = (metric.k as f64, metric.near as f64);
+    let from_eye = |p: [f64; 3]| length(sub(p, eye));
+    let (max_px, samples) = both_ways(
+        &cut,
+        leaves,
+        steps,
+        |p, d| match d.is_finite() {
+            true => (d - q).max(0.0) * k / from_eye(p).max(near),
+            false => f64::INFINITY,
+        },
+        |p, d| match d.is_finite() {
+            true => (d - q).max(0.0) * k / (from_eye(p) + d).max(near),
+            false => f64::INFINITY,
+        },
+    );
+    Ok(ScreenCutMeasure {
+        triangles: cut.triangle_count(),
+        max_px,
+        samples,
+    })
+}
+
+/// The largest weighed sample distance both ways between `cut` and `leaves` (`weigh_cut` for
+/// samples on the cut, `weigh_leaf` for samples on the leaves, `steps` lattice steps a side on
+/// each), and the number of samples.
+fn both_ways(
+    cut: &PatchSurface,
+    leaves: &PatchSurface,
+    steps: (usize, usize),
+    weigh_cut: impl Fn([f64; 3], f64) -> f64,
+    weigh_leaf: impl Fn([f64; 3], f64) -> f64,
+) -> (f64, u64) {
+    // One position list: the cut's vertices, then the leaves'.
     let offset = cut.positions.len() as u32;
     let positions: Vec<[f64; 3]> = cut
         .positions
@@ -150,36 +171,12 @@ pub fn measure_screen_cut(
         .copied()
         .collect();
     let leaf_indices: Vec<u32> = leaves.indices.iter().map(|i| i + offset).collect();
-    let (k, near) = (metric.k as f64, metric.near as f64);
-    let from_eye = |p: [f64; 3]| {
-        let d = [p[0] - eye[0], p[1] - eye[1], p[2] - eye[2]];
-        (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt()
-    };
-    let forward = sampled_directed_weighted(
-        &positions,
-        &cut.indices,
-        &leaf_indices,
-        steps.0,
-        |p, d| match d.is_finite() {
-            true => (d - q).max(0.0) * k / from_eye(p).max(near),
-            false => f64::INFINITY,
-        },
-    );
-    let reverse = sampled_directed_weighted(
-        &positions,
-        &leaf_indices,
-        &cut.indices,
-        steps.1,
-        |p, d| match d.is_finite() {
-            true => (d - q).max(0.0) * k / (from_eye(p) + d).max(near),
-            false => f64::INFINITY,
-        },
-    );
+    let forward =
+        sampled_directed_weighted(&positions, &cut.indices, &leaf_indices, steps.0, weigh_cut);
+    let reverse =
+        sampled_directed_weighted(&positions, &leaf_indices, &cut.indices, steps.1, weigh_leaf);
     let points = |steps: usize| ((steps + 1) * (steps + 2) / 2) as u64;
-    Ok(ScreenCutMeasure {
-        triangles: cut.triangle_count(),
-        max_px: forward.max(reverse),
-        samples: cut.triangle_count() as u64 * points(steps.0)
-            + leaves.triangle_count() as u64 * points(steps.1),
-    })
+    let samples = cut.triangle_count() as u64 * points(steps.0)
+        + leaves.triangle_count() as u64 * points(steps.1);
+    (forward.max(reverse), samples)
 }
