@@ -281,6 +281,7 @@ fn check_views(
             mode,
             wireframe: false,
             two_sided: false,
+            draw_camera: None,
         };
         // How far (Chebyshev pixels) each pixel is from one of the input's own hole pixels.
         let (width, height) = renderer.size();

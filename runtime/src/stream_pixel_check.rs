@@ -56,6 +56,7 @@ pub fn check_pixels_streaming(
                 mode: ShadingMode::Check,
                 wireframe: false,
                 two_sided: false,
+                draw_camera: None,
             };
             for _ in 0..FRAMES_PER_VIEW {
                 let frame = streamer.frame(

@@ -199,6 +199,7 @@ fn ten_metres_above_an_etopo_scale_terrain_every_vertex_is_within_half_a_pixel()
         let (q0, camera) = camera_above(&repo, row, column);
         let uniforms = FrameUniforms::new(
             &camera,
+            &camera,
             &h,
             1.0,
             &CullTests {
@@ -282,6 +283,7 @@ fn a_vertex_shared_by_patches_gets_the_same_clip_bits_in_each() {
     assert!(shared.len() > 1000, "{} shared vertices", shared.len());
     let (_, camera) = camera_above(&repo, 126, 125);
     let uniforms = FrameUniforms::new(
+        &camera,
         &camera,
         repo.header(),
         1.0,

@@ -282,7 +282,7 @@ fn check_translation(ctx: &GpuContext, base: &InputMesh, a: &Built, offset: f64)
             // The reason: the eye relative to the origin is the same f32 vector, so the GPU
             // receives the same bytes.
             let uniforms = |r: &FrameRequest, h: &Header| {
-                FrameUniforms::new(&r.camera, h, tau, &r.cull, r.mode, 0)
+                FrameUniforms::new(&r.camera, r.drawn_from(), h, tau, &r.cull, r.mode, 0)
             };
             assert_eq!(uniforms(&qa, ha), uniforms(&qb, hb), "offset {offset}");
             let (sa, sb) = (
@@ -712,6 +712,7 @@ fn check_camera(
         "{name}: ρ not finite"
     );
     let uniforms = FrameUniforms::new(
+        &camera,
         &camera,
         repo.header(),
         1.0,

@@ -69,26 +69,37 @@ pub struct FrameUniforms {
 impl FrameUniforms {
     /// The uniforms of one frame. `cull` must be what the CPU reference is given to compare
     /// selections (its frustum is the camera's view volume when present).
+    ///
+    /// Two cameras: the traversal's fields (`eye_tau.xyz`, `planes`, `forward_near`, `metric`)
+    /// come from `camera`, the one the cut is selected for; the drawing's fields (`view_proj`,
+    /// the eye lattice `eye_cell`/`eye_fraction`/`step`, `light`) from `draw`, the one it is
+    /// seen from (`FrameRequest::draw_camera`; pass `camera` again for an ordinary frame, which
+    /// gives bit-identical uniforms). `eye_lattice` and `clip_of_lattice_point` describe `draw`.
+    /// A pass without traversal that reads `eye_tau` to draw (`full_mesh.wgsl`) must pass the
+    /// same camera twice.
     #[allow(clippy::too_many_arguments)]
     pub fn new(
         camera: &Camera,
+        draw: &Camera,
         header: &Header,
         tau: f32,
         cull: &CullTests,
         mode: ShadingMode,
         tet_count: u32,
     ) -> FrameUniforms {
+        // Traversal: the cut's camera.
         let eye = camera.eye_local(header.origin);
-        let lattice = EyeLattice::new(camera.eye, header.bbox_min, header.position_step);
         let volume = cull.frustum.unwrap_or_else(|| camera.view_volume());
         let metric = camera.metric();
-        let b = camera.basis();
+        // Drawing: the camera the cut is seen from.
+        let lattice = EyeLattice::new(draw.eye, header.bbox_min, header.position_step);
+        let b = draw.basis();
         let light = normalize([0, 1, 2].map(|i| -b.forward[i] + 0.6 * b.up[i] - 0.4 * b.right[i]));
         let flags =
             (cull.frustum.is_some() as u32 * CULL_FRUSTUM) | (cull.cones as u32 * CULL_CONES);
         let v4 = |v: [f32; 3], w: f32| [v[0], v[1], v[2], w];
         FrameUniforms {
-            view_proj: camera.view_projection(),
+            view_proj: draw.view_projection(),
             eye_tau: v4(eye, tau),
             planes: volume.side_planes.map(|n| v4(n, 0.0)),
             forward_near: v4(volume.forward, volume.near),

@@ -53,6 +53,10 @@ pub struct FrameRequest {
     /// faces in the rasteriser as the cones do, so the picture does not depend on τ through
     /// which patches the cones dropped.
     pub two_sided: bool,
+    /// Draw from this camera instead of `camera` (a frozen cut inspected from elsewhere); the
+    /// traversal, culling, streaming and the CPU reference all use `camera`. `None`: draw from
+    /// `camera`, bit-identically to `Some(camera)`.
+    pub draw_camera: Option<Camera>,
 }
 
 impl FrameRequest {
@@ -68,7 +72,13 @@ impl FrameRequest {
             mode: ShadingMode::Lit,
             wireframe: false,
             two_sided: false,
+            draw_camera: None,
         }
+    }
+
+    /// The camera the frame is drawn from: `draw_camera`, else `camera`.
+    pub fn drawn_from(&self) -> &Camera {
+        self.draw_camera.as_ref().unwrap_or(&self.camera)
     }
 
     /// Both sides of every face drawn and normal-cone culling off (`render --two-sided`).

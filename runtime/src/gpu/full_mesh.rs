@@ -309,7 +309,7 @@ impl FullMeshRenderer {
             frustum: None,
             cones: false,
         };
-        let uniforms = FrameUniforms::new(camera, &header, 0.0, &cull, ShadingMode::Lit, 0);
+        let uniforms = FrameUniforms::new(camera, camera, &header, 0.0, &cull, ShadingMode::Lit, 0);
         ctx.queue
             .write_buffer(&self.uniforms, 0, bytemuck::bytes_of(&uniforms));
         let mut encoder = ctx

@@ -353,6 +353,7 @@ impl Renderer {
         let start = Instant::now();
         let uniforms = FrameUniforms::new(
             &request.camera,
+            request.drawn_from(),
             &self.header,
             request.tau,
             &request.cull,

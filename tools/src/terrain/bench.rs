@@ -417,6 +417,7 @@ pub fn run(args: TerrainBenchArgs) -> anyhow::Result<Outcome> {
                     mode: ShadingMode::Lit,
                     wireframe: false,
                     two_sided: false,
+                    draw_camera: None,
                 };
                 Ok(ours.render(&ctx, &request, Readback::default()))
             })?;
