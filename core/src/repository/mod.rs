@@ -18,6 +18,7 @@
 //! - `reader`: `Repository::open`, which validates every count, offset and index before use.
 //!   A bad file is an error (`RepositoryError`), never a panic or an out-of-bounds read.
 
+pub mod cut_mesh;
 mod directory_check;
 mod file_layout;
 pub mod format;
