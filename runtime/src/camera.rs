@@ -61,16 +61,8 @@ impl Camera {
     ) -> Camera {
         let centre = [0, 1, 2].map(|i| 0.5 * (lo[i] + hi[i]));
         let radius = bounding_radius(lo, hi);
+        let dir = orbit_direction(up, azimuth_degrees, elevation_degrees);
         let up = normalize(up).unwrap_or(Z_UP);
-        // Two horizontal axes: azimuth 0 along the first.
-        let first = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]
-            .into_iter()
-            .find_map(|a| normalize(cross(up, cross(a, up))))
-            .unwrap_or([1.0, 0.0, 0.0]);
-        let second = cross(up, first);
-        let (az, el) = (azimuth_degrees.to_radians(), elevation_degrees.to_radians());
-        let dir = [0, 1, 2]
-            .map(|i| el.cos() * (az.cos() * first[i] + az.sin() * second[i]) + el.sin() * up[i]);
         let eye = [0, 1, 2].map(|i| centre[i] + dir[i] * distance * radius);
         Camera {
             up,
@@ -174,6 +166,37 @@ impl Camera {
             (1.0 - ndc[1]) * 0.5 * self.height as f64,
         ])
     }
+}
+
+/// The orbit's frame around `up` (normalised; z when zero): two horizontal axes, azimuth 0
+/// along the first, and the up axis.
+pub fn orbit_frame(up: [f64; 3]) -> [[f64; 3]; 3] {
+    let up = normalize(up).unwrap_or(Z_UP);
+    let first = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]
+        .into_iter()
+        .find_map(|a| normalize(cross(up, cross(a, up))))
+        .unwrap_or([1.0, 0.0, 0.0]);
+    [first, cross(up, first), up]
+}
+
+/// The unit direction from an orbit's centre to its eye at azimuth and elevation (degrees).
+pub fn orbit_direction(up: [f64; 3], azimuth_degrees: f64, elevation_degrees: f64) -> [f64; 3] {
+    let [first, second, up] = orbit_frame(up);
+    let (az, el) = (azimuth_degrees.to_radians(), elevation_degrees.to_radians());
+    [0, 1, 2].map(|i| el.cos() * (az.cos() * first[i] + az.sin() * second[i]) + el.sin() * up[i])
+}
+
+/// Azimuth and elevation (degrees, azimuth in [0, 360)) of a direction from an orbit's centre
+/// to its eye: the inverse of `orbit_direction` (`None` for a zero direction).
+pub fn orbit_angles(up: [f64; 3], direction: [f64; 3]) -> Option<[f64; 2]> {
+    let d = normalize(direction)?;
+    let [first, second, up] = orbit_frame(up);
+    let el = dot(d, up).clamp(-1.0, 1.0).asin().to_degrees();
+    let az = dot(d, second)
+        .atan2(dot(d, first))
+        .to_degrees()
+        .rem_euclid(360.0);
+    Some([az, el])
 }
 
 /// Half the diagonal of a box.

@@ -30,13 +30,13 @@ use std::time::Instant;
 
 use anyhow::{anyhow, bail, Context};
 use clap::Args;
-use serde::Deserialize;
 use serde_json::json;
 use tessera_core::repository::reader::Repository;
 use tessera_runtime::camera::Camera;
 use tessera_runtime::stream::StreamSettings;
 
 use crate::bench_stream_loops::{run_loops, Driver, Row};
+use crate::camera_path::CameraPath;
 
 use crate::cmd_render::default_up;
 use crate::Outcome;
@@ -93,25 +93,6 @@ pub struct StreamBenchArgs {
     pub settle_frames: usize,
 }
 
-#[derive(Deserialize)]
-struct PathFile {
-    keyframes: Vec<Keyframe>,
-    #[serde(default = "default_between")]
-    frames_between: usize,
-    #[serde(default)]
-    pause_frames: usize,
-}
-
-#[derive(Deserialize)]
-struct Keyframe {
-    eye: [f64; 3],
-    target: [f64; 3],
-}
-
-fn default_between() -> usize {
-    30
-}
-
 fn parse_size(s: &str) -> anyhow::Result<(u32, u32)> {
     let (w, h) = s
         .split_once('x')
@@ -134,44 +115,14 @@ fn cameras(
     let radius = tessera_runtime::camera::bounding_radius(h.bbox_min, h.bbox_max);
     let mut cams: Vec<Camera> = match &args.path {
         Some(file) => {
-            let text = std::fs::read_to_string(file)
-                .with_context(|| format!("cannot read --path {}", file.display()))?;
-            let path: PathFile = serde_json::from_str(&text)
-                .with_context(|| format!("--path {}: not a camera path", file.display()))?;
-            if path.keyframes.is_empty() || path.frames_between == 0 {
-                bail!(
-                    "--path {}: needs at least one keyframe and frames_between ≥ 1",
-                    file.display()
-                );
-            }
-            let bad = |k: &Keyframe| {
-                !(k.eye.iter().chain(&k.target).all(|x| x.is_finite())) || k.eye == k.target
-            };
-            if let Some(i) = path.keyframes.iter().position(bad) {
-                bail!(
-                    "--path {}: keyframe {i} has a non-finite position or its eye on its target",
-                    file.display()
-                );
-            }
-            let look = |eye: [f64; 3], target: [f64; 3]| Camera {
-                up,
-                ..Camera::looking_at(eye, target, radius)
-            };
-            let mut out = vec![look(path.keyframes[0].eye, path.keyframes[0].target)];
-            for pair in path.keyframes.windows(2) {
-                for k in 1..=path.frames_between {
-                    let s = k as f64 / path.frames_between as f64;
-                    let lerp =
-                        |a: [f64; 3], b: [f64; 3]| [0, 1, 2].map(|i| a[i] + (b[i] - a[i]) * s);
-                    out.push(look(
-                        lerp(pair[0].eye, pair[1].eye),
-                        lerp(pair[0].target, pair[1].target),
-                    ));
-                }
-            }
-            let last = *out.last().unwrap();
-            out.extend(std::iter::repeat_n(last, path.pause_frames));
-            out
+            let path = CameraPath::load(file).context("--path")?;
+            path.frames()
+                .into_iter()
+                .map(|k| Camera {
+                    up,
+                    ..Camera::looking_at(k.eye, k.target, radius)
+                })
+                .collect()
         }
         None => {
             let orbit = |az: f64, el: f64, dist: f64| {

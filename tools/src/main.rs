@@ -10,6 +10,7 @@ mod bench_render_stream;
 mod bench_stream_loops;
 mod bench_stream_plot;
 mod build_checkpoint;
+mod camera_path;
 mod check_errors;
 mod cmd_bench;
 mod cmd_bench_errors;

@@ -4,72 +4,15 @@
 //! what the viewer captures; without a display, or with a bad script line, it exits 2 with a
 //! message.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-use std::sync::Mutex;
+use std::path::PathBuf;
+use std::process::Command;
 use std::time::{Duration, Instant};
 
-/// Xvfb's arguments: `-noreset`, or the server resets when its last client leaves and
-/// signals xvfb-run, which can make xvfb-run's own clean-up fail (exit 5).
-const XVFB_ARGS: &str = "-screen 0 1024x768x24 -noreset";
+mod view_support;
 
-/// One Xvfb at a time: parallel `xvfb-run -a` may pick the same display number.
-static XVFB: Mutex<()> = Mutex::new(());
-
-fn tessera() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_tessera"))
-}
-
-fn ok(out: &Output) {
-    assert!(
-        out.status.success(),
-        "status {:?}\nstdout {}\nstderr {}",
-        out.status,
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-}
-
-fn bunny_repository(dir: &Path) -> PathBuf {
-    let bunny = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../testdata/mesh/bunny00.off");
-    let repo = dir.join("bunny.tsr");
-    ok(&tessera()
-        .args([
-            "build",
-            bunny.to_str().unwrap(),
-            "-o",
-            repo.to_str().unwrap(),
-        ])
-        .output()
-        .unwrap());
-    repo
-}
-
-/// Whether `xvfb-run` is on the PATH.
-fn xvfb_run() -> bool {
-    Command::new("sh")
-        .args(["-c", "command -v xvfb-run"])
-        .output()
-        .is_ok_and(|o| o.status.success())
-}
-
-/// Pixels that are neither the renderer's background nor the letterbox's black.
-fn model_pixels(image: &image::RgbaImage) -> usize {
-    image
-        .pixels()
-        .filter(|p| {
-            let [r, g, b, _] = p.0;
-            let background =
-                (r.abs_diff(28) <= 2) && (g.abs_diff(31) <= 2) && (b.abs_diff(38) <= 2);
-            !background && (r, g, b) != (0, 0, 0)
-        })
-        .count()
-}
-
-fn differing_pixels(a: &image::RgbaImage, b: &image::RgbaImage) -> usize {
-    assert_eq!(a.dimensions(), b.dimensions());
-    a.pixels().zip(b.pixels()).filter(|(p, q)| p != q).count()
-}
+use view_support::{
+    bunny_repository, differing_pixels, model_pixels, ok, tessera, xvfb_run, XVFB, XVFB_ARGS,
+};
 
 #[test]
 fn view_runs_a_script_in_a_window_under_xvfb() {
@@ -113,7 +56,7 @@ fn view_runs_a_script_in_a_window_under_xvfb() {
         format!(r#"{{"screenshot":"{}"}}"#, shot("zoomed_out.png")),
         // The screenshot key: the window as it is, to tessera-view-001.png in the viewer's
         // current directory (a tenth record, its path absolute).
-        r#"{"key":"s"}"#.to_string(),
+        r#"{"key":"p"}"#.to_string(),
     ]
     .join("\n");
     let script_path = dir.path().join("s.jsonl");
@@ -426,7 +369,7 @@ fn view_without_a_display_exits_2_saying_so() {
 fn view_names_a_bad_script_line_and_exits_2() {
     let dir = tempfile::tempdir().unwrap();
     let script = dir.path().join("bad.jsonl");
-    std::fs::write(&script, "{\"tolerance\":2}\n{\"fly\":true}\n").unwrap();
+    std::fs::write(&script, "{\"tolerance\":2}\n{\"soar\":true}\n").unwrap();
     let out = tessera()
         .args(["view", "any.tsr", "--script", script.to_str().unwrap()])
         .output()
@@ -434,7 +377,7 @@ fn view_names_a_bad_script_line_and_exits_2() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(2), "{stderr}");
     assert!(
-        stderr.contains("line 2") && stderr.contains("unknown action \"fly\""),
+        stderr.contains("line 2") && stderr.contains("unknown action \"soar\""),
         "{stderr}"
     );
 }

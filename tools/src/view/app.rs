@@ -13,33 +13,34 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use serde_json::json;
+use tessera_core::cull::CullTests;
+use tessera_core::repository::reader::Repository;
+use tessera_runtime::camera::Camera;
 use tessera_runtime::gpu::target::{RenderTarget, COLOR_FORMAT};
 use tessera_runtime::gpu::{FrameRequest, GpuContext, GpuStreamer, Readback, Renderer};
 use winit::application::ApplicationHandler;
 use winit::dpi::PhysicalSize;
-use winit::event::{ElementState, MouseButton, MouseScrollDelta, WindowEvent};
+use winit::event::{ElementState, WindowEvent};
 use winit::event_loop::{ActiveEventLoop, ControlFlow};
-use winit::keyboard::Key;
 use winit::window::{Window, WindowId};
 
 use super::blit::{letterbox, Blit};
 use super::navigation::Navigation;
 use super::overlay::{self, Controls, Stats};
-use super::pointer::{Button, Pointer};
+use super::pointer::Pointer;
 use super::script::Action;
+use super::target::Controller;
+use crate::camera_path::Keyframe;
 use crate::gpu_args::device_failure;
 
 /// Most frames a screenshot waits for the stream to settle (as `render --max-frames`).
 pub const SETTLE_FRAMES: u32 = 1000;
 
-/// Cursor moves of a scripted drag.
-const DRAG_STEPS: u32 = 8;
-
 /// Most frames a scripted resize waits for the window to take its new size.
 pub const RESIZE_FRAMES: u32 = 300;
 
 /// What the script is doing.
-enum Step {
+pub(super) enum Step {
     /// Running the next actions.
     Next,
     /// Drawing this many more frames.
@@ -50,6 +51,8 @@ enum Step {
     Capture(PathBuf),
     /// Waiting for the window to have this size (frames waited so far).
     Resize(u32, u32, u32),
+    /// Flying a camera path until its last camera.
+    Play,
 }
 
 /// Everything made once the window exists.
@@ -79,27 +82,56 @@ pub struct App {
     pub script: Option<VecDeque<Action>>,
     /// The first error (exit 2, or 3 for a device failure); the loop ends on it.
     pub error: Option<anyhow::Error>,
-    step: Step,
-    show_overlay: bool,
-    stats: Stats,
+    /// The repository (picks and exports read its patches).
+    pub(super) repo: Arc<Repository>,
+    /// A height field (fly mode stays above its ground).
+    pub(super) terrain: bool,
+    /// Where `B` saves bookmarks and 1-9 read them (a camera path file).
+    pub(super) bookmarks: PathBuf,
+    /// Where `K` writes a recorded path (`None`: the next free `tessera-path-NNN.json`).
+    pub(super) record: Option<PathBuf>,
+    pub(super) step: Step,
+    pub(super) show_overlay: bool,
+    pub(super) stats: Stats,
+    pub(super) pointer: Pointer,
+    /// The simplices the last frame drew (picks cast rays against them).
+    pub(super) selection: Vec<u32>,
+    /// Move keys held: by the keyboard until released (`None`), or by the script for so many
+    /// frames.
+    pub(super) held: Vec<(char, Option<u32>)>,
+    /// The camera whose cut is frozen.
+    pub(super) frozen: Option<Camera>,
+    pub(super) controller: Option<Controller>,
+    pub(super) last_click: Option<(Instant, f64, f64)>,
+    /// Cameras recorded since `K`.
+    pub(super) recording: Option<Vec<Keyframe>>,
+    /// Cameras of a path being played, next first.
+    pub(super) playing: VecDeque<Keyframe>,
     last_frame: Option<Instant>,
-    pointer: Pointer,
     win: Option<Window_>,
+}
+
+/// What `App::new` needs besides the GPU.
+pub struct Setup {
+    pub repo: Arc<Repository>,
+    pub navigation: Navigation,
+    pub controls: Controls,
+    pub budget_bytes: u64,
+    pub script: Option<Vec<Action>>,
+    pub json: bool,
+    pub bookmarks: PathBuf,
+    pub record: Option<PathBuf>,
 }
 
 impl App {
     pub fn new(
         ctx: GpuContext,
         (renderer, streamer): (Renderer, GpuStreamer),
-        navigation: Navigation,
-        controls: Controls,
-        budget_bytes: u64,
-        script: Option<Vec<Action>>,
-        json: bool,
+        setup: Setup,
     ) -> App {
         let stats = Stats {
             adapter: ctx.adapter_description(),
-            budget_bytes,
+            budget_bytes: setup.budget_bytes,
             size: renderer.size(),
             ..Default::default()
         };
@@ -107,17 +139,47 @@ impl App {
             ctx,
             renderer,
             streamer,
-            navigation,
-            controls,
-            json,
-            script: script.map(VecDeque::from),
+            navigation: setup.navigation,
+            controls: setup.controls,
+            json: setup.json,
+            script: setup.script.map(VecDeque::from),
             error: None,
+            terrain: setup.repo.header().dimension == 2,
+            repo: setup.repo,
+            bookmarks: setup.bookmarks,
+            record: setup.record,
             step: Step::Next,
             show_overlay: true,
             stats,
-            last_frame: None,
             pointer: Pointer::default(),
+            selection: Vec::new(),
+            held: Vec::new(),
+            frozen: None,
+            controller: None,
+            last_click: None,
+            recording: None,
+            playing: VecDeque::new(),
+            last_frame: None,
             win: None,
+        }
+    }
+
+    /// The window's size in pixels ((1, 1) before it exists).
+    pub(super) fn window_size(&self) -> (u32, u32) {
+        self.win
+            .as_ref()
+            .map_or((1, 1), |w| (w.config.width, w.config.height))
+    }
+
+    /// Asks for a window size (applied at once on some platforms: then no `Resized` follows).
+    pub(super) fn request_size(&mut self, width: u32, height: u32) {
+        if let Some(w) = &self.win {
+            if let Some(now) = w
+                .window
+                .request_inner_size(PhysicalSize::new(width, height))
+            {
+                self.resize(now);
+            }
         }
     }
 
@@ -223,80 +285,35 @@ impl App {
         w.canvas_source = w.to_surface.source(&self.ctx.device, &w.canvas.color_view);
     }
 
-    /// Runs script actions until one needs frames; false when the script has ended.
-    fn advance_script(&mut self) -> bool {
-        if self.script.is_none() {
-            return true;
-        }
-        while matches!(self.step, Step::Next) {
-            let Some(action) = self.script.as_mut().and_then(VecDeque::pop_front) else {
-                return false;
-            };
-            match action {
-                Action::Orbit(orbit) => self.navigation.set_orbit(orbit),
-                Action::Tolerance(t) => self.controls.tolerance = t,
-                Action::Mode(m) => self.controls.mode = m,
-                Action::WaitFrames(n) if n > 0 => self.step = Step::Wait(n),
-                Action::WaitFrames(_) => {}
-                Action::Screenshot(path) => self.step = Step::Settle(path, 0),
-                Action::Key(c) => self.key(c),
-                Action::Overlay(on) => self.show_overlay = on,
-                Action::Drag(button, line) => {
-                    let height = self.win.as_ref().map_or(1, |w| w.config.height);
-                    let steps = DRAG_STEPS;
-                    (self.pointer).drag(button, line, steps, &mut self.navigation, height);
-                }
-                Action::Wheel(lines) => self.navigation.zoom(lines),
-                Action::Resize(width, height) => {
-                    if let Some(w) = &self.win {
-                        let size = PhysicalSize::new(width, height);
-                        // Applied at once on some platforms: then no `Resized` may follow.
-                        if let Some(now) = w.window.request_inner_size(size) {
-                            self.resize(now);
-                        }
-                    }
-                    self.step = Step::Resize(width, height, 0);
-                }
-            }
-        }
-        true
-    }
-
     /// Script actions not finished yet (0 without a script).
     fn script_left(&self) -> usize {
         let running = usize::from(!matches!(self.step, Step::Next));
         self.script.as_ref().map_or(0, |s| s.len() + running)
     }
 
-    fn key(&mut self, c: char) {
-        match c {
-            'r' => self.navigation.reset(),
-            'h' => self.show_overlay = !self.show_overlay,
-            // The window's content as it is, at the next frame, to the first free
-            // `tessera-view-NNN.png` of the current directory.
-            's' => self.step = Step::Capture(next_screenshot_path()),
-            _ => {}
-        }
-    }
-
     /// One frame (module comment). Returns whether the loop should end (the script is done).
     fn frame(&mut self) -> anyhow::Result<bool> {
-        if !self.advance_script() {
+        if !self.advance_script()? {
             return Ok(true);
         }
-        let Some(w) = self.win.as_mut() else {
+        let Some(w) = self.win.as_ref() else {
             return Ok(false);
         };
         if w.config.width == 0 || w.config.height == 0 {
             return Ok(false); // minimised
         }
+        self.before_frame();
         let (width, height) = self.renderer.size();
+        let (cut_camera, draw_camera) = self.cameras();
         let request = FrameRequest {
             mode: self.controls.mode.into(),
-            ..FrameRequest::new(
-                self.navigation.camera(width, height),
-                self.controls.tolerance,
-            )
+            wireframe: self.controls.wireframe,
+            cull: CullTests {
+                frustum: (self.controls.frustum_culling).then(|| cut_camera.view_volume()),
+                cones: self.controls.cone_culling,
+            },
+            draw_camera,
+            ..FrameRequest::new(cut_camera, self.controls.tolerance)
         };
         let readback = Readback {
             image: false,
@@ -320,9 +337,13 @@ impl App {
             resident_patches: self.streamer.resident_patches(),
             pending_units: f.stats.pending_units,
             settled: f.settled,
+            tolerance: request.tau,
             ..std::mem::take(&mut self.stats)
         };
+        self.selection = selection;
         self.last_frame = Some(now);
+        self.after_frame();
+        let w = self.win.as_mut().expect("checked above");
 
         // The overlay's layout (it may change the controls for the next frame).
         let input = w.egui.take_egui_input(&w.window);
@@ -432,6 +453,7 @@ impl App {
         // The script's next step.
         self.step = match std::mem::replace(&mut self.step, Step::Next) {
             Step::Wait(n) if n > 1 => Step::Wait(n - 1),
+            Step::Play if !self.playing.is_empty() => Step::Play,
             Step::Settle(path, n) if !f.settled && n + 1 < SETTLE_FRAMES => {
                 Step::Settle(path, n + 1)
             }
@@ -461,10 +483,15 @@ impl App {
                             "path": path.display().to_string(),
                             "triangles": self.stats.triangles,
                             "patches": self.stats.patches,
-                            "tolerance": self.controls.tolerance,
+                            "tolerance": self.stats.tolerance,
                             "gpu_ms": self.stats.gpu_ms,
                             "resident_bytes": self.stats.resident_bytes,
                             "settled": self.stats.settled,
+                            "eye": self.navigation.eye(),
+                            "pivot": self.navigation.pivot(),
+                            "fly": self.controls.fly,
+                            "frozen": self.frozen.is_some(),
+                            "frame_ms": self.stats.frame_ms,
                             "width": image.width(),
                             "height": image.height(),
                         })
@@ -475,38 +502,6 @@ impl App {
             _ => Step::Next,
         };
         Ok(false)
-    }
-
-    /// Mouse and keyboard not taken by the overlay.
-    fn input(&mut self, event: &WindowEvent) {
-        let height = self.win.as_ref().map_or(1, |w| w.config.height);
-        match event {
-            WindowEvent::MouseInput { state, button, .. } => {
-                let down = *state == ElementState::Pressed;
-                match button {
-                    MouseButton::Left => self.pointer.button(Button::Left, down),
-                    MouseButton::Right => self.pointer.button(Button::Right, down),
-                    _ => {}
-                }
-            }
-            WindowEvent::CursorMoved { position, .. } => {
-                self.pointer
-                    .moved(position.x, position.y, &mut self.navigation, height)
-            }
-            WindowEvent::CursorLeft { .. } => self.pointer.left_window(),
-            WindowEvent::MouseWheel { delta, .. } => self.navigation.zoom(match delta {
-                MouseScrollDelta::LineDelta(_, y) => *y as f64,
-                MouseScrollDelta::PixelDelta(p) => p.y / 40.0,
-            }),
-            WindowEvent::KeyboardInput { event, .. } if event.state == ElementState::Pressed => {
-                if let Key::Character(s) = &event.logical_key {
-                    if let Some(c) = s.chars().next() {
-                        self.key(c.to_ascii_lowercase());
-                    }
-                }
-            }
-            _ => {}
-        }
     }
 }
 
@@ -566,14 +561,4 @@ impl ApplicationHandler for App {
             _ => event_loop.set_control_flow(ControlFlow::Wait),
         }
     }
-}
-
-/// The first `tessera-view-NNN.png` (NNN from 001) not in the current directory, absolute
-/// when the current directory is known.
-fn next_screenshot_path() -> PathBuf {
-    let dir = std::env::current_dir().unwrap_or_default();
-    (1..)
-        .map(|n| dir.join(format!("tessera-view-{n:03}.png")))
-        .find(|p| !p.exists())
-        .expect("a free name")
 }

@@ -3,16 +3,25 @@
 //!
 //! A winit window with a wgpu surface; each frame the streaming renderer of `render` draws the
 //! camera into its offscreen target at `--size`, which is scaled (letterboxed) into the window
-//! with an egui overlay on top (`app.rs`). Files: `app` (event loop, frames, input), `blit`
-//! (texture to target), `navigation` (orbit, pan, zoom, reset), `pointer` (mouse drags and
-//! wheel to navigation), `overlay` (statistics and controls), `script` (`--script` actions).
+//! with an egui overlay on top (`app.rs`). Files: `app` (event loop, window, drawing a
+//! frame), `actions` (keys, script actions, picks, fly moves, freezing, targets, export,
+//! bookmarks and paths between frames), `input` (window events to navigation and actions), `blit` (texture to target), `navigation` (orbit
+//! around a pivot, pan, zoom towards a point, fly), `pick` (rays against the drawn cut),
+//! `pointer` (mouse drags and wheel to navigation), `overlay` (statistics and controls),
+//! `target` (the frame-time and triangle controller), `export` (the cut as PLY), `script`
+//! (`--script` actions).
 
+mod actions;
 mod app;
 mod blit;
+pub mod export;
+mod input;
 mod navigation;
 mod overlay;
+mod pick;
 mod pointer;
 mod script;
+mod target;
 
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -56,6 +65,20 @@ pub struct ViewArgs {
     /// Print one JSON object per screenshot on stdout.
     #[arg(long)]
     pub json: bool,
+    /// Bookmarks file (`B` adds the current view, 1-9 go to one; a camera path that `bench
+    /// stream --path` can fly). Default: beside the repository, `NAME.bookmarks.json`.
+    #[arg(long)]
+    pub bookmarks: Option<PathBuf>,
+    /// Where `K` writes the camera path it records (default: the first free
+    /// `tessera-path-NNN.json` of the current directory).
+    #[arg(long)]
+    pub record: Option<PathBuf>,
+    /// Hold this frame time (ms) from the start, adjusting the tolerance each frame.
+    #[arg(long, conflicts_with = "target_triangles")]
+    pub target_ms: Option<f64>,
+    /// Hold this triangle count from the start, adjusting the tolerance each frame.
+    #[arg(long)]
+    pub target_triangles: Option<u64>,
 }
 
 impl ViewArgs {
@@ -76,6 +99,10 @@ impl ViewArgs {
             },
             script: None,
             json: false,
+            bookmarks: None,
+            record: None,
+            target_ms: None,
+            target_triangles: None,
         }
     }
 }
@@ -99,6 +126,15 @@ pub fn run(args: ViewArgs) -> anyhow::Result<Outcome> {
     }
     if args.orbit[2] <= 0.0 {
         anyhow::bail!("--orbit distance {} must be positive", args.orbit[2]);
+    }
+    if args
+        .target_ms
+        .is_some_and(|ms| !(ms > 0.0 && ms.is_finite()))
+    {
+        anyhow::bail!("--target-ms must be a positive number of milliseconds");
+    }
+    if args.target_triangles == Some(0) {
+        anyhow::bail!("--target-triangles must be at least 1");
     }
     if !(args.fov > 0.0 && args.fov < 180.0) {
         anyhow::bail!("--fov {} must be between 0 and 180 degrees", args.fov);
@@ -125,20 +161,29 @@ pub fn run(args: ViewArgs) -> anyhow::Result<Outcome> {
         .gpu
         .context_for_display(Box::new(event_loop.owned_display_handle()))?;
     let budget_bytes = args.gpu.budget_bytes(&ctx);
-    let streaming = args.gpu.streaming(&ctx, shared, args.size)?;
-    let controls = overlay::Controls {
-        tolerance: args.tolerance,
-        mode: args.mode,
-    };
-    let mut app = app::App::new(
-        ctx,
-        streaming,
+    let streaming = args.gpu.streaming(&ctx, shared.clone(), args.size)?;
+    let mut controls = overlay::Controls::new(args.tolerance, args.mode);
+    if let Some(ms) = args.target_ms {
+        (controls.target, controls.target_ms) = (overlay::TargetChoice::FrameTime, ms);
+    }
+    if let Some(n) = args.target_triangles {
+        (controls.target, controls.target_triangles) = (overlay::TargetChoice::Triangles, n);
+    }
+    let bookmarks = args.bookmarks.clone().unwrap_or_else(|| {
+        let stem = args.repository.file_stem().unwrap_or_default();
+        (args.repository).with_file_name(format!("{}.bookmarks.json", stem.to_string_lossy()))
+    });
+    let setup = app::Setup {
+        repo: shared.clone(),
         navigation,
         controls,
         budget_bytes,
         script,
-        args.json,
-    );
+        json: args.json,
+        bookmarks,
+        record: args.record.clone(),
+    };
+    let mut app = app::App::new(ctx, streaming, setup);
     event_loop
         .run_app(&mut app)
         .map_err(|e| anyhow::anyhow!("the window's event loop failed: {e}"))?;

@@ -1,6 +1,8 @@
 //! The overlay (egui): live statistics of the last frame and the controls (tolerance slider,
-//! display mode). Drawn into the canvas after the model by egui-wgpu.
+//! target modes, display mode, wireframe, culling, freezing the cut, fly mode). Drawn into
+//! the canvas after the model by egui-wgpu.
 
+use super::target::Target;
 use crate::cmd_render::Mode;
 
 /// What the overlay shows, refreshed every frame.
@@ -19,12 +21,17 @@ pub struct Stats {
     pub resident_patches: usize,
     /// Units requested and not landed yet.
     pub pending_units: usize,
+    /// The tolerance the last frame was drawn with, pixels.
+    pub tolerance: f32,
     /// Whether the stream has nothing more to load for this view.
     pub settled: bool,
     /// Adapter name, backend and device type.
     pub adapter: String,
     /// Render size (the image is scaled to the window).
     pub size: (u32, u32),
+    /// The last thing a key or a pick did (pivot set, file written, ...), shown until the
+    /// next.
+    pub message: String,
 }
 
 /// The controls the overlay may change.
@@ -32,7 +39,59 @@ pub struct Stats {
 pub struct Controls {
     pub tolerance: f32,
     pub mode: Mode,
+    /// The triangles' edges over the fill.
+    pub wireframe: bool,
+    /// Patches outside the view volume are not drawn.
+    pub frustum_culling: bool,
+    /// Patches whose normal cones face away are not drawn.
+    pub cone_culling: bool,
+    /// The cut stays the one selected when it was frozen, seen from wherever the camera goes.
+    pub frozen: bool,
+    /// Fly mode (a left drag looks around; WASD move in both modes).
+    pub fly: bool,
+    /// What the tolerance follows: the slider, a frame time or a triangle count.
+    pub target: TargetChoice,
+    pub target_ms: f64,
+    pub target_triangles: u64,
 }
+
+impl Controls {
+    pub fn new(tolerance: f32, mode: Mode) -> Controls {
+        Controls {
+            tolerance,
+            mode,
+            wireframe: false,
+            frustum_culling: true,
+            cone_culling: true,
+            frozen: false,
+            fly: false,
+            target: TargetChoice::Off,
+            target_ms: 33.0,
+            target_triangles: 1_000_000,
+        }
+    }
+
+    /// The target the controller should hold, if any.
+    pub fn target(&self) -> Option<Target> {
+        match self.target {
+            TargetChoice::Off => None,
+            TargetChoice::FrameTime => Some(Target::FrameMs(self.target_ms)),
+            TargetChoice::Triangles => Some(Target::Triangles(self.target_triangles)),
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TargetChoice {
+    Off,
+    FrameTime,
+    Triangles,
+}
+
+/// The keys, as the overlay lists them (README.md too).
+pub const KEY_HELP: &str = "drag: orbit (fly: look)   right drag: pan   wheel: zoom to cursor   \
+double-click: pivot\nW A S D Q E: move   F: fly   C: freeze cut   R: reset   H: overlay   \
+P: screenshot   X: export cut   B: bookmark   1-9: go to bookmark   K: record path";
 
 /// Tolerance slider range, pixels.
 const TOLERANCE_RANGE: std::ops::RangeInclusive<f32> = 0.25..=64.0;
@@ -70,12 +129,46 @@ pub fn ui(ctx: &egui::Context, stats: &Stats, controls: &mut Controls) {
             });
             ui.label(&stats.adapter); // name (backend, device type)
             ui.label(format!("render size {}×{}", stats.size.0, stats.size.1));
+            if !stats.message.is_empty() {
+                ui.label(&stats.message);
+            }
             ui.separator();
-            ui.add(
+            ui.add_enabled(
+                controls.target == TargetChoice::Off,
                 egui::Slider::new(&mut controls.tolerance, TOLERANCE_RANGE)
+                    // A τ from the command line, the script or the target controller may lie
+                    // outside the slider's range: kept, not clamped.
+                    .clamping(egui::SliderClamping::Edits)
                     .logarithmic(true)
                     .text("tolerance px"),
             );
+            ui.horizontal(|ui| {
+                ui.label("hold:");
+                ui.radio_value(&mut controls.target, TargetChoice::Off, "τ");
+                ui.radio_value(&mut controls.target, TargetChoice::FrameTime, "frame ms");
+                ui.radio_value(&mut controls.target, TargetChoice::Triangles, "triangles");
+            });
+            match controls.target {
+                TargetChoice::Off => {}
+                TargetChoice::FrameTime => {
+                    ui.add(
+                        egui::Slider::new(&mut controls.target_ms, 4.0..=500.0)
+                            .clamping(egui::SliderClamping::Edits)
+                            .logarithmic(true)
+                            .text("target ms"),
+                    );
+                    ui.label(format!("τ {:.3} px", controls.tolerance));
+                }
+                TargetChoice::Triangles => {
+                    ui.add(
+                        egui::Slider::new(&mut controls.target_triangles, 1_000..=100_000_000)
+                            .clamping(egui::SliderClamping::Edits)
+                            .logarithmic(true)
+                            .text("target triangles"),
+                    );
+                    ui.label(format!("τ {:.3} px", controls.tolerance));
+                }
+            }
             ui.horizontal(|ui| {
                 for (mode, name) in [
                     (Mode::Lit, "lit"),
@@ -85,7 +178,17 @@ pub fn ui(ctx: &egui::Context, stats: &Stats, controls: &mut Controls) {
                 ] {
                     ui.radio_value(&mut controls.mode, mode, name);
                 }
+                ui.checkbox(&mut controls.wireframe, "wireframe");
             });
-            ui.label("drag: orbit   right drag: pan   wheel: zoom   R: reset   H: overlay   S: screenshot");
+            ui.horizontal(|ui| {
+                ui.label("cull:");
+                ui.checkbox(&mut controls.frustum_culling, "frustum");
+                ui.checkbox(&mut controls.cone_culling, "back-facing patches");
+            });
+            ui.horizontal(|ui| {
+                ui.checkbox(&mut controls.frozen, "freeze cut (C)");
+                ui.checkbox(&mut controls.fly, "fly (F)");
+            });
+            ui.label(KEY_HELP);
         });
 }

@@ -40,6 +40,11 @@ impl Pointer {
         self.cursor = Some((x, y));
     }
 
+    /// Where the cursor is, window pixels (`None` outside the window).
+    pub fn cursor(&self) -> Option<(f64, f64)> {
+        self.cursor
+    }
+
     /// The cursor left the window.
     pub fn left_window(&mut self) {
         self.cursor = None;

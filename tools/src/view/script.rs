@@ -22,23 +22,52 @@ pub enum Action {
     /// `{"screenshot": "PATH"}`: once the stream has settled for the current view (or after
     /// `SETTLE_FRAMES`), the window's content as PNG.
     Screenshot(PathBuf),
-    /// `{"key": "r"}`: as if the key were pressed (`r` reset, `h` overlay on/off, `s` a
-    /// screenshot to `tessera-view-NNN.png` in the current directory, at the next frame).
-    Key(char),
+    /// `{"key": "w", "frames": 30}`: as if the key were pressed and held for that many frames
+    /// (default 1); `KEYS` lists the keys (README.md says what each does).
+    Key(char, u32),
     /// `{"overlay": true|false}`: show or hide the overlay.
     Overlay(bool),
     /// `{"resize": [width, height]}`: asks for this window size and waits until the window
     /// has it (an error after `RESIZE_FRAMES` frames).
     Resize(u32, u32),
-    /// `{"drag":[x0,y0,x1,y1]}` (left button: orbit) or `{"right_drag":[x0,y0,x1,y1]}`
-    /// (pan), window pixels: as the mouse would, in one frame (the overlay does not take it).
+    /// `{"drag":[x0,y0,x1,y1]}` (left button: orbit, or look in fly mode) or
+    /// `{"right_drag":[x0,y0,x1,y1]}` (pan), window pixels: as the mouse would, in one frame
+    /// (the overlay does not take it).
     Drag(Button, [f64; 4]),
-    /// `{"wheel": lines}`: zoom, as the mouse wheel (positive: towards the model).
+    /// `{"wheel": lines}`: zoom towards the pivot (positive: closer).
     Wheel(f64),
+    /// `{"wheel_at": [x, y, lines]}`: the wheel with the cursor at (x, y), window pixels:
+    /// zoom towards the surface under it.
+    WheelAt([f64; 3]),
+    /// `{"double_click": [x, y]}`: the pivot moves to the surface under (x, y).
+    DoubleClick([f64; 2]),
+    /// `{"target_ms": ms}`: hold this frame time (`{"target": "off"}` returns to the slider).
+    TargetMs(f64),
+    /// `{"budget_triangles": n}`: hold this triangle count.
+    BudgetTriangles(u64),
+    /// `{"target": "off"}`.
+    TargetOff,
+    /// `{"freeze": true|false}`: freeze the cut (or let it follow the camera again).
+    Freeze(bool),
+    /// `{"fly": true|false}`.
+    Fly(bool),
+    /// `{"wireframe": true|false}`.
+    Wireframe(bool),
+    /// `{"culling": {"frustum": bool, "cones": bool}}` (a missing key keeps its setting).
+    Culling(Option<bool>, Option<bool>),
+    /// `{"export": "PATH"}`: the current cut (all of the model at the view's resolution) as
+    /// a binary PLY.
+    Export(PathBuf),
+    /// `{"play": "PATH"}`: fly a camera path (`bench stream --path`'s format) frame by frame.
+    Play(PathBuf),
 }
 
-/// Keys a script may press (`Action::Key`).
-pub const KEYS: &[char] = &['r', 'h', 's'];
+/// Keys a script may press (`Action::Key`): reset, overlay, screenshot, fly, freeze, export,
+/// bookmark, record path, the bookmarks 1-9 and the moves.
+pub const KEYS: &[char] = &[
+    'r', 'h', 'p', 'f', 'c', 'x', 'b', 'k', '1', '2', '3', '4', '5', '6', '7', '8', '9', 'w', 'a',
+    's', 'd', 'q', 'e',
+];
 
 /// Reads and parses a script file.
 pub fn load(path: &Path) -> anyhow::Result<Vec<Action>> {
@@ -65,13 +94,32 @@ fn parse_line(line: &str) -> Result<Action, String> {
         serde_json::from_str(line).map_err(|e| format!("not JSON ({e})"))?;
     let object = value
         .as_object()
-        .filter(|o| o.len() == 1)
+        .filter(|o| {
+            o.len() == 1 || (o.len() == 2 && o.contains_key("key") && o.contains_key("frames"))
+        })
         .ok_or("expected an object with exactly one action")?;
-    let (name, arg) = object.iter().next().expect("one key");
+    let (name, arg) = object
+        .iter()
+        .find(|(k, _)| k.as_str() != "frames")
+        .ok_or("expected an object with exactly one action")?;
     let number = |v: &serde_json::Value| {
         v.as_f64()
             .filter(|x| x.is_finite())
             .ok_or_else(|| format!("{name:?} takes a finite number"))
+    };
+    let flag = |v: &serde_json::Value| v.as_bool().ok_or(format!("{name:?} takes true or false"));
+    let path = |v: &serde_json::Value| {
+        v.as_str()
+            .filter(|s| !s.is_empty())
+            .map(PathBuf::from)
+            .ok_or(format!("{name:?} takes a path"))
+    };
+    let point = |v: &serde_json::Value, n: usize, what: &str| -> Result<Vec<f64>, String> {
+        let a = v
+            .as_array()
+            .filter(|a| a.len() == n)
+            .ok_or_else(|| format!("{name:?} takes {what}"))?;
+        a.iter().map(number).collect()
     };
     Ok(match name.as_str() {
         "orbit" => {
@@ -104,18 +152,58 @@ fn parse_line(line: &str) -> Result<Action, String> {
                 .and_then(|n| u32::try_from(n).ok())
                 .ok_or("\"wait_frames\" takes a count of frames")?,
         ),
-        "screenshot" => {
-            let p = arg.as_str().filter(|s| !s.is_empty());
-            Action::Screenshot(PathBuf::from(p.ok_or("\"screenshot\" takes a path")?))
-        }
+        "screenshot" => Action::Screenshot(path(arg)?),
         "key" => {
             let s = arg.as_str().ok_or("\"key\" takes a string")?;
             let mut chars = s.chars().map(|c| c.to_ascii_lowercase());
+            let frames = match object.get("frames") {
+                None => 1,
+                Some(f) => f
+                    .as_u64()
+                    .and_then(|n| u32::try_from(n).ok())
+                    .filter(|&n| n >= 1)
+                    .ok_or("\"frames\" takes a count of frames ≥ 1")?,
+            };
             match (chars.next(), chars.next()) {
-                (Some(c), None) if KEYS.contains(&c) => Action::Key(c),
+                (Some(c), None) if KEYS.contains(&c) => Action::Key(c, frames),
                 _ => return Err(format!("unknown key {s:?}: the keys are {KEYS:?}")),
             }
         }
+        "wheel_at" => {
+            let v = point(arg, 3, "[x, y, lines]")?;
+            Action::WheelAt([v[0], v[1], v[2]])
+        }
+        "double_click" => {
+            let v = point(arg, 2, "[x, y]")?;
+            Action::DoubleClick([v[0], v[1]])
+        }
+        "target_ms" => {
+            let ms = number(arg)?;
+            if ms <= 0.0 {
+                return Err(format!("target_ms {ms} must be positive"));
+            }
+            Action::TargetMs(ms)
+        }
+        "budget_triangles" => Action::BudgetTriangles(
+            arg.as_u64()
+                .filter(|&n| n >= 1)
+                .ok_or("\"budget_triangles\" takes a count ≥ 1")?,
+        ),
+        "target" if arg.as_str() == Some("off") => Action::TargetOff,
+        "target" => return Err("\"target\" takes \"off\"".into()),
+        "freeze" => Action::Freeze(flag(arg)?),
+        "fly" => Action::Fly(flag(arg)?),
+        "wireframe" => Action::Wireframe(flag(arg)?),
+        "culling" => {
+            let o = arg
+                .as_object()
+                .filter(|o| o.keys().all(|k| k == "frustum" || k == "cones"))
+                .ok_or("\"culling\" takes {\"frustum\": bool, \"cones\": bool}")?;
+            let get = |k: &str| o.get(k).map(flag).transpose();
+            Action::Culling(get("frustum")?, get("cones")?)
+        }
+        "export" => Action::Export(path(arg)?),
+        "play" => Action::Play(path(arg)?),
         "overlay" => Action::Overlay(arg.as_bool().ok_or("\"overlay\" takes true or false")?),
         "drag" | "right_drag" => {
             let a = arg
@@ -154,7 +242,9 @@ fn parse_line(line: &str) -> Result<Action, String> {
         other => {
             return Err(format!(
                 "unknown action {other:?}: orbit, tolerance, mode, wait_frames, screenshot, \
-                 key, overlay, resize, drag, right_drag, wheel"
+                 key, overlay, resize, drag, right_drag, wheel, wheel_at, double_click, \
+                 target_ms, budget_triangles, target, freeze, fly, wireframe, culling, export, \
+                 play"
             ))
         }
     })
@@ -174,11 +264,23 @@ mod tests {
 {"wait_frames":3}
 {"screenshot":"a.png"}
 {"key":"R"}
+{"key":"w","frames":30}
 {"overlay":false}
 {"resize":[300,200]}
 {"drag":[1,2,3,4]}
 {"right_drag":[5,6,7,8.5]}
 {"wheel":-2}
+{"wheel_at":[10,20,3]}
+{"double_click":[5,6]}
+{"target_ms":30}
+{"budget_triangles":50000}
+{"target":"off"}
+{"freeze":true}
+{"fly":false}
+{"wireframe":true}
+{"culling":{"cones":false}}
+{"export":"cut.ply"}
+{"play":"path.json"}
 "#;
         assert_eq!(
             parse(text).unwrap(),
@@ -188,12 +290,24 @@ mod tests {
                 Action::Mode(Mode::Patches),
                 Action::WaitFrames(3),
                 Action::Screenshot("a.png".into()),
-                Action::Key('r'),
+                Action::Key('r', 1),
+                Action::Key('w', 30),
                 Action::Overlay(false),
                 Action::Resize(300, 200),
                 Action::Drag(Button::Left, [1.0, 2.0, 3.0, 4.0]),
                 Action::Drag(Button::Right, [5.0, 6.0, 7.0, 8.5]),
                 Action::Wheel(-2.0),
+                Action::WheelAt([10.0, 20.0, 3.0]),
+                Action::DoubleClick([5.0, 6.0]),
+                Action::TargetMs(30.0),
+                Action::BudgetTriangles(50_000),
+                Action::TargetOff,
+                Action::Freeze(true),
+                Action::Fly(false),
+                Action::Wireframe(true),
+                Action::Culling(None, Some(false)),
+                Action::Export("cut.ply".into()),
+                Action::Play("path.json".into()),
             ]
         );
     }
@@ -203,12 +317,15 @@ mod tests {
         for (text, wanted) in [
             ("{\"orbit\":[1,2]}", "line 1"),
             (
-                "\n{\"mode\":\"lit\"}\n{\"fly\":1}",
-                "line 3: unknown action \"fly\"",
+                "\n{\"mode\":\"lit\"}\n{\"soar\":1}",
+                "line 3: unknown action \"soar\"",
             ),
             ("{\"tolerance\":-1}", "line 1: tolerance -1 must be"),
             ("not json", "line 1: not JSON"),
-            ("{\"key\":\"q\"}", "unknown key"),
+            ("{\"key\":\"z\"}", "unknown key"),
+            ("{\"key\":\"w\",\"frames\":0}", "\"frames\" takes"),
+            ("{\"budget_triangles\":0}", "takes a count"),
+            ("{\"culling\":{\"near\":true}}", "\"culling\" takes"),
             ("{\"resize\":[0,10]}", "\"resize\" takes"),
             ("{\"mode\":\"x\",\"tolerance\":1}", "exactly one action"),
         ] {
