@@ -440,3 +440,22 @@ fn demo_view_opens_the_demo_model_in_the_viewer() {
         model_pixels(&image)
     );
 }
+
+/// A mesh given instead of a repository: exit 2, naming the `build` command to run (before
+/// any display is needed).
+#[test]
+fn view_given_a_mesh_names_the_build_command() {
+    let bunny = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../testdata/mesh/bunny00.off");
+    let out = tessera()
+        .args(["view", bunny.to_str().unwrap()])
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("not a tessera repository") && stderr.contains("tessera build"),
+        "{stderr}"
+    );
+}

@@ -282,8 +282,26 @@ impl App {
         }
     }
 
-    /// After a frame: the target controller sets the next τ; a recording takes the camera.
-    pub(super) fn after_frame(&mut self) {
+    /// After a frame: the frame log gets its line, the target controller sets the next τ, a
+    /// recording takes the camera.
+    pub(super) fn after_frame(&mut self) -> anyhow::Result<()> {
+        self.frames += 1;
+        if let Some(log) = &mut self.frame_log {
+            let s = &self.stats;
+            let line = serde_json::json!({
+                "frame": self.frames,
+                "frame_ms": s.frame_ms,
+                "gpu_ms": s.gpu_ms,
+                "triangles": s.triangles,
+                "patches": s.patches,
+                "tolerance": s.tolerance,
+                "settled": s.settled,
+                "pending_units": s.pending_units,
+                "eye": self.navigation.eye(),
+            });
+            std::io::Write::write_fmt(log, format_args!("{line}\n"))
+                .map_err(|e| anyhow::anyhow!("cannot write the frame log: {e}"))?;
+        }
         match self.controls.target() {
             None => self.controller = None,
             Some(target) => {
@@ -297,6 +315,7 @@ impl App {
                     self.stats.triangles,
                     self.stats.pending_units > 0,
                 );
+                self.stats.goal_triangles = c.goal();
             }
         }
         if let Some(frames) = &mut self.recording {
@@ -305,6 +324,7 @@ impl App {
                 target: self.navigation.pivot(),
             });
         }
+        Ok(())
     }
 
     /// The current cut (the whole model at the view's resolution; the frozen cut's camera

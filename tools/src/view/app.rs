@@ -107,6 +107,10 @@ pub struct App {
     pub(super) recording: Option<Vec<Keyframe>>,
     /// Cameras of a path being played, next first.
     pub(super) playing: VecDeque<Keyframe>,
+    /// `--frame-log`: a JSON object per frame.
+    pub(super) frame_log: Option<std::io::BufWriter<std::fs::File>>,
+    /// Frames drawn.
+    pub(super) frames: u64,
     last_frame: Option<Instant>,
     win: Option<Window_>,
 }
@@ -121,6 +125,7 @@ pub struct Setup {
     pub json: bool,
     pub bookmarks: PathBuf,
     pub record: Option<PathBuf>,
+    pub frame_log: Option<std::io::BufWriter<std::fs::File>>,
 }
 
 impl App {
@@ -159,6 +164,8 @@ impl App {
             last_click: None,
             recording: None,
             playing: VecDeque::new(),
+            frame_log: setup.frame_log,
+            frames: 0,
             last_frame: None,
             win: None,
         }
@@ -335,14 +342,14 @@ impl App {
             patches: selection.len(),
             resident_bytes: gpu.gpu_bytes,
             resident_patches: self.streamer.resident_patches(),
-            pending_units: f.stats.pending_units,
+            pending_units: f.stats.pending_units + f.stats.loading_units,
             settled: f.settled,
             tolerance: request.tau,
             ..std::mem::take(&mut self.stats)
         };
         self.selection = selection;
         self.last_frame = Some(now);
-        self.after_frame();
+        self.after_frame()?;
         let w = self.win.as_mut().expect("checked above");
 
         // The overlay's layout (it may change the controls for the next frame).

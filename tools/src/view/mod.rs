@@ -73,6 +73,11 @@ pub struct ViewArgs {
     /// `tessera-path-NNN.json` of the current directory).
     #[arg(long)]
     pub record: Option<PathBuf>,
+    /// Write one JSON object per frame drawn to this file (`frame, frame_ms, gpu_ms,
+    /// triangles, patches, tolerance, settled, pending_units, eye`): what the target modes are
+    /// measured with.
+    #[arg(long)]
+    pub frame_log: Option<PathBuf>,
     /// Hold this frame time (ms) from the start, adjusting the tolerance each frame.
     #[arg(long, conflicts_with = "target_triangles")]
     pub target_ms: Option<f64>,
@@ -101,10 +106,44 @@ impl ViewArgs {
             json: false,
             bookmarks: None,
             record: None,
+            frame_log: None,
             target_ms: None,
             target_triangles: None,
         }
     }
+}
+
+/// Refuses a mesh or a DEM given where a repository is expected, saying which `build`
+/// command makes one (a file named like an input but holding a repository passes).
+fn refuse_input_file(path: &std::path::Path) -> anyhow::Result<()> {
+    let name = path.to_string_lossy().to_lowercase();
+    let name = name.strip_suffix(".gz").unwrap_or(&name);
+    // The importers' extensions, as their error messages list them.
+    let extensions = [
+        tessera_preprocess::import::SUPPORTED_EXTENSIONS,
+        tessera_preprocess::dem::DEM_EXTENSIONS,
+    ]
+    .join(", ");
+    let input = extensions
+        .split([',', ' '])
+        .filter(|e| e.starts_with('.') && e.len() > 1)
+        .any(|ext| name.ends_with(ext));
+    let mut magic = [0u8; 8];
+    let repository = std::fs::File::open(path)
+        .and_then(|mut f| std::io::Read::read_exact(&mut f, &mut magic))
+        .is_ok_and(|()| magic == tessera_core::repository::format::MAGIC);
+    if input && !repository {
+        let tsr = path.with_extension("tsr");
+        anyhow::bail!(
+            "{} is an input mesh or DEM, not a tessera repository: build one first with \
+             `tessera build {} -o {}`, then `tessera view {}`",
+            path.display(),
+            path.display(),
+            tsr.display(),
+            tsr.display()
+        );
+    }
+    Ok(())
 }
 
 /// Ok when a display server is named in the environment, else what is missing.
@@ -141,7 +180,9 @@ pub fn run(args: ViewArgs) -> anyhow::Result<Outcome> {
     }
     // The script first: a bad line is reported before any window opens.
     let script = args.script.as_deref().map(script::load).transpose()?;
+    refuse_input_file(&args.repository)?;
     display_present()?;
+    let shared = Arc::new(Repository::open(&args.repository)?);
     let event_loop = EventLoop::new().map_err(|e| {
         let named = |n: &str| std::env::var(n).map_or(String::new(), |v| format!(" {n}={v:?}"));
         anyhow::anyhow!(
@@ -150,7 +191,6 @@ pub fn run(args: ViewArgs) -> anyhow::Result<Outcome> {
             named("WAYLAND_DISPLAY")
         )
     })?;
-    let shared = Arc::new(Repository::open(&args.repository)?);
     let h = *shared.header();
     let up = args.up.unwrap_or(default_up(h.dimension));
     if up == [0.0; 3] {
@@ -182,6 +222,12 @@ pub fn run(args: ViewArgs) -> anyhow::Result<Outcome> {
         json: args.json,
         bookmarks,
         record: args.record.clone(),
+        frame_log: match &args.frame_log {
+            Some(p) => Some(std::io::BufWriter::new(std::fs::File::create(p).map_err(
+                |e| anyhow::anyhow!("cannot write the frame log {}: {e}", p.display()),
+            )?)),
+            None => None,
+        },
     };
     let mut app = app::App::new(ctx, streaming, setup);
     event_loop

@@ -21,6 +21,8 @@ pub struct Stats {
     pub resident_patches: usize,
     /// Units requested and not landed yet.
     pub pending_units: usize,
+    /// The triangle count the frame-time target is holding now.
+    pub goal_triangles: Option<f64>,
     /// The tolerance the last frame was drawn with, pixels.
     pub tolerance: f32,
     /// Whether the stream has nothing more to load for this view.
@@ -157,7 +159,11 @@ pub fn ui(ctx: &egui::Context, stats: &Stats, controls: &mut Controls) {
                             .logarithmic(true)
                             .text("target ms"),
                     );
-                    ui.label(format!("τ {:.3} px", controls.tolerance));
+                    ui.label(format!(
+                        "τ {:.3} px, holding {:.0} triangles",
+                        controls.tolerance,
+                        stats.goal_triangles.unwrap_or(0.0)
+                    ));
                 }
                 TargetChoice::Triangles => {
                     ui.add(
