@@ -2,7 +2,8 @@
 //! picks the pivot on the surface, a fly key moves the eye, fly mode looks around from the
 //! eye, the wheel zooms towards the cursor, a frozen cut stays the same seen from elsewhere,
 //! the exported cut re-imports with its triangle count and closed, the triangle budget holds
-//! within 5 %, bookmarks and recorded paths round-trip, and a camera path plays.
+//! within 5 %, bookmarks and recorded paths round-trip, a camera path plays, and another
+//! repository opens in the window (as a dropped file does).
 
 mod view_support;
 
@@ -42,6 +43,18 @@ fn view_navigates_freezes_exports_and_holds_a_triangle_budget() {
     let _xvfb = XVFB.lock().unwrap_or_else(|e| e.into_inner());
     let dir = tempfile::tempdir().unwrap();
     let repo = bunny_repository(dir.path());
+    let lion = dir.path().join("lion.tsr");
+    let lion_head =
+        std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../testdata/mesh/lion-head.off");
+    ok(&Command::new(env!("CARGO_BIN_EXE_tessera"))
+        .args([
+            "build",
+            lion_head.to_str().unwrap(),
+            "-o",
+            lion.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap());
     let at = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
     let shot = |name: &str| format!(r#"{{"screenshot":"{}"}}"#, at(name));
     let path_file = dir.path().join("path.json");
@@ -89,6 +102,9 @@ fn view_navigates_freezes_exports_and_holds_a_triangle_budget() {
         r#"{"key":"k"}"#.into(),
         format!(r#"{{"play":"{}"}}"#, path_file.display()),
         shot("played.png"),
+        // Another repository, as a file dropped on the window opens it.
+        format!(r#"{{"open":"{}"}}"#, lion.display()),
+        shot("opened.png"),
     ]
     .join("\n");
     let script_path = dir.path().join("s.jsonl");
@@ -124,6 +140,7 @@ fn view_navigates_freezes_exports_and_holds_a_triangle_budget() {
         "budget",
         "bookmark1",
         "played",
+        "opened",
     ];
     assert_eq!(records.len(), names.len());
     let r = |name: &str| &records[names.iter().position(|n| *n == name).unwrap()];
@@ -229,4 +246,11 @@ fn view_navigates_freezes_exports_and_holds_a_triangle_budget() {
     // The played path ends on its last keyframe.
     let played = r("played");
     assert!(distance(&played["eye"], &serde_json::json!([-0.3, 0.1, 0.3])) < 1e-9);
+
+    // The lion head replaced the bunny, at its own initial view.
+    let opened = image("opened");
+    assert!(model_pixels(&opened) > n / 50);
+    assert!(differing_pixels(&start, &opened) > n / 20);
+    assert_ne!(r("opened")["eye"], r("start")["eye"]);
+    assert!(stderr.contains("opened "), "{stderr}");
 }

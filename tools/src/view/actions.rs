@@ -5,6 +5,7 @@
 
 use std::path::{Path, PathBuf};
 
+use tessera_core::repository::reader::Repository;
 use tessera_runtime::camera::Camera;
 use tessera_runtime::vec3::{add, dot, length, scale, sub};
 
@@ -13,6 +14,7 @@ use super::pick::ray_cast;
 use super::script::Action;
 use super::target::Controller;
 use crate::camera_path::{CameraPath, Keyframe};
+use crate::cmd_render::default_up;
 
 /// Two left presses this close in time (ms) and space (window px) are a double-click.
 const DOUBLE_CLICK_MS: u128 = 400;
@@ -85,6 +87,7 @@ impl App {
                 Action::Export(path) => {
                     self.export(&path)?;
                 }
+                Action::Open(path) => self.open(&path)?,
                 Action::Play(path) => {
                     self.playing = CameraPath::load(&path)?.frames().into();
                     self.step = Step::Play;
@@ -408,6 +411,42 @@ impl App {
                     Err(e) => self.say(format!("the path was not saved: {e:#}")),
                 }
             }
+        }
+    }
+
+    /// Another repository in the window (a dropped file, or the script's `open`): a new
+    /// streaming renderer under the same budget, the navigation's settings at the new
+    /// model's initial view; the frozen cut, target controller, path and selection cleared.
+    /// On an error the current model stays.
+    pub(super) fn open(&mut self, path: &Path) -> anyhow::Result<()> {
+        super::refuse_input_file(path)?;
+        let repo = std::sync::Arc::new(Repository::open(path)?);
+        let size = self.renderer.size();
+        let (renderer, streamer) = self.gpu.streaming(&self.ctx, repo.clone(), size)?;
+        // The old renderer's memory goes before the new model's first frame.
+        (self.renderer, self.streamer) = (renderer, streamer);
+        let h = *repo.header();
+        let up = self.up.unwrap_or(default_up(h.dimension));
+        self.navigation = self.navigation.for_model(h.bbox_min, h.bbox_max, up);
+        self.terrain = h.dimension == 2;
+        self.repo = repo;
+        self.selection.clear();
+        self.set_frozen(false);
+        self.controller = None;
+        self.playing.clear();
+        self.held.clear();
+        if !self.bookmarks_given {
+            self.bookmarks = super::default_bookmarks(path);
+        }
+        self.model_changed = true;
+        self.say(format!("opened {}", path.display()));
+        Ok(())
+    }
+
+    /// A file dropped on the window: opened, or the reason in the overlay.
+    pub(super) fn dropped(&mut self, path: &Path) {
+        if let Err(e) = self.open(path) {
+            self.say(format!("cannot open {}: {e:#}", path.display()));
         }
     }
 

@@ -88,6 +88,11 @@ pub struct App {
     pub(super) terrain: bool,
     /// Where `B` saves bookmarks and 1-9 read them (a camera path file).
     pub(super) bookmarks: PathBuf,
+    pub(super) bookmarks_given: bool,
+    pub(super) gpu: crate::gpu_args::GpuArgs,
+    pub(super) up: Option<[f64; 3]>,
+    /// A new repository was opened: the canvas samples the new renderer's target.
+    pub(super) model_changed: bool,
     /// Where `K` writes a recorded path (`None`: the next free `tessera-path-NNN.json`).
     pub(super) record: Option<PathBuf>,
     pub(super) step: Step,
@@ -124,6 +129,12 @@ pub struct Setup {
     pub script: Option<Vec<Action>>,
     pub json: bool,
     pub bookmarks: PathBuf,
+    /// `--bookmarks` was given (else a dropped repository gets its own default file).
+    pub bookmarks_given: bool,
+    /// What makes a streaming renderer for a dropped repository.
+    pub gpu: crate::gpu_args::GpuArgs,
+    /// `--up`, if given (else each model's default).
+    pub up: Option<[f64; 3]>,
     pub record: Option<PathBuf>,
     pub frame_log: Option<std::io::BufWriter<std::fs::File>>,
 }
@@ -152,6 +163,10 @@ impl App {
             terrain: setup.repo.header().dimension == 2,
             repo: setup.repo,
             bookmarks: setup.bookmarks,
+            bookmarks_given: setup.bookmarks_given,
+            gpu: setup.gpu,
+            up: setup.up,
+            model_changed: false,
             record: setup.record,
             step: Step::Next,
             show_overlay: true,
@@ -379,6 +394,9 @@ impl App {
         let extra =
             w.egui_renderer
                 .update_buffers(device, &self.ctx.queue, &mut encoder, &jobs, &screen);
+        if std::mem::take(&mut self.model_changed) {
+            w.model_source = (w.to_canvas).source(device, &self.renderer.target().color_view);
+        }
         {
             let mut pass = encoder
                 .begin_render_pass(&wgpu::RenderPassDescriptor {
@@ -535,6 +553,7 @@ impl ApplicationHandler for App {
                 ),
             },
             WindowEvent::Resized(size) => self.resize(size),
+            WindowEvent::DroppedFile(path) => self.dropped(&path),
             WindowEvent::RedrawRequested => match self.frame() {
                 Ok(true) => event_loop.exit(),
                 Ok(false) => {}

@@ -113,9 +113,15 @@ impl ViewArgs {
     }
 }
 
+/// `NAME.bookmarks.json` beside the repository `NAME.EXT`.
+pub(super) fn default_bookmarks(repository: &std::path::Path) -> PathBuf {
+    let stem = repository.file_stem().unwrap_or_default();
+    repository.with_file_name(format!("{}.bookmarks.json", stem.to_string_lossy()))
+}
+
 /// Refuses a mesh or a DEM given where a repository is expected, saying which `build`
 /// command makes one (a file named like an input but holding a repository passes).
-fn refuse_input_file(path: &std::path::Path) -> anyhow::Result<()> {
+pub(super) fn refuse_input_file(path: &std::path::Path) -> anyhow::Result<()> {
     let name = path.to_string_lossy().to_lowercase();
     let name = name.strip_suffix(".gz").unwrap_or(&name);
     // The importers' extensions, as their error messages list them.
@@ -209,10 +215,7 @@ pub fn run(args: ViewArgs) -> anyhow::Result<Outcome> {
     if let Some(n) = args.target_triangles {
         (controls.target, controls.target_triangles) = (overlay::TargetChoice::Triangles, n);
     }
-    let bookmarks = args.bookmarks.clone().unwrap_or_else(|| {
-        let stem = args.repository.file_stem().unwrap_or_default();
-        (args.repository).with_file_name(format!("{}.bookmarks.json", stem.to_string_lossy()))
-    });
+    let bookmarks = (args.bookmarks.clone()).unwrap_or_else(|| default_bookmarks(&args.repository));
     let setup = app::Setup {
         repo: shared.clone(),
         navigation,
@@ -221,6 +224,9 @@ pub fn run(args: ViewArgs) -> anyhow::Result<Outcome> {
         script,
         json: args.json,
         bookmarks,
+        bookmarks_given: args.bookmarks.is_some(),
+        gpu: args.gpu.clone(),
+        up: args.up,
         record: args.record.clone(),
         frame_log: match &args.frame_log {
             Some(p) => Some(std::io::BufWriter::new(std::fs::File::create(p).map_err(

@@ -48,6 +48,15 @@ impl Navigation {
         }
     }
 
+    /// The same settings (field of view, initial orbit, fly mode) for another model, at its
+    /// initial view.
+    pub fn for_model(&self, lo: [f64; 3], hi: [f64; 3], up: [f64; 3]) -> Navigation {
+        Navigation {
+            fly: self.fly,
+            ..Navigation::new(lo, hi, up, self.fov_y_degrees, self.initial)
+        }
+    }
+
     /// The model's bounding radius (the orbit distance's unit).
     pub fn radius(&self) -> f64 {
         bounding_radius(self.lo, self.hi)

@@ -60,6 +60,9 @@ pub enum Action {
     Export(PathBuf),
     /// `{"play": "PATH"}`: fly a camera path (`bench stream --path`'s format) frame by frame.
     Play(PathBuf),
+    /// `{"open": "PATH"}`: open another repository, as dropping it on the window does (a file
+    /// that is not one ends the script with the error).
+    Open(PathBuf),
 }
 
 /// Keys a script may press (`Action::Key`): reset, overlay, screenshot, fly, freeze, export,
@@ -204,6 +207,7 @@ fn parse_line(line: &str) -> Result<Action, String> {
         }
         "export" => Action::Export(path(arg)?),
         "play" => Action::Play(path(arg)?),
+        "open" => Action::Open(path(arg)?),
         "overlay" => Action::Overlay(arg.as_bool().ok_or("\"overlay\" takes true or false")?),
         "drag" | "right_drag" => {
             let a = arg
@@ -244,7 +248,7 @@ fn parse_line(line: &str) -> Result<Action, String> {
                 "unknown action {other:?}: orbit, tolerance, mode, wait_frames, screenshot, \
                  key, overlay, resize, drag, right_drag, wheel, wheel_at, double_click, \
                  target_ms, budget_triangles, target, freeze, fly, wireframe, culling, export, \
-                 play"
+                 play, open"
             ))
         }
     })
@@ -281,6 +285,7 @@ mod tests {
 {"culling":{"cones":false}}
 {"export":"cut.ply"}
 {"play":"path.json"}
+{"open":"other.tsr"}
 "#;
         assert_eq!(
             parse(text).unwrap(),
@@ -308,6 +313,7 @@ mod tests {
                 Action::Culling(None, Some(false)),
                 Action::Export("cut.ply".into()),
                 Action::Play("path.json".into()),
+                Action::Open("other.tsr".into()),
             ]
         );
     }
