@@ -23,11 +23,16 @@ struct PageDraw {
     page: u32,
     first_entry: u32,   // the page's selection list (and page_simplices) start here
     patch_count: u32,   // non-empty patches of the page
-    pad: u32,
+    attributes: u32,    // the model's attribute flags (frame.counts.w)
 }
 
 @group(1) @binding(0) var<storage, read> page: array<u32>;                   // one resident page
-@group(1) @binding(1) var<uniform> page_draw: PageDraw;
+// The vertex stage branches on no uniform-buffer value: lavapipe (Mesa 22.x) inlines the values
+// a shader's branch and loop conditions read from uniform buffers into a newly compiled shader at
+// every bind of its pipeline and keeps each one (the process grew by about 0.25 MB a frame).
+// So the values the vertex stage branches on (the search bound, the attribute flags) are read
+// from this storage binding; storage loads are not inlined.
+@group(1) @binding(1) var<storage, read> page_draw: PageDraw;
 
 const MODE_LIT: u32 = 0u;
 const MODE_PATCHES: u32 = 1u;
@@ -125,7 +130,7 @@ fn pull_vertex(out: ptr<function, VertexOut>, base_vertex: u32, n: u32, local_in
     (*out).colour = vec3<f32>(0.82, 0.80, 0.76);
     // The attribute arrays follow the positions, one u32 per vertex each (patch.rs).
     var word = 2u * (base_vertex + n) + local_index;
-    let attributes = frame.counts.w;
+    let attributes = page_draw.attributes; // not frame.counts.w: see `page_draw`
     if (attributes & ATTR_NORMALS) != 0u {
         (*out).normal = oct_decode(page[word]);
         word += n;

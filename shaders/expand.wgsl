@@ -17,7 +17,7 @@ struct PageDraw {
     page: u32,
     first_entry: u32,
     patch_count: u32,
-    pad: u32,
+    attributes: u32,
 }
 
 @group(1) @binding(0) var<storage, read> page: array<u32>;                   // one resident page

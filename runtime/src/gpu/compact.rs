@@ -35,7 +35,10 @@ pub struct PageDraw {
     pub page: u32,
     pub first_entry: u32,
     pub patch_count: u32,
-    pub pad: u32,
+    /// The model's attribute flags (`Header::attributes`, as `FrameUniforms`' `counts.w`):
+    /// the vertex stage reads them here, from storage, not from the frame's uniforms
+    /// (`draw.wgsl`: lavapipe).
+    pub attributes: u32,
 }
 
 /// The passes' pipelines and what they write.

@@ -117,6 +117,14 @@ fn bind_group(
     })
 }
 
+/// Bytes between consecutive pages' `PageDraw`s: bound as a uniform (the expansion) and as
+/// read-only storage (the draw), so aligned for both.
+pub(crate) fn page_draw_stride(limits: &wgpu::Limits) -> u64 {
+    (limits.min_uniform_buffer_offset_alignment as u64)
+        .max(limits.min_storage_buffer_offset_alignment as u64)
+        .max(16)
+}
+
 impl Renderer {
     /// Uploads `repo` (within `options.budget_bytes`) and makes every pipeline and buffer.
     pub fn new(
@@ -195,7 +203,11 @@ impl Renderer {
         });
         let page_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("page"),
-            entries: &[storage_entry(0, true, vertex), uniform_entry(1, vertex)],
+            // The page's `PageDraw` is a storage binding in the draw (`draw.wgsl`: lavapipe).
+            entries: &[
+                storage_entry(0, true, vertex),
+                storage_entry(1, true, vertex),
+            ],
         });
         let draw_group = bind_group(
             device,
@@ -210,8 +222,8 @@ impl Renderer {
                 &model.page_simplices,
             ],
         );
-        // Each page's `PageDraw`, one uniform-offset stride apart.
-        let stride = (ctx.limits.min_uniform_buffer_offset_alignment as u64).max(16);
+        // Each page's `PageDraw`, one stride apart (`page_draw_stride`).
+        let stride = page_draw_stride(&ctx.limits);
         let mut page_draw_bytes = vec![0u8; (stride * model.lists.len() as u64) as usize];
         for (p, list) in model.lists.iter().enumerate() {
             let at = p * stride as usize;
@@ -219,7 +231,7 @@ impl Renderer {
                 page: p as u32,
                 first_entry: list.first_entry,
                 patch_count: list.capacity,
-                pad: 0,
+                attributes: repo.header().attributes,
             };
             page_draw_bytes[at..at + 16].copy_from_slice(bytemuck::bytes_of(&draw));
         }
@@ -228,7 +240,8 @@ impl Renderer {
             device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some("page draws"),
                 contents: &page_draw_bytes,
-                usage: U::UNIFORM,
+                // Uniform in the expansion (`expand.wgsl`), storage in the draw (`draw.wgsl`).
+                usage: U::UNIFORM | U::STORAGE,
             })
         };
         let page_groups = model

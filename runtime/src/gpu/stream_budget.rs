@@ -78,15 +78,14 @@ fn base_bytes(ctx: &GpuContext, repo: &Repository, options: &RendererOptions) ->
 
 /// Bytes per pool page besides the page itself.
 fn per_page_bytes(ctx: &GpuContext, layout: &PoolLayout) -> u64 {
-    let uniform_align = (ctx.limits.min_uniform_buffer_offset_alignment as u64).max(8);
     // Lists and their read-back copies, counts and copies, the page's draw and dispatch
-    // arguments, its `PageInfo` (16 B), a list start and a page-draw uniform slot.
+    // arguments, its `PageInfo` (16 B), a list start and a page-draw slot.
     2 * layout.patch_capacity as u64 * ENTRY_BYTES
         + 2 * 4
         + PAGE_ARGS_BYTES
         + 16
         + 4
-        + uniform_align
+        + super::renderer::page_draw_stride(&ctx.limits)
 }
 
 /// What the whole model would take: every patch (8-aligned) with the residency's slack (it is
