@@ -102,6 +102,8 @@ fn view_navigates_freezes_exports_and_holds_a_triangle_budget() {
         r#"{"key":"k"}"#.into(),
         format!(r#"{{"play":"{}"}}"#, path_file.display()),
         shot("played.png"),
+        r#"{"gpu_budget":12}"#.into(),
+        shot("budget12.png"),
         // Another repository, as a file dropped on the window opens it.
         format!(r#"{{"open":"{}"}}"#, lion.display()),
         shot("opened.png"),
@@ -140,6 +142,7 @@ fn view_navigates_freezes_exports_and_holds_a_triangle_budget() {
         "budget",
         "bookmark1",
         "played",
+        "budget12",
         "opened",
     ];
     assert_eq!(records.len(), names.len());
@@ -246,6 +249,11 @@ fn view_navigates_freezes_exports_and_holds_a_triangle_budget() {
     // The played path ends on its last keyframe.
     let played = r("played");
     assert!(distance(&played["eye"], &serde_json::json!([-0.3, 0.1, 0.3])) < 1e-9);
+
+    // The streaming renderer remade under 12 MiB: every allocation within it, the view drawn.
+    let b12 = r("budget12");
+    assert!(b12["resident_bytes"].as_u64().unwrap() <= 12 << 20, "{b12}");
+    assert!(model_pixels(&image("budget12")) > n / 50);
 
     // The lion head replaced the bunny, at its own initial view.
     let opened = image("opened");

@@ -88,6 +88,7 @@ impl App {
                     self.export(&path)?;
                 }
                 Action::Open(path) => self.open(&path)?,
+                Action::GpuBudget(mib) => self.set_budget(mib)?,
                 Action::Play(path) => {
                     self.playing = CameraPath::load(&path)?.frames().into();
                     self.step = Step::Play;
@@ -201,6 +202,15 @@ impl App {
     /// frozen cut follow the controls.
     pub(super) fn before_frame(&mut self) {
         self.navigation.fly = self.controls.fly;
+        // The controller follows the target chosen (the script's or the overlay's).
+        if self.controls.target() != self.controller.as_ref().map(|c| c.target) {
+            self.controller = self.controls.target().map(Controller::new);
+        }
+        if std::mem::take(&mut self.controls.apply_budget) {
+            if let Err(e) = self.set_budget(self.controls.budget_mib) {
+                self.say(format!("the budget stays: {e:#}"));
+            }
+        }
         let (width, height) = self.renderer.size();
         let view = self.navigation.camera(width, height);
         // The overlay's checkbox.
@@ -300,26 +310,20 @@ impl App {
                 "tolerance": s.tolerance,
                 "settled": s.settled,
                 "pending_units": s.pending_units,
+                "redraws": s.redraws,
                 "eye": self.navigation.eye(),
             });
             std::io::Write::write_fmt(log, format_args!("{line}\n"))
                 .map_err(|e| anyhow::anyhow!("cannot write the frame log: {e}"))?;
         }
-        match self.controls.target() {
-            None => self.controller = None,
-            Some(target) => {
-                if self.controller.as_ref().is_none_or(|c| c.target != target) {
-                    self.controller = Some(Controller::new(target));
-                }
-                let c = self.controller.as_mut().expect("made above");
-                self.controls.tolerance = c.update(
-                    self.controls.tolerance,
-                    self.stats.frame_ms,
-                    self.stats.triangles,
-                    self.stats.pending_units > 0,
-                );
-                self.stats.goal_triangles = c.goal();
-            }
+        if let Some(c) = self.controller.as_mut() {
+            self.controls.tolerance = c.update(
+                self.controls.tolerance,
+                self.stats.frame_ms,
+                self.stats.triangles,
+                self.stats.pending_units > 0,
+            );
+            self.stats.goal_triangles = c.goal();
         }
         if let Some(frames) = &mut self.recording {
             frames.push(Keyframe {
@@ -440,6 +444,24 @@ impl App {
         }
         self.model_changed = true;
         self.say(format!("opened {}", path.display()));
+        Ok(())
+    }
+
+    /// The streaming renderer remade under `mib` MiB (the view, frozen cut and targets kept;
+    /// the new pool starts from the roots and streams the view again). On an error (a budget
+    /// below the fixed allocations and the roots) the current renderer stays.
+    pub(super) fn set_budget(&mut self, mib: f64) -> anyhow::Result<()> {
+        let mut gpu = self.gpu.clone();
+        gpu.gpu_budget = Some(mib);
+        let size = self.renderer.size();
+        let (renderer, streamer) = gpu.streaming(&self.ctx, self.repo.clone(), size)?;
+        (self.renderer, self.streamer) = (renderer, streamer);
+        self.stats.budget_bytes = gpu.budget_bytes(&self.ctx);
+        self.controls.budget_mib = mib;
+        self.gpu = gpu;
+        self.selection.clear();
+        self.model_changed = true;
+        self.say(format!("GPU budget {mib} MiB"));
         Ok(())
     }
 

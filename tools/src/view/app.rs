@@ -36,6 +36,11 @@ use crate::gpu_args::device_failure;
 /// Most frames a screenshot waits for the stream to settle (as `render --max-frames`).
 pub const SETTLE_FRAMES: u32 = 1000;
 
+/// A triangle budget missed by more than this (relative) redraws the frame, at most
+/// `REDRAWS` times.
+const REDRAW_MISS: f64 = 0.05;
+const REDRAWS: u32 = 2;
+
 /// Most frames a scripted resize waits for the window to take its new size.
 pub const RESIZE_FRAMES: u32 = 300;
 
@@ -327,7 +332,7 @@ impl App {
         self.before_frame();
         let (width, height) = self.renderer.size();
         let (cut_camera, draw_camera) = self.cameras();
-        let request = FrameRequest {
+        let mut request = FrameRequest {
             mode: self.controls.mode.into(),
             wireframe: self.controls.wireframe,
             cull: CullTests {
@@ -341,11 +346,34 @@ impl App {
             image: false,
             selection: true,
         };
-        let f = self
-            .streamer
-            .frame(&self.ctx, &mut self.renderer, &request, readback)
-            .map_err(device_failure)?;
-        let selection = self.renderer.read_selection(&self.ctx)?;
+        // A triangle budget missed by more than `REDRAW_MISS` is drawn again at once with τ
+        // corrected from the count just read (at most `REDRAWS` times): the frame shown holds
+        // the budget even when the camera moved since the last one.
+        let mut redraws = 0;
+        let (f, selection) = loop {
+            let f = (self.streamer)
+                .frame(&self.ctx, &mut self.renderer, &request, readback)
+                .map_err(device_failure)?;
+            let selection = self.renderer.read_selection(&self.ctx)?;
+            let loading = f.stats.pending_units + f.stats.loading_units > 0;
+            let triangles = self.renderer.triangles_of(&selection);
+            let corrected = match (&self.controller, redraws < REDRAWS) {
+                (Some(c), true) => c.redraw_tolerance(request.tau, triangles, REDRAW_MISS),
+                _ => None,
+            };
+            // While units load, a count too low rises by itself (and a lower τ would only
+            // draw what is resident): only a count too high is redrawn.
+            let corrected = corrected.filter(|&tau| !loading || tau > request.tau);
+            match corrected {
+                Some(tau) if tau != request.tau => {
+                    request.tau = tau;
+                    self.controls.tolerance = tau;
+                    redraws += 1;
+                }
+                _ => break (f, selection),
+            }
+        };
+        self.stats.redraws = redraws;
         let now = Instant::now();
         let gpu = self.streamer.stats();
         self.stats = Stats {
@@ -358,6 +386,15 @@ impl App {
             resident_bytes: gpu.gpu_bytes,
             resident_patches: self.streamer.resident_patches(),
             pending_units: f.stats.pending_units + f.stats.loading_units,
+            loads_per_second: {
+                let seconds = self.last_frame.map_or(0.0, |t| (now - t).as_secs_f64());
+                let rate = if seconds > 0.0 {
+                    f.loads as f64 / seconds
+                } else {
+                    0.0
+                };
+                0.9 * self.stats.loads_per_second + 0.1 * rate
+            },
             settled: f.settled,
             tolerance: request.tau,
             ..std::mem::take(&mut self.stats)

@@ -209,6 +209,7 @@ pub fn run(args: ViewArgs) -> anyhow::Result<Outcome> {
     let budget_bytes = args.gpu.budget_bytes(&ctx);
     let streaming = args.gpu.streaming(&ctx, shared.clone(), args.size)?;
     let mut controls = overlay::Controls::new(args.tolerance, args.mode);
+    controls.budget_mib = budget_bytes as f64 / (1u64 << 20) as f64;
     if let Some(ms) = args.target_ms {
         (controls.target, controls.target_ms) = (overlay::TargetChoice::FrameTime, ms);
     }

@@ -19,6 +19,10 @@ pub struct Stats {
     pub resident_bytes: u64,
     pub budget_bytes: u64,
     pub resident_patches: usize,
+    /// Times the last frame was drawn again to hold the triangle budget.
+    pub redraws: u32,
+    /// Units loaded per second (averaged over the last frames).
+    pub loads_per_second: f64,
     /// Units requested and not landed yet.
     pub pending_units: usize,
     /// The triangle count the frame-time target is holding now.
@@ -55,6 +59,10 @@ pub struct Controls {
     pub target: TargetChoice,
     pub target_ms: f64,
     pub target_triangles: u64,
+    /// The GPU budget being edited, MiB, and whether "apply" was pressed (the streaming
+    /// renderer is remade under it).
+    pub budget_mib: f64,
+    pub apply_budget: bool,
 }
 
 impl Controls {
@@ -70,6 +78,8 @@ impl Controls {
             target: TargetChoice::Off,
             target_ms: 33.0,
             target_triangles: 1_000_000,
+            budget_mib: 0.0,
+            apply_budget: false,
         }
     }
 
@@ -127,7 +137,10 @@ pub fn ui(ctx: &egui::Context, stats: &Stats, controls: &mut Controls) {
             ui.label(if stats.settled {
                 "stream settled".to_string()
             } else {
-                format!("streaming: {} units pending", stats.pending_units)
+                format!(
+                    "streaming: {} units pending, {:.0} loads/s",
+                    stats.pending_units, stats.loads_per_second
+                )
             });
             ui.label(&stats.adapter); // name (backend, device type)
             ui.label(format!("render size {}×{}", stats.size.0, stats.size.1));
@@ -190,6 +203,16 @@ pub fn ui(ctx: &egui::Context, stats: &Stats, controls: &mut Controls) {
                 ui.label("cull:");
                 ui.checkbox(&mut controls.frustum_culling, "frustum");
                 ui.checkbox(&mut controls.cone_culling, "back-facing patches");
+            });
+            ui.horizontal(|ui| {
+                ui.label("GPU budget");
+                ui.add(
+                    egui::DragValue::new(&mut controls.budget_mib)
+                        .range(1.0..=1.0e6)
+                        .speed(1.0)
+                        .suffix(" MiB"),
+                );
+                controls.apply_budget |= ui.button("apply").clicked();
             });
             ui.horizontal(|ui| {
                 ui.checkbox(&mut controls.frozen, "freeze cut (C)");

@@ -60,6 +60,9 @@ pub enum Action {
     Export(PathBuf),
     /// `{"play": "PATH"}`: fly a camera path (`bench stream --path`'s format) frame by frame.
     Play(PathBuf),
+    /// `{"gpu_budget": mib}`: the streaming renderer remade under this budget (as the
+    /// overlay's "apply"; a budget too small ends the script with the error).
+    GpuBudget(f64),
     /// `{"open": "PATH"}`: open another repository, as dropping it on the window does (a file
     /// that is not one ends the script with the error).
     Open(PathBuf),
@@ -208,6 +211,13 @@ fn parse_line(line: &str) -> Result<Action, String> {
         "export" => Action::Export(path(arg)?),
         "play" => Action::Play(path(arg)?),
         "open" => Action::Open(path(arg)?),
+        "gpu_budget" => {
+            let mib = number(arg)?;
+            if mib <= 0.0 {
+                return Err(format!("gpu_budget {mib} must be positive (MiB)"));
+            }
+            Action::GpuBudget(mib)
+        }
         "overlay" => Action::Overlay(arg.as_bool().ok_or("\"overlay\" takes true or false")?),
         "drag" | "right_drag" => {
             let a = arg
@@ -248,7 +258,7 @@ fn parse_line(line: &str) -> Result<Action, String> {
                 "unknown action {other:?}: orbit, tolerance, mode, wait_frames, screenshot, \
                  key, overlay, resize, drag, right_drag, wheel, wheel_at, double_click, \
                  target_ms, budget_triangles, target, freeze, fly, wireframe, culling, export, \
-                 play, open"
+                 play, open, gpu_budget"
             ))
         }
     })
@@ -286,6 +296,7 @@ mod tests {
 {"export":"cut.ply"}
 {"play":"path.json"}
 {"open":"other.tsr"}
+{"gpu_budget":64}
 "#;
         assert_eq!(
             parse(text).unwrap(),
@@ -314,6 +325,7 @@ mod tests {
                 Action::Export("cut.ply".into()),
                 Action::Play("path.json".into()),
                 Action::Open("other.tsr".into()),
+                Action::GpuBudget(64.0),
             ]
         );
     }

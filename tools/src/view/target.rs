@@ -192,6 +192,21 @@ impl Controller {
         (next as f32).clamp(TOLERANCE_RANGE.0, TOLERANCE_RANGE.1)
     }
 
+    /// In the triangle mode, when a frame's count misses the budget by more than `miss`
+    /// (relative): the τ to draw the same view again with, one Newton step on counts ∝ 1/τ
+    /// from the count just read (the camera has not moved since). `None` otherwise.
+    pub fn redraw_tolerance(&self, tau: f32, triangles: u64, miss: f64) -> Option<f32> {
+        let Target::Triangles(budget) = self.target else {
+            return None;
+        };
+        let ratio = triangles.max(1) as f64 / budget.max(1) as f64;
+        if (ratio - 1.0).abs() <= miss {
+            return None;
+        }
+        let next = tau.max(TOLERANCE_RANGE.0) as f64 * ratio.clamp(1.0 / MAX_STEP, MAX_STEP);
+        Some((next as f32).clamp(TOLERANCE_RANGE.0, TOLERANCE_RANGE.1))
+    }
+
     /// The triangle count the inner loop holds now.
     pub fn goal(&self) -> Option<f64> {
         self.goal
@@ -315,6 +330,20 @@ mod tests {
             frames += 1;
             assert!(frames < 20, "slow to come back: τ {tau}");
         }
+    }
+
+    #[test]
+    fn a_missed_budget_is_redrawn_at_a_corrected_tolerance() {
+        let c = Controller::new(Target::Triangles(100_000));
+        assert_eq!(c.redraw_tolerance(2.0, 104_000, 0.05), None, "within 5 %");
+        assert_eq!(c.redraw_tolerance(2.0, 120_000, 0.05), Some(2.4));
+        assert_eq!(c.redraw_tolerance(2.0, 80_000, 0.05), Some(1.6));
+        let t = Controller::new(Target::FrameMs(30.0));
+        assert_eq!(
+            t.redraw_tolerance(2.0, 1, 0.05),
+            None,
+            "frame-time mode never redraws"
+        );
     }
 
     #[test]
