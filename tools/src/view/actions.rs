@@ -305,6 +305,7 @@ impl App {
                 "frame": self.frames,
                 "frame_ms": s.frame_ms,
                 "gpu_ms": s.gpu_ms,
+                "cpu_ms": s.cpu_ms,
                 "triangles": s.triangles,
                 "patches": s.patches,
                 "tolerance": s.tolerance,

@@ -350,10 +350,13 @@ impl App {
         // corrected from the count just read (at most `REDRAWS` times): the frame shown holds
         // the budget even when the camera moved since the last one.
         let mut redraws = 0;
+        let mut cpu_ms = 0.0;
         let (f, selection) = loop {
+            let started = Instant::now();
             let f = (self.streamer)
                 .frame(&self.ctx, &mut self.renderer, &request, readback)
                 .map_err(device_failure)?;
+            cpu_ms += started.elapsed().as_secs_f64() * 1e3;
             let selection = self.renderer.read_selection(&self.ctx)?;
             let loading = f.stats.pending_units + f.stats.loading_units > 0;
             let triangles = self.renderer.triangles_of(&selection);
@@ -399,6 +402,13 @@ impl App {
             tolerance: request.tau,
             ..std::mem::take(&mut self.stats)
         };
+        self.stats.cpu_ms = cpu_ms;
+        let times = super::graph::FrameTimes {
+            frame: self.stats.frame_ms,
+            gpu: self.stats.gpu_ms,
+            cpu: cpu_ms,
+        };
+        self.stats.history.push(times);
         self.selection = selection;
         self.last_frame = Some(now);
         self.after_frame()?;

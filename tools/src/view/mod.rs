@@ -7,7 +7,7 @@
 //! frame), `actions` (keys, script actions, picks, fly moves, freezing, targets, export,
 //! bookmarks and paths between frames), `input` (window events to navigation and actions), `blit` (texture to target), `navigation` (orbit
 //! around a pivot, pan, zoom towards a point, fly), `pick` (rays against the drawn cut),
-//! `pointer` (mouse drags and wheel to navigation), `overlay` (statistics and controls),
+//! `pointer` (mouse drags and wheel to navigation), `overlay` (statistics and controls), `graph` (the overlay's frame-time graph),
 //! `target` (the frame-time and triangle controller), `export` (the cut as PLY), `script`
 //! (`--script` actions).
 
@@ -15,6 +15,7 @@ mod actions;
 mod app;
 mod blit;
 pub mod export;
+mod graph;
 mod input;
 mod navigation;
 mod overlay;
@@ -73,9 +74,9 @@ pub struct ViewArgs {
     /// `tessera-path-NNN.json` of the current directory).
     #[arg(long)]
     pub record: Option<PathBuf>,
-    /// Write one JSON object per frame drawn to this file (`frame, frame_ms, gpu_ms,
-    /// triangles, patches, tolerance, settled, pending_units, eye`): what the target modes are
-    /// measured with.
+    /// Write one JSON object per frame drawn to this file (`frame, frame_ms, gpu_ms, cpu_ms,
+    /// triangles, patches, tolerance, settled, pending_units, redraws, eye`): what the target
+    /// modes are measured with.
     #[arg(long)]
     pub frame_log: Option<PathBuf>,
     /// Hold this frame time (ms) from the start, adjusting the tolerance each frame.

@@ -35,6 +35,10 @@ pub struct Stats {
     pub adapter: String,
     /// Render size (the image is scaled to the window).
     pub size: (u32, u32),
+    /// The last frames' times, for the graph.
+    pub history: super::graph::History,
+    /// CPU milliseconds of the last frame in the streaming renderer.
+    pub cpu_ms: f64,
     /// The last thing a key or a pick did (pivot set, file written, ...), shown until the
     /// next.
     pub message: String,
@@ -121,9 +125,10 @@ pub fn ui(ctx: &egui::Context, stats: &Stats, controls: &mut Controls) {
             };
             ui.label(format!("{fps:.1} fps   {:.1} ms / frame", stats.frame_ms));
             ui.label(match stats.gpu_ms {
-                Some(g) => format!("GPU {g:.2} ms"),
-                None => "GPU ms: n/a (no timestamps)".to_string(),
+                Some(g) => format!("GPU {g:.2} ms   CPU {:.2} ms", stats.cpu_ms),
+                None => format!("GPU ms: n/a (no timestamps)   CPU {:.2} ms", stats.cpu_ms),
             });
+            stats.history.ui(ui, egui::vec2(300.0, 60.0));
             ui.label(format!(
                 "{} triangles in {} patches",
                 stats.triangles, stats.patches
