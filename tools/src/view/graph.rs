@@ -50,11 +50,8 @@ impl History {
             egui::Color32::from_rgb(120, 220, 120),
             egui::Color32::from_rgb(240, 170, 80),
         ];
-        let series: [Box<dyn Fn(&FrameTimes) -> Option<f64>>; 3] = [
-            Box::new(|t| Some(t.frame)),
-            Box::new(|t| t.gpu),
-            Box::new(|t| Some(t.cpu)),
-        ];
+        let series: [fn(&FrameTimes) -> Option<f64>; 3] =
+            [|t| Some(t.frame), |t| t.gpu, |t| Some(t.cpu)];
         let first = HISTORY - self.0.len();
         for (get, colour) in series.iter().zip(colours) {
             let line: Vec<egui::Pos2> = (self.0.iter().enumerate())
