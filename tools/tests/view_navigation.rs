@@ -36,6 +36,16 @@ fn unpaired_edges(triangles: &[[u32; 3]]) -> usize {
 
 #[test]
 fn view_navigates_freezes_exports_and_holds_a_triangle_budget() {
+    navigates("vulkan");
+}
+
+/// The same on wgpu's GL backend (llvmpipe through EGL).
+#[test]
+fn view_navigates_on_gl_too() {
+    navigates("gl");
+}
+
+fn navigates(backend: &str) {
     if !xvfb_run() {
         eprintln!("skipped: xvfb-run is not installed (Debian package `xvfb`)");
         return;
@@ -117,7 +127,7 @@ fn view_navigates_freezes_exports_and_holds_a_triangle_budget() {
         .args(["-k", "10", "300", "xvfb-run", "-a", "-s", XVFB_ARGS])
         .arg(env!("CARGO_BIN_EXE_tessera"))
         .args(["view", repo.to_str().unwrap(), "--size", "480x360"])
-        .args(["--orbit", "30,20,1.2", "--backend", "vulkan", "--json"])
+        .args(["--orbit", "30,20,1.2", "--backend", backend, "--json"])
         .args(["--script", script_path.to_str().unwrap()])
         .args(["--bookmarks", bookmarks.to_str().unwrap()])
         .args(["--record", recorded.to_str().unwrap()])
