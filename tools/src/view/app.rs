@@ -364,9 +364,9 @@ impl App {
                 (Some(c), true) => c.redraw_tolerance(request.tau, triangles, REDRAW_MISS),
                 _ => None,
             };
-            // While units load, a count too low rises by itself (and a lower τ would only
-            // draw what is resident): only a count too high is redrawn.
-            let corrected = corrected.filter(|&tau| !loading || tau > request.tau);
+            // While units load, a count too low is redrawn once only: a lower τ draws what is
+            // resident, which may or may not be finer (the count rises anyway as units land).
+            let corrected = corrected.filter(|&tau| !loading || tau > request.tau || redraws == 0);
             match corrected {
                 Some(tau) if tau != request.tau => {
                     request.tau = tau;
