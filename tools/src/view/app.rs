@@ -39,7 +39,7 @@ pub const SETTLE_FRAMES: u32 = 1000;
 /// A triangle budget missed by more than this (relative) redraws the frame, at most
 /// `REDRAWS` times.
 const REDRAW_MISS: f64 = 0.05;
-const REDRAWS: u32 = 2;
+const REDRAWS: u32 = 3;
 
 /// Most frames a scripted resize waits for the window to take its new size.
 pub const RESIZE_FRAMES: u32 = 300;
@@ -347,9 +347,11 @@ impl App {
             selection: true,
         };
         // A triangle budget missed by more than `REDRAW_MISS` is drawn again at once with τ
-        // corrected from the count just read (at most `REDRAWS` times): the frame shown holds
-        // the budget even when the camera moved since the last one.
+        // corrected from the count just read, or between two tries that straddled it (at most
+        // `REDRAWS` times): the frame shown holds the budget even when the camera moved since
+        // the last one.
         let mut redraws = 0;
+        let mut tried = super::target::Bracket::default();
         let mut cpu_ms = 0.0;
         let (f, selection) = loop {
             let started = Instant::now();
@@ -361,7 +363,9 @@ impl App {
             let loading = f.stats.pending_units + f.stats.loading_units > 0;
             let triangles = self.renderer.triangles_of(&selection);
             let corrected = match (&self.controller, redraws < REDRAWS) {
-                (Some(c), true) => c.redraw_tolerance(request.tau, triangles, REDRAW_MISS),
+                (Some(c), true) => {
+                    c.redraw_tolerance(request.tau, triangles, REDRAW_MISS, &mut tried)
+                }
                 _ => None,
             };
             // While units load, a count too low is redrawn once only: a lower τ draws what is

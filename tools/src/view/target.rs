@@ -113,6 +113,14 @@ const WIND_UP: f64 = 4.0;
 /// The weight of the newest frame in the drift's average.
 const DRIFT_WEIGHT: f64 = 0.5;
 
+/// One frame's redraw attempts: the largest τ that drew too many triangles and the smallest
+/// that drew too few.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Bracket {
+    pub too_many: Option<f32>,
+    pub too_few: Option<f32>,
+}
+
 /// Dead bands, relative.
 const TRIANGLE_BAND: f64 = 0.02;
 const FRAME_BAND: f64 = 0.08;
@@ -193,9 +201,17 @@ impl Controller {
     }
 
     /// In the triangle mode, when a frame's count misses the budget by more than `miss`
-    /// (relative): the τ to draw the same view again with, one Newton step on counts ∝ 1/τ
-    /// from the count just read (the camera has not moved since). `None` otherwise.
-    pub fn redraw_tolerance(&self, tau: f32, triangles: u64, miss: f64) -> Option<f32> {
+    /// (relative): the τ to draw the same view again with (the camera has not moved since).
+    /// `tried` holds this frame's earlier attempts: once one drew too many triangles and one
+    /// too few, the next τ bisects them (geometric mean), else it is one Newton step on
+    /// counts ∝ 1/τ from the count just read. `None` otherwise.
+    pub fn redraw_tolerance(
+        &self,
+        tau: f32,
+        triangles: u64,
+        miss: f64,
+        tried: &mut Bracket,
+    ) -> Option<f32> {
         let Target::Triangles(budget) = self.target else {
             return None;
         };
@@ -203,7 +219,15 @@ impl Controller {
         if (ratio - 1.0).abs() <= miss {
             return None;
         }
-        let next = tau.max(TOLERANCE_RANGE.0) as f64 * ratio.clamp(1.0 / MAX_STEP, MAX_STEP);
+        if ratio > 1.0 {
+            tried.too_many = Some(tried.too_many.map_or(tau, |t| t.max(tau)));
+        } else {
+            tried.too_few = Some(tried.too_few.map_or(tau, |t| t.min(tau)));
+        }
+        let next = match (tried.too_many, tried.too_few) {
+            (Some(a), Some(b)) => (a as f64 * b as f64).sqrt(),
+            _ => tau.max(TOLERANCE_RANGE.0) as f64 * ratio.clamp(1.0 / MAX_STEP, MAX_STEP),
+        };
         Some((next as f32).clamp(TOLERANCE_RANGE.0, TOLERANCE_RANGE.1))
     }
 
@@ -335,12 +359,31 @@ mod tests {
     #[test]
     fn a_missed_budget_is_redrawn_at_a_corrected_tolerance() {
         let c = Controller::new(Target::Triangles(100_000));
-        assert_eq!(c.redraw_tolerance(2.0, 104_000, 0.05), None, "within 5 %");
-        assert_eq!(c.redraw_tolerance(2.0, 120_000, 0.05), Some(2.4));
-        assert_eq!(c.redraw_tolerance(2.0, 80_000, 0.05), Some(1.6));
+        let fresh = Bracket::default;
+        assert_eq!(
+            c.redraw_tolerance(2.0, 104_000, 0.05, &mut fresh()),
+            None,
+            "within 5 %"
+        );
+        assert_eq!(
+            c.redraw_tolerance(2.0, 120_000, 0.05, &mut fresh()),
+            Some(2.4)
+        );
+        assert_eq!(
+            c.redraw_tolerance(2.0, 80_000, 0.05, &mut fresh()),
+            Some(1.6)
+        );
+        // Across a jump: 1.6 drew too many, then 1.8 too few: the next try is between.
+        let mut tried = fresh();
+        assert_eq!(
+            c.redraw_tolerance(1.6, 110_000, 0.05, &mut tried),
+            Some(1.76)
+        );
+        let next = c.redraw_tolerance(1.8, 91_000, 0.05, &mut tried).unwrap();
+        assert!((next - (1.6f32 * 1.8).sqrt()).abs() < 1e-6, "{next}");
         let t = Controller::new(Target::FrameMs(30.0));
         assert_eq!(
-            t.redraw_tolerance(2.0, 1, 0.05),
+            t.redraw_tolerance(2.0, 1, 0.05, &mut fresh()),
             None,
             "frame-time mode never redraws"
         );
