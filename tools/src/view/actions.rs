@@ -278,11 +278,8 @@ impl App {
             return;
         };
         let ground = sub(origin, scale(up, t));
-        let height = self.navigation.height_above(ground);
-        let clearance = GROUND_CLEARANCE * radius;
-        if height < clearance {
-            self.navigation.translate(scale(up, clearance - height));
-        }
+        self.navigation
+            .keep_above(ground, GROUND_CLEARANCE * radius);
     }
 
     /// The cut's camera and, when the cut is frozen, the camera it is drawn from.

@@ -209,6 +209,18 @@ impl Navigation {
         scale(d, 1.0 / length(d))
     }
 
+    /// Eye and pivot lifted along `up` so that the eye is at least `clearance` above
+    /// `ground` (the surface under it); whether they moved.
+    pub fn keep_above(&mut self, ground: [f64; 3], clearance: f64) -> bool {
+        let height = self.height_above(ground);
+        if height >= clearance {
+            return false;
+        }
+        let up = scale(self.up, 1.0 / length(self.up).max(1e-300));
+        self.translate(scale(up, clearance - height));
+        true
+    }
+
     /// Height of the eye above a point along `up`.
     pub fn height_above(&self, point: [f64; 3]) -> f64 {
         let up = scale(self.up, 1.0 / length(self.up).max(1e-300));
@@ -314,6 +326,25 @@ mod tests {
             close(sub(moved.eye, eye), scale(turned, 0.5)),
             "forward by 0.5"
         );
+    }
+
+    #[test]
+    fn keep_above_lifts_an_eye_below_the_clearance_only() {
+        let mut n = Navigation::new(
+            [0.0; 3],
+            [10.0, 10.0, 2.0],
+            [0.0, 0.0, 1.0],
+            60.0,
+            [0.0, 10.0, 0.5],
+        );
+        let eye = n.eye();
+        let ground = [eye[0], eye[1], eye[2] + 0.3]; // the eye is 0.3 below the ground
+        assert!(n.keep_above(ground, 0.05));
+        assert!((n.eye()[2] - (ground[2] + 0.05)).abs() < 1e-12);
+        assert!(close([n.eye()[0], n.eye()[1], 0.0], [eye[0], eye[1], 0.0]));
+        let lifted = n.eye();
+        assert!(!n.keep_above(ground, 0.05), "already clear");
+        assert_eq!(n.eye(), lifted);
     }
 
     #[test]
