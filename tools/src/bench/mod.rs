@@ -3,8 +3,8 @@
 //! triangles, frame time and *measured* screen-space error per tolerance τ, ours against its
 //! peers, all measured in the same run on the same mesh, cameras and tolerances.
 //!
-//! Subjects (one file each):
-//! - `ours`: the repository on the GPU renderer;
+//! Subjects (`tessera_bench::subject::Subject`): `ours` here, the repository on the GPU
+//! renderer, and the peers in tessera-bench (`tessera_bench::peers`, one file each):
 //! - `full_resolution`: the source in one draw (error 0 by definition; the time baseline and
 //!   the reference picture);
 //! - `discrete_lod`: four meshopt levels, one per object by distance (seed 004);
@@ -18,15 +18,10 @@
 //! Cameras: `--views` eyes outside the bounding sphere (`views::outside_views`, 1.3 to 4
 //! bounding radii), looking at the centre of the box.
 
-pub mod cluster_dag;
 pub mod cpu_cut;
-pub mod discrete_lod;
-pub mod full_resolution;
 pub mod ours;
-pub mod peer_mesh;
 pub mod plots;
 pub mod report;
-pub mod subject;
 pub mod trade_off;
 pub mod verdict;
 
@@ -36,6 +31,8 @@ use std::time::Instant;
 use anyhow::Context;
 use clap::Args;
 use serde_json::json;
+use tessera_bench::peers::{cluster_dag, discrete_lod, full_resolution, peer_mesh};
+use tessera_bench::subject::Subject;
 use tessera_core::repository::format::Header;
 use tessera_core::repository::reader::Repository;
 use tessera_runtime::camera::{bounding_radius, Camera};
@@ -43,7 +40,6 @@ use tessera_runtime::gpu::full_mesh::FullMeshRenderer;
 use tessera_runtime::measure::{ReferenceMesh, SamplingConfig, PSNR_SATURATED_DB};
 use tessera_runtime::views::outside_views;
 
-use self::subject::Subject;
 use self::trade_off::{Settings, SubjectRows};
 use crate::cmd_render::{default_up, parse_size, parse_vec3};
 use crate::progress::Stages;

@@ -7,7 +7,7 @@ use tessera_runtime::camera::Camera;
 use tessera_runtime::gpu::{FrameRequest, GpuContext, Readback, Renderer};
 use tessera_runtime::measure::{drawn_cut, DrawnSurface, Surface};
 
-use super::subject::{Drawn, Subject};
+use tessera_bench::subject::{Drawn, Subject};
 
 pub struct Ours<'r> {
     repo: &'r Repository,

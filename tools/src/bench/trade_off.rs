@@ -20,7 +20,7 @@ use tessera_runtime::measure::{
     DIFF_THRESHOLD, PSNR_SATURATED_DB,
 };
 
-use super::subject::{timed_frame, FrameTimes, Subject};
+use tessera_bench::subject::{timed_frame, FrameTimes, Subject};
 
 /// What to measure.
 #[derive(Clone, Debug)]

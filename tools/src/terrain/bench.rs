@@ -25,22 +25,22 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use anyhow::{bail, Context};
+use anyhow::bail;
 use clap::Args;
 use serde_json::json;
+use tessera_bench::terrain::grid::{sample_triangle, vertical_error, BinGrid, VerticalError};
+use tessera_bench::terrain::roam::{Roam, RoamView, WedgieErrors};
+use tessera_bench::terrain::rustic::{Rustic, RusticFrame, RusticRenderer};
+use tessera_bench::terrain::square_mesh::SquareMesh;
 use tessera_core::cull::CullTests;
 use tessera_core::cut::{diamond_rhos, select_stateless};
 use tessera_core::repository::format::dequantize_position;
 use tessera_core::repository::reader::Repository;
 use tessera_preprocess::{build_repository, BuildConfig, Domain};
 use tessera_runtime::camera::{bounding_radius, Camera, Z_UP};
-use tessera_runtime::gpu::full_mesh::FullMeshRenderer;
 use tessera_runtime::gpu::{FrameRequest, GpuContext, Readback, ShadingMode};
 use tessera_runtime::views::terrain_views;
 
-use super::grid::{sample_triangle, vertical_error, BinGrid, VerticalError};
-use super::roam::{Roam, RoamView, WedgieErrors};
-use super::rustic::{Rustic, RusticFrame, RusticRenderer};
 use crate::input::HeightFieldArgs;
 use crate::Outcome;
 
@@ -189,66 +189,6 @@ fn roam_view(camera: &Camera) -> RoamView {
     RoamView {
         frustum: [[0.0, 0.0, 0.0, 1.0]; 6],
         ..RoamView::from_camera(camera)
-    }
-}
-
-/// The baselines draw with one vertex per sample of the padded square.
-struct SquareMesh {
-    renderer: FullMeshRenderer,
-    side: usize,
-    /// Swap two corners: the grid's rows run south, mirroring (column, row) into world.
-    mirrored: bool,
-    indices: Vec<[u32; 3]>,
-}
-
-impl SquareMesh {
-    fn new(
-        ctx: &GpuContext,
-        grid: &BinGrid,
-        origin: [f64; 3],
-        size: (u32, u32),
-    ) -> anyhow::Result<SquareMesh> {
-        let n = grid.side + 1;
-        let positions: Vec<[f32; 3]> = (0..n)
-            .flat_map(|r| (0..n).map(move |c| [c, r]))
-            .map(|p| {
-                let w = grid.world(p);
-                [0, 1, 2].map(|k| (w[k] - origin[k]) as f32)
-            })
-            .collect();
-        let renderer =
-            FullMeshRenderer::new(ctx, &positions, &[[0, 1, n as u32]], origin, size.0, size.1)
-                .context("uploading the padded grid")?;
-        Ok(SquareMesh {
-            renderer,
-            side: grid.side as usize,
-            mirrored: (grid.spacing[0] < 0.0) != (grid.spacing[1] < 0.0),
-            indices: Vec::new(),
-        })
-    }
-
-    /// Draws `triangles` (sample-point corners, counter-clockwise in (column, row)); returns
-    /// the CPU ms of index building, upload, recording and submit.
-    fn draw(
-        &mut self,
-        ctx: &GpuContext,
-        camera: &Camera,
-        triangles: &[[[i32; 2]; 3]],
-    ) -> anyhow::Result<f64> {
-        let start = Instant::now();
-        let n = self.side as u32 + 1;
-        self.indices.clear();
-        self.indices.extend(triangles.iter().map(|t| {
-            let [a, b, c] = t.map(|p| p[1] as u32 * n + p[0] as u32);
-            if self.mirrored {
-                [a, c, b]
-            } else {
-                [a, b, c]
-            }
-        }));
-        self.renderer.set_triangles(ctx, &self.indices)?;
-        self.renderer.render(ctx, camera, false);
-        Ok(start.elapsed().as_secs_f64() * 1e3)
     }
 }
 

@@ -25,7 +25,7 @@ use tessera_runtime::gpu::GpuContext;
 use tessera_runtime::measure::Surface;
 
 use super::peer_mesh::PeerMesh;
-use super::subject::{Drawn, Subject};
+use crate::subject::{Drawn, Subject};
 
 /// Triangles per cluster (clusterlod's `max_triangles`).
 pub const CLUSTER_TRIANGLES: usize = 128;

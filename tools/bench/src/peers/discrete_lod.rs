@@ -19,7 +19,7 @@ use tessera_runtime::gpu::GpuContext;
 use tessera_runtime::measure::Surface;
 
 use super::peer_mesh::PeerMesh;
-use super::subject::{Drawn, Subject};
+use crate::subject::{Drawn, Subject};
 
 /// Share of the source's triangles in each level, finest first.
 pub const LEVEL_FRACTIONS: [f64; 4] = [1.0, 0.25, 0.0625, 0.015625];

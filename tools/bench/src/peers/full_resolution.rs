@@ -8,7 +8,7 @@ use tessera_runtime::gpu::GpuContext;
 use tessera_runtime::measure::Surface;
 
 use super::peer_mesh::PeerMesh;
-use super::subject::{Drawn, Subject};
+use crate::subject::{Drawn, Subject};
 
 pub struct FullResolution<'m> {
     mesh: &'m PeerMesh,
