@@ -5,6 +5,7 @@
 
 use std::path::{Path, PathBuf};
 
+use tessera_core::metric::center_minus_eye;
 use tessera_core::repository::reader::Repository;
 use tessera_runtime::camera::Camera;
 use tessera_runtime::vec3::{add, dot, length, scale, sub};
@@ -314,12 +315,14 @@ impl App {
             std::io::Write::write_fmt(log, format_args!("{line}\n"))
                 .map_err(|e| anyhow::anyhow!("cannot write the frame log: {e}"))?;
         }
+        let ceiling = self.tau_ceiling();
         if let Some(c) = self.controller.as_mut() {
             self.controls.tolerance = c.update(
                 self.controls.tolerance,
                 self.stats.frame_ms,
                 self.stats.triangles,
                 self.stats.pending_units > 0,
+                ceiling,
             );
             self.stats.goal_triangles = c.goal();
         }
@@ -330,6 +333,28 @@ impl App {
             });
         }
         Ok(())
+    }
+
+    /// Twice the largest ρ of the root diamonds for the cut's camera: above it only the roots
+    /// are drawn (ρ is monotone up the DAG, so the roots' diamonds hold the largest), so the
+    /// target controller never raises τ past it. Reads the root records only.
+    fn tau_ceiling(&self) -> f32 {
+        let (camera, _) = self.cameras();
+        let h = self.repo.header();
+        let eye = camera.eye_local(h.origin);
+        let metric = camera.metric();
+        let diamonds = self.repo.diamonds();
+        let roots = &self.repo.tets()[..h.root_tet_count as usize];
+        let max = roots
+            .iter()
+            .filter_map(|t| diamonds.get(t.diamond as usize))
+            .map(|d| metric.rho(d.error, center_minus_eye(d.center, eye), d.radius))
+            .fold(0.0f32, f32::max);
+        if max > 0.0 {
+            2.0 * max
+        } else {
+            f32::INFINITY
+        }
     }
 
     /// The current cut (the whole model at the view's resolution; the frozen cut's camera

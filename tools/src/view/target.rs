@@ -25,10 +25,11 @@
 //!   back to its start, so a gain halved while hunting near the goal never leaves the loop
 //!   slow for the next change; a step is at most ×`MAX_STEP` either way;
 //! - the outer loop decides on frames drawn since its last decision only;
-//! - no wind-up: τ rises at most ×`WIND_UP` past the last τ at which the count changed, so a
-//!   budget below what the roots alone draw does not drive τ to its limit, from where coming
-//!   back would take many frames (lowering is not bounded: from above the coarsest cut's
-//!   plateau, the way back is down; at the other end τ's range stops it);
+//! - no wind-up: τ rises at most ×`WIND_UP` past the last τ at which the count changed, and
+//!   never past `ceiling` (twice the largest ρ of the root diamonds for this view: above it
+//!   only the roots are drawn, whatever τ), so a target the roots alone miss does not drive τ
+//!   to its limit, from where coming back would take many frames (lowering is not bounded:
+//!   from above the coarsest cut's plateau the way back is down; τ's range stops it below);
 //! - the inner loop does not lower τ while the stream is still loading towards a finer cut
 //!   (the count rises as units land), only raises it when the count is already too high.
 
@@ -145,7 +146,15 @@ impl Controller {
 
     /// The tolerance for the next frame, after a frame drawn at `tau` that took `frame_ms`
     /// (since the previous one) and drew `triangles`; `loading`: the stream has units pending.
-    pub fn update(&mut self, tau: f32, frame_ms: f64, triangles: u64, loading: bool) -> f32 {
+    /// `ceiling`: the largest useful τ for this view (see the module comment).
+    pub fn update(
+        &mut self,
+        tau: f32,
+        frame_ms: f64,
+        triangles: u64,
+        loading: bool,
+        ceiling: f32,
+    ) -> f32 {
         let count = triangles;
         let triangles = triangles.max(1) as f64;
         if let Target::FrameMs(ms) = self.target {
@@ -196,6 +205,9 @@ impl Controller {
         let mut next = tau.max(TOLERANCE_RANGE.0) as f64 * self.inner.step(e).exp();
         if let (Some(t), true) = (self.tau_changed, e > 0.0) {
             next = next.min(t * WIND_UP).max(tau as f64);
+        }
+        if ceiling.is_finite() && ceiling > 0.0 {
+            next = next.min(ceiling as f64);
         }
         (next as f32).clamp(TOLERANCE_RANGE.0, TOLERANCE_RANGE.1)
     }
@@ -252,7 +264,7 @@ mod tests {
             let mut last = Vec::new();
             for frame in 0..200 {
                 let n = triangles(tau);
-                tau = c.update(tau, 10.0, n, false);
+                tau = c.update(tau, 10.0, n, false, f32::INFINITY);
                 if frame >= 150 {
                     last.push((tau, triangles(tau)));
                 }
@@ -284,7 +296,7 @@ mod tests {
                 let triangles = 2.0e6 / tau as f64;
                 let ms = (5.0 + triangles * 2e-5) * (1.0 + noise());
                 times.push(ms);
-                tau = c.update(tau, ms, triangles as u64, false);
+                tau = c.update(tau, ms, triangles as u64, false, f32::INFINITY);
             }
             for window in times[300..].chunks(30) {
                 let mut w = window.to_vec();
@@ -312,7 +324,7 @@ mod tests {
             let detail = 1.5e6 * (1.0 + 0.5 * (frame as f64 * std::f64::consts::TAU / 160.0).sin());
             let n = (detail / tau as f64) as u64;
             counts.push(n as f64);
-            tau = c.update(tau, 10.0, n, false);
+            tau = c.update(tau, 10.0, n, false, f32::INFINITY);
         }
         let off: Vec<f64> = counts[100..]
             .iter()
@@ -343,14 +355,14 @@ mod tests {
         let mut c = Controller::new(Target::Triangles(1_000));
         let mut tau = 1.0f32;
         for _ in 0..200 {
-            tau = c.update(tau, 10.0, triangles(tau), false);
+            tau = c.update(tau, 10.0, triangles(tau), false, f32::INFINITY);
         }
         // The count first stops changing within one doubling past the knee at τ = 400.
         assert!(tau <= 2.0 * 400.0 * WIND_UP as f32, "τ wound up to {tau}");
         let mut c = Controller::new(Target::Triangles(100_000));
         let mut frames = 0;
         while (triangles(tau) as f64 / 100_000.0 - 1.0).abs() > 0.05 {
-            tau = c.update(tau, 10.0, triangles(tau), false);
+            tau = c.update(tau, 10.0, triangles(tau), false, f32::INFINITY);
             frames += 1;
             assert!(frames < 20, "slow to come back: τ {tau}");
         }
@@ -389,17 +401,30 @@ mod tests {
         );
     }
 
+    /// The roots alone draw more than the budget and their count moves with the camera (so
+    /// the wind-up bound keeps moving): τ stops at the ceiling.
+    #[test]
+    fn tau_never_passes_the_ceiling() {
+        let mut c = Controller::new(Target::Triangles(1_000));
+        let mut tau = 1.0f32;
+        for frame in 0..100 {
+            tau = c.update(tau, 10.0, 50_000 + frame, false, 40.0);
+            assert!(tau <= 40.0, "τ {tau}");
+        }
+        assert_eq!(tau, 40.0);
+    }
+
     #[test]
     fn it_holds_still_inside_the_dead_band_and_waits_for_loads() {
         let mut c = Controller::new(Target::Triangles(1000));
-        assert_eq!(c.update(2.0, 1.0, 1010, false), 2.0);
+        assert_eq!(c.update(2.0, 1.0, 1010, false, f32::INFINITY), 2.0);
         assert_eq!(
-            c.update(2.0, 1.0, 500, true),
+            c.update(2.0, 1.0, 500, true, f32::INFINITY),
             2.0,
             "loading: the count will rise"
         );
         assert!(
-            c.update(2.0, 1.0, 2000, true) > 2.0,
+            c.update(2.0, 1.0, 2000, true, f32::INFINITY) > 2.0,
             "too many: raised at once"
         );
     }
