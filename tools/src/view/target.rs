@@ -25,11 +25,13 @@
 //!   back to its start, so a gain halved while hunting near the goal never leaves the loop
 //!   slow for the next change; a step is at most ×`MAX_STEP` either way;
 //! - the outer loop decides on frames drawn since its last decision only;
-//! - no wind-up: τ rises at most ×`WIND_UP` past the last τ at which the count changed, and
-//!   never past `ceiling` (twice the largest ρ of the root diamonds for this view: above it
-//!   only the roots are drawn, whatever τ), so a target the roots alone miss does not drive τ
-//!   to its limit, from where coming back would take many frames (lowering is not bounded:
-//!   from above the coarsest cut's plateau the way back is down; τ's range stops it below);
+//! - no wind-up: a run of raises stops at ×`WIND_UP` the τ at which the count last fell by
+//!   `WIND_UP_FALL` (τ no longer moves it: the eye is inside the spheres of the
+//!   diamonds drawn, or only roots are left), and τ never passes `ceiling` (twice the largest
+//!   ρ of the root diamonds for this view: above it only the roots are drawn); the motion
+//!   drift is believed up to `MAX_DRIFT` a frame. So a target the coarsest cut misses does not
+//!   drive τ to its limit, from where coming back would take many frames (lowering is not
+//!   bounded: τ's range stops it);
 //! - the inner loop does not lower τ while the stream is still loading towards a finer cut
 //!   (the count rises as units land), only raises it when the count is already too high.
 
@@ -102,14 +104,17 @@ pub struct Controller {
     /// ln(count) and ln(τ) of the last frame, and the averaged motion drift d.
     last: Option<(f64, f64)>,
     drift: f64,
-    /// The last frame's count, and the τ of the last frame whose count differed from its
-    /// predecessor's.
-    last_count: Option<u64>,
-    tau_changed: Option<f64>,
+    /// Where the current run of raises began: its τ and count.
+    raising_from: Option<(f64, f64)>,
 }
 
-/// How far τ may go past the last τ at which the count changed, a factor.
+/// A run of raises that has multiplied τ by this much while the count fell by less than
+/// `WIND_UP_FALL` stops raising: τ no longer moves the count (the eye is inside the
+/// spheres of the diamonds drawn, or only roots are left).
 const WIND_UP: f64 = 4.0;
+const WIND_UP_FALL: f64 = 0.1;
+/// The largest motion drift believed, per frame (ln of a count ratio).
+const MAX_DRIFT: f64 = 0.1;
 
 /// The weight of the newest frame in the drift's average.
 const DRIFT_WEIGHT: f64 = 0.5;
@@ -139,8 +144,7 @@ impl Controller {
             frames: VecDeque::new(),
             last: None,
             drift: 0.0,
-            last_count: None,
-            tau_changed: None,
+            raising_from: None,
         }
     }
 
@@ -155,7 +159,6 @@ impl Controller {
         loading: bool,
         ceiling: f32,
     ) -> f32 {
-        let count = triangles;
         let triangles = triangles.max(1) as f64;
         if let Target::FrameMs(ms) = self.target {
             if frame_ms > 0.0 {
@@ -190,21 +193,27 @@ impl Controller {
             // loading: then the count also rises with the units landing.
             let moved = (ln_count - count0) + (ln_tau - tau0);
             if !loading && moved.is_finite() {
+                let moved = moved.clamp(-MAX_DRIFT, MAX_DRIFT);
                 self.drift += DRIFT_WEIGHT * (moved - self.drift);
             }
         }
         self.last = Some((ln_count, ln_tau));
         let e = (triangles / goal.max(1.0)).ln() + self.drift;
-        if self.last_count != Some(count) {
-            self.tau_changed = Some(tau as f64);
+        if e <= 0.0 {
+            self.raising_from = None;
         }
-        self.last_count = Some(count);
         if (loading && e < 0.0) || !e.is_finite() || e.abs() <= TRIANGLE_BAND.ln_1p() {
             return tau;
         }
         let mut next = tau.max(TOLERANCE_RANGE.0) as f64 * self.inner.step(e).exp();
-        if let (Some(t), true) = (self.tau_changed, e > 0.0) {
-            next = next.min(t * WIND_UP).max(tau as f64);
+        if e > 0.0 {
+            // The reference moves to wherever the count last responded.
+            let (tau0, count0) = *self.raising_from.get_or_insert((tau as f64, triangles));
+            if triangles <= count0 * (1.0 - WIND_UP_FALL) {
+                self.raising_from = Some((tau as f64, triangles));
+            } else if next > tau0 * WIND_UP {
+                next = (tau as f64).max(tau0 * WIND_UP).min(next);
+            }
         }
         if ceiling.is_finite() && ceiling > 0.0 {
             next = next.min(ceiling as f64);
@@ -401,17 +410,24 @@ mod tests {
         );
     }
 
-    /// The roots alone draw more than the budget and their count moves with the camera (so
-    /// the wind-up bound keeps moving): τ stops at the ceiling.
+    /// A budget that needs τ = 2000 where only roots are drawn above 40: τ stops at the
+    /// ceiling; and a count that τ does not move (the eye inside the spheres drawn), creeping
+    /// up with the camera, stops the raises at ×`WIND_UP`.
     #[test]
-    fn tau_never_passes_the_ceiling() {
+    fn tau_stops_at_the_ceiling_and_where_it_no_longer_moves_the_count() {
         let mut c = Controller::new(Target::Triangles(1_000));
         let mut tau = 1.0f32;
-        for frame in 0..100 {
-            tau = c.update(tau, 10.0, 50_000 + frame, false, 40.0);
+        for _ in 0..100 {
+            tau = c.update(tau, 10.0, (2.0e6 / tau) as u64, false, 40.0);
             assert!(tau <= 40.0, "τ {tau}");
         }
         assert_eq!(tau, 40.0);
+        let mut c = Controller::new(Target::Triangles(1_000));
+        let mut tau = 1.0f32;
+        for frame in 0..100 {
+            tau = c.update(tau, 10.0, 50_000 + frame, false, f32::INFINITY);
+        }
+        assert!(tau <= WIND_UP as f32, "τ {tau}");
     }
 
     #[test]
