@@ -721,6 +721,15 @@ fn bench_trade_off_measures_ours_and_the_peers() {
         }
     };
     check_rows("ours", &v["rows"]);
+    // The metric is stated, and every row keeps its sample count.
+    assert_eq!(v["metric"]["distance"], "view_axis_depth");
+    assert_eq!(v["metric"]["sides"], "cut_to_original");
+    assert_eq!(v["metric"]["visible_only"], false);
+    assert!(v["rows"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .all(|r| r["error_samples"].as_u64().unwrap() > 0));
     let peers = v["peers"].as_object().unwrap();
     for name in ["full_resolution", "discrete_lod", "cluster_dag"] {
         check_rows(name, &peers[name]);
