@@ -97,6 +97,7 @@ fn navigates(backend: &str) {
         shot("zoomed.png"),
         r#"{"key":"r"}"#.into(),
         format!(r#"{{"export":"{}"}}"#, at("cut.ply")),
+        format!(r#"{{"export":"{}"}}"#, at("cut.glb")),
         r#"{"budget_triangles":20000}"#.into(),
         r#"{"wait_frames":120}"#.into(),
         shot("budget.png"),
@@ -225,16 +226,18 @@ fn navigates(backend: &str) {
         .lines()
         .find_map(|l| l.strip_prefix("exported ")?.split(' ').next()?.parse().ok())
         .expect("the export's message");
-    let mesh = tessera_preprocess::import::load_mesh(Path::new(&at("cut.ply")))
-        .unwrap()
-        .mesh;
-    assert_eq!(mesh.triangles.len(), exported);
-    assert!(exported >= r("start")["triangles"].as_u64().unwrap() as usize);
-    assert_eq!(
-        unpaired_edges(&mesh.triangles),
-        0,
-        "the exported cut is not closed"
-    );
+    for file in ["cut.ply", "cut.glb"] {
+        let mesh = tessera_preprocess::import::load_mesh(Path::new(&at(file)))
+            .unwrap()
+            .mesh;
+        assert_eq!(mesh.triangles.len(), exported, "{file}");
+        assert!(exported >= r("start")["triangles"].as_u64().unwrap() as usize);
+        assert_eq!(
+            unpaired_edges(&mesh.triangles),
+            0,
+            "{file}: the exported cut is not closed"
+        );
+    }
 
     // The triangle budget.
     let budget = r("budget");

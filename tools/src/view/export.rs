@@ -1,4 +1,4 @@
-//! The viewer's cut exported as a PLY file (issue 14): the whole model at the view's
+//! The viewer's cut exported as a PLY file (or a `.glb`: `export_glb.rs`) (issue 14): the whole model at the view's
 //! resolution (the stateless rule for the camera's eye and τ, no culling), welded by global
 //! vertex id (`repository::cut_mesh`), with its attributes, as binary little-endian PLY with
 //! double-precision positions. Written through a temporary file and a rename
@@ -94,8 +94,8 @@ pub fn write_ply(mesh: &CutMesh, path: &Path) -> anyhow::Result<()> {
     })
 }
 
-/// Exports the cut the rule draws at `tau` pixels for `camera`, without culling, to `path`;
-/// returns its triangle and vertex counts.
+/// Exports the cut the rule draws at `tau` pixels for `camera`, without culling, to `path`
+/// (binary glTF when it ends in `.glb`, else PLY); returns its triangle and vertex counts.
 pub fn export_cut(
     repo: &Repository,
     camera: &Camera,
@@ -105,7 +105,12 @@ pub fn export_cut(
     let eye = camera.eye_local(repo.header().origin);
     let tets = unculled_cut(repo, eye, &camera.metric(), tau);
     let mesh = cut_mesh(repo, &tets)?;
-    write_ply(&mesh, path)?;
+    let glb = (path.extension()).is_some_and(|e| e.eq_ignore_ascii_case("glb"));
+    if glb {
+        super::export_glb::write_glb(&mesh, path)?;
+    } else {
+        write_ply(&mesh, path)?;
+    }
     Ok((mesh.triangle_count(), mesh.vertex_count()))
 }
 

@@ -8,13 +8,14 @@
 //! bookmarks and paths between frames), `input` (window events to navigation and actions), `blit` (texture to target), `navigation` (orbit
 //! around a pivot, pan, zoom towards a point, fly), `pick` (rays against the drawn cut),
 //! `pointer` (mouse drags and wheel to navigation), `overlay` (statistics and controls), `graph` (the overlay's frame-time graph),
-//! `target` (the frame-time and triangle controller), `export` (the cut as PLY), `script`
+//! `target` (the frame-time and triangle controller), `export` (the cut as PLY, `export_glb` as binary glTF), `script`
 //! (`--script` actions).
 
 mod actions;
 mod app;
 mod blit;
 pub mod export;
+mod export_glb;
 mod graph;
 mod input;
 mod navigation;
