@@ -722,7 +722,7 @@ fn bench_trade_off_measures_ours_and_the_peers() {
     };
     check_rows("ours", &v["rows"]);
     // The metric is stated, and every row keeps its sample count.
-    assert_eq!(v["metric"]["distance"], "view_axis_depth");
+    assert_eq!(v["metric"]["distance"], "euclidean");
     assert_eq!(v["metric"]["sides"], "cut_to_original");
     assert_eq!(v["metric"]["visible_only"], false);
     assert!(v["rows"]

@@ -17,7 +17,7 @@ use rayon::prelude::*;
 
 use super::nearest::ReferenceMesh;
 use crate::camera::Camera;
-use crate::vec3::{cross, dot, sub};
+use crate::vec3::{cross, dot, length, sub};
 
 /// A triangle soup to sample: positions in the reference mesh's frame (f64).
 #[derive(Clone, Copy, Debug)]
@@ -134,7 +134,9 @@ fn sample_surface(surface: Surface<'_>, count: usize, seed: u64) -> Vec<[f64; 3]
 }
 
 /// The measured error of one view: samples on `surface` (positions relative to `origin`, the
-/// reference mesh's frame), each one's distance to `reference` in pixels of `camera`.
+/// reference mesh's frame), each one's distance to `reference` in pixels of `camera`, at the
+/// sample's Euclidean distance from the eye as the run-time rule projects (samples outside
+/// the view frustum skipped).
 ///
 /// - `surface`: every index in range (panics otherwise);
 /// - `camera`: its `height` and `fov_y_degrees` give K; `near` and the side planes the
@@ -164,7 +166,9 @@ pub fn pixel_errors(
                 && depth >= camera.near
                 && dot(d, basis.right).abs() <= depth * tan_x
                 && dot(d, basis.up).abs() <= depth * tan_y;
-            on_screen.then(|| reference.distance(p) * k / depth)
+            // Projected as the run-time rule projects an error: over the Euclidean distance
+            // to the eye (ρ = error · K / |c − eye|), not the depth along the view axis.
+            on_screen.then(|| reference.distance(p) * k / length(d))
         })
         .collect();
     let skipped = errors.iter().filter(|e| e.is_none()).count();
@@ -230,7 +234,8 @@ mod tests {
         assert!(s.max_px < 1e-9, "{s:?}");
     }
 
-    /// A surface offset by d towards the eye, seen head-on from depth z: d·K/z pixels.
+    /// A surface offset by d towards the eye, seen head-on from depth z: d·K/z pixels on the
+    /// axis, d·K/|p − eye| off it.
     #[test]
     fn an_offset_of_d_at_depth_z_is_d_k_over_z_pixels() {
         let (positions, triangles) = square(1.0, 0.0, 4);
@@ -247,10 +252,21 @@ mod tests {
         let v = pixel_errors(&reference, surface, &cam, [0.0; 3], &config(500));
         assert_eq!(v.skipped, 0);
         let k = 480.0 / (2.0 * (30f64).to_radians().tan());
+        // Over the Euclidean distance: d·K/(z − d) on the axis, less off it (the lifted
+        // square's corners are 0.5·√2 off the axis).
         let expected = d * k / (eye_z - d);
+        let corner = d * k / ((eye_z - d).powi(2) + 0.5).sqrt();
         for e in &v.errors_px {
-            assert!((e - expected).abs() < 1e-9 * expected, "{e} vs {expected}");
+            assert!(
+                *e <= expected * (1.0 + 1e-9) && *e >= corner * (1.0 - 1e-9),
+                "{e}"
+            );
         }
+        let max = v.errors_px.iter().copied().fold(0.0, f64::max);
+        assert!(
+            max > 0.999 * expected,
+            "a sample near the axis: {max} vs {expected}"
+        );
         // The same in another frame: everything moved by an origin of 1e7.
         let origin = [1e7, -3e6, 5e5];
         let moved = Camera {
@@ -260,8 +276,8 @@ mod tests {
         };
         let again = pixel_errors(&reference, surface, &moved, origin, &config(500));
         assert_eq!(again.errors_px.len(), 500);
-        for e in &again.errors_px {
-            assert!((e - expected).abs() < 1e-6 * expected, "{e} vs {expected}");
+        for (e, f) in again.errors_px.iter().zip(&v.errors_px) {
+            assert!((e - f).abs() < 1e-6 * expected, "{e} vs {f}");
         }
     }
 
