@@ -725,6 +725,7 @@ fn bench_trade_off_measures_ours_and_the_peers() {
     assert_eq!(v["metric"]["distance"], "euclidean");
     assert_eq!(v["metric"]["sides"], "cut_to_original");
     assert_eq!(v["metric"]["visible_only"], false);
+    assert_eq!(v["metric"]["image_pixels"], "model");
     assert!(v["rows"]
         .as_array()
         .unwrap()

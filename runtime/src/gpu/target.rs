@@ -16,6 +16,9 @@ pub const BACKGROUND: wgpu::Color = wgpu::Color {
     a: 1.0,
 };
 
+/// `BACKGROUND` as the colour target stores it (RGBA8, unorm: round(255 · c)).
+pub const BACKGROUND_RGBA8: [u8; 4] = [28, 31, 38, 255];
+
 /// Why a target size cannot be drawn on this adapter: each case names the limit.
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
 pub enum TargetSizeError {
@@ -238,4 +241,15 @@ pub fn read_buffer(
         .to_vec();
     buffer.unmap();
     Ok(bytes)
+}
+
+#[cfg(test)]
+mod background_tests {
+    use super::*;
+
+    #[test]
+    fn the_stored_background_is_the_clear_colour_rounded() {
+        let c = [BACKGROUND.r, BACKGROUND.g, BACKGROUND.b, BACKGROUND.a];
+        assert_eq!(BACKGROUND_RGBA8, c.map(|x| (x * 255.0).round() as u8));
+    }
 }

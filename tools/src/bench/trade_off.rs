@@ -14,6 +14,7 @@
 //! before summarising them.
 
 use tessera_runtime::camera::Camera;
+use tessera_runtime::gpu::target::BACKGROUND_RGBA8;
 use tessera_runtime::gpu::GpuContext;
 use tessera_runtime::measure::{
     compare_images, pixel_errors, psnr_of_mse, ErrorSummary, ReferenceMesh, SamplingConfig,
@@ -172,7 +173,10 @@ pub fn measure(
                 }
                 tally.errors.extend(errors.errors_px);
                 if let Some(reference_image) = &reference_image {
-                    let diff = compare_images(&image, reference_image, DIFF_THRESHOLD);
+                    // Over the model's pixels: the frame around it is left out.
+                    let [r, g, b, _] = BACKGROUND_RGBA8;
+                    let diff =
+                        compare_images(&image, reference_image, DIFF_THRESHOLD, Some([r, g, b]));
                     *tally.differing.get_or_insert(0.0) += diff.differing_share();
                     *tally.mse.get_or_insert(0.0) += diff.mse;
                 }
