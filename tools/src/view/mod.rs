@@ -5,7 +5,7 @@
 //! camera into its offscreen target at `--size`, which is scaled (letterboxed) into the window
 //! with an egui overlay on top (`app.rs`). Files: `app` (event loop, window, drawing a
 //! frame), `actions` (keys, script actions, picks, fly moves, freezing, targets, export,
-//! bookmarks and paths between frames), `input` (window events to navigation and actions), `blit` (texture to target), `navigation` (orbit
+//! bookmarks and paths between frames), `input` (window events to navigation and actions), `model_frame` (the model's frame: request, redraws under a triangle budget, statistics), `blit` (texture to target), `navigation` (orbit
 //! around a pivot, pan, zoom towards a point, fly), `pick` (rays against the drawn cut),
 //! `pointer` (mouse drags and wheel to navigation), `overlay` (statistics and controls), `graph` (the overlay's frame-time graph),
 //! `target` (the frame-time and triangle controller), `export` (the cut as PLY, `export_glb` as binary glTF), `script`
@@ -18,6 +18,7 @@ pub mod export;
 mod export_glb;
 mod graph;
 mod input;
+mod model_frame;
 mod navigation;
 mod overlay;
 mod pick;
