@@ -61,3 +61,39 @@ pub fn check_pixels_small(
     };
     check_pixels(ctx, &mut renderer, repo, &config).expect("the GPU device works")
 }
+
+/// The smallest GPU budget (to 1 KiB) whose page pool holds `pool` bytes for renderers made
+/// with `options(budget)`: the fixed allocations and the record slots (which take the model's
+/// share of the rest) come on top.
+pub fn budget_for_pool(
+    ctx: &tessera_runtime::gpu::GpuContext,
+    repo: &Repository,
+    options: impl Fn(u64) -> tessera_runtime::gpu::RendererOptions,
+    pool: u64,
+) -> u64 {
+    use tessera_runtime::gpu::stream_budget::fixed_bytes;
+    let pool_of = |budget| fixed_bytes(ctx, repo, &options(budget)).pool_bytes();
+    let (mut low, mut high) = (pool, 4 * pool + (64 << 20));
+    while high - low > 1024 {
+        let middle = (low + high) / 2;
+        if pool_of(middle) >= pool {
+            high = middle;
+        } else {
+            low = middle;
+        }
+    }
+    high
+}
+
+/// The demo mesh at `subdivisions` with colours and UVs on every vertex (it has normals).
+pub fn attributed_demo_mesh(subdivisions: u32) -> InputMesh {
+    let mut mesh = tessera_preprocess::procedural::demo_mesh(subdivisions);
+    let n = mesh.positions.len();
+    mesh.colors = Some(
+        (0..n)
+            .map(|i| [(i % 251) as u8, (i % 13) as u8, 7, 255])
+            .collect(),
+    );
+    mesh.uvs = Some((0..n).map(|i| [i as f32 * 0.25, -(i as f32)]).collect());
+    mesh
+}

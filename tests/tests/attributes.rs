@@ -7,14 +7,8 @@ use tessera_tests::build;
 
 #[test]
 fn attributes_survive_into_every_patch() {
-    let mut mesh = demo_mesh(4);
+    let mesh = tessera_tests::attributed_demo_mesh(4);
     let n = mesh.positions.len();
-    mesh.colors = Some(
-        (0..n)
-            .map(|i| [(i % 251) as u8, (i % 13) as u8, 7, 255])
-            .collect(),
-    );
-    mesh.uvs = Some((0..n).map(|i| [i as f32 * 0.25, -(i as f32)]).collect());
     let built = build(
         &mesh,
         &BuildConfig {

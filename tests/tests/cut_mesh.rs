@@ -9,7 +9,6 @@ use tessera_core::repository::cut_mesh::{cut_mesh, unculled_cut, CutMesh};
 use tessera_core::repository::format::{dequantize_position, oct_decode_normal};
 use tessera_core::repository::reader::Repository;
 use tessera_preprocess::import::load_mesh;
-use tessera_preprocess::procedural::demo_mesh;
 use tessera_preprocess::{BuildConfig, Construction};
 use tessera_tests::{build, testdata};
 
@@ -81,14 +80,7 @@ fn assert_patches_agree(repo: &Repository, tets: &[u32], mesh: &CutMesh) {
 
 #[test]
 fn a_closed_model_exports_watertight_at_every_tolerance() {
-    let mut mesh = demo_mesh(4);
-    let n = mesh.positions.len();
-    mesh.colors = Some(
-        (0..n)
-            .map(|i| [(i % 251) as u8, (i % 13) as u8, 7, 255])
-            .collect(),
-    );
-    mesh.uvs = Some((0..n).map(|i| [i as f32 * 0.25, -(i as f32)]).collect());
+    let mesh = tessera_tests::attributed_demo_mesh(4);
     let built = build(
         &mesh,
         &BuildConfig {

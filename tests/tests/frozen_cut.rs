@@ -14,7 +14,6 @@ use tessera_preprocess::import::load_mesh;
 use tessera_preprocess::BuildConfig;
 use tessera_runtime::camera::{Camera, Y_UP};
 use tessera_runtime::gpu::frame::FrameUniforms;
-use tessera_runtime::gpu::stream_budget::fixed_bytes;
 use tessera_runtime::gpu::{
     Frame, FrameRequest, GpuContext, GpuStreamer, Readback, Renderer, RendererOptions, ShadingMode,
 };
@@ -154,19 +153,9 @@ fn a_frozen_cut_draws_the_cameras_selection_from_the_draw_camera() {
     );
 }
 
-/// The smallest GPU budget (to 1 KiB) whose page pool holds `pool` bytes.
+/// The smallest budget whose pool holds `pool` bytes at this file's renderer size.
 fn budget_for_pool(ctx: &GpuContext, repo: &Repository, pool: u64) -> u64 {
-    let pool_of = |budget| fixed_bytes(ctx, repo, &options(budget)).pool_bytes();
-    let (mut low, mut high) = (pool, 4 * pool + (64 << 20));
-    while high - low > 1024 {
-        let middle = (low + high) / 2;
-        if pool_of(middle) >= pool {
-            high = middle;
-        } else {
-            low = middle;
-        }
-    }
-    high
+    tessera_tests::budget_for_pool(ctx, repo, options, pool)
 }
 
 /// (c) Streaming: settled on the camera, frames drawn from the draw camera load nothing, draw

@@ -17,7 +17,6 @@ use tessera_core::repository::Repository;
 use tessera_preprocess::import::load_mesh;
 use tessera_preprocess::BuildConfig;
 use tessera_runtime::camera::{Camera, Y_UP};
-use tessera_runtime::gpu::stream_budget::fixed_bytes;
 use tessera_runtime::gpu::{
     DeviceOptions, FrameRequest, GpuContext, GpuStreamer, Readback, Renderer, RendererOptions,
     ShadingMode, FLAG_COLOUR,
@@ -79,20 +78,9 @@ fn options(budget_bytes: u64) -> RendererOptions {
     }
 }
 
-/// The smallest GPU budget (to 1 KiB) whose page pool holds `pool` bytes: the fixed
-/// allocations and the record slots (which take the model's share of the rest) come on top.
+/// The smallest budget whose pool holds `pool` bytes at this file's renderer size.
 fn budget_for_pool(ctx: &GpuContext, repo: &Repository, pool: u64) -> u64 {
-    let pool_of = |budget| fixed_bytes(ctx, repo, &options(budget)).pool_bytes();
-    let (mut low, mut high) = (pool, 4 * pool + (64 << 20));
-    while high - low > 1024 {
-        let middle = (low + high) / 2;
-        if pool_of(middle) >= pool {
-            high = middle;
-        } else {
-            low = middle;
-        }
-    }
-    high
+    tessera_tests::budget_for_pool(ctx, repo, options, pool)
 }
 
 /// Bytes of the units the unlimited cut of `camera` refines (visible simplices), plus roots.
