@@ -102,8 +102,8 @@ pub fn run(args: BuildArgs) -> anyhow::Result<Outcome> {
                     temp_dir.display()
                 )
             })?;
-            // One allocator arena, so what one worker frees another reuses (allocator.rs).
-            tessera_preprocess::external::allocator::single_arena();
+            // Few allocator arenas, so what one worker frees another reuses (allocator.rs).
+            tessera_preprocess::external::allocator::arenas_for_budget(bytes);
             Some(MemoryBudget { bytes, temp_dir })
         }
     };

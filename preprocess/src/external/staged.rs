@@ -314,6 +314,33 @@ pub struct StagedMesh {
 }
 
 impl StagedMesh {
+    /// Writes a mesh welded in memory (`import::weld`'s report) as record files in `dir`.
+    pub fn from_report(report: crate::import::ImportReport, dir: &Path) -> io::Result<StagedMesh> {
+        fn write<T: Pod>(records: &[T], dir: &Path) -> io::Result<RecordFile<T>> {
+            let mut file = RecordFile::create(dir)?;
+            for record in records {
+                file.push(record)?;
+            }
+            file.finish()
+        }
+        let mesh = &report.mesh;
+        Ok(StagedMesh {
+            positions: write(&mesh.positions, dir)?,
+            triangles: write(&mesh.triangles, dir)?,
+            attributes: VertexAttributes {
+                normals: mesh.normals.as_deref().map(|a| write(a, dir)).transpose()?,
+                colors: mesh.colors.as_deref().map(|a| write(a, dir)).transpose()?,
+                uvs: mesh.uvs.as_deref().map(|a| write(a, dir)).transpose()?,
+            },
+            raw_vertices: report.raw_vertices as u64,
+            raw_triangles: report.raw_triangles as u64,
+            welded_vertices: report.welded_vertices as u64,
+            degenerate_triangles: report.degenerate_triangles as u64,
+            duplicate_triangles: report.duplicate_triangles as u64,
+            unreferenced_vertices: report.unreferenced_vertices as u64,
+        })
+    }
+
     /// Reads the whole mesh into memory (for tests, and for meshes that fit).
     pub fn load(&self) -> io::Result<InputMesh> {
         Ok(InputMesh {

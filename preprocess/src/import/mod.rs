@@ -115,7 +115,7 @@ pub fn load_mesh_from_reader(
 }
 
 /// Stages the mesh at `path` on disk (the out-of-core build's import): streamed once into
-/// record files in `dir`, then welded and cleaned by `external::weld_external` with about
+/// record files in `dir`, then welded and cleaned by `external::weld_within_budget` with about
 /// `budget` bytes of memory — the same mesh, ids and counts as [`load_mesh`]. PLY (ASCII,
 /// binary, `.gz`) streams; other formats are read whole first. A mesh with no triangles left
 /// is an error.
@@ -160,7 +160,8 @@ fn weld_staged(
     dir: &Path,
     budget: usize,
 ) -> Result<crate::external::StagedMesh, ImportErrorKind> {
-    let staged = crate::external::weld_external(raw, budget, dir).map_err(ImportErrorKind::Io)?;
+    let staged =
+        crate::external::weld_within_budget(raw, budget, dir).map_err(ImportErrorKind::Io)?;
     if staged.triangles.is_empty() {
         return Err(ImportErrorKind::Empty {
             raw_triangles: staged.raw_triangles as usize,
