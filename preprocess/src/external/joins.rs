@@ -21,11 +21,12 @@ use crate::vertex_table::{LivePatch, VertexTable};
 /// in-memory build's `MeshBarycentres`), a chunk of triangles at a time: the chunk's corners
 /// sorted by vertex pick their positions in one pass over the positions file (up to the
 /// chunk's largest id). No temporary file; the positions file is read once a chunk (from the
-/// page cache, mostly). Costly all the same: read it once (`SpooledBarycentres`).
+/// page cache, mostly). Costly all the same: read it once (`SpooledBarycentres`). Where the
+/// positions file fits the budget it is read whole and indexed instead (no sort).
 pub struct JoinedBarycentres<'a> {
     pub staged: &'a StagedMesh,
     pub frame: &'a LatticeFrame,
-    /// Bytes a chunk may hold in memory (about 110 a triangle).
+    /// Bytes a chunk may hold in memory (about 110 a triangle), or the positions read whole.
     pub budget: usize,
 }
 
@@ -35,6 +36,21 @@ const JOIN_BYTES_PER_TRIANGLE: usize = 108;
 
 impl BarycentreSource for JoinedBarycentres<'_> {
     fn for_each_barycentre(&self, f: &mut dyn FnMut(u32, [f64; 3])) -> io::Result<()> {
+        // Positions that fit the budget are read once and indexed: no sort, one pass.
+        if self.staged.positions.bytes() <= self.budget as u64 {
+            let positions = self.staged.positions.read_all()?;
+            for (i, t) in self.staged.triangles.read()?.enumerate() {
+                let corners = t?.map(|v| positions.get(v as usize).copied());
+                let [Some(a), Some(b), Some(c)] = corners else {
+                    return Err(io::Error::other(format!(
+                        "triangle {i} of a staged mesh names a vertex past its {} positions",
+                        positions.len()
+                    )));
+                };
+                f(i as u32, self.frame.barycentre([a, b, c]));
+            }
+            return Ok(());
+        }
         let chunk = (self.budget / JOIN_BYTES_PER_TRIANGLE).max(1 << 12);
         let mut triangles = self.staged.triangles.read()?;
         let mut first = 0u32;
@@ -325,6 +341,53 @@ impl<T: bytemuck::Pod> Cursor<T> {
                     return T::zeroed();
                 }
             }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::hierarchy::MeshBarycentres;
+
+    fn barycentres(source: &dyn BarycentreSource) -> Vec<(u32, [f64; 3])> {
+        let mut out = Vec::new();
+        source
+            .for_each_barycentre(&mut |t, b| out.push((t, b)))
+            .unwrap();
+        out
+    }
+
+    #[test]
+    fn joined_barycentres_equal_the_in_memory_ones_read_whole_or_in_chunks() {
+        let path =
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../testdata/mesh/bunny00.off");
+        let report = crate::import::load_mesh(&path).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let mesh = report.mesh.clone();
+        let staged = StagedMesh::from_report(report, dir.path()).unwrap();
+        let (mut lo, mut hi) = ([f64::MAX; 3], [f64::MIN; 3]);
+        for p in &mesh.positions {
+            for i in 0..3 {
+                lo[i] = lo[i].min(p[i]);
+                hi[i] = hi[i].max(p[i]);
+            }
+        }
+        let frame = LatticeFrame::around_box(lo, hi, 20, 3);
+        let expected = barycentres(&MeshBarycentres {
+            frame: &frame,
+            mesh: &mesh,
+        });
+        assert_eq!(expected.len(), mesh.triangles.len());
+        // Budget 0: chunks of 4,096 triangles joined with the positions file; a budget above
+        // the positions' bytes: the positions read once and indexed.
+        for budget in [0, 1 << 30] {
+            let joined = barycentres(&JoinedBarycentres {
+                staged: &staged,
+                frame: &frame,
+                budget,
+            });
+            assert_eq!(joined, expected, "budget {budget}");
         }
     }
 }
