@@ -86,11 +86,14 @@ pub(crate) fn hierarchy_and_counts(
     )
     .map_err(&io)?;
     let budget = BucketBudget::new(memory.bucket_triangles(leaf_triangles), dir);
-    let hierarchy =
-        build_hierarchy_bucketed(frame, &barycentres, construction, &budget).map_err(&io)?;
+    // The bucketed hierarchy runs on one thread: the use counts (a quarter of the budget, as
+    // its buckets) are counted beside it, as the in-memory build does.
+    let (hierarchy, current) = rayon::join(
+        || build_hierarchy_bucketed(frame, &barycentres, construction, &budget),
+        || CurrentMesh::from_staged(staged, sort_budget, dir),
+    );
     drop(barycentres);
-    let current = CurrentMesh::from_staged(staged, sort_budget, dir).map_err(&io)?;
-    Ok((hierarchy, current))
+    Ok((hierarchy.map_err(&io)?, current.map_err(&io)?))
 }
 
 /// The simplifier's position of each vertex as `simplify_hierarchy` computes it in memory

@@ -38,18 +38,39 @@ impl BarycentreSource for JoinedBarycentres<'_> {
     fn for_each_barycentre(&self, f: &mut dyn FnMut(u32, [f64; 3])) -> io::Result<()> {
         // Positions that fit the budget are read once and indexed: no sort, one pass.
         if self.staged.positions.bytes() <= self.budget as u64 {
+            use rayon::prelude::*;
             let positions = self.staged.positions.read_all()?;
-            for (i, t) in self.staged.triangles.read()?.enumerate() {
-                let corners = t?.map(|v| positions.get(v as usize).copied());
-                let [Some(a), Some(b), Some(c)] = corners else {
-                    return Err(io::Error::other(format!(
-                        "triangle {i} of a staged mesh names a vertex past its {} positions",
-                        positions.len()
-                    )));
-                };
-                f(i as u32, self.frame.barycentre([a, b, c]));
+            let mut triangles = self.staged.triangles.read()?;
+            let mut first = 0u32;
+            loop {
+                // Computed in parallel a block at a time, handed over in order.
+                let part: Vec<[u32; 3]> = triangles
+                    .by_ref()
+                    .take(1 << 16)
+                    .collect::<io::Result<_>>()?;
+                if part.is_empty() {
+                    return Ok(());
+                }
+                let at = |v: u32| positions.get(v as usize).copied();
+                let barycentres: Vec<Option<[f64; 3]>> = part
+                    .par_iter()
+                    .map(|t| match t.map(at) {
+                        [Some(a), Some(b), Some(c)] => Some(self.frame.barycentre([a, b, c])),
+                        _ => None,
+                    })
+                    .collect();
+                for (i, b) in barycentres.into_iter().enumerate() {
+                    let t = first + i as u32;
+                    let b = b.ok_or_else(|| {
+                        io::Error::other(format!(
+                            "triangle {t} of a staged mesh names a vertex past its {} positions",
+                            positions.len()
+                        ))
+                    })?;
+                    f(t, b);
+                }
+                first += part.len() as u32;
             }
-            return Ok(());
         }
         let chunk = (self.budget / JOIN_BYTES_PER_TRIANGLE).max(1 << 12);
         let mut triangles = self.staged.triangles.read()?;
