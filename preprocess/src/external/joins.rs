@@ -7,6 +7,7 @@
 use std::io;
 use std::path::Path;
 
+use rayon::prelude::*;
 use rustc_hash::{FxHashMap as HashMap, FxHashSet as HashSet};
 use tessera_core::leb::SimplexKey;
 
@@ -38,7 +39,6 @@ impl BarycentreSource for JoinedBarycentres<'_> {
     fn for_each_barycentre(&self, f: &mut dyn FnMut(u32, [f64; 3])) -> io::Result<()> {
         // Positions that fit the budget are read once and indexed: no sort, one pass.
         if self.staged.positions.bytes() <= self.budget as u64 {
-            use rayon::prelude::*;
             let positions = self.staged.positions.read_all()?;
             let mut triangles = self.staged.triangles.read()?;
             let mut first = 0u32;

@@ -14,4 +14,4 @@ pub mod weld;
 pub use joins::{coincident_nudges, JoinedBarycentres, LeafGroups};
 pub use sort::{sort_external, SortStats, Sorted};
 pub use staged::{RawStaged, RawStager, RawVertex, RecordFile, StagedMesh};
-pub use weld::{in_memory_weld_bytes, weld_external, weld_in_memory, weld_within_budget};
+pub use weld::{weld_external, weld_within_budget};

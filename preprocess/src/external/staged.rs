@@ -197,6 +197,27 @@ pub struct VertexAttributes {
     pub uvs: Option<RecordFile<[f32; 2]>>,
 }
 
+/// Normals, colours and UVs read into memory, where the mesh has them.
+pub type LoadedAttributes = (
+    Option<Vec<[f32; 3]>>,
+    Option<Vec<[u8; 4]>>,
+    Option<Vec<[f32; 2]>>,
+);
+
+impl VertexAttributes {
+    /// Reads every attribute file whole.
+    pub fn read_all(&self) -> io::Result<LoadedAttributes> {
+        Ok((
+            self.normals
+                .as_ref()
+                .map(RecordFile::read_all)
+                .transpose()?,
+            self.colors.as_ref().map(RecordFile::read_all).transpose()?,
+            self.uvs.as_ref().map(RecordFile::read_all).transpose()?,
+        ))
+    }
+}
+
 /// A mesh as read from a file, before welding, staged on disk.
 pub struct RawStaged {
     pub positions: RecordFile<[f64; 3]>,
@@ -343,27 +364,13 @@ impl StagedMesh {
 
     /// Reads the whole mesh into memory (for tests, and for meshes that fit).
     pub fn load(&self) -> io::Result<InputMesh> {
+        let (normals, colors, uvs) = self.attributes.read_all()?;
         Ok(InputMesh {
             positions: self.positions.read_all()?,
             triangles: self.triangles.read_all()?,
-            normals: self
-                .attributes
-                .normals
-                .as_ref()
-                .map(RecordFile::read_all)
-                .transpose()?,
-            colors: self
-                .attributes
-                .colors
-                .as_ref()
-                .map(RecordFile::read_all)
-                .transpose()?,
-            uvs: self
-                .attributes
-                .uvs
-                .as_ref()
-                .map(RecordFile::read_all)
-                .transpose()?,
+            normals,
+            colors,
+            uvs,
         })
     }
 

@@ -52,27 +52,13 @@ pub fn in_memory_weld_bytes(raw: &RawStaged) -> u64 {
 /// Welds `raw` in memory with `import::weld` and writes the result as a [`StagedMesh`] in
 /// `dir` (the raw files are freed first).
 pub fn weld_in_memory(raw: RawStaged, dir: &Path) -> io::Result<StagedMesh> {
+    let (normals, colors, uvs) = raw.attributes.read_all()?;
     let mesh = crate::import::RawMesh {
         positions: raw.positions.read_all()?,
         triangles: raw.triangles.read_all()?,
-        normals: raw
-            .attributes
-            .normals
-            .as_ref()
-            .map(RecordFile::read_all)
-            .transpose()?,
-        colors: raw
-            .attributes
-            .colors
-            .as_ref()
-            .map(RecordFile::read_all)
-            .transpose()?,
-        uvs: raw
-            .attributes
-            .uvs
-            .as_ref()
-            .map(RecordFile::read_all)
-            .transpose()?,
+        normals,
+        colors,
+        uvs,
     };
     drop(raw);
     let report = crate::import::weld(mesh);
