@@ -4,8 +4,9 @@
 //! arena per [`BUDGET_PER_ARENA`] of its budget (at least one) and gives freed memory back
 //! between its phases; the resident size then follows what the build holds. One arena is
 //! what a tight budget needs (2 M generated at `--memory 64M`: 68 → 55 MiB peak), but the
-//! workers then queue on its lock (10 M generated at `--memory 1G`: simplification 14.6 s
-//! with two arenas against 18.6 s with one, peak 366 against 333 MiB, two runs each).
+//! workers then queue on its lock (10 M generated at `--memory 1G`, two runs each: the
+//! simplification 14.9 / 14.3 s with two arenas against 19.0 / 18.2 s with one, its peak
+//! 366 / 344 against 333 / 333 MiB).
 //! Elsewhere these do nothing.
 
 /// The budget that pays for one more allocator arena.
