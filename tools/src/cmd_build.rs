@@ -74,13 +74,18 @@ pub struct BuildArgs {
     /// Print one JSON object on stdout.
     #[arg(long)]
     pub json: bool,
+    /// Report each stage's own peak resident memory in `--json` (Linux: resets the kernel's
+    /// peak at each stage, so `/usr/bin/time` then reports only the last stage's peak; without
+    /// this flag each stage's figure is the peak so far and external tools see the true peak)
+    #[arg(long)]
+    pub stage_peaks: bool,
     #[command(flatten)]
     pub heightfield: crate::input::HeightFieldArgs,
 }
 
 pub fn run(args: BuildArgs) -> anyhow::Result<Outcome> {
     let stages = Stages::new("build");
-    let peaks = crate::peak_rss::StagePeaks::new();
+    let peaks = crate::peak_rss::StagePeaks::new(args.stage_peaks);
     tessera_preprocess::external::temp_usage::reset_peak();
     stages.stage("import");
     peaks.start("import");

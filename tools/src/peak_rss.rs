@@ -11,10 +11,13 @@ pub fn peak_rss_bytes() -> Option<u64> {
     parse_vm_hwm(&status)
 }
 
-/// Peak resident memory of each stage of a run: at every stage's start the kernel's peak
-/// (VmHWM) is read for the stage that ends and reset to the current RSS (`/proc/self/clear_refs`,
-/// Linux), so each figure is that stage's own peak. Where the reset is not possible the
-/// figures are the peak so far (`reset` says which).
+/// Peak resident memory of each stage of a run. With `per_stage`, at every stage's start the
+/// kernel's peak (VmHWM) is read for the stage that ends and reset to the current RSS
+/// (`/proc/self/clear_refs`, Linux), so each figure is that stage's own peak. The reset also
+/// resets the peak the kernel reports when the process exits (`ru_maxrss`), so that
+/// `/usr/bin/time -v` would see only the last stage's: it is opt-in (`build --stage-peaks`).
+/// Without it, or where the reset is not possible, the figures are the peak so far (`reset`
+/// says which).
 pub struct StagePeaks {
     state: std::sync::Mutex<PeakState>,
     pub reset: bool,
@@ -24,10 +27,10 @@ pub struct StagePeaks {
 type PeakState = (Option<String>, Vec<(String, u64)>);
 
 impl StagePeaks {
-    pub fn new() -> Self {
+    pub fn new(per_stage: bool) -> Self {
         StagePeaks {
             state: std::sync::Mutex::new((None, Vec::new())),
-            reset: reset_peak(),
+            reset: per_stage && reset_peak(),
         }
     }
 
@@ -38,7 +41,9 @@ impl StagePeaks {
             let peak = peak_rss_bytes().unwrap_or(0);
             state.1.push((previous, peak));
         }
-        reset_peak();
+        if self.reset {
+            reset_peak();
+        }
         state.0 = Some(name.to_string());
     }
 
