@@ -76,7 +76,7 @@ pub struct BuildArgs {
     pub json: bool,
     /// Report each stage's own peak resident memory in `--json` (Linux: resets the kernel's
     /// peak at each stage, so `/usr/bin/time` then reports only the last stage's peak; without
-    /// this flag each stage's figure is the peak so far and external tools see the true peak)
+    /// this flag each stage's figure is the peak so far and external tools see the true peak).
     #[arg(long)]
     pub stage_peaks: bool,
     #[command(flatten)]
@@ -191,7 +191,8 @@ pub fn run(args: BuildArgs) -> anyhow::Result<Outcome> {
         value["temp_bytes_peak"] = json!(tessera_preprocess::external::temp_usage::peak());
         if let Some(stages) = value["stages"].as_array_mut() {
             stages.insert(0, json!({"stage": "import", "seconds": import_seconds}));
-            // Each stage's own peak resident memory (see `StagePeaks`).
+            // Each stage's peak resident memory: its own with `--stage-peaks`, else the peak so far
+            // (see `StagePeaks`).
             for stage in stages.iter_mut() {
                 let name = stage["stage"].as_str().unwrap_or_default().to_string();
                 if let Some((_, peak)) = stage_peaks.iter().find(|(s, _)| *s == name) {
