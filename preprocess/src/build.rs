@@ -21,7 +21,7 @@ use crate::finished_patches::{FinishedPatches, PatchEncoding};
 use crate::frame::LatticeFrame;
 use crate::hierarchy::{
     build_hierarchy, build_hierarchy_bucketed, BucketBudget, Construction, Hierarchy,
-    MeshBarycentres,
+    LeafListSpool, MeshBarycentres,
 };
 use crate::mesh::InputMesh;
 use crate::simplify::{
@@ -358,19 +358,22 @@ fn build_in_pool(
         Construction::Levels(_) => config.domain.default_leaf_triangles(),
     };
     let t = Instant::now();
-    let (mut hierarchy, current) = match (source, &config.memory, resumed_hierarchy) {
-        (Source::Resumed, _, Some(hierarchy)) => (hierarchy, None),
+    let (hierarchy, current, lists) = match (source, &config.memory, resumed_hierarchy) {
+        (Source::Resumed, _, Some(hierarchy)) => (hierarchy, None, None),
         (Source::Resumed, _, None) => unreachable!("a resumed build has its state"),
         (_, _, _) if resumed_counts.is_some() => {
             let r = resumed_counts.expect("checked");
-            (r.hierarchy, Some(r.current))
+            (r.hierarchy, Some(r.current), Some(r.lists))
         }
         (source, memory, _) => {
             on_stage("hierarchy");
-            let (hierarchy, current) =
+            let (hierarchy, current, lists) =
                 hierarchy_and_counts(source, memory, &frame, leaf_cap, config)?;
             if let (Some(c), Source::Staged(_)) = (checkpoint.as_deref_mut(), source) {
-                save_hierarchy(c, &facts, &hierarchy, &current).map_err(|source| {
+                let lists = lists
+                    .as_ref()
+                    .expect("a staged build spools its leaves' lists");
+                save_hierarchy(c, &facts, &hierarchy, lists, &current).map_err(|source| {
                     BuildError::Temporary {
                         dir: c.dir().to_path_buf(),
                         source,
@@ -378,7 +381,7 @@ fn build_in_pool(
                 })?;
             }
             stage("hierarchy", t);
-            (hierarchy, Some(current))
+            (hierarchy, Some(current), lists)
         }
     };
 
@@ -407,12 +410,6 @@ fn build_in_pool(
     };
     let mut sink =
         |patches: &[(SimplexKey, &LivePatch)]| finished.borrow_mut().add(patches, &encoding);
-    // The staged build's leaves' lists go to the groups, which drop each once it is made.
-    let lists = match source {
-        Source::Staged(_) => std::mem::take(&mut hierarchy.leaf_triangles),
-        _ => Default::default(),
-    };
-    let hierarchy = hierarchy;
     let checkpoint_dir = checkpoint.as_deref().map(|c| c.dir().to_path_buf());
     // A checkpointed build saves its state after the leaves and after each level.
     let mut after_level = |state: &LevelState| match checkpoint.as_deref_mut() {
@@ -433,7 +430,7 @@ fn build_in_pool(
                 crate::staged_build::simplifier_positions(staged, &hierarchy.frame, memory)?;
             let mut groups = LeafGroups::new(
                 staged,
-                lists,
+                lists.expect("a staged build spools its leaves' lists"),
                 &simplifier_of,
                 crate::staged_build::leaf_group_triangles(memory),
             );
@@ -505,23 +502,27 @@ fn build_in_pool(
     Ok(assemble(parts, config, on_stage))
 }
 
-/// The hierarchy and the use counts, from the mesh in memory or staged on disk.
+/// The hierarchy and the use counts, from the mesh in memory or staged on disk; a staged
+/// mesh's leaves' lists stay on disk (the spool), a loaded one's are in the hierarchy.
 fn hierarchy_and_counts(
     source: Source,
     memory: &Option<MemoryBudget>,
     frame: &LatticeFrame,
     leaf_cap: usize,
     config: &BuildConfig,
-) -> Result<(Hierarchy, CurrentMesh), BuildError> {
+) -> Result<(Hierarchy, CurrentMesh, Option<LeafListSpool>), BuildError> {
     let frame = *frame;
     Ok(match (source, memory) {
-        (Source::Staged(staged), Some(memory)) => crate::staged_build::hierarchy_and_counts(
-            staged,
-            frame,
-            config.construction,
-            leaf_cap,
-            memory,
-        )?,
+        (Source::Staged(staged), Some(memory)) => {
+            let (hierarchy, lists, current) = crate::staged_build::hierarchy_and_counts(
+                staged,
+                frame,
+                config.construction,
+                leaf_cap,
+                memory,
+            )?;
+            (hierarchy, current, Some(lists))
+        }
         (Source::Staged(_), None) | (Source::Resumed, _) => {
             unreachable!("a staged build has a budget; a resumed one its hierarchy")
         }
@@ -532,10 +533,11 @@ fn hierarchy_and_counts(
                 .map(|tri| frame.barycentre(tri.map(|v| mesh.positions[v as usize])))
                 .collect();
             // The simplifier's sharing counts are independent of the hierarchy: both at once.
-            rayon::join(
+            let (hierarchy, current) = rayon::join(
                 || build_hierarchy(frame, &barycenters, config.construction),
                 || CurrentMesh::new(mesh),
-            )
+            );
+            (hierarchy, current, None)
         }
         (Source::Memory(mesh), Some(memory)) => {
             let budget = BucketBudget::new(memory.bucket_triangles(leaf_cap), &memory.temp_dir);
@@ -554,7 +556,7 @@ fn hierarchy_and_counts(
                         dir: memory.temp_dir.clone(),
                         source,
                     })?;
-            (hierarchy, current)
+            (hierarchy, current, None)
         }
     })
 }

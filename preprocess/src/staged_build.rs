@@ -8,7 +8,8 @@ use crate::build::{BuildError, MemoryBudget, MAX_EXTENT};
 use crate::external::{coincident_nudges, JoinedBarycentres, StagedMesh};
 use crate::frame::LatticeFrame;
 use crate::hierarchy::{
-    build_hierarchy_bucketed, BucketBudget, Construction, Hierarchy, SpooledBarycentres,
+    build_hierarchy_bucketed_spooled, BucketBudget, Construction, Hierarchy, LeafListSpool,
+    SpooledBarycentres,
 };
 use crate::simplify::{simplifier_position, CurrentMesh};
 
@@ -65,14 +66,15 @@ pub(crate) fn validate_staged(
     Ok((lo, hi))
 }
 
-/// The hierarchy (bucketed, from barycentres joined once into a spool) and the use counts.
+/// The hierarchy (bucketed, from barycentres joined once into a spool), its leaves' lists
+/// (on disk) and the use counts.
 pub(crate) fn hierarchy_and_counts(
     staged: &StagedMesh,
     frame: LatticeFrame,
     construction: Construction,
     leaf_triangles: usize,
     memory: &MemoryBudget,
-) -> Result<(Hierarchy, CurrentMesh), BuildError> {
+) -> Result<(Hierarchy, LeafListSpool, CurrentMesh), BuildError> {
     let io = temporary(memory);
     let dir = memory.temp_dir.as_path();
     let sort_budget = memory.bytes as usize / 4;
@@ -89,11 +91,12 @@ pub(crate) fn hierarchy_and_counts(
     // The bucketed hierarchy runs on one thread: the use counts (a quarter of the budget, as
     // its buckets) are counted beside it, as the in-memory build does.
     let (hierarchy, current) = rayon::join(
-        || build_hierarchy_bucketed(frame, &barycentres, construction, &budget),
+        || build_hierarchy_bucketed_spooled(frame, &barycentres, construction, &budget),
         || CurrentMesh::from_staged(staged, sort_budget, dir),
     );
     drop(barycentres);
-    Ok((hierarchy.map_err(&io)?, current.map_err(&io)?))
+    let (hierarchy, lists, _) = hierarchy.map_err(&io)?;
+    Ok((hierarchy, lists, current.map_err(&io)?))
 }
 
 /// The simplifier's position of each vertex as `simplify_hierarchy` computes it in memory

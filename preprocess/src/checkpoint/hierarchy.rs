@@ -11,7 +11,7 @@ use tessera_core::leb::{ConformingMesh, Diamond};
 
 use super::{Checkpoint, Dec, Enc, FileRecord, StageRecord};
 use crate::frame::LatticeFrame;
-use crate::hierarchy::Hierarchy;
+use crate::hierarchy::{Hierarchy, LeafListSpool};
 use crate::simplify::CurrentMesh;
 
 pub(super) const HIERARCHY: &str = "hierarchy.bin";
@@ -62,10 +62,12 @@ impl InputFacts {
     }
 }
 
-/// A build's hierarchy and use counts, read back from its checkpoint.
+/// A build's hierarchy, its leaves' lists (read from the checkpoint's file as needed) and use
+/// counts, read back from its checkpoint.
 pub(crate) struct HierarchyCheckpoint {
     pub facts: InputFacts,
     pub hierarchy: Hierarchy,
+    pub lists: LeafListSpool,
     pub current: CurrentMesh,
 }
 
@@ -75,21 +77,18 @@ pub(crate) fn save_hierarchy(
     checkpoint: &mut Checkpoint,
     facts: &InputFacts,
     hierarchy: &Hierarchy,
+    lists: &LeafListSpool,
     current: &CurrentMesh,
 ) -> io::Result<()> {
-    let mut lists: Vec<_> = hierarchy.leaf_triangles.iter().collect();
-    lists.sort_unstable_by_key(|(k, _)| **k);
-    let mut leaves = Enc::default();
-    leaves.list(&lists, |e, (k, list)| {
-        e.key(**k);
-        e.list(list, |e, &t| e.u32(t));
-    });
-    let mut counts = Enc::default();
-    current.encode(&mut counts);
+    // Streamed to their files, a leaf's list at a time: at 100 M triangles the lists and
+    // counts alone take 600 MB.
     let files = vec![
         write_file(checkpoint, HIERARCHY, &encode_hierarchy(hierarchy))?,
-        write_file(checkpoint, LEAF_TRIANGLES, &leaves.0)?,
-        write_file(checkpoint, COUNTS, &counts.0)?,
+        write_streamed(checkpoint, LEAF_TRIANGLES, |e| encode_leaf_lists(e, lists))?,
+        write_streamed(checkpoint, COUNTS, |e| {
+            current.encode(e);
+            Ok(())
+        })?,
     ];
     checkpoint.commit_keeping(
         StageRecord {
@@ -107,21 +106,12 @@ pub(crate) fn load_hierarchy(checkpoint: &Checkpoint) -> io::Result<Option<Hiera
         return Ok(None);
     };
     let facts = InputFacts::from_values(&stage.values)?;
-    let mut hierarchy = decode_hierarchy(&std::fs::read(checkpoint.path(HIERARCHY))?)?;
-    let bytes = std::fs::read(checkpoint.path(LEAF_TRIANGLES))?;
-    let mut d = Dec::new(&bytes);
-    let lists = d.list(29, |d| Ok((d.key()?, d.list(4, |d| d.u32())?)))?;
-    d.finish()?;
-    let complete = lists.len() == hierarchy.mesh.leaf_count()
-        && lists.iter().all(|(k, _)| hierarchy.mesh.is_leaf(*k));
-    let in_range = lists
-        .iter()
-        .flat_map(|(_, l)| l)
-        .all(|&t| (t as usize) < facts.triangles);
-    if !complete || !in_range {
-        return Err(invalid("the leaves' triangles are not the hierarchy's"));
-    }
-    hierarchy.leaf_triangles = lists.into_iter().collect();
+    let hierarchy = decode_hierarchy(&std::fs::read(checkpoint.path(HIERARCHY))?)?;
+    let lists = open_leaf_lists(
+        &checkpoint.path(LEAF_TRIANGLES),
+        &hierarchy,
+        facts.triangles,
+    )?;
     let bytes = std::fs::read(checkpoint.path(COUNTS))?;
     let mut d = Dec::new(&bytes);
     let current = CurrentMesh::decode(&mut d, facts.vertices)?;
@@ -129,8 +119,80 @@ pub(crate) fn load_hierarchy(checkpoint: &Checkpoint) -> io::Result<Option<Hiera
     Ok(Some(HierarchyCheckpoint {
         facts,
         hierarchy,
+        lists,
         current,
     }))
+}
+
+/// Every leaf's key and list, in key order.
+fn encode_leaf_lists(e: &mut Enc, lists: &LeafListSpool) -> io::Result<()> {
+    e.u64(lists.leaves().len() as u64);
+    for (i, (key, _)) in lists.leaves().enumerate() {
+        e.key(key);
+        e.list(&lists.list(i)?, |e, &t| e.u32(t));
+    }
+    Ok(())
+}
+
+/// The leaves' lists `save_hierarchy` wrote, checked in one pass over the file (every leaf
+/// of `hierarchy` once, nothing else, every triangle below `triangles`) and left in it.
+fn open_leaf_lists(
+    path: &std::path::Path,
+    hierarchy: &Hierarchy,
+    triangles: usize,
+) -> io::Result<LeafListSpool> {
+    use std::io::Read;
+    let file = std::fs::File::open(path)?;
+    let len = file.metadata()?.len();
+    let reader = std::cell::RefCell::new((io::BufReader::with_capacity(1 << 20, &file), 0u64));
+    let at = || reader.borrow().1;
+    let read = |n: usize| -> io::Result<Vec<u8>> {
+        let mut bytes = vec![0; n];
+        let (reader, at) = &mut *reader.borrow_mut();
+        reader
+            .read_exact(&mut bytes)
+            .map_err(|_| invalid("the leaves' triangles: truncated"))?;
+        *at += n as u64;
+        Ok(bytes)
+    };
+    let u64_of = |b: &[u8]| u64::from_le_bytes(b.try_into().expect("8 bytes"));
+    let count = u64_of(&read(8)?);
+    // Each leaf takes at least its key and count (29 bytes).
+    if count.saturating_mul(29) > len || count != hierarchy.mesh.leaf_count() as u64 {
+        return Err(invalid("the leaves' triangles are not the hierarchy's"));
+    }
+    let mut index = Vec::with_capacity(count as usize);
+    let mut seen = rustc_hash::FxHashSet::default();
+    for _ in 0..count {
+        let key = Dec::new(&read(21)?).key()?;
+        let n = u64_of(&read(8)?);
+        if !hierarchy.mesh.is_leaf(key)
+            || !seen.insert(key)
+            || n.saturating_mul(4) > len - at().min(len)
+        {
+            return Err(invalid("the leaves' triangles are not the hierarchy's"));
+        }
+        let start = at();
+        // A chunk at a time: the lists of a leaf are small, but a damaged count is not.
+        let mut left = n as usize;
+        while left > 0 {
+            let take = left.min(1 << 16);
+            let bytes = read(take * 4)?;
+            if bytes
+                .chunks_exact(4)
+                .any(|b| u32::from_le_bytes(b.try_into().expect("4 bytes")) as usize >= triangles)
+            {
+                return Err(invalid("the leaves' triangles are not the hierarchy's"));
+            }
+            left -= take;
+        }
+        index.push((key, start, n as u32));
+    }
+    if at() != len {
+        return Err(invalid("the leaves' triangles: trailing bytes"));
+    }
+    drop(reader);
+    LeafListSpool::in_file(file, index)
 }
 
 pub(super) fn invalid(what: impl Into<String>) -> io::Error {
@@ -150,6 +212,20 @@ pub(super) fn write_file(
     })
 }
 
+/// `write_file` of what `encode` streams (never all in memory at once).
+pub(super) fn write_streamed(
+    checkpoint: &Checkpoint,
+    name: &str,
+    encode: impl FnOnce(&mut Enc) -> io::Result<()>,
+) -> io::Result<FileRecord> {
+    let (bytes, crc32) = super::bytes::write_atomic_with(&checkpoint.path(name), encode)?;
+    Ok(FileRecord {
+        name: name.into(),
+        bytes,
+        crc32,
+    })
+}
+
 pub(super) fn encode_hierarchy(h: &Hierarchy) -> Vec<u8> {
     let mut e = Enc::default();
     let f = &h.frame;
@@ -159,7 +235,7 @@ pub(super) fn encode_hierarchy(h: &Hierarchy) -> Vec<u8> {
     e.f64(f.unit);
     e.u32(f.bits);
     e.list(&h.diamonds, |e, d| d.id.iter().for_each(|&x| e.i32(x)));
-    e.0
+    e.into_bytes()
 }
 
 /// The hierarchy whose split diamonds `encode_hierarchy` listed: split again in their (level,
@@ -236,10 +312,49 @@ mod tests {
             assert_eq!(back_leaves, leaves);
             // A diamond list that is not closed (a parent left out), or cut short: an error.
             let mut e = Enc::default();
-            e.0.extend_from_slice(&bytes[..1 + 7 * 8 + 4]);
+            e.bytes(&bytes[..1 + 7 * 8 + 4]);
             e.list(&h.diamonds[1..], |e, d| d.id.iter().for_each(|&x| e.i32(x)));
-            assert!(decode_hierarchy(&e.0).is_err());
+            assert!(decode_hierarchy(&e.into_bytes()).is_err());
             assert!(decode_hierarchy(&bytes[..bytes.len() - 3]).is_err());
+
+            // The leaves' lists: back from their file as written; damage is an error.
+            let dir = tempfile::tempdir().unwrap();
+            let spool = LeafListSpool::from_map(&h.leaf_triangles, dir.path()).unwrap();
+            let path = dir.path().join(LEAF_TRIANGLES);
+            let file = |e: &mut Enc| encode_leaf_lists(e, &spool);
+            super::super::bytes::write_atomic_with(&path, file).unwrap();
+            let back = open_leaf_lists(&path, &h, points.len()).unwrap();
+            assert_eq!(back.into_map().unwrap(), h.leaf_triangles);
+            assert!(
+                open_leaf_lists(&path, &h, points.len() - 1).is_err(),
+                "a triangle out of range"
+            );
+            let bytes = std::fs::read(&path).unwrap();
+            for cut in [7, 8 + 21, bytes.len() - 1] {
+                std::fs::write(&path, &bytes[..cut]).unwrap();
+                assert!(
+                    open_leaf_lists(&path, &h, points.len()).is_err(),
+                    "cut at {cut}"
+                );
+            }
+            let mut longer = bytes.clone();
+            longer.extend_from_slice(&[0; 4]);
+            std::fs::write(&path, &longer).unwrap();
+            assert!(
+                open_leaf_lists(&path, &h, points.len()).is_err(),
+                "trailing bytes"
+            );
+            // One leaf fewer (count and entry gone): not the hierarchy's.
+            let mut fewer = h.leaf_triangles.clone();
+            let gone = *fewer.keys().next().unwrap();
+            fewer.remove(&gone);
+            let spool = LeafListSpool::from_map(&fewer, dir.path()).unwrap();
+            super::super::bytes::write_atomic_with(&path, |e| encode_leaf_lists(e, &spool))
+                .unwrap();
+            assert!(
+                open_leaf_lists(&path, &h, points.len()).is_err(),
+                "a leaf missing"
+            );
         }
     }
 }

@@ -8,8 +8,10 @@
 
 use std::io;
 
-use super::hierarchy::{decode_hierarchy, encode_hierarchy, invalid, write_file, HIERARCHY};
-use super::{Checkpoint, Dec, Enc, FileRecord, InputFacts, StageRecord};
+use super::hierarchy::{
+    decode_hierarchy, encode_hierarchy, invalid, write_file, write_streamed, HIERARCHY,
+};
+use super::{Checkpoint, Dec, FileRecord, InputFacts, StageRecord};
 use crate::finished_patches::FinishedPatches;
 use crate::hierarchy::Hierarchy;
 use crate::simplify::LevelState;
@@ -46,15 +48,20 @@ pub(crate) fn save_levels(
         Some(record) => record,
         None => write_file(checkpoint, HIERARCHY, &encode_hierarchy(hierarchy))?,
     });
-    let mut e = Enc::default();
-    state.encode(&mut e)?;
-    files.extend(finished.encode_checkpoint(&mut e)?);
+    let done = state.levels_done();
+    // Streamed to its file: the use counts alone are 4 bytes a vertex.
+    let mut finished_files = Vec::new();
+    let state_file = write_streamed(checkpoint, &format!("state-{done}.bin"), |e| {
+        state.encode(e)?;
+        finished_files = finished.encode_checkpoint(e)?;
+        Ok(())
+    })?;
+    files.extend(finished_files);
     let (name, bytes, crc32) = state
         .store_file()
         .ok_or_else(|| io::Error::other("the live patches are not in the checkpoint"))?;
     files.push(FileRecord { name, bytes, crc32 });
-    let done = state.levels_done();
-    files.push(write_file(checkpoint, &format!("state-{done}.bin"), &e.0)?);
+    files.push(state_file);
     let mut values = facts.values();
     values.insert("levels_done".into(), done as u64);
     checkpoint.level_saved(start);

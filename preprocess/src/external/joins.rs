@@ -15,7 +15,7 @@ use super::fallible::{check, ok_values};
 use super::sort::sort_external;
 use super::staged::{RecordReader, StagedMesh};
 use crate::frame::LatticeFrame;
-use crate::hierarchy::BarycentreSource;
+use crate::hierarchy::{BarycentreSource, LeafListSpool};
 use crate::vertex_table::{LivePatch, VertexTable};
 
 /// The barycentres of a staged mesh's triangles, as `frame.barycentre` of their corners (the
@@ -189,11 +189,10 @@ pub fn coincident_nudges(
 /// table comes out sorted by id. Nothing is written to disk.
 pub struct LeafGroups<'a> {
     staged: &'a StagedMesh,
-    /// Each leaf's triangle indices (the hierarchy's `leaf_triangles`, taken from it), each
-    /// list dropped once its group is made.
-    lists: HashMap<SimplexKey, Vec<u32>>,
+    /// Each leaf's triangle indices, on disk (read a group at a time).
+    lists: LeafListSpool,
     simplifier_of: &'a dyn Fn(u32, [f64; 3]) -> [f32; 3],
-    keys: Vec<SimplexKey>,
+    /// The next leaf, in the spool's key order.
     next: usize,
     max_triangles: usize,
 }
@@ -201,17 +200,14 @@ pub struct LeafGroups<'a> {
 impl<'a> LeafGroups<'a> {
     pub fn new(
         staged: &'a StagedMesh,
-        lists: HashMap<SimplexKey, Vec<u32>>,
+        lists: LeafListSpool,
         simplifier_of: &'a dyn Fn(u32, [f64; 3]) -> [f32; 3],
         max_triangles: usize,
     ) -> Self {
-        let mut keys: Vec<SimplexKey> = lists.keys().copied().collect();
-        keys.sort_unstable();
         LeafGroups {
             staged,
             lists,
             simplifier_of,
-            keys,
             next: 0,
             max_triangles: max_triangles.max(1),
         }
@@ -219,24 +215,25 @@ impl<'a> LeafGroups<'a> {
 
     /// The next group's patches; `None` after the last.
     pub fn next_group(&mut self) -> io::Result<Option<Vec<(SimplexKey, LivePatch)>>> {
-        if self.next == self.keys.len() {
+        let leaves = self.lists.leaves().len();
+        if self.next == leaves {
             return Ok(None);
         }
-        let lists = &mut self.lists;
-        let mut end = self.next;
+        let start = self.next;
+        let mut keys = Vec::new();
         let mut triangles = 0;
-        while end < self.keys.len() && (end == self.next || triangles < self.max_triangles) {
-            triangles += lists[&self.keys[end]].len();
-            end += 1;
+        while start + keys.len() < leaves && (keys.is_empty() || triangles < self.max_triangles) {
+            let (key, n) = self.lists.leaf(start + keys.len());
+            keys.push(key);
+            triangles += n;
         }
-        let keys = &self.keys[self.next..end];
-        self.next = end;
+        self.next = start + keys.len();
         // (triangle, leaf in the group), by triangle. A leaf lists its triangles in ascending
         // order (both constructions keep the input's), so taking them in file order keeps it.
         let mut wanted: Vec<(u32, u32)> = Vec::with_capacity(triangles);
         let mut sizes = Vec::with_capacity(keys.len());
         for (leaf, k) in keys.iter().enumerate() {
-            let list = lists.remove(k).expect("every leaf has a list");
+            let list = self.lists.list(start + leaf)?;
             assert!(
                 list.windows(2).all(|w| w[0] < w[1]),
                 "leaf {k:?} lists its triangles out of order"

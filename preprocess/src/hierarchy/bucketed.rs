@@ -47,6 +47,7 @@ use tessera_core::leb::{Bisector, ConformingMesh, Diamond, Simplex, SimplexKey};
 
 use super::barycentres::{BarycentreSource, InOrder, RECORD_BYTES};
 use super::bucket_store::BucketStore;
+use super::leaf_lists::{LeafListSpool, LeafListWriter};
 use super::{partition, Construction, Hierarchy, Located};
 use crate::frame::LatticeFrame;
 
@@ -131,6 +132,21 @@ pub fn build_hierarchy_bucketed_with_stats(
     construction: Construction,
     budget: &BucketBudget,
 ) -> io::Result<(Hierarchy, BucketStats)> {
+    let (mut hierarchy, lists, stats) =
+        build_hierarchy_bucketed_spooled(frame, source, construction, budget)?;
+    hierarchy.leaf_triangles = lists.into_map()?;
+    Ok((hierarchy, stats))
+}
+
+/// [`build_hierarchy_bucketed_with_stats`] with the leaves' lists left on disk (in an unnamed
+/// file in `budget.temp_dir`; `Hierarchy::leaf_triangles` is empty): what an out-of-core build
+/// uses, holding a few dozen bytes per leaf instead of four per triangle.
+pub fn build_hierarchy_bucketed_spooled(
+    frame: LatticeFrame,
+    source: &(impl BarycentreSource + ?Sized),
+    construction: Construction,
+    budget: &BucketBudget,
+) -> io::Result<(Hierarchy, LeafListSpool, BucketStats)> {
     let cap = budget.max_bucket_triangles.max(1) as u64;
     let criterion = Criterion(construction);
     let mut stats = BucketStats::default();
@@ -200,8 +216,11 @@ pub fn build_hierarchy_bucketed_with_stats(
             .find_map(|&l| bucket_of.get(&key.ancestor(l)).copied())
             .expect("every leaf lies in a bucket's cell")
     };
-    // Final lists of a processed bucket's leaves, until a forced split touches it.
-    let mut done: Vec<Option<LeafLists>> = vec![None; buckets.len()];
+    // Each leaf's list goes to the spool as soon as it is final. A processed bucket's leaves
+    // are final until a later bucket's forced split touches the bucket: then they are
+    // forgotten (the space they took stays unused) and assigned again in step 4.
+    let mut spool = LeafListWriter::new(&budget.temp_dir)?;
+    let mut done: Vec<Option<Vec<SimplexKey>>> = vec![None; buckets.len()];
     let mut processed = vec![false; buckets.len()];
     for (b, cell) in buckets.iter().enumerate() {
         let count = store.counts[b] as usize;
@@ -211,6 +230,7 @@ pub fn build_hierarchy_bucketed_with_stats(
         stats.split_buckets += 1;
         stats.largest_split_bucket = stats.largest_split_bucket.max(count as u64);
         let records = store.load(b)?;
+        let mut dirty = Vec::new();
         let lists = split_bucket(
             &mut mesh,
             cell,
@@ -220,46 +240,49 @@ pub fn build_hierarchy_bucketed_with_stats(
             &mut |key| {
                 stats.cross_splits += 1;
                 let other = owner(key) as usize;
-                if other != b && processed[other] && done[other].take().is_some() {
-                    stats.dirty_buckets += 1;
+                if other != b && processed[other] && done[other].is_some() {
+                    dirty.push(other);
                 }
             },
         );
+        for other in dirty {
+            if let Some(keys) = done[other].take() {
+                stats.dirty_buckets += 1;
+                keys.into_iter().for_each(|k| spool.forget(k));
+            }
+        }
+        let mut keys = Vec::with_capacity(lists.len());
+        for (key, list) in lists {
+            spool.write(key, &list)?;
+            keys.push(key);
+        }
         processed[b] = true;
-        done[b] = Some(lists);
+        done[b] = Some(keys);
     }
 
     // 4. Final assignment.
-    let mut leaf_triangles: HashMap<SimplexKey, Vec<u32>> =
-        mesh.leaves().map(|s| (s.key, Vec::new())).collect();
     for (b, cell) in buckets.iter().enumerate() {
-        if let Some(lists) = done[b].take() {
-            for (key, list) in lists {
-                *leaf_triangles
-                    .get_mut(&key)
-                    .expect("a processed bucket's leaves are final") = list;
-            }
-            continue;
-        }
-        if store.counts[b] == 0 {
+        if done[b].is_some() || store.counts[b] == 0 {
             continue;
         }
         let locator = Locator::new(&mesh, std::slice::from_ref(cell));
         let mut lists: Vec<Vec<u32>> = vec![Vec::new(); locator.leaves.len()];
         store.for_each(b, |t, q| lists[locator.locate_from(0, q) as usize].push(t))?;
         for (leaf, list) in locator.leaves.iter().zip(lists) {
-            leaf_triangles.insert(leaf.key, list);
+            spool.write(leaf.key, &list)?;
         }
     }
     drop(store);
+    let lists = spool.finish(mesh.leaves().map(|s| s.key))?;
 
     // The criterion holds everywhere (a bug otherwise, not an input problem).
-    for leaf in mesh.leaves() {
-        let n = leaf_triangles[&leaf.key].len();
+    let mut leaves: Vec<&Simplex> = mesh.leaves().collect();
+    leaves.sort_unstable_by_key(|s| s.key);
+    for (leaf, (key, n)) in leaves.into_iter().zip(lists.leaves()) {
+        debug_assert_eq!(leaf.key, key);
         assert!(
             !(leaf.can_split() && criterion.needs_split(leaf, n)),
-            "bucketed hierarchy: leaf {:?} with {n} triangles was left unsplit",
-            leaf.key
+            "bucketed hierarchy: leaf {key:?} with {n} triangles was left unsplit"
         );
     }
     diamonds.sort_unstable_by_key(|d: &Diamond| (d.level, d.id));
@@ -268,8 +291,9 @@ pub fn build_hierarchy_bucketed_with_stats(
             frame,
             mesh,
             diamonds,
-            leaf_triangles,
+            leaf_triangles: Default::default(),
         },
+        lists,
         stats,
     ))
 }

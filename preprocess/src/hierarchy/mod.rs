@@ -10,11 +10,14 @@
 mod barycentres;
 mod bucket_store;
 mod bucketed;
+mod leaf_lists;
 
 pub use barycentres::{BarycentreSource, MeshBarycentres, SpooledBarycentres};
 pub use bucketed::{
-    build_hierarchy_bucketed, build_hierarchy_bucketed_with_stats, BucketBudget, BucketStats,
+    build_hierarchy_bucketed, build_hierarchy_bucketed_spooled,
+    build_hierarchy_bucketed_with_stats, BucketBudget, BucketStats,
 };
+pub use leaf_lists::{LeafListSpool, LeafListWriter};
 
 use rustc_hash::FxHashMap as HashMap;
 

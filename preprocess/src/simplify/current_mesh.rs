@@ -123,43 +123,52 @@ impl CurrentMesh {
         if let Some((k, n)) = run.filter(|&(_, n)| n > 2) {
             nonmanifold.insert(k, n);
         }
-        let mut use_count = vec![0u32; vertex_count];
+        let mut current = Self::zeroed(vertex_count, nonmanifold);
         for t in triangles()? {
             for v in t? {
-                use_count[v as usize] += 1;
+                current.count_use(v);
             }
         }
-        Ok(Self::with_counts(use_count, nonmanifold))
+        Ok(current)
     }
 
     fn with_edges(mesh: &InputMesh, nonmanifold: HashMap<u64, u32>) -> Self {
-        let mut use_count = vec![0u32; mesh.positions.len()];
+        let mut current = Self::zeroed(mesh.positions.len(), nonmanifold);
         for t in &mesh.triangles {
             for &v in t {
-                use_count[v as usize] += 1;
+                current.count_use(v);
             }
         }
-        Self::with_counts(use_count, nonmanifold)
+        current
     }
 
-    fn with_counts(use_count: Vec<u32>, nonmanifold: HashMap<u64, u32>) -> Self {
-        let mut shards: Vec<Vec<u32>> = use_count
-            .chunks(1 << SHARD_BITS)
-            .map(<[u32]>::to_vec)
+    /// Zero counts for `vertex_count` vertices, straight in their shards (never a whole-mesh
+    /// array beside them: at 50 M vertices that copy alone was 200 MB).
+    fn zeroed(vertex_count: usize, nonmanifold: HashMap<u64, u32>) -> Self {
+        let shard_count = vertex_count.div_ceil(1 << SHARD_BITS).max(1);
+        let shards = (0..shard_count)
+            .map(|i| {
+                vec![
+                    0u32;
+                    (vertex_count - (i << SHARD_BITS).min(vertex_count)).min(1 << SHARD_BITS)
+                ]
+            })
             .collect();
-        if shards.is_empty() {
-            shards.push(Vec::new());
-        }
         CurrentMesh {
             shards,
             nonmanifold,
         }
     }
 
+    #[inline]
+    fn count_use(&mut self, v: u32) {
+        self.shards[vertex_shard(v) as usize][(v & ((1 << SHARD_BITS) - 1)) as usize] += 1;
+    }
+
     /// The counts, for a build's checkpoint (`decode` reads them back).
     pub(crate) fn encode(&self, e: &mut crate::checkpoint::Enc) {
         e.list(&self.shards, |e, shard| {
-            e.0.extend_from_slice(bytemuck::cast_slice(&shard[..]));
+            e.bytes(bytemuck::cast_slice(&shard[..]));
             // (The count comes first: `Enc::list`'s own.)
         });
         let mut edges: Vec<(u64, u32)> = self.nonmanifold.iter().map(|(&k, &n)| (k, n)).collect();

@@ -1,0 +1,228 @@
+//! Each leaf's input triangles, on disk (issue 12): at 100 M triangles the lists are 400 MB
+//! and more, which an out-of-core build may not hold. The bucketed construction writes each
+//! leaf's list to one unnamed temporary file as soon as it is final and keeps only where it
+//! is (a few dozen bytes per leaf, some 125 triangles); the leaves' patches are then made
+//! from it a group at a time (`external::LeafGroups`), in key order.
+
+use std::fs::File;
+use std::io::{self, BufWriter, Write};
+use std::path::Path;
+
+use rustc_hash::FxHashMap as HashMap;
+
+use tessera_core::leb::SimplexKey;
+
+use crate::external::temp_usage::Charge;
+
+/// Each leaf's triangle indices (ascending, as both constructions keep the input's order), in
+/// a file, with an index by leaf key.
+#[derive(Debug)]
+pub struct LeafListSpool {
+    file: File,
+    /// Every leaf (empty ones too), by key: where its list starts in the file and its length.
+    index: Vec<(SimplexKey, u64, u32)>,
+    /// The file's bytes, in the build's temporary totals (none for a checkpoint's own file).
+    _charge: Charge,
+}
+
+impl LeafListSpool {
+    /// The leaves, in key order, with their triangle counts.
+    pub fn leaves(&self) -> impl ExactSizeIterator<Item = (SimplexKey, usize)> + '_ {
+        self.index.iter().map(|&(k, _, n)| (k, n as usize))
+    }
+
+    /// The `i`th leaf in key order, with its triangle count.
+    pub fn leaf(&self, i: usize) -> (SimplexKey, usize) {
+        let (k, _, n) = self.index[i];
+        (k, n as usize)
+    }
+
+    /// The leaves' triangles in all.
+    pub fn triangles(&self) -> u64 {
+        self.index.iter().map(|&(_, _, n)| n as u64).sum()
+    }
+
+    /// The list of the `i`th leaf in key order.
+    pub fn list(&self, i: usize) -> io::Result<Vec<u32>> {
+        let (_, at, n) = self.index[i];
+        let mut bytes = vec![0u8; n as usize * 4];
+        read_exact_at(&self.file, &mut bytes, at)?;
+        Ok(bytes
+            .chunks_exact(4)
+            .map(|b| u32::from_le_bytes(b.try_into().expect("4 bytes")))
+            .collect())
+    }
+
+    /// Every list, in memory (for `Hierarchy::leaf_triangles` and the tests).
+    pub fn into_map(self) -> io::Result<HashMap<SimplexKey, Vec<u32>>> {
+        (0..self.index.len())
+            .map(|i| Ok((self.index[i].0, self.list(i)?)))
+            .collect()
+    }
+
+    /// The lists of `map` spooled to an unnamed file in `dir`.
+    pub fn from_map(map: &HashMap<SimplexKey, Vec<u32>>, dir: &Path) -> io::Result<Self> {
+        let mut writer = LeafListWriter::new(dir)?;
+        for (&key, list) in map {
+            writer.write(key, list)?;
+        }
+        writer.finish(map.keys().copied())
+    }
+
+    /// Lists already in a file (a checkpoint's), at the given places: `index` is sorted by
+    /// key here, and every list must lie inside the file.
+    pub(crate) fn in_file(
+        file: File,
+        mut index: Vec<(SimplexKey, u64, u32)>,
+    ) -> io::Result<LeafListSpool> {
+        let len = file.metadata()?.len();
+        if index
+            .iter()
+            .any(|&(_, at, n)| at.checked_add(n as u64 * 4).is_none_or(|end| end > len))
+        {
+            return Err(io::Error::new(
+                io::ErrorKind::InvalidData,
+                "a leaf's triangle list lies outside its file",
+            ));
+        }
+        index.sort_unstable_by_key(|&(k, _, _)| k);
+        Ok(LeafListSpool {
+            file,
+            index,
+            _charge: Charge::default(),
+        })
+    }
+}
+
+/// Writes leaves' lists to an unnamed temporary file as they become final. A leaf written
+/// again (its earlier list made stale by a later split) keeps its latest list; a forgotten
+/// one (split since) has none.
+pub struct LeafListWriter {
+    file: BufWriter<File>,
+    end: u64,
+    spans: HashMap<SimplexKey, (u64, u32)>,
+    charge: Charge,
+}
+
+impl LeafListWriter {
+    /// A writer whose file (no name: gone when dropped or the process dies) lies in `dir`.
+    pub fn new(dir: &Path) -> io::Result<Self> {
+        Ok(LeafListWriter {
+            file: BufWriter::with_capacity(1 << 20, tempfile::tempfile_in(dir)?),
+            end: 0,
+            spans: HashMap::default(),
+            charge: Charge::default(),
+        })
+    }
+
+    pub fn write(&mut self, key: SimplexKey, list: &[u32]) -> io::Result<()> {
+        for &t in list {
+            self.file.write_all(&t.to_le_bytes())?;
+        }
+        let bytes = list.len() as u64 * 4;
+        self.spans.insert(key, (self.end, list.len() as u32));
+        self.end += bytes;
+        self.charge.grow(bytes);
+        Ok(())
+    }
+
+    /// Drops `key`'s list, if written (the leaf was split).
+    pub fn forget(&mut self, key: SimplexKey) {
+        self.spans.remove(&key);
+    }
+
+    /// The spool of `leaves` (each with its latest list; one never written has none). A list
+    /// written for a key not among `leaves` is an error: a leaf the hierarchy no longer has.
+    pub fn finish(mut self, leaves: impl Iterator<Item = SimplexKey>) -> io::Result<LeafListSpool> {
+        self.file.flush()?;
+        let mut index: Vec<(SimplexKey, u64, u32)> = leaves
+            .map(|k| {
+                let (at, n) = self.spans.remove(&k).unwrap_or((0, 0));
+                (k, at, n)
+            })
+            .collect();
+        if let Some(key) = self.spans.keys().next() {
+            return Err(io::Error::other(format!(
+                "leaf lists: {key:?} has a list but is not a leaf"
+            )));
+        }
+        index.sort_unstable_by_key(|&(k, _, _)| k);
+        let file = self.file.into_inner().map_err(|e| e.into_error())?;
+        Ok(LeafListSpool {
+            file,
+            index,
+            _charge: self.charge,
+        })
+    }
+}
+
+#[cfg(unix)]
+fn read_exact_at(file: &File, buf: &mut [u8], at: u64) -> io::Result<()> {
+    std::os::unix::fs::FileExt::read_exact_at(file, buf, at)
+}
+
+#[cfg(not(unix))]
+fn read_exact_at(file: &File, buf: &mut [u8], at: u64) -> io::Result<()> {
+    let mut done = 0;
+    while done < buf.len() {
+        let n = std::os::windows::fs::FileExt::seek_read(file, &mut buf[done..], at + done as u64)?;
+        if n == 0 {
+            return Err(io::ErrorKind::UnexpectedEof.into());
+        }
+        done += n;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn key(path: u128) -> SimplexKey {
+        SimplexKey {
+            root: 0,
+            level: 3,
+            path,
+        }
+    }
+
+    #[test]
+    fn lists_come_back_by_key_the_latest_written_and_forgotten_ones_gone() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut w = LeafListWriter::new(dir.path()).unwrap();
+        w.write(key(5), &[1, 2, 3]).unwrap();
+        w.write(key(2), &[9]).unwrap();
+        w.write(key(7), &[4, 8]).unwrap();
+        w.write(key(5), &[10, 11]).unwrap(); // rewritten: the latest counts
+        w.forget(key(7));
+        let spool = w.finish([key(2), key(5), key(6)].into_iter()).unwrap();
+        let leaves: Vec<_> = spool.leaves().collect();
+        assert_eq!(leaves, [(key(2), 1), (key(5), 2), (key(6), 0)]);
+        assert_eq!(spool.list(0).unwrap(), [9]);
+        assert_eq!(spool.list(1).unwrap(), [10, 11]);
+        assert!(spool.list(2).unwrap().is_empty());
+        assert_eq!(spool.triangles(), 3);
+        let map = spool.into_map().unwrap();
+        assert_eq!(map.len(), 3);
+        assert_eq!(map[&key(5)], [10, 11]);
+    }
+
+    #[test]
+    fn a_list_for_a_key_that_is_no_leaf_is_an_error() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut w = LeafListWriter::new(dir.path()).unwrap();
+        w.write(key(1), &[1]).unwrap();
+        assert!(w.finish([key(2)].into_iter()).is_err());
+    }
+
+    #[test]
+    fn lists_outside_their_file_are_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("lists.bin");
+        std::fs::write(&path, [0u8; 12]).unwrap();
+        let open = || File::open(&path).unwrap();
+        assert!(LeafListSpool::in_file(open(), vec![(key(1), 4, 2)]).is_ok());
+        assert!(LeafListSpool::in_file(open(), vec![(key(1), 4, 3)]).is_err());
+        assert!(LeafListSpool::in_file(open(), vec![(key(1), u64::MAX, 1)]).is_err());
+    }
+}
