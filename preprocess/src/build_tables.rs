@@ -64,7 +64,15 @@ pub(crate) fn assemble(
     //    adjacent; saturation of errors and spheres over the diamond DAG.
     on_stage("saturate");
     let t = Instant::now();
-    let simplices = breadth_first(&hierarchy);
+    // Diamond table in (level, id) order.
+    let mut diamond_order: Vec<usize> = (0..hierarchy.diamonds.len()).collect();
+    diamond_order.sort_by_key(|&i| (hierarchy.diamonds[i].level, hierarchy.diamonds[i].id));
+    let table_index: HashMap<DiamondId, u32> = diamond_order
+        .iter()
+        .enumerate()
+        .map(|(row, &i)| (hierarchy.diamonds[i].id, row as u32))
+        .collect();
+    let simplices = breadth_first(&hierarchy, &table_index);
     let patch_sphere = |key| finished.get(key).sphere;
     let error_floor = step.iter().copied().fold(model_size * 1e-9, f64::max);
     // Patches are stored on the position lattice: each vertex within half a step per axis of
@@ -83,14 +91,6 @@ pub(crate) fn assemble(
         error_floor,
         model_size,
     );
-    // Diamond table in (level, id) order.
-    let mut diamond_order: Vec<usize> = (0..hierarchy.diamonds.len()).collect();
-    diamond_order.sort_by_key(|&i| (hierarchy.diamonds[i].level, hierarchy.diamonds[i].id));
-    let table_index: HashMap<DiamondId, u32> = diamond_order
-        .iter()
-        .enumerate()
-        .map(|(row, &i)| (hierarchy.diamonds[i].id, row as u32))
-        .collect();
     let diamonds: Vec<DiamondRecord> = diamond_order
         .iter()
         .map(|&i| {
@@ -123,25 +123,17 @@ pub(crate) fn assemble(
     let mut spheres = Vec::with_capacity(simplices.len());
     let (mut patch_offset, mut id_offset) = (0u64, 0u64);
     for entry in &simplices {
-        let p = finished.get(entry.simplex.key);
+        let p = finished.get(entry.key);
         let (center, radius) = p.sphere.to_f32();
-        let diamond = table_index
-            .get(&entry.simplex.split_point())
-            .copied()
-            .unwrap_or(NO_INDEX);
         tets.push(TetRecord {
             center,
             radius,
             cone_axis: p.cone.axis,
             cone_cos: p.cone.cos,
-            diamond: if entry.first_child == NO_INDEX {
-                NO_INDEX
-            } else {
-                diamond
-            },
-            parent_diamond: entry.parent_diamond.map_or(NO_INDEX, |p| table_index[&p]),
+            diamond: entry.diamond,
+            parent_diamond: entry.parent_diamond,
             first_child: entry.first_child,
-            level: entry.simplex.level() as u32,
+            level: entry.key.level as u32,
             patch_offset,
             patch_bytes: p.patch_bytes,
             vertex_count: p.vertex_count,
@@ -156,7 +148,7 @@ pub(crate) fn assemble(
         id_offset += p.id_bytes as u64;
     }
     nest_simplex_spheres(&mut tets, &mut spheres, RADIUS_MARGIN * model_size);
-    let order: Vec<SimplexKey> = simplices.iter().map(|e| e.simplex.key).collect();
+    let order: Vec<SimplexKey> = simplices.iter().map(|e| e.key).collect();
     drop(simplices);
     stage("tables", t);
 
@@ -205,40 +197,48 @@ pub(crate) fn assemble(
     }
 }
 
-/// One row of the simplex table.
+/// One row of the simplex table: its simplex, the table rows of the diamond its split makes
+/// (`NO_INDEX` for a leaf) and of the diamond whose split made it (`NO_INDEX` for a root),
+/// and its first child's row. (No `Simplex` here: at 100 M triangles the table has 1.6 M rows.)
 struct TableEntry {
-    simplex: Simplex,
-    parent_diamond: Option<DiamondId>,
+    key: SimplexKey,
+    diamond: u32,
+    parent_diamond: u32,
     first_child: u32,
 }
 
-fn breadth_first(hierarchy: &Hierarchy) -> Vec<TableEntry> {
-    let mut table: Vec<TableEntry> = hierarchy
-        .mesh
-        .roots()
-        .iter()
-        .map(|&simplex| TableEntry {
-            simplex,
-            parent_diamond: None,
-            first_child: NO_INDEX,
-        })
-        .collect();
-    let mut i = 0;
-    while i < table.len() {
-        let s = table[i].simplex;
-        // A simplex at the lattice resolution has no integer midpoint: its truncated
-        // `split_point` may be another diamond's id, but it is never split.
-        if s.can_split() && hierarchy.mesh.is_split(s.split_point()) {
-            table[i].first_child = table.len() as u32;
-            for c in s.children() {
-                table.push(TableEntry {
-                    simplex: c,
-                    parent_diamond: Some(s.split_point()),
-                    first_child: NO_INDEX,
-                });
-            }
+/// The simplex table, breadth-first from the roots: a level at a time, each level's simplices
+/// in the order of their parents (so siblings are adjacent), exactly sized.
+fn breadth_first(hierarchy: &Hierarchy, table_index: &HashMap<DiamondId, u32>) -> Vec<TableEntry> {
+    let mesh = &hierarchy.mesh;
+    // Each split turns one leaf into two: the table holds every root and two per split.
+    let rows = 2 * mesh.leaf_count() - mesh.roots().len();
+    let mut table: Vec<TableEntry> = Vec::with_capacity(rows);
+    let mut level: Vec<(Simplex, u32)> = mesh.roots().iter().map(|&r| (r, NO_INDEX)).collect();
+    while !level.is_empty() {
+        let next_start = table.len() + level.len();
+        let mut next = Vec::new();
+        for (s, parent_diamond) in level {
+            // A simplex at the lattice resolution has no integer midpoint: its truncated
+            // `split_point` may be another diamond's id, but it is never split.
+            let split = s.can_split() && mesh.is_split(s.split_point());
+            let (diamond, first_child) = if split {
+                let diamond = table_index[&s.split_point()];
+                let first = (next_start + next.len()) as u32;
+                next.extend(s.children().map(|c| (c, diamond)));
+                (diamond, first)
+            } else {
+                (NO_INDEX, NO_INDEX)
+            };
+            table.push(TableEntry {
+                key: s.key,
+                diamond,
+                parent_diamond,
+                first_child,
+            });
         }
-        i += 1;
+        level = next;
     }
+    debug_assert_eq!(table.len(), rows);
     table
 }
