@@ -12,7 +12,7 @@
 //!   shared vertex must be bit-identical wherever it is stored, or the picture cracks even
 //!   though the ids match).
 
-use std::collections::{HashMap, HashSet};
+use std::collections::HashSet;
 
 use rayon::prelude::*;
 use tessera_core::cut::{diamond_rhos, restrict_rhos, select_stateless, select_top_down};
@@ -22,6 +22,7 @@ use tessera_core::repository::reader::Repository;
 use tessera_core::repository::{Header, RepositoryError};
 
 use crate::border_loops::{edge_key, BorderLoops};
+use crate::cut_patches::{decode, merged_runs, pass_of, passes, CutPatches, Pacer, PASS_BYTES};
 use crate::views::check_views;
 
 /// What to check.
@@ -68,46 +69,68 @@ pub struct CheckReport {
 pub fn decode_all_patches(repo: &Repository) -> Result<Vec<Vec<[u32; 3]>>, RepositoryError> {
     (0..repo.tets().len())
         .into_par_iter()
-        .map(|i| {
-            let patch = repo.patch(i)?;
-            let patch = patch.view();
-            let ids: Vec<u32> = patch.global_ids().collect();
-            Ok(patch
-                .triangles()
-                .map(|t| t.map(|l| ids[l as usize]))
-                .collect())
-        })
+        .map(|i| decode(repo, i))
         .collect()
 }
 
 /// Global ids whose quantised position is not the same in every patch that stores them.
 pub fn position_mismatches(repo: &Repository) -> Result<usize, RepositoryError> {
-    // Keyed by the ids the patches hold, not sized by the header's vertex count: a crafted
-    // header cannot make this allocate more than the file's contents.
-    let mut position: HashMap<u32, ([u32; 3], bool)> = HashMap::new();
-    for i in 0..repo.tets().len() {
-        let patch = repo.patch(i)?;
-        let patch = patch.view();
-        for (local, id) in patch.global_ids().enumerate() {
-            let q = patch.position(local);
-            let (stored, mismatched) = position.entry(id).or_insert((q, false));
-            *mismatched |= *stored != q;
+    position_mismatches_within(repo, PASS_BYTES)
+}
+
+/// `position_mismatches`, each pass over the patches gathering at most about `pass_bytes` of
+/// (id, position) records (ids split between passes by hash; then sorted by id).
+pub fn position_mismatches_within(
+    repo: &Repository,
+    pass_bytes: usize,
+) -> Result<usize, RepositoryError> {
+    // Sized by the tet table's vertex counts, not by the header's: a crafted header cannot
+    // make this allocate more than the file's contents.
+    let records: u64 = repo.tets().iter().map(|t| t.vertex_count as u64).sum();
+    let passes = passes(records, std::mem::size_of::<(u32, [u32; 3])>(), pass_bytes);
+    let mut mismatched = 0;
+    for pass in 0..passes {
+        // Ids spread evenly between passes (a hash): sized for one pass's share, plus slack.
+        let share = records / passes;
+        let mut stored: Vec<(u32, [u32; 3])> = Vec::with_capacity((share + share / 8) as usize);
+        let pacer = Pacer::new(repo);
+        for i in 0..repo.tets().len() {
+            let patch = repo.patch(i)?;
+            let patch = patch.view();
+            for (local, id) in patch.global_ids().enumerate() {
+                if pass_of(id as u64, passes) == pass {
+                    stored.push((id, patch.position(local)));
+                }
+            }
+            pacer.read(i);
         }
+        repo.release_pages();
+        stored.sort_unstable();
+        mismatched += stored
+            .chunk_by(|a, b| a.0 == b.0)
+            .filter(|run| run.iter().any(|r| r.1 != run[0].1))
+            .count();
     }
-    Ok(position.values().filter(|(_, m)| *m).count())
+    Ok(mismatched)
 }
 
 /// Sorted (edge, use count) of a triangle set.
 fn edge_counts<'a>(triangles: impl Iterator<Item = &'a [u32; 3]>) -> Vec<(u64, u32)> {
-    let mut keys: Vec<u64> = triangles
-        .flat_map(|t| {
-            [
-                edge_key(t[0], t[1]),
-                edge_key(t[1], t[2]),
-                edge_key(t[2], t[0]),
-            ]
-        })
-        .collect();
+    counted(
+        triangles
+            .flat_map(|t| {
+                [
+                    edge_key(t[0], t[1]),
+                    edge_key(t[1], t[2]),
+                    edge_key(t[2], t[0]),
+                ]
+            })
+            .collect(),
+    )
+}
+
+/// Sorted (key, how many times) of `keys`.
+fn counted(mut keys: Vec<u64>) -> Vec<(u64, u32)> {
     keys.sort_unstable();
     let mut out: Vec<(u64, u32)> = Vec::new();
     for k in keys {
@@ -133,7 +156,7 @@ pub struct CheckEye {
 /// the model's diagonal.
 pub fn check_cuts(
     repo: &Repository,
-    patches: &[Vec<[u32; 3]>],
+    patches: &(impl CutPatches + ?Sized),
     config: &CheckConfig,
 ) -> CheckReport {
     let header = repo.header();
@@ -160,8 +183,8 @@ pub fn check_metric(header: &Header, config: &CheckConfig) -> ScreenSpaceMetric 
 }
 
 /// The input's edges and borders, against which any cut's triangles are checked.
-pub struct CutChecker<'p> {
-    patches: &'p [Vec<[u32; 3]>],
+pub struct CutChecker<'p, P: CutPatches + ?Sized> {
+    patches: &'p P,
     input_border: HashSet<u64>,
     input_nonmanifold: HashSet<u64>,
     loops: BorderLoops,
@@ -180,38 +203,83 @@ pub struct CutFindings {
     pub triangles: usize,
 }
 
-impl<'p> CutChecker<'p> {
-    /// Prepares the check of `repo`'s cuts; `patches` from `decode_all_patches`.
-    pub fn new(repo: &Repository, patches: &'p [Vec<[u32; 3]>]) -> CutChecker<'p> {
+impl<'p, P: CutPatches + ?Sized> CutChecker<'p, P> {
+    /// Prepares the check of `repo`'s cuts; `patches` from `decode_all_patches`, or
+    /// `RepositoryPatches` to decode them as the cuts reach them.
+    pub fn new(repo: &Repository, patches: &'p P) -> CutChecker<'p, P> {
+        Self::with_pass_bytes(repo, patches, PASS_BYTES)
+    }
+
+    /// `new`, the input's edges counted in passes of at most about `pass_bytes` of edge keys
+    /// each (edges split between passes by hash).
+    pub fn with_pass_bytes(repo: &Repository, patches: &'p P, pass_bytes: usize) -> Self {
         let tets = repo.tets();
         // The input's edges: the leaves hold exactly the input triangles.
-        let reference = edge_counts(
-            (0..tets.len())
-                .filter(|&i| tets[i].first_child == NO_INDEX)
-                .flat_map(|i| patches[i].iter()),
-        );
-        let input_border: HashSet<u64> = reference
-            .iter()
-            .filter(|(_, n)| *n == 1)
-            .map(|(k, _)| *k)
+        let leaves: Vec<usize> = (0..tets.len())
+            .filter(|&i| tets[i].first_child == NO_INDEX)
             .collect();
-        let loops = BorderLoops::from_border(
-            (0..tets.len())
-                .filter(|&i| tets[i].first_child == NO_INDEX)
-                .flat_map(|i| patches[i].iter()),
-            |a, b| input_border.contains(&edge_key(a, b)),
-        );
-        let vertex_count = patches
-            .iter()
-            .flatten()
-            .flatten()
-            .max()
-            .map_or(0, |&v| v as usize + 1);
-        let input_nonmanifold: HashSet<u64> = reference
-            .iter()
-            .filter(|(_, n)| *n > 2)
-            .map(|(k, _)| *k)
-            .collect();
+        let leaf_triangles: u64 = leaves.iter().map(|&i| tets[i].triangle_count as u64).sum();
+        let passes = passes(3 * leaf_triangles, std::mem::size_of::<u64>(), pass_bytes);
+        let mut input_border = HashSet::new();
+        let mut input_nonmanifold = HashSet::new();
+        let mut vertex_count = 0;
+        // Each pass: the pass's edge keys of a few chunks of leaves, each chunk's sorted, then
+        // merged and counted (no concatenation: the pass holds its keys once).
+        let chunk = leaves.len().div_ceil(16).max(1);
+        for pass in 0..passes {
+            let chunks: Vec<(Vec<u64>, usize)> = leaves
+                .par_chunks(chunk)
+                .map(|leaves| {
+                    let mut keys = Vec::new();
+                    let mut most = 0;
+                    for &i in leaves {
+                        let triangles = patches.triangles(i);
+                        let m = triangles
+                            .iter()
+                            .flatten()
+                            .max()
+                            .map_or(0, |&v| v as usize + 1);
+                        most = most.max(m);
+                        keys.extend(
+                            triangle_edge_keys(&triangles).filter(|&k| pass_of(k, passes) == pass),
+                        );
+                    }
+                    keys.sort_unstable();
+                    keys.shrink_to_fit();
+                    (keys, most)
+                })
+                .collect();
+            patches.release();
+            let (lists, most): (Vec<Vec<u64>>, Vec<usize>) = chunks.into_iter().unzip();
+            vertex_count = most.into_iter().fold(vertex_count, usize::max);
+            merged_runs(&lists, |k, n| {
+                if n == 1 {
+                    input_border.insert(k);
+                } else if n > 2 {
+                    input_nonmanifold.insert(k);
+                }
+            });
+        }
+        let loops = if input_border.is_empty() {
+            BorderLoops::from_border(std::iter::empty(), |_, _| false)
+        } else {
+            let triangles: Vec<[u32; 3]> = leaves
+                .iter()
+                .flat_map(|&i| {
+                    let mut t = patches.triangles(i);
+                    t.retain(|t| {
+                        [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])]
+                            .iter()
+                            .any(|&(a, b)| input_border.contains(&edge_key(a, b)))
+                    });
+                    t
+                })
+                .collect();
+            patches.release();
+            BorderLoops::from_border(triangles.iter(), |a, b| {
+                input_border.contains(&edge_key(a, b))
+            })
+        };
         CutChecker {
             patches,
             input_border,
@@ -223,9 +291,12 @@ impl<'p> CutChecker<'p> {
 
     /// Checks the cut made of the simplices `cut` (any set: the rule's, a streaming frame's).
     pub fn check(&self, cut: &[u32]) -> CutFindings {
-        let patches = self.patches;
-        let triangles: usize = cut.iter().map(|&i| patches[i as usize].len()).sum();
-        let edges = edge_counts(cut.iter().flat_map(|&i| patches[i as usize].iter()));
+        let cut_triangles: Vec<[u32; 3]> = cut
+            .iter()
+            .flat_map(|&i| self.patches.triangles(i as usize))
+            .collect();
+        let triangles = cut_triangles.len();
+        let edges = edge_counts(cut_triangles.iter());
         let mut cracks = edges
             .iter()
             .filter(|(k, n)| *n == 1 && !self.input_border.contains(k))
@@ -238,15 +309,14 @@ impl<'p> CutChecker<'p> {
                 .map(|(k, _)| *k)
                 .collect();
             let mut used = vec![false; self.vertex_count];
-            for t in cut.iter().flat_map(|&i| patches[i as usize].iter()) {
+            for t in &cut_triangles {
                 for &v in t {
                     used[v as usize] = true;
                 }
             }
             let is_used = |v: u32| used.get(v as usize).copied().unwrap_or(false);
-            cracks = cut
+            cracks = cut_triangles
                 .iter()
-                .flat_map(|&i| patches[i as usize].iter())
                 .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
                 .filter(|&(a, b)| {
                     candidates.contains(&edge_key(a, b)) && !self.loops.accepts(a, b, &is_used)
@@ -265,11 +335,22 @@ impl<'p> CutChecker<'p> {
     }
 }
 
+/// The edge keys of a triangle set, three a triangle.
+fn triangle_edge_keys(triangles: &[[u32; 3]]) -> impl Iterator<Item = u64> + '_ {
+    triangles.iter().flat_map(|t| {
+        [
+            edge_key(t[0], t[1]),
+            edge_key(t[1], t[2]),
+            edge_key(t[2], t[0]),
+        ]
+    })
+}
+
 /// The same check for the given eyes (any position, any metric: a camera's own near distance
 /// and field of view) at every tolerance of `tolerances`; `worst` names the index into `eyes`.
 pub fn check_cuts_at(
     repo: &Repository,
-    patches: &[Vec<[u32; 3]>],
+    patches: &(impl CutPatches + ?Sized),
     eyes: &[CheckEye],
     tolerances: &[f32],
 ) -> CheckReport {
@@ -280,7 +361,7 @@ pub fn check_cuts_at(
 /// flag words are given (`tessera_core::cut`; closed downwards, as streaming keeps them).
 pub fn check_cuts_restricted(
     repo: &Repository,
-    patches: &[Vec<[u32; 3]>],
+    patches: &(impl CutPatches + ?Sized),
     eyes: &[CheckEye],
     tolerances: &[f32],
     may_refine: Option<&[u32]>,
@@ -333,6 +414,7 @@ pub fn check_cuts_restricted(
                 r.min_triangles = r.min_triangles.min(triangles);
                 r.max_triangles = r.max_triangles.max(triangles);
             }
+            patches.release();
             r
         })
         .collect();
@@ -355,7 +437,8 @@ pub fn check_cuts_restricted(
     if total.cuts_checked == 0 {
         total.min_triangles = 0;
     }
-    // Patches were parsed by `decode_all_patches`, so this cannot fail on a valid repository.
+    // Every patch was decoded before (`decode_all_patches`, `RepositoryPatches::new`), so this
+    // cannot fail on a valid repository.
     total.position_mismatches = position_mismatches(repo).unwrap_or(usize::MAX);
     total
 }

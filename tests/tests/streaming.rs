@@ -115,7 +115,7 @@ fn settings(budget_bytes: u64) -> StreamSettings {
 fn stream_checked(
     streamer: &mut CpuStreamer,
     repo: &Repository,
-    checker: &CutChecker,
+    checker: &CutChecker<Vec<Vec<[u32; 3]>>>,
     cameras: &[Camera],
 ) -> Vec<u32> {
     let mut last = Vec::new();

@@ -11,7 +11,8 @@ use std::time::Instant;
 use clap::Args;
 use serde_json::json;
 use tessera_core::repository::reader::Repository;
-use tessera_runtime::geometric_check::{check_cuts, decode_all_patches, CheckConfig, CheckReport};
+use tessera_runtime::cut_patches::RepositoryPatches;
+use tessera_runtime::geometric_check::{check_cuts, CheckConfig, CheckReport};
 use tessera_runtime::pixel_check::{check_pixels, PixelCheckConfig, PixelCheckReport};
 use tessera_runtime::stream_pixel_check::check_pixels_streaming;
 
@@ -59,7 +60,9 @@ pub fn run(args: CheckArgs) -> anyhow::Result<Outcome> {
         tolerances: args.tolerances.clone(),
         ..Default::default()
     };
-    let patches = decode_all_patches(&repo)?;
+    // Decoded as each cut reaches them (every one decoded once first, so a damaged patch is an
+    // error here): the check holds one cut's triangles, not every level's.
+    let patches = RepositoryPatches::new(&repo)?;
     let report = check_cuts(&repo, &patches, &config);
     let seconds = start.elapsed().as_secs_f64();
     let errors = match args.errors {
