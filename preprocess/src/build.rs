@@ -399,6 +399,9 @@ fn build_in_pool(
         (None, Some(c)) => FinishedPatches::new_named(c.dir()).map_err(temporary)?,
         (None, None) => FinishedPatches::new(spill_dir).map_err(temporary)?,
     };
+    let mut finished = finished;
+    // Every simplex of the hierarchy gets a patch: the roots and two per split.
+    finished.reserve(2 * hierarchy.mesh.leaf_count() - hierarchy.mesh.roots().len());
     let finished = RefCell::new(finished);
     let encoding = PatchEncoding {
         numbering_table: crate::simplify::numbering_table(input_vertices, spill_dir.is_some()),

@@ -137,6 +137,13 @@ impl FinishedPatches {
         })
     }
 
+    /// Makes room in the index for `simplices` patches in all, so that it never grows by
+    /// rehashing (at 1.6 M patches a rehash holds the old and the new table: 380 MB at once).
+    pub fn reserve(&mut self, simplices: usize) {
+        self.index
+            .reserve(simplices.saturating_sub(self.index.len()));
+    }
+
     /// Encodes (in parallel) and stores the patches of these simplices; each simplex once.
     pub fn add(
         &mut self,

@@ -50,7 +50,7 @@ impl CountChanges {
 
 /// Use counts of the current mesh's vertices, by shard, and of the input's non-manifold edges.
 pub struct CurrentMesh {
-    shards: Vec<Vec<u32>>,
+    shards: Vec<Shard>,
     /// Current counts of the edges with more than two triangles in the input. The build never
     /// raises an edge's count above two (see `simplify_hierarchy`), so only these can have
     /// more in the current mesh.
@@ -145,14 +145,8 @@ impl CurrentMesh {
     /// Zero counts for `vertex_count` vertices, straight in their shards (never a whole-mesh
     /// array beside them: at 50 M vertices that copy alone was 200 MB).
     fn zeroed(vertex_count: usize, nonmanifold: HashMap<u64, u32>) -> Self {
-        let shard_count = vertex_count.div_ceil(1 << SHARD_BITS).max(1);
-        let shards = (0..shard_count)
-            .map(|i| {
-                vec![
-                    0u32;
-                    (vertex_count - (i << SHARD_BITS).min(vertex_count)).min(1 << SHARD_BITS)
-                ]
-            })
+        let shards = (0..shard_count(vertex_count))
+            .map(|i| Shard::zeroed(shard_len(vertex_count, i)))
             .collect();
         CurrentMesh {
             shards,
@@ -162,14 +156,16 @@ impl CurrentMesh {
 
     #[inline]
     fn count_use(&mut self, v: u32) {
-        self.shards[vertex_shard(v) as usize][(v & ((1 << SHARD_BITS) - 1)) as usize] += 1;
+        let shard = &mut self.shards[vertex_shard(v) as usize];
+        let at = offset(v);
+        shard.set(at, shard.get(at) + 1);
     }
 
     /// The counts, for a build's checkpoint (`decode` reads them back).
     pub(crate) fn encode(&self, e: &mut crate::checkpoint::Enc) {
+        // Each shard's counts as u32s (after `Enc::list`'s own count of shards).
         e.list(&self.shards, |e, shard| {
-            e.bytes(bytemuck::cast_slice(&shard[..]));
-            // (The count comes first: `Enc::list`'s own.)
+            (0..shard.len()).for_each(|at| e.u32(shard.get(at)));
         });
         let mut edges: Vec<(u64, u32)> = self.nonmanifold.iter().map(|(&k, &n)| (k, n)).collect();
         edges.sort_unstable();
@@ -184,16 +180,17 @@ impl CurrentMesh {
         d: &mut crate::checkpoint::Dec,
         vertex_count: usize,
     ) -> std::io::Result<Self> {
-        let shard_len =
-            |i: usize| (vertex_count.saturating_sub(i << SHARD_BITS)).min(1 << SHARD_BITS);
         let mut i = 0;
         let shards = d.list(0, |d| {
-            let shard = (0..shard_len(i)).map(|_| d.u32()).collect();
+            let mut shard = Shard::zeroed(shard_len(vertex_count, i));
+            for at in 0..shard.len() {
+                shard.set(at, d.u32()?);
+            }
             i += 1;
-            shard
+            Ok(shard)
         })?;
         let damaged = || std::io::Error::new(std::io::ErrorKind::InvalidData, "use counts");
-        if shards.len() != vertex_count.div_ceil(1 << SHARD_BITS).max(1) {
+        if shards.len() != shard_count(vertex_count) {
             return Err(damaged());
         }
         let nonmanifold = d
@@ -209,7 +206,7 @@ impl CurrentMesh {
     /// Triangles of the current mesh using vertex `v`.
     #[inline]
     pub(super) fn use_count(&self, v: u32) -> u32 {
-        self.shards[vertex_shard(v) as usize][(v & ((1 << SHARD_BITS) - 1)) as usize]
+        self.shards[vertex_shard(v) as usize].get(offset(v))
     }
 
     /// Whether `key` is one of the input's non-manifold edges, whose counts are tracked.
@@ -251,11 +248,10 @@ impl CurrentMesh {
                 vertices = &vertices[n..];
             }
         }
-        let apply = |(shard, runs): (&mut Vec<u32>, Vec<VertexRun>)| {
-            let mask = (1 << SHARD_BITS) - 1;
+        let apply = |(shard, runs): (&mut Shard, Vec<VertexRun>)| {
             for &(v, d) in runs.iter().copied().flatten() {
-                let n = &mut shard[(v & mask) as usize];
-                *n = n.checked_add_signed(d).expect(NEGATIVE);
+                let at = offset(v);
+                shard.set(at, shard.get(at).checked_add_signed(d).expect(NEGATIVE));
             }
         };
         // Small batches (the re-simplified stragglers) are not worth waking the workers for.
@@ -282,6 +278,64 @@ fn nonmanifold_edges(mesh: &InputMesh) -> HashMap<u64, u32> {
         .collect()
 }
 
+/// Shards of `vertex_count` vertices (at least one).
+fn shard_count(vertex_count: usize) -> usize {
+    vertex_count.div_ceil(1 << SHARD_BITS).max(1)
+}
+
+/// Vertices of shard `i`.
+fn shard_len(vertex_count: usize, i: usize) -> usize {
+    (vertex_count.saturating_sub(i << SHARD_BITS)).min(1 << SHARD_BITS)
+}
+
+/// Vertex `v`'s place in its shard.
+#[inline]
+fn offset(v: u32) -> usize {
+    (v & ((1 << SHARD_BITS) - 1)) as usize
+}
+
+/// One shard's use counts: a byte a vertex (at 50 M vertices 50 MB, not 200), the few counts
+/// of 255 and more (fans) beside them.
+#[derive(Clone, Debug)]
+struct Shard {
+    small: Vec<u8>,
+    large: HashMap<u16, u32>,
+}
+
+impl Shard {
+    fn zeroed(len: usize) -> Shard {
+        Shard {
+            small: vec![0; len],
+            large: HashMap::default(),
+        }
+    }
+
+    fn len(&self) -> usize {
+        self.small.len()
+    }
+
+    #[inline]
+    fn get(&self, at: usize) -> u32 {
+        match self.small[at] {
+            u8::MAX => self.large[&(at as u16)],
+            n => n as u32,
+        }
+    }
+
+    #[inline]
+    fn set(&mut self, at: usize, n: u32) {
+        if n < u8::MAX as u32 {
+            if self.small[at] == u8::MAX {
+                self.large.remove(&(at as u16));
+            }
+            self.small[at] = n as u8;
+        } else {
+            self.small[at] = u8::MAX;
+            self.large.insert(at as u16, n);
+        }
+    }
+}
+
 /// The part of one merge's vertex changes that falls in one shard.
 type VertexRun<'a> = &'a [(u32, i32)];
 
@@ -293,4 +347,54 @@ const PARALLEL_MIN_CHANGES: usize = 1 << 14;
 /// The three edges of a triangle as vertex pairs.
 pub(super) fn triangle_edges(t: &[u32; 3]) -> [(u32, u32); 3] {
     [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Vertex 0 in `n` triangles of a fan over vertices 1..=n+1, and unused vertices up to
+    /// past the first shard's end.
+    fn fan(n: u32) -> InputMesh {
+        let rim = n + 1 + (1 << SHARD_BITS);
+        InputMesh {
+            positions: vec![[0.0; 3]; rim as usize + 1],
+            triangles: (0..n).map(|i| [0, i + 1, i + 2]).collect(),
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn counts_of_255_and_more_survive_merges_and_the_checkpoint() {
+        let mesh = fan(300);
+        let mut current = CurrentMesh::new(&mesh);
+        assert_eq!(current.use_count(0), 300);
+        assert_eq!(current.use_count(1), 1);
+        assert_eq!(current.use_count(2), 2);
+        // Down across 255 and up again; a vertex of the second shard too.
+        let second = 1 << SHARD_BITS;
+        for (change, expected) in [(-100, 200), (-1, 199), (60, 259), (-4, 255), (-1, 254)] {
+            let mut changes = CountChanges {
+                vertices: vec![(0, change), (second, 1)],
+                tracked_edges: Vec::new(),
+            };
+            changes.sort_by_shard();
+            current.merge(std::iter::once(&changes));
+            assert_eq!(current.use_count(0), expected, "after {change}");
+        }
+        assert_eq!(current.use_count(second), 5);
+        // Through the checkpoint's encoding and back: the same counts.
+        let mut e = crate::checkpoint::Enc::default();
+        current.encode(&mut e);
+        let bytes = e.into_bytes();
+        let mut d = crate::checkpoint::Dec::new(&bytes);
+        let back = CurrentMesh::decode(&mut d, mesh.positions.len()).unwrap();
+        d.finish().unwrap();
+        for v in 0..mesh.positions.len() as u32 {
+            assert_eq!(back.use_count(v), current.use_count(v), "vertex {v}");
+        }
+        // A fan of 255 and more straight from the input, and after a merge that adds to it.
+        let big = CurrentMesh::new(&fan(1000));
+        assert_eq!(big.use_count(0), 1000);
+    }
 }
