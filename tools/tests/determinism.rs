@@ -29,8 +29,8 @@ fn build_with(input: &Path, output: &Path, flags: &[&str]) -> Vec<u8> {
     std::fs::read(output).unwrap()
 }
 
-/// Runs `tessera ARGS`, which must succeed.
-fn tessera(args: &[&str]) {
+/// Runs `tessera ARGS`, which must succeed; returns its standard output.
+fn tessera(args: &[&str]) -> Vec<u8> {
     let out = Command::new(env!("CARGO_BIN_EXE_tessera"))
         .args(args)
         .output()
@@ -41,6 +41,14 @@ fn tessera(args: &[&str]) {
         args.join(" "),
         String::from_utf8_lossy(&out.stderr)
     );
+    out.stdout
+}
+
+/// `tessera build INPUT -o OUTPUT FLAGS --json`'s summary.
+fn build_json(input: &Path, output: &Path, flags: &[&str]) -> serde_json::Value {
+    let (input, output) = (input.to_str().unwrap(), output.to_str().unwrap());
+    let stdout = tessera(&[&["build", input, "-o", output], flags, &["--json"]].concat());
+    serde_json::from_slice(&stdout).unwrap()
 }
 
 /// `gen mesh --triangles 2000000 --shuffle-vertices FLAGS` into `dir/g2m.ply`.
@@ -239,18 +247,11 @@ fn a_staged_mesh_with_attributes_and_sub_f32_detail_gives_the_same_bytes() {
 fn a_2m_triangle_build_stays_within_64_mib() {
     let dir = tempfile::tempdir().unwrap();
     let generated = generate_2m(dir.path(), &[]);
-    let out = Command::new(env!("CARGO_BIN_EXE_tessera"))
-        .args(["build", generated.to_str().unwrap(), "-o"])
-        .arg(dir.path().join("g2m.tsr"))
-        .args(["--memory", "64M", "--json"])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    let json = build_json(
+        &generated,
+        &dir.path().join("g2m.tsr"),
+        &["--memory", "64M"],
     );
-    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let budget = 64u64 << 20;
     let peak = json["peak_rss_bytes"]
         .as_u64()
@@ -277,22 +278,11 @@ fn a_2m_triangle_build_stays_within_64_mib() {
 #[test]
 fn stage_peaks_are_per_stage_only_when_asked() {
     let dir = tempfile::tempdir().unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_tessera"))
-        .args([
-            "build",
-            testdata("mesh/bunny00.off").to_str().unwrap(),
-            "-o",
-        ])
-        .arg(dir.path().join("bunny.tsr"))
-        .args(["--stage-peaks", "--json"])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    let json = build_json(
+        &testdata("mesh/bunny00.off"),
+        &dir.path().join("bunny.tsr"),
+        &["--stage-peaks"],
     );
-    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let resettable = std::fs::write("/proc/self/clear_refs", "5").is_ok();
     assert_eq!(json["stage_peaks_are_per_stage"], resettable, "{json}");
     let peak = json["peak_rss_bytes"].as_u64().unwrap();
