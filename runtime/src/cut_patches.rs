@@ -33,7 +33,7 @@ impl CutPatches for [Vec<[u32; 3]>] {
 
 impl CutPatches for Vec<Vec<[u32; 3]>> {
     fn triangles(&self, tet: usize) -> Vec<[u32; 3]> {
-        self[tet].clone()
+        self.as_slice().triangles(tet)
     }
 }
 

@@ -141,58 +141,73 @@ fn open_leaf_lists(
     hierarchy: &Hierarchy,
     triangles: usize,
 ) -> io::Result<LeafListSpool> {
-    use std::io::Read;
     let file = std::fs::File::open(path)?;
     let len = file.metadata()?.len();
-    let reader = std::cell::RefCell::new((io::BufReader::with_capacity(1 << 20, &file), 0u64));
-    let at = || reader.borrow().1;
-    let read = |n: usize| -> io::Result<Vec<u8>> {
-        let mut bytes = vec![0; n];
-        let (reader, at) = &mut *reader.borrow_mut();
-        reader
-            .read_exact(&mut bytes)
-            .map_err(|_| invalid("the leaves' triangles: truncated"))?;
-        *at += n as u64;
-        Ok(bytes)
+    let mut input = Counted {
+        reader: io::BufReader::with_capacity(1 << 20, &file),
+        at: 0,
     };
-    let u64_of = |b: &[u8]| u64::from_le_bytes(b.try_into().expect("8 bytes"));
-    let count = u64_of(&read(8)?);
+    let not_ours = || invalid("the leaves' triangles are not the hierarchy's");
+    let count = input.u64()?;
     // Each leaf takes at least its key and count (29 bytes).
     if count.saturating_mul(29) > len || count != hierarchy.mesh.leaf_count() as u64 {
-        return Err(invalid("the leaves' triangles are not the hierarchy's"));
+        return Err(not_ours());
     }
     let mut index = Vec::with_capacity(count as usize);
     let mut seen = rustc_hash::FxHashSet::default();
     for _ in 0..count {
-        let key = Dec::new(&read(21)?).key()?;
-        let n = u64_of(&read(8)?);
+        let key = Dec::new(&input.read(21)?).key()?;
+        let n = input.u64()?;
         if !hierarchy.mesh.is_leaf(key)
             || !seen.insert(key)
-            || n.saturating_mul(4) > len - at().min(len)
+            || n.saturating_mul(4) > len - input.at.min(len)
         {
-            return Err(invalid("the leaves' triangles are not the hierarchy's"));
+            return Err(not_ours());
         }
-        let start = at();
+        let start = input.at;
         // A chunk at a time: the lists of a leaf are small, but a damaged count is not.
         let mut left = n as usize;
         while left > 0 {
             let take = left.min(1 << 16);
-            let bytes = read(take * 4)?;
+            let bytes = input.read(take * 4)?;
             if bytes
                 .chunks_exact(4)
                 .any(|b| u32::from_le_bytes(b.try_into().expect("4 bytes")) as usize >= triangles)
             {
-                return Err(invalid("the leaves' triangles are not the hierarchy's"));
+                return Err(not_ours());
             }
             left -= take;
         }
         index.push((key, start, n as u32));
     }
-    if at() != len {
+    if input.at != len {
         return Err(invalid("the leaves' triangles: trailing bytes"));
     }
-    drop(reader);
+    drop(input);
     LeafListSpool::in_file(file, index)
+}
+
+/// A buffered reader that knows how far it has read.
+struct Counted<R> {
+    reader: R,
+    at: u64,
+}
+
+impl<R: io::Read> Counted<R> {
+    fn read(&mut self, n: usize) -> io::Result<Vec<u8>> {
+        let mut bytes = vec![0; n];
+        self.reader
+            .read_exact(&mut bytes)
+            .map_err(|_| invalid("the leaves' triangles: truncated"))?;
+        self.at += n as u64;
+        Ok(bytes)
+    }
+
+    fn u64(&mut self) -> io::Result<u64> {
+        Ok(u64::from_le_bytes(
+            self.read(8)?.try_into().expect("8 bytes"),
+        ))
+    }
 }
 
 pub(super) fn invalid(what: impl Into<String>) -> io::Error {

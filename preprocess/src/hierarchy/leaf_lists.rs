@@ -6,6 +6,7 @@
 
 use std::fs::File;
 use std::io::{self, BufWriter, Write};
+use std::os::unix::fs::FileExt;
 use std::path::Path;
 
 use rustc_hash::FxHashMap as HashMap;
@@ -46,7 +47,7 @@ impl LeafListSpool {
     pub fn list(&self, i: usize) -> io::Result<Vec<u32>> {
         let (_, at, n) = self.index[i];
         let mut bytes = vec![0u8; n as usize * 4];
-        read_exact_at(&self.file, &mut bytes, at)?;
+        self.file.read_exact_at(&mut bytes, at)?;
         Ok(bytes
             .chunks_exact(4)
             .map(|b| u32::from_le_bytes(b.try_into().expect("4 bytes")))
@@ -154,24 +155,6 @@ impl LeafListWriter {
             _charge: self.charge,
         })
     }
-}
-
-#[cfg(unix)]
-fn read_exact_at(file: &File, buf: &mut [u8], at: u64) -> io::Result<()> {
-    std::os::unix::fs::FileExt::read_exact_at(file, buf, at)
-}
-
-#[cfg(not(unix))]
-fn read_exact_at(file: &File, buf: &mut [u8], at: u64) -> io::Result<()> {
-    let mut done = 0;
-    while done < buf.len() {
-        let n = std::os::windows::fs::FileExt::seek_read(file, &mut buf[done..], at + done as u64)?;
-        if n == 0 {
-            return Err(io::ErrorKind::UnexpectedEof.into());
-        }
-        done += n;
-    }
-    Ok(())
 }
 
 #[cfg(test)]

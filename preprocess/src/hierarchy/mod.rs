@@ -10,7 +10,9 @@
 mod barycentres;
 mod bucket_store;
 mod bucketed;
+mod coarse_passes;
 mod leaf_lists;
+mod locator;
 
 pub use barycentres::{BarycentreSource, MeshBarycentres, SpooledBarycentres};
 pub use bucketed::{
