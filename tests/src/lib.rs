@@ -71,8 +71,9 @@ pub fn budget_for_pool(
     options: impl Fn(u64) -> tessera_runtime::gpu::RendererOptions,
     pool: u64,
 ) -> u64 {
-    use tessera_runtime::gpu::stream_budget::fixed_bytes;
-    let pool_of = |budget| fixed_bytes(ctx, repo, &options(budget)).pool_bytes();
+    use tessera_runtime::gpu::stream_budget::{fixed_bytes, largest_unit_bytes};
+    let largest = largest_unit_bytes(&tessera_runtime::stream::UnitTable::from_repository(repo));
+    let pool_of = |budget| fixed_bytes(ctx, repo, &options(budget), largest).pool_bytes();
     let (mut low, mut high) = (pool, 4 * pool + (64 << 20));
     while high - low > 1024 {
         let middle = (low + high) / 2;

@@ -264,6 +264,7 @@ fn more_pages_than_one_binding_of_draw_arguments_are_refused_or_cut() {
         PatchSizes::of(repo.tets(), repo.header().attributes),
         1 << 30,
         limit,
+        limit,
         1 << 20,
     );
     assert!(layout.pages as u64 * 64 <= limit, "{layout:?}");

@@ -147,10 +147,15 @@ struct Rig {
 
 impl Rig {
     fn new(ctx: GpuContext, repo: Arc<Repository>, budget: u64) -> Rig {
+        Self::with_options(ctx, repo, options(budget))
+    }
+
+    fn with_options(ctx: GpuContext, repo: Arc<Repository>, options: RendererOptions) -> Rig {
+        let budget = options.budget_bytes;
         let (renderer, mut streamer) =
-            GpuStreamer::new(&ctx, repo.clone(), options(budget), 256 << 10).expect("streamer");
+            GpuStreamer::new(&ctx, repo.clone(), options, 256 << 10).expect("streamer");
         streamer.set_cpu_reference(true);
-        let full = Renderer::new(&ctx, &repo, options(1 << 40)).expect("fits a large budget");
+        let full = Renderer::new(&ctx, &repo, self::options(1 << 40)).expect("fits a large budget");
         Rig {
             ctx,
             repo,
@@ -290,6 +295,72 @@ fn streaming_at_a_quarter_of_the_repository_draws_the_cpu_reference_every_frame(
     let eye = pause.eye_local(repo.header().origin);
     let rhos = diamond_rhos(repo.diamonds(), eye, &pause.metric());
     let cull = check_request(pause).cull;
+    let unlimited = drawn(&repo, &select_visible(repo.tets(), &rhos, TAU, eye, &cull));
+    assert_eq!(
+        settled, unlimited,
+        "the settled frame is not the unlimited one"
+    );
+}
+
+/// The pools start with one page and a few record slots whatever the budget, and grow as
+/// units land (`gpu/streamer/growth.rs`): the records are copied into larger buffers, new pages
+/// and lists appear, every bind group is remade. Forced here with 64 KiB pages and 16 slot
+/// pairs at first, under a budget that holds the whole model: every frame of the fly-in is
+/// still checked (the CPU reference's selection, the fully resident image, no flag pixel), the
+/// pools grow several times, and the settled cut is the unlimited one.
+#[test]
+fn the_pools_grow_from_one_page_as_units_land_and_every_frame_stays_exact() {
+    use tessera_runtime::gpu::stream_pool::PoolGrowth;
+    let (b, repo) = built("mesh/armadillo.off");
+    let ctx = gpu();
+    let growth = PoolGrowth {
+        page_bytes: 64 << 10,
+        first_slot_pairs: 16,
+    };
+    let options = RendererOptions {
+        pool_growth: growth,
+        ..options(1 << 30)
+    };
+    let mut rig = Rig::with_options(ctx, repo.clone(), options);
+    let start = rig.streamer.stats();
+    let roots = repo.header().root_tet_count as u32;
+    assert_eq!(start.pool_pages, 1, "{start:?}");
+    assert_eq!(
+        start.record_slots,
+        roots.next_multiple_of(2) + 32,
+        "{start:?}"
+    );
+    assert!(start.gpu_bytes < start.max_gpu_bytes, "{start:?}");
+    let path = fly_in(&b.repo, 40);
+    for (i, &camera) in path.iter().enumerate() {
+        rig.frame(camera, &format!("fly-in frame {i}"));
+    }
+    let mut settled = None;
+    for i in 0..200 {
+        let (done, _, selection) = rig.frame(path[39], &format!("paused frame {i}"));
+        if done {
+            settled = Some(selection);
+            break;
+        }
+    }
+    let settled = settled.expect("the stream settles within 200 frames");
+    let end = rig.streamer.stats();
+    eprintln!("start {start:?}\nend {end:?}");
+    assert!(
+        end.pool_pages > 4 && end.record_slots > 4 * start.record_slots,
+        "pages and slots should have grown several times: {end:?}"
+    );
+    assert!(end.pool_growths >= 4, "{end:?}");
+    assert!(end.gpu_bytes <= end.max_gpu_bytes, "{end:?}");
+    assert_eq!(
+        rig.streamer.residency().stats().evictions,
+        0,
+        "nothing to evict"
+    );
+    let camera = path[39];
+    let eye = camera.eye_local(repo.header().origin);
+    let rhos = diamond_rhos(repo.diamonds(), eye, &camera.metric());
+    let cull = check_request(camera).cull;
     let unlimited = drawn(&repo, &select_visible(repo.tets(), &rhos, TAU, eye, &cull));
     assert_eq!(
         settled, unlimited,

@@ -118,6 +118,9 @@ pub(crate) fn run_streaming(
             "record_slots": gpu.record_slots,
             "record_bytes": gpu.record_bytes,
             "pool_bytes": gpu.pool_bytes,
+            "pool_pages": gpu.pool_pages,
+            "pool_growths": gpu.pool_growths,
+            "max_resident_bytes": gpu.max_gpu_bytes,
             "loaded_bytes": streamer.residency().stats().loaded_bytes,
             "evictions": streamer.residency().stats().evictions,
     });

@@ -44,16 +44,10 @@ pub struct PageDraw {
 /// The passes' pipelines and what they write.
 pub struct Compaction {
     pipeline: wgpu::ComputePipeline,
-    group: wgpu::BindGroup,
     expand: wgpu::ComputePipeline,
-    expand_tables: wgpu::BindGroup,
-    /// One per page, with a non-empty selection list.
-    expand_pages: Vec<Option<wgpu::BindGroup>>,
-    /// The pages' arguments (`PAGE_ARGS_BYTES` each): draws and dispatches.
-    pub args: wgpu::Buffer,
-    /// The pages' index regions (u32).
-    pub indices: wgpu::Buffer,
-    pages: u32,
+    /// The compaction's, the expansion's tables' and an expansion page's bind group layouts.
+    layouts: [wgpu::BindGroupLayout; 3],
+    bound: Bound,
 }
 
 fn entry(binding: u32, ty: wgpu::BufferBindingType) -> wgpu::BindGroupLayoutEntry {
@@ -114,18 +108,42 @@ fn group(
     })
 }
 
-impl Compaction {
-    /// `selected` and `counts`: the pages' selection lists and their lengths, as the traversal
-    /// fills them; `page_draws`: each page's `PageDraw`, `stride` bytes apart (uniform).
-    pub fn new(
+fn pipeline_of(
+    device: &wgpu::Device,
+    tables_layout: &wgpu::BindGroupLayout,
+    page_layout: &wgpu::BindGroupLayout,
+) -> wgpu::ComputePipeline {
+    pipeline(
+        device,
+        "expand",
+        expand_source(),
+        &[Some(tables_layout), Some(page_layout)],
+    )
+}
+
+/// What depends on the model's pages and index regions: remade when a streaming pool grows.
+struct Bound {
+    group: wgpu::BindGroup,
+    expand_tables: wgpu::BindGroup,
+    /// One per page, with a non-empty selection list.
+    expand_pages: Vec<Option<wgpu::BindGroup>>,
+    /// The pages' arguments (`PAGE_ARGS_BYTES` each): draws and dispatches.
+    args: wgpu::Buffer,
+    /// The pages' index regions (u32).
+    indices: wgpu::Buffer,
+    pages: u32,
+}
+
+impl Bound {
+    fn new(
         ctx: &GpuContext,
+        [layout, tables_layout, page_layout]: &[wgpu::BindGroupLayout; 3],
         model: &ResidentModel,
         selected: &wgpu::Buffer,
         counts: &wgpu::Buffer,
         page_draws: (&wgpu::Buffer, u64),
-    ) -> Compaction {
+    ) -> Bound {
         use wgpu::util::DeviceExt;
-        use wgpu::BufferBindingType as B;
         use wgpu::BufferUsages as U;
         let device = &ctx.device;
         let pages = model.lists.len() as u32;
@@ -156,21 +174,9 @@ impl Compaction {
             usage: U::STORAGE | U::INDEX,
             mapped_at_creation: false,
         });
-        let read = B::Storage { read_only: true };
-        let write = B::Storage { read_only: false };
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("compact"),
-            entries: &[
-                entry(0, read),
-                entry(1, read),
-                entry(2, read),
-                entry(3, write),
-                entry(4, write),
-            ],
-        });
         let group_0 = group(
             device,
-            &layout,
+            layout,
             &[
                 model.records.as_entire_binding(),
                 counts.as_entire_binding(),
@@ -179,23 +185,9 @@ impl Compaction {
                 args.as_entire_binding(),
             ],
         );
-        let tables_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("expand tables"),
-            entries: &[
-                entry(0, read),
-                entry(1, read),
-                entry(2, read),
-                entry(3, read),
-                entry(4, read),
-            ],
-        });
-        let page_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("expand page"),
-            entries: &[entry(0, read), entry(1, B::Uniform), entry(2, write)],
-        });
         let expand_tables = group(
             device,
-            &tables_layout,
+            tables_layout,
             &[
                 model.records.as_entire_binding(),
                 counts.as_entire_binding(),
@@ -214,7 +206,7 @@ impl Compaction {
                 (list.capacity > 0 && list.index_capacity > 0).then(|| {
                     group(
                         device,
-                        &page_layout,
+                        page_layout,
                         &[
                             page.buffer.as_entire_binding(),
                             wgpu::BindingResource::Buffer(wgpu::BufferBinding {
@@ -232,15 +224,8 @@ impl Compaction {
                 })
             })
             .collect();
-        Compaction {
-            pipeline: pipeline(device, "compact", compact_source(), &[Some(&layout)]),
+        Bound {
             group: group_0,
-            expand: pipeline(
-                device,
-                "expand",
-                expand_source(),
-                &[Some(&tables_layout), Some(&page_layout)],
-            ),
             expand_tables,
             expand_pages,
             args,
@@ -248,20 +233,95 @@ impl Compaction {
             pages,
         }
     }
+}
+
+impl Compaction {
+    /// `selected` and `counts`: the pages' selection lists and their lengths, as the traversal
+    /// fills them; `page_draws`: each page's `PageDraw`, `stride` bytes apart (uniform).
+    pub fn new(
+        ctx: &GpuContext,
+        model: &ResidentModel,
+        selected: &wgpu::Buffer,
+        counts: &wgpu::Buffer,
+        page_draws: (&wgpu::Buffer, u64),
+    ) -> Compaction {
+        use wgpu::BufferBindingType as B;
+        let device = &ctx.device;
+        let read = B::Storage { read_only: true };
+        let write = B::Storage { read_only: false };
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("compact"),
+            entries: &[
+                entry(0, read),
+                entry(1, read),
+                entry(2, read),
+                entry(3, write),
+                entry(4, write),
+            ],
+        });
+        let tables_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("expand tables"),
+            entries: &[
+                entry(0, read),
+                entry(1, read),
+                entry(2, read),
+                entry(3, read),
+                entry(4, read),
+            ],
+        });
+        let page_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("expand page"),
+            entries: &[entry(0, read), entry(1, B::Uniform), entry(2, write)],
+        });
+        let pipeline = pipeline(device, "compact", compact_source(), &[Some(&layout)]);
+        let expand = pipeline_of(device, &tables_layout, &page_layout);
+        let layouts = [layout, tables_layout, page_layout];
+        let bound = Bound::new(ctx, &layouts, model, selected, counts, page_draws);
+        Compaction {
+            pipeline,
+            expand,
+            layouts,
+            bound,
+        }
+    }
+
+    /// Makes the buffers sized by the model's pages and index regions and the bind groups over
+    /// them (at creation, and when a streaming pool grew: `stream_pool::grow`); the pipelines
+    /// are kept.
+    pub fn rebind(
+        &mut self,
+        ctx: &GpuContext,
+        model: &ResidentModel,
+        selected: &wgpu::Buffer,
+        counts: &wgpu::Buffer,
+        page_draws: (&wgpu::Buffer, u64),
+    ) {
+        self.bound = Bound::new(ctx, &self.layouts, model, selected, counts, page_draws);
+    }
+
+    /// The pages' draw and dispatch arguments (`PAGE_ARGS_BYTES` each).
+    pub fn args(&self) -> &wgpu::Buffer {
+        &self.bound.args
+    }
+
+    /// The pages' index regions (u32).
+    pub fn indices(&self) -> &wgpu::Buffer {
+        &self.bound.indices
+    }
 
     /// Records the compaction's dispatch (one workgroup per page), then one expansion dispatch
     /// per page, into `pass`, after the traversal's.
     pub fn dispatch(&self, pass: &mut wgpu::ComputePass<'_>) {
         pass.set_pipeline(&self.pipeline);
-        pass.set_bind_group(0, &self.group, &[]);
-        pass.dispatch_workgroups(self.pages, 1, 1);
+        pass.set_bind_group(0, &self.bound.group, &[]);
+        pass.dispatch_workgroups(self.bound.pages, 1, 1);
         pass.set_pipeline(&self.expand);
-        pass.set_bind_group(0, &self.expand_tables, &[]);
-        for (p, group) in self.expand_pages.iter().enumerate() {
+        pass.set_bind_group(0, &self.bound.expand_tables, &[]);
+        for (p, group) in self.bound.expand_pages.iter().enumerate() {
             if let Some(group) = group {
                 pass.set_bind_group(1, group, &[]);
                 pass.dispatch_workgroups_indirect(
-                    &self.args,
+                    &self.bound.args,
                     p as u64 * PAGE_ARGS_BYTES + EXPAND_DISPATCH_OFFSET,
                 );
             }

@@ -23,6 +23,8 @@ pub struct RendererOptions {
     /// holds); a frame selecting more is drawn by vertex pulling instead (tests force that path
     /// with a small value).
     pub index_slots: Option<u64>,
+    /// Streaming: how the pools grow (`stream_pool::PoolGrowth`).
+    pub pool_growth: super::stream_pool::PoolGrowth,
 }
 
 impl Default for RendererOptions {
@@ -32,6 +34,7 @@ impl Default for RendererOptions {
             height: 1080,
             budget_bytes: DEFAULT_BUDGET_BYTES,
             index_slots: None,
+            pool_growth: Default::default(),
         }
     }
 }

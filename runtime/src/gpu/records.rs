@@ -161,6 +161,16 @@ impl PairSlots {
         self.free.push((slot - self.first_pair_slot) / 2);
     }
 
+    /// Grows to `slots` slots (never shrinks): the new pairs are free, handed out after the
+    /// lower ones still free.
+    pub fn grow(&mut self, slots: u32) {
+        let pairs = slots.saturating_sub(self.first_pair_slot) / 2;
+        if pairs > self.pairs {
+            self.free.splice(0..0, (self.pairs..pairs).rev());
+            self.pairs = pairs;
+        }
+    }
+
     /// Pairs free now.
     pub fn free_pairs(&self) -> usize {
         self.free.len()
@@ -186,5 +196,18 @@ mod tests {
         slots.free(6);
         assert_eq!(slots.allocate_pairs(2), Some(vec![6, 10]));
         assert_eq!(slots.allocate(), None);
+    }
+
+    #[test]
+    fn grown_pairs_come_after_the_lower_free_ones() {
+        let mut slots = PairSlots::new(10, 5); // pairs at 6 and 8
+        assert_eq!(slots.allocate(), Some(6));
+        slots.grow(9); // not a whole pair more: nothing
+        assert_eq!((slots.pairs(), slots.free_pairs()), (2, 1));
+        slots.grow(14);
+        assert_eq!((slots.pairs(), slots.free_pairs()), (4, 3));
+        assert_eq!(slots.allocate_pairs(3), Some(vec![8, 10, 12]));
+        slots.grow(12); // never shrinks
+        assert_eq!(slots.pairs(), 4);
     }
 }

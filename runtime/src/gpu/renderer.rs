@@ -11,18 +11,21 @@ use std::time::Instant;
 use tessera_core::repository::format::Header;
 use tessera_core::repository::reader::Repository;
 
-use super::compact::{
-    Compaction, PageDraw, INDEXED_DRAW_OFFSET, PAGE_ARGS_BYTES, PULL_DRAW_OFFSET,
-};
+use super::compact::{Compaction, INDEXED_DRAW_OFFSET, PAGE_ARGS_BYTES, PULL_DRAW_OFFSET};
 use super::device::{GpuContext, GpuFailure};
 use super::draw_pipelines::{DrawPipelines, Pass};
 use super::feedback::{Feedback, FeedbackFrame};
 use super::frame::{FrameUniforms, ShadingMode};
-use super::resident::{ResidentModel, ENTRY_BYTES};
+use super::resident::ResidentModel;
 use super::shaders::draw_source;
 use super::target::{read_buffer, RenderTarget, BACKGROUND};
 use super::timing::FrameTimer;
 use super::traversal::Traversal;
+
+mod bindings;
+
+pub(crate) use bindings::page_draw_stride;
+use bindings::{draw_groups, storage_entry, uniform_entry, SelectionBuffers};
 
 pub use super::frame_request::{
     Frame, FrameRequest, Readback, RenderError, RendererOptions, DEFAULT_BUDGET_BYTES,
@@ -46,15 +49,15 @@ pub struct Renderer {
     model: ResidentModel,
     target: RenderTarget,
     uniforms: wgpu::Buffer,
-    /// The pages' selection lists (`Selected` × entry) and their lengths (u32 × page).
-    selected: wgpu::Buffer,
-    counts: wgpu::Buffer,
-    selected_read: wgpu::Buffer,
-    counts_read: wgpu::Buffer,
+    /// The pages' selection lists and their lengths, and their read-back copies.
+    lists: SelectionBuffers,
     traversal: Traversal,
     compaction: Compaction,
     draw_group: wgpu::BindGroup,
     page_groups: Vec<wgpu::BindGroup>,
+    /// The draw's bind group layouts (model-wide, per page): kept for `rebind_model`.
+    draw_layout: wgpu::BindGroupLayout,
+    page_layout: wgpu::BindGroupLayout,
     /// Per pass: the indexed draw (`vs_indexed`) and the vertex-pulling one (`vs_main`).
     indexed: DrawPipelines,
     pulled: DrawPipelines,
@@ -64,65 +67,6 @@ pub struct Renderer {
     /// and the frames submitted (numbers the feedback).
     feedback: Feedback,
     frames_submitted: u64,
-}
-
-fn storage_entry(
-    binding: u32,
-    read_only: bool,
-    visibility: wgpu::ShaderStages,
-) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Storage { read_only },
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
-        count: None,
-    }
-}
-
-fn uniform_entry(binding: u32, visibility: wgpu::ShaderStages) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Uniform,
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
-        count: None,
-    }
-}
-
-fn bind_group(
-    device: &wgpu::Device,
-    label: &str,
-    layout: &wgpu::BindGroupLayout,
-    buffers: &[&wgpu::Buffer],
-) -> wgpu::BindGroup {
-    let entries: Vec<wgpu::BindGroupEntry> = buffers
-        .iter()
-        .enumerate()
-        .map(|(i, b)| wgpu::BindGroupEntry {
-            binding: i as u32,
-            resource: b.as_entire_binding(),
-        })
-        .collect();
-    device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some(label),
-        layout,
-        entries: &entries,
-    })
-}
-
-/// Bytes between consecutive pages' `PageDraw`s: bound as a uniform (the expansion) and as
-/// read-only storage (the draw), so aligned for both.
-pub(crate) fn page_draw_stride(limits: &wgpu::Limits) -> u64 {
-    (limits.min_uniform_buffer_offset_alignment as u64)
-        .max(limits.min_storage_buffer_offset_alignment as u64)
-        .max(16)
 }
 
 impl Renderer {
@@ -165,27 +109,11 @@ impl Renderer {
             std::mem::size_of::<FrameUniforms>() as u64,
             U::UNIFORM | U::COPY_DST,
         );
-        let selected_bytes = model.entry_count.max(1) as u64 * ENTRY_BYTES;
-        let counts_bytes = model.lists.len() as u64 * 4;
-        let selected = buffer("selection lists", selected_bytes, U::STORAGE | U::COPY_SRC);
-        let counts = buffer(
-            "selection counts",
-            counts_bytes,
-            U::STORAGE | U::COPY_SRC | U::COPY_DST,
-        );
-        let selected_read = buffer(
-            "selection lists read-back",
-            selected_bytes,
-            U::MAP_READ | U::COPY_DST,
-        );
-        let counts_read = buffer(
-            "selection counts read-back",
-            counts_bytes,
-            U::MAP_READ | U::COPY_DST,
-        );
+        let lists = SelectionBuffers::new(device, &model);
+        let (selected, counts) = (&lists.selected, &lists.counts);
 
         let feedback = Feedback::new(ctx, feedback_capacity); // streaming
-        let traversal = Traversal::new(ctx, &model, &uniforms, &selected, &counts, &feedback.lists);
+        let traversal = Traversal::new(ctx, &model, &uniforms, selected, counts, &feedback.lists);
 
         // Drawing.
         let both = wgpu::ShaderStages::VERTEX_FRAGMENT;
@@ -209,67 +137,15 @@ impl Renderer {
                 storage_entry(1, true, vertex),
             ],
         });
-        let draw_group = bind_group(
-            device,
-            "draw",
-            &draw_layout,
-            &[
-                &uniforms,
-                &model.records,
-                &model.locations,
-                &selected,
-                &counts,
-                &model.page_simplices,
-            ],
-        );
-        // Each page's `PageDraw`, one stride apart (`page_draw_stride`).
         let stride = page_draw_stride(&ctx.limits);
-        let mut page_draw_bytes = vec![0u8; (stride * model.lists.len() as u64) as usize];
-        for (p, list) in model.lists.iter().enumerate() {
-            let at = p * stride as usize;
-            let draw = PageDraw {
-                page: p as u32,
-                first_entry: list.first_entry,
-                patch_count: list.capacity,
-                attributes: repo.header().attributes,
-            };
-            page_draw_bytes[at..at + 16].copy_from_slice(bytemuck::bytes_of(&draw));
-        }
-        let page_draw = {
-            use wgpu::util::DeviceExt;
-            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("page draws"),
-                contents: &page_draw_bytes,
-                // Uniform in the expansion (`expand.wgsl`), storage in the draw (`draw.wgsl`).
-                usage: U::UNIFORM | U::STORAGE,
-            })
-        };
-        let page_groups = model
-            .pages
-            .iter()
-            .enumerate()
-            .map(|(p, page)| {
-                device.create_bind_group(&wgpu::BindGroupDescriptor {
-                    label: Some("page"),
-                    layout: &page_layout,
-                    entries: &[
-                        wgpu::BindGroupEntry {
-                            binding: 0,
-                            resource: page.buffer.as_entire_binding(),
-                        },
-                        wgpu::BindGroupEntry {
-                            binding: 1,
-                            resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                                buffer: &page_draw,
-                                offset: p as u64 * stride,
-                                size: wgpu::BufferSize::new(16),
-                            }),
-                        },
-                    ],
-                })
-            })
-            .collect();
-        let compaction = Compaction::new(ctx, &model, &selected, &counts, (&page_draw, stride));
+        let (draw_group, page_draw, page_groups) = draw_groups(
+            ctx,
+            (&draw_layout, &page_layout),
+            &model,
+            repo.header().attributes,
+            (&uniforms, selected, counts),
+        );
+        let compaction = Compaction::new(ctx, &model, selected, counts, (&page_draw, stride));
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("draw.wgsl"),
             source: wgpu::ShaderSource::Wgsl(draw_source().into()),
@@ -297,14 +173,13 @@ impl Renderer {
             target: RenderTarget::new(ctx, options.width, options.height),
             model,
             uniforms,
-            selected,
-            counts,
-            selected_read,
-            counts_read,
+            lists,
             traversal,
             compaction,
             draw_group,
             page_groups,
+            draw_layout,
+            page_layout,
             indexed,
             pulled,
             timer: FrameTimer::new(ctx, "frame timestamps"),
@@ -318,6 +193,43 @@ impl Renderer {
     /// meshes remove them.
     pub fn set_check_skirts(&mut self, ctx: &GpuContext, meshes: &super::skirts::SkirtMeshes) {
         self.skirts.set(&ctx.device, meshes);
+    }
+
+    /// The model, to grow a streaming pool (`stream_pool::grow`); `rebind_model` must follow
+    /// before the next frame.
+    pub(crate) fn model_mut(&mut self) -> &mut ResidentModel {
+        &mut self.model
+    }
+
+    /// Remakes what is sized by the model's pages and record slots (selection lists, the
+    /// traversal's queues, the pages' arguments and every bind group over the model's
+    /// buffers) after a streaming pool grew; pipelines and everything else are kept.
+    pub(crate) fn rebind_model(&mut self, ctx: &GpuContext) {
+        self.lists = SelectionBuffers::new(&ctx.device, &self.model);
+        let (selected, counts) = (&self.lists.selected, &self.lists.counts);
+        self.traversal.rebind(
+            ctx,
+            &self.model,
+            &self.uniforms,
+            selected,
+            counts,
+            &self.feedback.lists,
+        );
+        let (draw_group, page_draw, page_groups) = draw_groups(
+            ctx,
+            (&self.draw_layout, &self.page_layout),
+            &self.model,
+            self.header.attributes,
+            (&self.uniforms, selected, counts),
+        );
+        let stride = page_draw_stride(&ctx.limits);
+        self.compaction
+            .rebind(ctx, &self.model, selected, counts, (&page_draw, stride));
+        // The page draws' buffer lives on in the bind groups over it.
+        (self.draw_group, self.page_groups) = (draw_group, page_groups);
+        if let Directory::Streamed { slot_simplices, .. } = &mut self.directory {
+            slot_simplices.resize(self.model.slot_count as usize, u32::MAX);
+        }
     }
 
     /// Replaces the `may_refine` flags the traversal reads (`tessera_core::cut`: one bit per
@@ -380,7 +292,7 @@ impl Renderer {
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                 label: Some("frame"),
             });
-        encoder.clear_buffer(&self.counts, 0, None);
+        encoder.clear_buffer(&self.lists.counts, 0, None);
         self.feedback.clear(&mut encoder); // streaming
         self.traversal.reset(&mut encoder);
         {
@@ -419,7 +331,10 @@ impl Renderer {
                 (_, true) => &fill_and_wire,
                 (_, false) => &fill_and_wire[..1],
             };
-            pass.set_index_buffer(self.compaction.indices.slice(..), wgpu::IndexFormat::Uint32);
+            pass.set_index_buffer(
+                self.compaction.indices().slice(..),
+                wgpu::IndexFormat::Uint32,
+            );
             for &which in passes {
                 // Per page, the GPU left exactly one of the two draws a non-zero count.
                 for (pipelines, indexed) in [(&self.indexed, true), (&self.pulled, false)] {
@@ -435,11 +350,11 @@ impl Renderer {
                         let args = p as u64 * PAGE_ARGS_BYTES;
                         if indexed {
                             pass.draw_indexed_indirect(
-                                &self.compaction.args,
+                                self.compaction.args(),
                                 args + INDEXED_DRAW_OFFSET,
                             );
                         } else {
-                            pass.draw_indirect(&self.compaction.args, args + PULL_DRAW_OFFSET);
+                            pass.draw_indirect(self.compaction.args(), args + PULL_DRAW_OFFSET);
                         }
                     }
                 }
@@ -460,8 +375,9 @@ impl Renderer {
             t.resolve(&mut encoder);
         }
         if readback.selection {
-            encoder.copy_buffer_to_buffer(&self.counts, 0, &self.counts_read, 0, None);
-            encoder.copy_buffer_to_buffer(&self.selected, 0, &self.selected_read, 0, None);
+            let lists = &self.lists;
+            encoder.copy_buffer_to_buffer(&lists.counts, 0, &lists.counts_read, 0, None);
+            encoder.copy_buffer_to_buffer(&lists.selected, 0, &lists.selected_read, 0, None);
         }
         if readback.image {
             self.target.copy_out(&mut encoder);
@@ -540,10 +456,16 @@ impl Renderer {
     /// The simplices drawn by the last frame rendered with `Readback::selection`, ascending
     /// (streaming: read before the next frame lands units, which may reuse slots).
     pub fn read_selection(&self, ctx: &GpuContext) -> Result<Vec<u32>, GpuFailure> {
-        let counts: Vec<u32> =
-            bytemuck::pod_collect_to_vec(&read_buffer(ctx, &self.counts_read, "the selection")?);
-        let entries: Vec<u32> =
-            bytemuck::pod_collect_to_vec(&read_buffer(ctx, &self.selected_read, "the selection")?);
+        let counts: Vec<u32> = bytemuck::pod_collect_to_vec(&read_buffer(
+            ctx,
+            &self.lists.counts_read,
+            "the selection",
+        )?);
+        let entries: Vec<u32> = bytemuck::pod_collect_to_vec(&read_buffer(
+            ctx,
+            &self.lists.selected_read,
+            "the selection",
+        )?);
         let mut selected = Vec::new();
         for (list, &count) in self.model.lists.iter().zip(&counts) {
             let count = count.min(list.capacity);

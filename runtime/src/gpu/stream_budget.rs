@@ -15,9 +15,17 @@
 //! patches per simplex (`model_needs`); the residency keeps each within its own budget (a
 //! view whose units have still smaller patches runs out of slots first and settles coarser,
 //! as it would for bytes). Neither is ever larger than the whole model needs.
+//!
+//! That split is the pools' largest size, what the budget allows. They are allocated as they
+//! fill (`streamer/growth.rs`): one page (`stream_pool::GROWTH_PAGE_BYTES` at most) and a few
+//! slots at first, a page at a time and slots doubling after, with the per-page fixed part
+//! following the pages (`FixedBytes::allocated`); so the roots alone cost about the same on
+//! every model whatever the budget.
 
 use tessera_core::repository::patch::drawn_patch_bytes;
 use tessera_core::repository::reader::Repository;
+
+use crate::stream::UnitTable;
 
 use super::device::GpuContext;
 use super::records::SLOT_RECORD_BYTES;
@@ -31,8 +39,11 @@ pub const SLOT_BYTES: u64 = SLOT_RECORD_BYTES + 16 + 2 * 4;
 /// The fixed bytes, the record slots and the page pool's layout for a budget.
 #[derive(Clone, Copy, Debug)]
 pub struct FixedBytes {
-    /// Everything but the two pools.
+    /// Everything but the two pools, with every page of the layout allocated.
     pub fixed: u64,
+    /// Of which: what does not depend on the pages, and what each page adds.
+    pub base: u64,
+    pub per_page: u64,
     /// Record slots (roots' included); they take `slots × SLOT_BYTES`.
     pub slots: u32,
     pub layout: PoolLayout,
@@ -49,9 +60,17 @@ impl FixedBytes {
         self.layout.pages as u64 * self.layout.page_bytes
     }
 
-    /// Every allocation.
+    /// Every allocation, the pools at their largest.
     pub fn total(&self) -> u64 {
         self.fixed + self.record_bytes() + self.pool_bytes()
+    }
+
+    /// The fixed part and every allocation with `pages` pages and `slots` record slots
+    /// allocated (the pools grow up to the layout, `stream_pool::grow_model`).
+    pub fn allocated(&self, pages: usize, slots: u32) -> (u64, u64) {
+        let fixed = self.base + pages as u64 * self.per_page;
+        let total = fixed + slots as u64 * SLOT_BYTES + pages as u64 * self.layout.page_bytes;
+        (fixed, total)
     }
 }
 
@@ -135,13 +154,32 @@ fn model_needs(repo: &Repository) -> ModelNeeds {
     }
 }
 
+/// The largest unit's bytes as the pool places them (each patch 8-aligned: at most 7 bytes
+/// of padding a patch; the pinned roots are one unit too).
+pub fn largest_unit_bytes(units: &UnitTable) -> u64 {
+    let unit = |bytes: u64, patches: usize| bytes + 7 * patches as u64;
+    (0..units.len() as u32)
+        .map(|u| unit(units.bytes(u), units.simplices(u).len()))
+        .chain([unit(units.root_bytes(), units.roots().len())])
+        .max()
+        .unwrap_or(0)
+}
+
 /// The fixed part and the pools for `options.budget_bytes` (the pools may be empty or the
-/// fixed part over budget: the caller refuses those with the numbers).
-pub fn fixed_bytes(ctx: &GpuContext, repo: &Repository, options: &RendererOptions) -> FixedBytes {
+/// fixed part over budget: the caller refuses those with the numbers); `largest_unit`
+/// (`largest_unit_bytes`): no page is smaller.
+pub fn fixed_bytes(
+    ctx: &GpuContext,
+    repo: &Repository,
+    options: &RendererOptions,
+    largest_unit: u64,
+) -> FixedBytes {
     let limit = page_limit(&ctx.limits);
     let base = base_bytes(ctx, repo, options);
     let roots = repo.header().root_tet_count;
     let needs = model_needs(repo);
+    // Pages as the pool grows by them, never smaller than a unit.
+    let page_cap = options.pool_growth.page_bytes.max(largest_unit);
     let (all_bytes, all_slots) = (needs.bytes, needs.simplices);
     let rest = options.budget_bytes.saturating_sub(base);
     // A slot per `bytes_per_slot` of the residency's 7/8 of the pages.
@@ -164,10 +202,13 @@ pub fn fixed_bytes(ctx: &GpuContext, repo: &Repository, options: &RendererOption
         // Pages capped at what the model needs: what they leave goes to slots (up to the
         // model's).
         let slots = slots.max(clamp((available.saturating_sub(pool) / SLOT_BYTES) & !1));
-        let layout = PoolLayout::new(needs.patches, pool, limit, slots as u32);
-        let fixed = base + layout.pages as u64 * per_page_bytes(ctx, &layout);
+        let layout = PoolLayout::new(needs.patches, pool, limit, page_cap, slots as u32);
+        let per_page = per_page_bytes(ctx, &layout);
+        let fixed = base + layout.pages as u64 * per_page;
         let candidate = FixedBytes {
             fixed,
+            base,
+            per_page,
             slots: slots as u32,
             layout,
         };
@@ -177,9 +218,12 @@ pub fn fixed_bytes(ctx: &GpuContext, repo: &Repository, options: &RendererOption
         available = available.saturating_sub(candidate.total() - options.budget_bytes);
     }
     let slots = slots_for(0);
-    let layout = PoolLayout::new(needs.patches, 0, limit, slots as u32);
+    let layout = PoolLayout::new(needs.patches, 0, limit, page_cap, slots as u32);
+    let per_page = per_page_bytes(ctx, &layout);
     FixedBytes {
-        fixed: base + per_page_bytes(ctx, &layout),
+        fixed: base + per_page,
+        base,
+        per_page,
         slots: slots as u32,
         layout,
     }

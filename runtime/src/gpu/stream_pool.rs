@@ -1,6 +1,7 @@
-//! The page pool of the streaming renderer: a fixed set of GPU pages, allocated once, into
-//! which whole units (R(D), `stream::units`) are placed as they land and from which they are
-//! freed once no frame in flight can draw them.
+//! The page pool of the streaming renderer: GPU pages, allocated one at a time as units need
+//! room up to the layout the budget allows (`grow_model`, `streamer/growth.rs`), into which
+//! whole units (R(D), `stream::units`) are placed as they land and from which they are freed
+//! once no frame in flight can draw them.
 //!
 //! Each page is one storage binding (≤ `resident::page_limit`), bound by the draw exactly as
 //! the fully resident model's pages are; the traversal and the draw do not know the
@@ -68,31 +69,51 @@ impl PoolAllocator {
         }
     }
 
+    /// The first page and free range (index in the page's list) with room for `bytes`
+    /// (already rounded) and list room for `patches`.
+    fn find(&self, bytes: u64, patches: u32) -> Option<(usize, usize)> {
+        self.pages.iter().enumerate().find_map(|(p, page)| {
+            if page.patches + patches > self.patch_capacity {
+                return None;
+            }
+            let k = page.free.iter().position(|&(_, len)| len >= bytes)?;
+            Some((p, k))
+        })
+    }
+
+    /// Whether `allocate(bytes, patches)` would succeed now.
+    pub fn has_room(&self, bytes: u64, patches: u32) -> bool {
+        self.find(bytes.next_multiple_of(8).max(8), patches)
+            .is_some()
+    }
+
     /// Places `bytes` (rounded up to 8) holding `patches` non-empty patches; `None` when no
     /// page has a free range that large and list room for the patches.
     pub fn allocate(&mut self, bytes: u64, patches: u32) -> Option<Placement> {
         let bytes = bytes.next_multiple_of(8).max(8);
-        for (p, page) in self.pages.iter_mut().enumerate() {
-            if page.patches + patches > self.patch_capacity {
-                continue;
-            }
-            if let Some(k) = page.free.iter().position(|&(_, len)| len >= bytes) {
-                let (start, len) = page.free[k];
-                if len == bytes {
-                    page.free.remove(k);
-                } else {
-                    page.free[k] = (start + bytes, len - bytes);
-                }
-                page.patches += patches;
-                return Some(Placement {
-                    page: p as u32,
-                    offset: start,
-                    bytes,
-                    patches,
-                });
-            }
+        let (p, k) = self.find(bytes, patches)?;
+        let page = &mut self.pages[p];
+        let (start, len) = page.free[k];
+        if len == bytes {
+            page.free.remove(k);
+        } else {
+            page.free[k] = (start + bytes, len - bytes);
         }
-        None
+        page.patches += patches;
+        Some(Placement {
+            page: p as u32,
+            offset: start,
+            bytes,
+            patches,
+        })
+    }
+
+    /// One more empty page (the pool grew, `grow_model`).
+    pub fn add_page(&mut self) {
+        self.pages.push(PageSpace {
+            free: vec![(0, self.page_bytes)],
+            patches: 0,
+        });
     }
 
     /// Returns a placement's range to its page (coalescing with its neighbours).
@@ -162,6 +183,36 @@ impl PoolAllocator {
     }
 }
 
+/// Largest page of a streaming pool: the pool is allocated a page at a time as units need
+/// room (`grow_model`), so a view that needs little allocates little whatever the budget; the
+/// pages are this size (or the largest unit, where larger) or one storage binding, whichever
+/// is smaller. Fewer, larger pages would save a draw and a compaction workgroup each per
+/// frame, but allocate in larger steps: the first page is what the roots alone cost.
+pub const GROWTH_PAGE_BYTES: u64 = 8 << 20;
+
+/// Record slots a streaming pool starts with besides the roots' (pairs of slots); they grow
+/// by doubling as units need them (`grow_model`).
+pub const INITIAL_SLOT_PAIRS: u32 = 1024;
+
+/// How a streaming pool grows: the largest page it adds (never below the largest unit nor
+/// above one storage binding) and the record-slot pairs it starts with besides the roots'.
+/// The defaults are `GROWTH_PAGE_BYTES` and `INITIAL_SLOT_PAIRS`; tests force many growths
+/// with small values.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PoolGrowth {
+    pub page_bytes: u64,
+    pub first_slot_pairs: u32,
+}
+
+impl Default for PoolGrowth {
+    fn default() -> Self {
+        PoolGrowth {
+            page_bytes: GROWTH_PAGE_BYTES,
+            first_slot_pairs: INITIAL_SLOT_PAIRS,
+        }
+    }
+}
+
 /// The pool's shape for a byte budget.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct PoolLayout {
@@ -216,7 +267,7 @@ impl PatchSizes {
 }
 
 impl PoolLayout {
-    /// Pages of at most `limit` bytes filling `pool_bytes`; lists sized from the smallest
+    /// Pages of at most `limit` and `page_cap` bytes filling `pool_bytes`; lists sized from the smallest
     /// non-empty patch (8-aligned), capped by the model's non-empty patches, by the record
     /// slots (`slots`: a resident patch has one) and by one storage binding (`limit`) for
     /// every page's list together (the traversal binds them as one array; the allocator then
@@ -224,9 +275,16 @@ impl PoolLayout {
     ///
     /// At most `resident::max_pages` pages (one compaction workgroup each, their draw
     /// arguments one binding; `limit` is that binding): a larger pool is cut to them.
-    pub fn new(patches: PatchSizes, pool_bytes: u64, limit: u64, slots: u32) -> PoolLayout {
-        let pool_bytes = pool_bytes.min(super::resident::max_pages_within(limit) * limit);
-        let pages = pool_bytes.div_ceil(limit).max(1) as usize;
+    pub fn new(
+        patches: PatchSizes,
+        pool_bytes: u64,
+        limit: u64,
+        page_cap: u64,
+        slots: u32,
+    ) -> PoolLayout {
+        let page_cap = limit.min(page_cap).max(8);
+        let pool_bytes = pool_bytes.min(super::resident::max_pages_within(limit) * page_cap);
+        let pages = pool_bytes.div_ceil(page_cap).max(1) as usize;
         let page_bytes = (pool_bytes / pages as u64) & !7;
         let (smallest, count) = (patches.smallest, patches.nonempty);
         PoolLayout {
@@ -271,11 +329,13 @@ pub fn location_at(repo: &Repository, t: &TetRecord, page: u32, at: u64) -> Patc
 
 /// A resident model whose pages are the empty pool and whose `slots` record slots are empty:
 /// every record and location is written by the streamer as its unit lands (a slot is read
-/// only once a link or the roots reach it), `layout.pages` pages of `layout.page_bytes`.
+/// only once a link or the roots reach it), `pages` pages (of at most `layout.pages`) of
+/// `layout.page_bytes`; `grow_model` adds pages and slots.
 pub fn pool_model(
     ctx: &GpuContext,
     repo: &Repository,
     layout: &PoolLayout,
+    pages: usize,
     slots: u32,
 ) -> ResidentModel {
     use wgpu::BufferUsages as U;
@@ -289,18 +349,58 @@ pub fn pool_model(
         })
     };
     debug_assert!(layout.page_bytes <= page_limit(&ctx.limits));
-    let pages = (0..layout.pages)
-        .map(|_| Page {
-            buffer: buffer(
-                "pool page",
-                layout.page_bytes.max(8),
-                U::STORAGE | U::COPY_DST,
-            ),
-            blob_range: 0..0,
+    let (records, locations) = slot_buffers(ctx, slots);
+    let mut model = ResidentModel {
+        records,
+        locations,
+        slot_count: slots,
+        streamed: true,
+        pages: Vec::new(),
+        lists: Vec::new(),
+        page_simplices: buffer("page simplices (unused by pulled draws)", 16, U::STORAGE),
+        index_count: 0,
+        entry_count: 0,
+        tet_count: repo.tets().len() as u32,
+        diamond_count: repo.diamonds().len() as u32,
+        root_count: repo.header().root_tet_count as u32,
+        depth_count: tree_depths(repo),
+        resident_bytes: 0,
+    };
+    add_pages(ctx, &mut model, layout, pages);
+    model
+}
+
+/// The records and locations of `slots` record slots (copied from when the pool grows).
+fn slot_buffers(ctx: &GpuContext, slots: u32) -> (wgpu::Buffer, wgpu::Buffer) {
+    use wgpu::BufferUsages as U;
+    let buffer = |label: &str, size: u64| {
+        ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size: size.max(16),
+            usage: U::STORAGE | U::COPY_DST | U::COPY_SRC,
+            mapped_at_creation: false,
         })
-        .collect();
-    let lists = (0..layout.pages as u32)
-        .map(|p| SelectionList {
+    };
+    (
+        buffer("slot records", slots as u64 * SLOT_RECORD_BYTES),
+        buffer("slot locations", slots as u64 * PATCH_LOCATION_BYTES),
+    )
+}
+
+/// Adds `pages` empty pages (and their selection lists) to a pool model.
+fn add_pages(ctx: &GpuContext, model: &mut ResidentModel, layout: &PoolLayout, pages: usize) {
+    for _ in 0..pages {
+        let p = model.pages.len() as u32;
+        model.pages.push(Page {
+            buffer: ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("pool page"),
+                size: layout.page_bytes.max(8),
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }),
+            blob_range: 0..0,
+        });
+        model.lists.push(SelectionList {
             first_entry: p * layout.patch_capacity,
             capacity: layout.patch_capacity,
             // No index region: a pool page's contents change as units come and go, and the
@@ -309,33 +409,44 @@ pub fn pool_model(
             slots: 0,
             index_capacity: 0,
             first_index: 0,
-        })
-        .collect();
-    let record_bytes = slots as u64 * (SLOT_RECORD_BYTES + PATCH_LOCATION_BYTES);
-    ResidentModel {
-        records: buffer(
-            "slot records",
-            slots as u64 * SLOT_RECORD_BYTES,
-            U::STORAGE | U::COPY_DST,
-        ),
-        locations: buffer(
-            "slot locations",
-            slots as u64 * PATCH_LOCATION_BYTES,
-            U::STORAGE | U::COPY_DST,
-        ),
-        slot_count: slots,
-        streamed: true,
-        pages,
-        lists,
-        page_simplices: buffer("page simplices (unused by pulled draws)", 16, U::STORAGE),
-        index_count: 0,
-        entry_count: layout.pages as u32 * layout.patch_capacity,
-        tet_count: repo.tets().len() as u32,
-        diamond_count: repo.diamonds().len() as u32,
-        root_count: repo.header().root_tet_count as u32,
-        depth_count: tree_depths(repo),
-        resident_bytes: record_bytes + layout.pages as u64 * layout.page_bytes,
+        });
     }
+    model.entry_count = model.pages.len() as u32 * layout.patch_capacity;
+    model.resident_bytes = model.slot_count as u64 * (SLOT_RECORD_BYTES + PATCH_LOCATION_BYTES)
+        + model.pages.len() as u64 * layout.page_bytes;
+}
+
+/// Grows a pool model to `pages` pages and `slots` record slots (neither shrinks): new
+/// pages are empty; the records and locations are copied into larger buffers by a command
+/// submitted now, so the queue writes that follow (the next frame's) land after it. The
+/// caller rebinds the renderer (`Renderer::rebind_model`) before the next frame.
+pub fn grow_model(
+    ctx: &GpuContext,
+    model: &mut ResidentModel,
+    layout: &PoolLayout,
+    pages: usize,
+    slots: u32,
+) {
+    if slots > model.slot_count {
+        let (records, locations) = slot_buffers(ctx, slots);
+        let mut encoder = ctx
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("grow record slots"),
+            });
+        let old = model.slot_count as u64;
+        encoder.copy_buffer_to_buffer(&model.records, 0, &records, 0, old * SLOT_RECORD_BYTES);
+        encoder.copy_buffer_to_buffer(
+            &model.locations,
+            0,
+            &locations,
+            0,
+            old * PATCH_LOCATION_BYTES,
+        );
+        ctx.queue.submit([encoder.finish()]);
+        (model.records, model.locations, model.slot_count) = (records, locations, slots);
+    }
+    add_pages(ctx, model, layout, pages.saturating_sub(model.pages.len()));
 }
 
 #[cfg(test)]
@@ -364,5 +475,37 @@ mod tests {
         pool.free(d);
         assert_eq!(pool.free_bytes(), 128);
         assert_eq!(pool.fragmentation(), 0.5); // two pages, one free range each
+    }
+
+    #[test]
+    fn an_added_page_takes_what_no_page_had_room_for() {
+        let mut pool = PoolAllocator::new(1, 64, 2);
+        pool.allocate(48, 1).unwrap();
+        assert!(!pool.has_room(24, 1));
+        assert!(pool.has_room(16, 1));
+        assert!(!pool.has_room(8, 2)); // list room: one entry left
+        pool.add_page();
+        assert!(pool.has_room(24, 2));
+        let placed = pool.allocate(24, 2).unwrap();
+        assert_eq!((placed.page, placed.offset), (1, 0));
+        assert_eq!((pool.page_count(), pool.capacity_bytes()), (2, 128));
+    }
+
+    #[test]
+    fn pages_are_capped_for_growth_but_never_below_the_cap_asked() {
+        let sizes = PatchSizes {
+            smallest: 64,
+            nonempty: 1 << 20,
+        };
+        let layout = PoolLayout::new(sizes, 100 << 20, 128 << 20, 8 << 20, 1 << 20);
+        assert_eq!(layout.pages, 13);
+        assert!(layout.page_bytes <= 8 << 20 && layout.page_bytes > 7 << 20);
+        // A pool smaller than the cap is one page; a cap above the binding is the binding.
+        assert_eq!(
+            PoolLayout::new(sizes, 1 << 20, 128 << 20, 8 << 20, 1 << 20).pages,
+            1
+        );
+        let big = PoolLayout::new(sizes, 1 << 30, 128 << 20, 1 << 40, 1 << 20);
+        assert_eq!((big.pages, big.page_bytes), (8, 128 << 20));
     }
 }

@@ -53,16 +53,22 @@ pub struct StreamedGpuFrame {
 /// Streaming totals besides `ResidencyStats`.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct GpuStreamStats {
-    /// Every GPU allocation the renderer makes, by the accounting of `stream_budget`.
+    /// Every GPU allocation the renderer has made, by the accounting of `stream_budget`
+    /// (the pools grow as units need room and never shrink: also the peak).
     pub gpu_bytes: u64,
+    /// What `gpu_bytes` may grow to, the pools at their largest (≤ the budget).
+    pub max_gpu_bytes: u64,
     /// The fixed part of it (everything but the record slots and the page pool).
     pub fixed_bytes: u64,
     /// Record slots (the paged directory, `records.rs`) and their bytes (records, locations,
     /// traversal queue entries).
     pub record_slots: u32,
     pub record_bytes: u64,
-    /// Bytes of the page pool.
+    /// Bytes of the page pool, and its pages.
     pub pool_bytes: u64,
+    pub pool_pages: u32,
+    /// Times the pools grew (a page added, record slots doubled, or both).
+    pub pool_growths: u64,
     /// Bytes written into the pool (units uploaded, roots included).
     pub uploaded_bytes: u64,
     /// Seconds the loader thread spent reading (and decoding, when packed) the units it

@@ -21,7 +21,7 @@
 //! GPU buffer and no CPU table here is sized by the model's simplex count; per diamond, the
 //! CPU keeps the residency's state (`stream::residency`) and `placed`.
 
-use std::collections::{HashMap, VecDeque};
+use std::collections::{BTreeMap, HashMap, VecDeque};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 
@@ -33,7 +33,7 @@ use super::device::{GpuContext, GpuFailure};
 use super::records::{PairSlots, CHILDREN_OFFSET, SLOT_RECORD_BYTES};
 use super::renderer::{FrameRequest, Readback, RenderError, Renderer, RendererOptions};
 use super::resident::ResidentModel;
-use super::stream_budget::fixed_bytes;
+use super::stream_budget::{fixed_bytes, largest_unit_bytes, FixedBytes};
 use super::stream_pool::{pool_model, Placement, PoolAllocator};
 use crate::stream::loader::read_unit;
 use crate::stream::{stream_frame, LoadedUnit, Loader, Residency, StreamFrame, UnitTable};
@@ -56,14 +56,23 @@ pub fn feedback_capacity(tets: usize, width: u32, height: u32, limits: &wgpu::Li
     tets.min(share).min(binding as usize) as u32
 }
 
-/// Whether a unit of these simplices fits one empty page of the pool: its patches, each
-/// 8-aligned as the loader lays them out, within the page's bytes, and its non-empty patches
-/// within the page's selection list.
+/// Whether unit `u` fits one empty page of the pool: its patches, each 8-aligned as the
+/// loader lays them out, within the page's bytes, and its non-empty patches within the page's
+/// selection list. Decided from the unit table's sizes where they settle it (nearly always:
+/// the pages are at least the largest unit, `stream_pool::PatchSizes::largest_unit`), so that
+/// opening does not read every record through the map.
 fn fits_a_page(
     repo: &Repository,
-    simplices: &[u32],
+    units: &UnitTable,
+    u: u32,
     layout: &super::stream_pool::PoolLayout,
 ) -> bool {
+    let simplices = units.simplices(u);
+    let padded = units.bytes(u) + 7 * simplices.len() as u64;
+    if padded.max(8) <= layout.page_bytes && simplices.len() as u64 <= layout.patch_capacity as u64
+    {
+        return true;
+    }
     let (tets, attributes) = (repo.tets(), repo.header().attributes);
     let (mut bytes, mut nonempty) = (0u64, 0u64);
     for &s in simplices {
@@ -80,7 +89,10 @@ pub struct GpuStreamer {
     residency: Residency,
     loader: Loader,
     pool: PoolAllocator,
-    placed: Vec<Option<Placement>>,
+    /// The pools' sizes at their largest (the layout); `pool` and `slots` grow up to them.
+    sizes: FixedBytes,
+    /// Placed units' ranges, by unit (only those: nothing here per diamond of the model).
+    placed: BTreeMap<u32, Placement>,
     /// Record slots, and per placed unit the first slot of each of its child pairs (in the
     /// order of `UnitTable::simplices`).
     slots: PairSlots,
@@ -128,7 +140,7 @@ impl GpuStreamer {
         // after each (`release_pages`), and after the pool model and at the end.
         let units = UnitTable::from_repository(&repo);
         repo.release_pages();
-        let sizes = fixed_bytes(ctx, &repo, &options);
+        let sizes = fixed_bytes(ctx, &repo, &options, largest_unit_bytes(&units));
         repo.release_pages();
         let layout = sizes.layout;
         let roots = units.root_bytes();
@@ -138,8 +150,8 @@ impl GpuStreamer {
         // seven eighths of the pool. Record slots come in pairs and do not fragment: the
         // residency gets every one.
         let budget = pool_bytes - pool_bytes / 8;
-        let slots = PairSlots::new(sizes.slots, root_count);
-        let record_budget = root_count as u64 + 2 * slots.pairs() as u64;
+        let record_budget =
+            root_count as u64 + 2 * PairSlots::new(sizes.slots, root_count).pairs() as u64;
         let binding = super::resident::page_limit(&ctx.limits);
         let root_records = (root_count as u64 + 2) * super::records::SLOT_RECORD_BYTES;
         // The records are one binding, and a unit (the roots are one) lands whole in a page.
@@ -162,7 +174,13 @@ impl GpuStreamer {
             return Err(too_small);
         }
         let scope = ctx.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
-        let model: ResidentModel = pool_model(ctx, &repo, &layout, sizes.slots);
+        // The pools start with one page and a few record slots and grow, up to the layout,
+        // as units need room (`streamer/growth.rs`): a view that needs little allocates
+        // little whatever the budget.
+        let first_slots = sizes
+            .slots
+            .min(root_count.next_multiple_of(2) + 2 * options.pool_growth.first_slot_pairs);
+        let model: ResidentModel = pool_model(ctx, &repo, &layout, 1, first_slots);
         repo.release_pages();
         let capacity = feedback_capacity(
             repo.tets().len(),
@@ -185,16 +203,18 @@ impl GpuStreamer {
         // A unit lands whole in one page (≤ one storage binding): one that no empty page can
         // hold is refused now, so its diamond stays unrefined and the stream still settles.
         for u in 0..residency.units().len() as u32 {
-            if !fits_a_page(&repo, residency.units().simplices(u), &layout) {
+            if !fits_a_page(&repo, residency.units(), u, &layout) {
                 residency.refuse(u);
             }
         }
+        repo.release_pages();
         let mut streamer = GpuStreamer {
             loader: Loader::new(repo.clone()),
-            placed: vec![None; residency.units().len()],
+            placed: BTreeMap::new(),
             residency,
-            pool: PoolAllocator::new(layout.pages, layout.page_bytes, layout.patch_capacity),
-            slots,
+            pool: PoolAllocator::new(1, layout.page_bytes, layout.patch_capacity),
+            slots: PairSlots::new(first_slots, root_count),
+            sizes,
             pairs: HashMap::new(),
             ready: VecDeque::new(),
             retired: Vec::new(),
@@ -215,15 +235,12 @@ impl GpuStreamer {
             cpu_reference: false,
             expected: VecDeque::new(),
             stats: GpuStreamStats {
-                gpu_bytes: sizes.total(),
-                fixed_bytes: sizes.fixed,
-                record_slots: sizes.slots,
-                record_bytes: sizes.record_bytes(),
-                pool_bytes,
+                max_gpu_bytes: sizes.total(),
                 ..Default::default()
             },
             repo,
         };
+        streamer.count_allocations(renderer.model());
         let root_simplices: Vec<u32> = streamer.residency.units().roots().to_vec();
         let bytes = read_unit(&streamer.repo, &root_simplices).map_err(StreamError::Roots)?;
         let root_slots: Vec<u32> = (0..root_count).collect();
@@ -351,7 +368,7 @@ impl GpuStreamer {
                         .flatten();
                     match placed {
                         Some(placed) => {
-                            self.placed[unit.unit as usize] = Some(placed);
+                            self.placed.insert(unit.unit, placed);
                             self.residency.complete(unit.unit, true);
                             uploaded += 1;
                             uploaded_bytes += placed.bytes;
@@ -492,4 +509,5 @@ impl GpuStreamer {
     }
 }
 
+mod growth;
 mod placement;

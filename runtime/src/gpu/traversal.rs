@@ -30,6 +30,10 @@ struct Step {
 /// The traversal's pipeline and working buffers.
 pub struct Traversal {
     pipeline: wgpu::ComputePipeline,
+    tables_layout: wgpu::BindGroupLayout,
+    step_layout: wgpu::BindGroupLayout,
+    /// The `Step` of every depth, `step_stride` apart.
+    steps_buffer: wgpu::Buffer,
     tables: wgpu::BindGroup,
     /// Even depths read queue 0 and write queue 1; odd depths the other way round.
     steps: [wgpu::BindGroup; 2],
@@ -166,16 +170,6 @@ impl Traversal {
             contents: bytemuck::cast_slice(&words),
             usage: U::STORAGE | U::COPY_DST,
         });
-        // A depth's queue holds at most every slot (a reached simplex is in a slot).
-        let queue = |label| {
-            device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some(label),
-                size: 4 * (model.slot_count.max(1) as u64),
-                usage: U::STORAGE,
-                mapped_at_creation: false,
-            })
-        };
-        let queues = [queue("traversal queue 0"), queue("traversal queue 1")];
         let step_stride = std::mem::size_of::<Step>()
             .next_multiple_of(ctx.limits.min_uniform_buffer_offset_alignment as usize)
             as u32;
@@ -196,17 +190,100 @@ impl Traversal {
             contents: &step_bytes,
             usage: U::UNIFORM,
         });
+        let (tables, steps) = Self::groups(
+            ctx,
+            (&tables_layout, &step_layout, &steps_buffer),
+            model,
+            [frame, selected, counts, &queued, &may_refine, feedback],
+            &dispatches,
+        );
+        Traversal {
+            pipeline,
+            tables_layout,
+            step_layout,
+            steps_buffer,
+            tables,
+            steps,
+            step_stride,
+            queued,
+            dispatches,
+            dispatch_template,
+            dispatch_bytes,
+            depth_count: depths,
+            may_refine,
+            diamond_count: model.diamond_count,
+            streamed: model.streamed,
+        }
+    }
+
+    /// Binds the traversal to a model whose record slots or pages changed (a streaming pool
+    /// that grew, `stream_pool::grow`): new queues sized by its slots and new bind groups over
+    /// its buffers and the new selection lists; the pipeline and everything else are kept.
+    pub fn rebind(
+        &mut self,
+        ctx: &GpuContext,
+        model: &ResidentModel,
+        frame: &wgpu::Buffer,
+        selected: &wgpu::Buffer,
+        counts: &wgpu::Buffer,
+        feedback: &wgpu::Buffer,
+    ) {
+        let (tables, steps) = Self::groups(
+            ctx,
+            (&self.tables_layout, &self.step_layout, &self.steps_buffer),
+            model,
+            [
+                frame,
+                selected,
+                counts,
+                &self.queued,
+                &self.may_refine,
+                feedback,
+            ],
+            &self.dispatches,
+        );
+        self.tables = tables;
+        self.steps = steps;
+    }
+
+    /// The queues (sized by the model's slots) and the bind groups: `buffers` are the frame
+    /// uniforms, the selection lists, their counts, the per-depth counters, the `may_refine`
+    /// words and the feedback lists.
+    fn groups(
+        ctx: &GpuContext,
+        (tables_layout, step_layout, steps_buffer): (
+            &wgpu::BindGroupLayout,
+            &wgpu::BindGroupLayout,
+            &wgpu::Buffer,
+        ),
+        model: &ResidentModel,
+        buffers: [&wgpu::Buffer; 6],
+        dispatches: &[wgpu::Buffer; 2],
+    ) -> (wgpu::BindGroup, [wgpu::BindGroup; 2]) {
+        use wgpu::BufferUsages as U;
+        let device = &ctx.device;
+        let [frame, selected, counts, queued, may_refine, feedback] = buffers;
+        // A depth's queue holds at most every slot (a reached simplex is in a slot).
+        let queue = |label| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: 4 * (model.slot_count.max(1) as u64),
+                usage: U::STORAGE,
+                mapped_at_creation: false,
+            })
+        };
+        let queues = [queue("traversal queue 0"), queue("traversal queue 1")];
         let tables = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("traverse tables"),
-            layout: &tables_layout,
+            layout: tables_layout,
             entries: &[
                 frame,
                 &model.records,
                 &model.locations,
                 selected,
                 counts,
-                &queued,
-                &may_refine,
+                queued,
+                may_refine,
                 feedback,
             ]
             .iter()
@@ -220,12 +297,12 @@ impl Traversal {
         let step_group = |input: &wgpu::Buffer, output: &wgpu::Buffer, next: &wgpu::Buffer| {
             device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("traverse step"),
-                layout: &step_layout,
+                layout: step_layout,
                 entries: &[
                     wgpu::BindGroupEntry {
                         binding: 0,
                         resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                            buffer: &steps_buffer,
+                            buffer: steps_buffer,
                             offset: 0,
                             size: wgpu::BufferSize::new(std::mem::size_of::<Step>() as u64),
                         }),
@@ -245,23 +322,11 @@ impl Traversal {
                 ],
             })
         };
-        Traversal {
-            pipeline,
-            tables,
-            steps: [
-                step_group(&queues[0], &queues[1], &dispatches[1]),
-                step_group(&queues[1], &queues[0], &dispatches[0]),
-            ],
-            step_stride,
-            queued,
-            dispatches,
-            dispatch_template,
-            dispatch_bytes,
-            depth_count: depths,
-            may_refine,
-            diamond_count: model.diamond_count,
-            streamed: model.streamed,
-        }
+        let steps = [
+            step_group(&queues[0], &queues[1], &dispatches[1]),
+            step_group(&queues[1], &queues[0], &dispatches[0]),
+        ];
+        (tables, steps)
     }
 
     /// Replaces the `may_refine` flags (`tessera_core::cut`: one bit per diamond, closed

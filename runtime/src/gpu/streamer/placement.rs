@@ -27,7 +27,7 @@ impl GpuStreamer {
     /// Frees placed unit `u`'s pool range and slot pairs once no frame in flight draws it
     /// (the frame just submitted at the latest); nothing for a unit not placed.
     pub(super) fn retire(&mut self, u: u32) {
-        if let Some(placed) = self.placed[u as usize].take() {
+        if let Some(placed) = self.placed.remove(&u) {
             self.resident_patches -= self.residency.units().simplices(u).len();
             let pairs = self.pairs.remove(&u).unwrap_or_default();
             self.retired.push((self.submitted, placed, pairs));
@@ -106,6 +106,10 @@ impl GpuStreamer {
             n.is_multiple_of(2),
             "unit {u}: {n} simplices, not child pairs"
         );
+        let (len, nonempty) = (bytes.bytes.len() as u64, self.nonempty_patches(bytes));
+        if self.slots.free_pairs() < n / 2 || !self.pool.has_room(len, nonempty) {
+            self.grow_for(ctx, renderer, n / 2, len, nonempty);
+        }
         let pairs = self.slots.allocate_pairs(n / 2)?;
         let slots: Vec<u32> = (0..n).map(|k| pairs[k / 2] + (k % 2) as u32).collect();
         match self.place(ctx, renderer, bytes, &slots) {
@@ -128,12 +132,7 @@ impl GpuStreamer {
     /// load back (`Residency::withdraw`) and returns false.
     pub(super) fn make_room(&mut self, u: u32, bytes: &UnitBytes) -> bool {
         let patches = self.nonempty_patches(bytes);
-        let placed: Vec<(u32, Placement)> = self
-            .placed
-            .iter()
-            .enumerate()
-            .filter_map(|(v, p)| p.map(|p| (v as u32, p)))
-            .collect();
+        let placed: Vec<(u32, Placement)> = self.placed.iter().map(|(&v, &p)| (v, p)).collect();
         let residency = &self.residency;
         let victims = super::super::pool_space::units_to_evict(
             &self.pool,
