@@ -114,6 +114,9 @@ pub struct GpuStreamer {
     versions: VecDeque<(u64, u64, u64)>,
     view: Option<(crate::camera::Camera, f32, tessera_core::cull::CullTests)>,
     view_version: u64,
+    /// Whether the last feedback read back saw the flags and view current then, and their
+    /// versions then.
+    last_feedback: (bool, u64, u64),
     /// Compute the CPU reference every frame (`set_cpu_reference`), and per frame drawn its
     /// refined and wanted lists, to compare with the GPU's when they arrive.
     cpu_reference: bool,
@@ -232,6 +235,7 @@ impl GpuStreamer {
             versions: VecDeque::new(),
             view: None,
             view_version: 0,
+            last_feedback: (false, 0, 0),
             cpu_reference: false,
             expected: VecDeque::new(),
             stats: GpuStreamStats {
@@ -454,7 +458,7 @@ impl GpuStreamer {
             StreamFrame::default()
         };
         // Feedback: the GPU lists of the frames read back by now (a frame or two late).
-        let (mut loads, mut evictions, mut fresh) = (Vec::new(), 0, false);
+        let (mut loads, mut evictions, mut fresh) = (Vec::new(), 0, None);
         for mut fb in renderer.take_feedback(ctx)? {
             for list in [&mut fb.refined, &mut fb.wanted] {
                 list.sort_unstable_by_key(|&(d, _)| d);
@@ -476,9 +480,9 @@ impl GpuStreamer {
             while self.versions.front().is_some_and(|v| v.0 < fb.frame) {
                 self.versions.pop_front();
             }
-            fresh = self.versions.front().is_some_and(|&(f, v, w)| {
+            fresh = Some(self.versions.front().is_some_and(|&(f, v, w)| {
                 f == fb.frame && v == self.flags_version && w == self.view_version
-            });
+            }));
             self.residency.feedback(&fb.refined, &fb.wanted);
             let plan = self.residency.plan(self.upload_bytes_per_frame);
             for &u in &plan.evict {
@@ -493,7 +497,15 @@ impl GpuStreamer {
         }
         let stats = self.residency.stats();
         // Settled: the latest feedback saw the current flags and view, and asked for nothing
-        // more.
+        // more. A frame whose feedback is not back yet (a slow GPU) keeps the last feedback's
+        // verdict while neither the flags nor the view changed since.
+        let fresh = match fresh {
+            Some(fresh) => {
+                self.last_feedback = (fresh, self.flags_version, self.view_version);
+                fresh
+            }
+            None => self.last_feedback == (true, self.flags_version, self.view_version),
+        };
         let settled =
             fresh && loads.is_empty() && stats.loading_units == 0 && self.ready.is_empty();
         let plan_loads = loads.len();
