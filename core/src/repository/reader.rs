@@ -265,8 +265,10 @@ impl Repository {
             codec: layout.codec,
         };
         let tets_start = layout.tets.start;
-        let tets_done = |n: usize| release(tets_start..tets_start + n * TET_RECORD_SIZE);
-        check_tables(&layout.header, diamonds, tets, blobs, &tets_done)?;
+        let release_tets = |r: Range<usize>| {
+            release(tets_start + r.start * TET_RECORD_SIZE..tets_start + r.end * TET_RECORD_SIZE)
+        };
+        check_tables(&layout.header, diamonds, tets, blobs, &release_tets)?;
         let patch_verified = (0..tets.len().div_ceil(64))
             .map(|_| AtomicU64::new(0))
             .collect();
