@@ -306,6 +306,21 @@ impl Repository {
         }
     }
 
+    /// Visits every diamond record in order, dropping each `RELEASE_CHUNK` of the table from
+    /// the resident set behind the visit, as `scan_tets` does for the tet table.
+    pub fn scan_diamonds(&self, mut visit: impl FnMut(usize, &DiamondRecord)) {
+        let size = std::mem::size_of::<DiamondRecord>();
+        let per_chunk = RELEASE_CHUNK / size;
+        for (k, chunk) in self.diamonds().chunks(per_chunk).enumerate() {
+            for (j, d) in chunk.iter().enumerate() {
+                visit(k * per_chunk + j, d);
+            }
+            let start = self.diamonds.start + k * per_chunk * size;
+            self.storage
+                .release(start..start + std::mem::size_of_val(chunk));
+        }
+    }
+
     /// Drops this process's mapping of every page of the file it has touched (the page cache
     /// keeps them; the next read maps them again), so the map's share of the resident set
     /// (RssFile) goes back to zero. Opening calls it after validating the directory, and a

@@ -128,10 +128,15 @@ pub struct PairSlots {
 }
 
 impl PairSlots {
+    /// Pairs of `slots` slots of which the first `pinned` are the roots' (nothing allocated).
+    pub fn pairs_within(slots: u32, pinned: u32) -> u32 {
+        slots.saturating_sub(pinned.next_multiple_of(2)) / 2
+    }
+
     /// `slots` slots of which the first `pinned` are the roots'.
     pub fn new(slots: u32, pinned: u32) -> PairSlots {
         let first_pair_slot = pinned.next_multiple_of(2);
-        let pairs = slots.saturating_sub(first_pair_slot) / 2;
+        let pairs = Self::pairs_within(slots, pinned);
         PairSlots {
             // Popped from the end: low slots first.
             free: (0..pairs).rev().collect(),

@@ -194,6 +194,13 @@ pub const GROWTH_PAGE_BYTES: u64 = 8 << 20;
 /// by doubling as units need them (`grow_model`).
 pub const INITIAL_SLOT_PAIRS: u32 = 1024;
 
+/// Most non-empty patches one page holds (its selection list's entries): a page of
+/// `GROWTH_PAGE_BYTES` reaches it only with patches of 128 bytes on average. Sizing the lists
+/// for the smallest patch instead made them up to 3 MiB a page (with their read-back copies)
+/// on models with a few one-triangle patches; a page of many smaller patches fills by count
+/// first (the allocator enforces it) and the next unit goes to another page.
+pub const MAX_PAGE_PATCHES: u64 = 1 << 16;
+
 /// How a streaming pool grows: the largest page it adds (never below the largest unit nor
 /// above one storage binding) and the record-slot pairs it starts with besides the roots'.
 /// The defaults are `GROWTH_PAGE_BYTES` and `INITIAL_SLOT_PAIRS`; tests force many growths
@@ -268,7 +275,7 @@ impl PatchSizes {
 
 impl PoolLayout {
     /// Pages of at most `limit` and `page_cap` bytes filling `pool_bytes`; lists sized from the smallest
-    /// non-empty patch (8-aligned), capped by the model's non-empty patches, by the record
+    /// non-empty patch (8-aligned), capped by `MAX_PAGE_PATCHES`, the model's non-empty patches, by the record
     /// slots (`slots`: a resident patch has one) and by one storage binding (`limit`) for
     /// every page's list together (the traversal binds them as one array; the allocator then
     /// places fewer patches in a page).
@@ -291,6 +298,7 @@ impl PoolLayout {
             pages,
             page_bytes,
             patch_capacity: (page_bytes / smallest)
+                .min(MAX_PAGE_PATCHES)
                 .min(count)
                 .min(slots as u64)
                 .min(limit / super::resident::ENTRY_BYTES / pages as u64)

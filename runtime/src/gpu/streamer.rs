@@ -154,7 +154,7 @@ impl GpuStreamer {
         // residency gets every one.
         let budget = pool_bytes - pool_bytes / 8;
         let record_budget =
-            root_count as u64 + 2 * PairSlots::new(sizes.slots, root_count).pairs() as u64;
+            root_count as u64 + 2 * PairSlots::pairs_within(sizes.slots, root_count) as u64;
         let binding = super::resident::page_limit(&ctx.limits);
         let root_records = (root_count as u64 + 2) * super::records::SLOT_RECORD_BYTES;
         // The records are one binding, and a unit (the roots are one) lands whole in a page.

@@ -18,6 +18,11 @@ use tessera_core::repository::format::{DiamondRecord, TetRecord, NO_INDEX};
 use tessera_core::repository::patch::drawn_patch_bytes;
 use tessera_core::repository::reader::Repository;
 
+/// A pass over (row, item) pairs: calls its visitor once per pair.
+type PairScan<'a> = &'a dyn Fn(&mut dyn FnMut(u32, u32));
+/// A pass over the diamond table: calls its visitor once per record, in order.
+type DiamondScan<'a> = &'a dyn Fn(&mut dyn FnMut(usize, &DiamondRecord));
+
 /// Compressed rows: row `r` is `items[starts[r]..starts[r + 1]]`.
 #[derive(Clone, Debug, Default)]
 struct Rows {
@@ -41,6 +46,23 @@ impl Rows {
             items[fill[r as usize] as usize] = item;
             fill[r as usize] += 1;
         }
+        Rows { starts, items }
+    }
+
+    /// Rows from the (row, item) pairs that `scan` hands to its visitor, in two scans (count,
+    /// then fill); rows keep the pairs' order.
+    fn from_scan(row_count: usize, scan: PairScan) -> Rows {
+        let mut starts = vec![0u32; row_count + 1];
+        scan(&mut |r, _| starts[r as usize + 1] += 1);
+        for r in 0..row_count {
+            starts[r + 1] += starts[r];
+        }
+        let mut fill = starts.clone();
+        let mut items = vec![0u32; starts[row_count] as usize];
+        scan(&mut |r, item| {
+            items[fill[r as usize] as usize] = item;
+            fill[r as usize] += 1;
+        });
         Rows { starts, items }
     }
 
@@ -94,7 +116,19 @@ impl UnitTable {
             })
             .collect();
         let root_bytes = (0..root_count).map(|t| drawn(&tets[t])).sum();
-        Self::with_created(diamonds, created, unit_bytes, root_count, root_bytes)
+        let scan = |visit: &mut dyn FnMut(usize, &DiamondRecord)| {
+            for (i, d) in diamonds.iter().enumerate() {
+                visit(i, d);
+            }
+        };
+        Self::with_created(
+            diamonds.len(),
+            &scan,
+            created,
+            unit_bytes,
+            root_count,
+            root_bytes,
+        )
     }
 
     /// The same table as `new` for an open repository, its tet table read in two passes that
@@ -130,37 +164,52 @@ impl UnitTable {
             }
         });
         let created = Rows { starts, items };
-        Self::with_created(diamonds, created, unit_bytes, root_count, root_bytes)
+        // The diamond table through the map too, its pages dropped behind each pass.
+        let scan = |visit: &mut dyn FnMut(usize, &DiamondRecord)| repo.scan_diamonds(visit);
+        Self::with_created(
+            diamonds.len(),
+            &scan,
+            created,
+            unit_bytes,
+            root_count,
+            root_bytes,
+        )
     }
 
-    /// The rest of the table from the diamond table and the units' rows and bytes.
+    /// The rest of the table from the diamond table (`scan` visits every record in order)
+    /// and the units' rows and bytes.
     fn with_created(
-        diamonds: &[DiamondRecord],
+        diamond_count: usize,
+        scan: DiamondScan,
         created: Rows,
         unit_bytes: Vec<u64>,
         root_count: usize,
         root_bytes: u64,
     ) -> UnitTable {
-        let children = Rows::from_pairs(
-            diamonds.len(),
-            diamonds
-                .iter()
-                .enumerate()
-                .flat_map(|(i, d)| d.parents().iter().map(move |&p| (p, i as u32))),
-        );
-        let parents = Rows::from_pairs(
-            diamonds.len(),
-            diamonds
-                .iter()
-                .enumerate()
-                .flat_map(|(i, d)| d.parents().iter().map(move |&p| (i as u32, p))),
-        );
+        // Edges (parent, child) of the diamond DAG, visited from the child's record.
+        let edges = |child_major: bool| {
+            move |visit: &mut dyn FnMut(u32, u32)| {
+                scan(&mut |i, d| {
+                    for &p in d.parents() {
+                        if child_major {
+                            visit(i as u32, p);
+                        } else {
+                            visit(p, i as u32);
+                        }
+                    }
+                })
+            }
+        };
+        let children = Rows::from_scan(diamond_count, &edges(false));
+        let parents = Rows::from_scan(diamond_count, &edges(true));
+        let mut levels = vec![0u32; diamond_count];
+        scan(&mut |i, d| levels[i] = d.level);
         UnitTable {
             created,
             children,
             parents,
             unit_bytes,
-            levels: diamonds.iter().map(|d| d.level).collect(),
+            levels,
             root_bytes,
             roots: (0..root_count as u32).collect(),
         }
