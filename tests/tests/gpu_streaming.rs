@@ -322,6 +322,14 @@ fn the_pools_grow_from_one_page_as_units_land_and_every_frame_stays_exact() {
         ..options(1 << 30)
     };
     let mut rig = Rig::with_options(ctx, repo.clone(), options);
+    // The traversal's depth (found from the diamond table) is the tree's: every level from the
+    // roots' to the deepest simplex's.
+    let tets = repo.tets();
+    let roots = &tets[..repo.header().root_tet_count as usize];
+    let root_level = roots.iter().map(|t| t.level).min().unwrap();
+    let deepest = tets.iter().map(|t| t.level).max().unwrap();
+    assert_eq!(rig.renderer.model().depth_count, deepest - root_level + 1);
+    assert_eq!(rig.full.model().depth_count, deepest - root_level + 1);
     let start = rig.streamer.stats();
     let roots = repo.header().root_tet_count as u32;
     assert_eq!(start.pool_pages, 1, "{start:?}");
