@@ -294,30 +294,26 @@ impl Repository {
     /// Visits every tet record in order, dropping the pages of those visited from the
     /// resident set every `RELEASE_CHUNK` bytes (as opening does), so a pass over the whole
     /// directory holds about that much of it at a time whatever the model's size.
-    pub fn scan_tets(&self, mut visit: impl FnMut(usize, &TetRecord)) {
-        let per_chunk = RELEASE_CHUNK / TET_RECORD_SIZE;
-        for (k, chunk) in self.tets().chunks(per_chunk).enumerate() {
-            for (j, t) in chunk.iter().enumerate() {
-                visit(k * per_chunk + j, t);
-            }
-            let start = self.tets.start + k * per_chunk * TET_RECORD_SIZE;
-            self.storage
-                .release(start..start + std::mem::size_of_val(chunk));
-        }
+    pub fn scan_tets(&self, visit: impl FnMut(usize, &TetRecord)) {
+        self.scan_released(self.tets(), self.tets.start, visit);
     }
 
     /// Visits every diamond record in order, dropping each `RELEASE_CHUNK` of the table from
     /// the resident set behind the visit, as `scan_tets` does for the tet table.
-    pub fn scan_diamonds(&self, mut visit: impl FnMut(usize, &DiamondRecord)) {
-        let size = std::mem::size_of::<DiamondRecord>();
-        let per_chunk = RELEASE_CHUNK / size;
-        for (k, chunk) in self.diamonds().chunks(per_chunk).enumerate() {
-            for (j, d) in chunk.iter().enumerate() {
-                visit(k * per_chunk + j, d);
+    pub fn scan_diamonds(&self, visit: impl FnMut(usize, &DiamondRecord)) {
+        self.scan_released(self.diamonds(), self.diamonds.start, visit);
+    }
+
+    /// Visits `table` (at byte `start` of the file) in order, releasing each `RELEASE_CHUNK`
+    /// of its pages behind the visit.
+    fn scan_released<T>(&self, table: &[T], start: usize, mut visit: impl FnMut(usize, &T)) {
+        let per_chunk = (RELEASE_CHUNK / std::mem::size_of::<T>()).max(1);
+        for (k, chunk) in table.chunks(per_chunk).enumerate() {
+            for (j, record) in chunk.iter().enumerate() {
+                visit(k * per_chunk + j, record);
             }
-            let start = self.diamonds.start + k * per_chunk * size;
-            self.storage
-                .release(start..start + std::mem::size_of_val(chunk));
+            let at = start + k * per_chunk * std::mem::size_of::<T>();
+            self.storage.release(at..at + std::mem::size_of_val(chunk));
         }
     }
 

@@ -95,16 +95,9 @@ impl Renderer {
     ) -> Result<Renderer, RenderError> {
         super::target::check_target_size(&ctx.limits, options.width, options.height)?;
         let device = &ctx.device;
-        let buffer = |label: &str, size: u64, usage: wgpu::BufferUsages| {
-            device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some(label),
-                size: size.max(4).next_multiple_of(4),
-                usage,
-                mapped_at_creation: false,
-            })
-        };
         use wgpu::BufferUsages as U;
-        let uniforms = buffer(
+        let uniforms = bindings::buffer(
+            device,
             "frame uniforms",
             std::mem::size_of::<FrameUniforms>() as u64,
             U::UNIFORM | U::COPY_DST,

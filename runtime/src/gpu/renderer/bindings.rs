@@ -76,17 +76,25 @@ pub(super) struct SelectionBuffers {
     pub counts_read: wgpu::Buffer,
 }
 
+/// A buffer of at least `size` bytes, rounded up to a multiple of 4 (and at least 4).
+pub(super) fn buffer(
+    device: &wgpu::Device,
+    label: &str,
+    size: u64,
+    usage: wgpu::BufferUsages,
+) -> wgpu::Buffer {
+    device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label),
+        size: size.max(4).next_multiple_of(4),
+        usage,
+        mapped_at_creation: false,
+    })
+}
+
 impl SelectionBuffers {
     pub fn new(device: &wgpu::Device, model: &ResidentModel) -> SelectionBuffers {
         use wgpu::BufferUsages as U;
-        let buffer = |label: &str, size: u64, usage: wgpu::BufferUsages| {
-            device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some(label),
-                size: size.max(4).next_multiple_of(4),
-                usage,
-                mapped_at_creation: false,
-            })
-        };
+        let buffer = |label: &str, size: u64, usage: U| buffer(device, label, size, usage);
         let selected_bytes = model.entry_count.max(1) as u64 * ENTRY_BYTES;
         let counts_bytes = model.lists.len() as u64 * 4;
         let selected = buffer("selection lists", selected_bytes, U::STORAGE | U::COPY_SRC);
