@@ -376,6 +376,79 @@ fn the_pools_grow_from_one_page_as_units_land_and_every_frame_stays_exact() {
     );
 }
 
+/// Growth up to the layout the budget allows, then eviction within it: 64 KiB pages and a
+/// pool of a quarter of the armadillo's patches, so the pool grows page by page to its
+/// largest and the fly-in then streams under pressure across those pages (placements, space
+/// evictions and retired ranges in several pages). Every frame checked as above; the stream
+/// settles at the pause on a view that fits, with the unlimited cut.
+#[test]
+fn grown_pools_stream_under_pressure_across_their_pages() {
+    use tessera_runtime::gpu::stream_pool::PoolGrowth;
+    let (b, repo) = built("mesh/armadillo.off");
+    let ctx = gpu();
+    let growth = PoolGrowth {
+        page_bytes: 64 << 10,
+        first_slot_pairs: 16,
+    };
+    let with_growth = |budget_bytes| RendererOptions {
+        pool_growth: growth,
+        ..options(budget_bytes)
+    };
+    let attributes = repo.header().attributes;
+    let blob: u64 = repo
+        .tets()
+        .iter()
+        .map(|t| drawn_patch_bytes(t, attributes))
+        .sum();
+    let budget = tessera_tests::budget_for_pool(&ctx, &repo, with_growth, blob / 4);
+    let mut rig = Rig::with_options(ctx, repo.clone(), with_growth(budget));
+    let path = fly_in(&b.repo, 40);
+    for (i, &camera) in path.iter().enumerate() {
+        rig.frame(camera, &format!("fly-in frame {i}"));
+    }
+    let stats = rig.streamer.stats();
+    eprintln!("{stats:?}");
+    assert!(
+        stats.pool_pages >= 3,
+        "the pool should span pages: {stats:?}"
+    );
+    assert_eq!(
+        stats.gpu_bytes, stats.max_gpu_bytes,
+        "the pools should have grown to their largest: {stats:?}"
+    );
+    assert!(
+        rig.streamer.residency().stats().evictions > 0,
+        "no pressure: {stats:?}"
+    );
+    let fits = rig.streamer.residency().budget_bytes();
+    let fits_records = rig.streamer.residency().budget_records();
+    let pause = *path
+        .iter()
+        .rev()
+        .find(|c| {
+            let (bytes, records) = working_set_and_records(&repo, c);
+            bytes <= fits && records <= fits_records
+        })
+        .expect("some view of the path fits");
+    let mut settled = None;
+    for i in 0..300 {
+        let (done, _, selection) = rig.frame(pause, &format!("paused frame {i}"));
+        if done {
+            settled = Some(selection);
+            break;
+        }
+    }
+    let settled = settled.expect("the stream settles within 300 frames");
+    let eye = pause.eye_local(repo.header().origin);
+    let rhos = diamond_rhos(repo.diamonds(), eye, &pause.metric());
+    let cull = check_request(pause).cull;
+    let unlimited = drawn(&repo, &select_visible(repo.tets(), &rhos, TAU, eye, &cull));
+    assert_eq!(
+        settled, unlimited,
+        "the settled frame is not the unlimited one"
+    );
+}
+
 #[test]
 fn a_paused_camera_at_half_its_working_set_stops_loading() {
     let (b, repo) = built("mesh/armadillo.off");
