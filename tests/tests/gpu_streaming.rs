@@ -304,8 +304,8 @@ fn streaming_at_a_quarter_of_the_repository_draws_the_cpu_reference_every_frame(
 
 /// The pools start with one page and a few record slots whatever the budget, and grow as
 /// units land (`gpu/streamer/growth.rs`): the records are copied into larger buffers, new pages
-/// and lists appear, every bind group is remade. Forced here with 64 KiB pages and 16 slot
-/// pairs at first, under a budget that holds the whole model: every frame of the fly-in is
+/// and lists appear, every bind group is remade. Forced here with 64 KiB pages (raised to
+/// twice the largest unit: about 124 KB here) and 16 slot pairs at first, under a budget that holds the whole model: every frame of the fly-in is
 /// still checked (the CPU reference's selection, the fully resident image, no flag pixel), the
 /// pools grow several times, and the settled cut is the unlimited one.
 #[test]
@@ -355,10 +355,10 @@ fn the_pools_grow_from_one_page_as_units_land_and_every_frame_stays_exact() {
     let end = rig.streamer.stats();
     eprintln!("start {start:?}\nend {end:?}");
     assert!(
-        end.pool_pages > 4 && end.record_slots > 4 * start.record_slots,
+        end.pool_pages >= 3 && end.record_slots > 4 * start.record_slots,
         "pages and slots should have grown several times: {end:?}"
     );
-    assert!(end.pool_growths >= 4, "{end:?}");
+    assert!(end.pool_growths >= 3, "{end:?}");
     assert!(end.gpu_bytes <= end.max_gpu_bytes, "{end:?}");
     assert_eq!(
         rig.streamer.residency().stats().evictions,
@@ -376,7 +376,7 @@ fn the_pools_grow_from_one_page_as_units_land_and_every_frame_stays_exact() {
     );
 }
 
-/// Growth up to the layout the budget allows, then eviction within it: 64 KiB pages and a
+/// Growth up to the layout the budget allows, then eviction within it: small pages and a
 /// pool of a quarter of the armadillo's patches, so the pool grows page by page to its
 /// largest and the fly-in then streams under pressure across those pages (placements, space
 /// evictions and retired ranges in several pages). Every frame checked as above; the stream
@@ -409,7 +409,7 @@ fn grown_pools_stream_under_pressure_across_their_pages() {
     let stats = rig.streamer.stats();
     eprintln!("{stats:?}");
     assert!(
-        stats.pool_pages >= 3,
+        stats.pool_pages >= 2,
         "the pool should span pages: {stats:?}"
     );
     assert_eq!(

@@ -178,8 +178,10 @@ pub fn fixed_bytes(
     let base = base_bytes(ctx, repo, options);
     let roots = repo.header().root_tet_count;
     let needs = model_needs(repo);
-    // Pages as the pool grows by them, never smaller than a unit.
-    let page_cap = options.pool_growth.page_bytes.max(largest_unit);
+    // Pages as the pool grows by them, never smaller than a unit: `PoolLayout::new` divides
+    // the pool evenly into pages of at most the cap, each then over half the cap (two or more
+    // pages) or the whole pool (one), so a cap over twice the largest unit fits every unit.
+    let page_cap = options.pool_growth.page_bytes.max(2 * largest_unit + 16);
     let (all_bytes, all_slots) = (needs.bytes, needs.simplices);
     let rest = options.budget_bytes.saturating_sub(base);
     // A slot per `bytes_per_slot` of the residency's 7/8 of the pages.

@@ -185,8 +185,8 @@ impl PoolAllocator {
 
 /// Largest page of a streaming pool: the pool is allocated a page at a time as units need
 /// room (`grow_model`), so a view that needs little allocates little whatever the budget; the
-/// pages are this size (or the largest unit, where larger) or one storage binding, whichever
-/// is smaller. Fewer, larger pages would save a draw and a compaction workgroup each per
+/// pages are this size (or twice the largest unit, where larger: `stream_budget`) or one
+/// storage binding, whichever is smaller. Fewer, larger pages would save a draw and a compaction workgroup each per
 /// frame, but allocate in larger steps: the first page is what the roots alone cost.
 pub const GROWTH_PAGE_BYTES: u64 = 8 << 20;
 
@@ -515,5 +515,9 @@ mod tests {
         );
         let big = PoolLayout::new(sizes, 1 << 30, 128 << 20, 1 << 40, 1 << 20);
         assert_eq!((big.pages, big.page_bytes), (8, 128 << 20));
+        // An even division leaves every page over half the cap: 1.5 caps make two pages of
+        // 0.75 cap (why the budget's cap is twice the largest unit).
+        let split = PoolLayout::new(sizes, 12 << 20, 128 << 20, 8 << 20, 1 << 20);
+        assert_eq!((split.pages, split.page_bytes), (2, 6 << 20));
     }
 }
