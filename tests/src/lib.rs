@@ -62,6 +62,16 @@ pub fn check_pixels_small(
     check_pixels(ctx, &mut renderer, repo, &config).expect("the GPU device works")
 }
 
+/// Bytes of every patch of `repo` as drawn on the GPU (decoded), summed: what a pool that
+/// holds the whole model needs, before alignment.
+pub fn drawn_blob_bytes(repo: &Repository) -> u64 {
+    let attributes = repo.header().attributes;
+    repo.tets()
+        .iter()
+        .map(|t| tessera_core::repository::patch::drawn_patch_bytes(t, attributes))
+        .sum()
+}
+
 /// The smallest GPU budget (to 1 KiB) whose page pool holds `pool` bytes for renderers made
 /// with `options(budget)`: the fixed allocations and the record slots (which take the model's
 /// share of the rest) come on top.

@@ -8,7 +8,6 @@
 use std::sync::Arc;
 
 use tessera_core::repository::format::Header;
-use tessera_core::repository::patch::drawn_patch_bytes;
 use tessera_core::repository::Repository;
 use tessera_preprocess::import::load_mesh;
 use tessera_preprocess::BuildConfig;
@@ -168,12 +167,7 @@ fn a_streamed_frozen_cut_loads_nothing_for_the_draw_camera() {
     let repo = Arc::new(Repository::open(built.dir.path().join("model.tsr")).expect("reopen"));
     let (camera, draw) = cameras(repo.header());
     let ctx = gpu();
-    let attributes = repo.header().attributes;
-    let blob: u64 = repo
-        .tets()
-        .iter()
-        .map(|t| drawn_patch_bytes(t, attributes))
-        .sum();
+    let blob = tessera_tests::drawn_blob_bytes(&repo);
     let budget = budget_for_pool(&ctx, &repo, blob / 2);
     let (mut renderer, mut streamer) =
         GpuStreamer::new(&ctx, repo.clone(), options(budget), 256 << 10).expect("streamer");

@@ -135,6 +135,27 @@ fn drawn(repo: &Repository, selection: &[u32]) -> Vec<u32> {
     s
 }
 
+/// The drawn patches of the unlimited cut at `camera` (every unit resident), as the check
+/// frames cull.
+fn unlimited_cut(repo: &Repository, camera: Camera) -> Vec<u32> {
+    let eye = camera.eye_local(repo.header().origin);
+    let rhos = diamond_rhos(repo.diamonds(), eye, &camera.metric());
+    let cull = check_request(camera).cull;
+    drawn(repo, &select_visible(repo.tets(), &rhos, TAU, eye, &cull))
+}
+
+/// The streaming pools grown from small pages and 16 slot pairs (`PoolGrowth`), so that the
+/// armadillo's stream grows them several times.
+fn small_growth_options(budget_bytes: u64) -> RendererOptions {
+    RendererOptions {
+        pool_growth: tessera_runtime::gpu::stream_pool::PoolGrowth {
+            page_bytes: 64 << 10,
+            first_slot_pairs: 16,
+        },
+        ..options(budget_bytes)
+    }
+}
+
 /// A streaming renderer, the fully resident one and the budget they are checked against.
 struct Rig {
     ctx: GpuContext,
@@ -164,6 +185,19 @@ impl Rig {
             streamer,
             budget,
         }
+    }
+
+    /// Checked frames at `camera` until the stream settles (at most `frames`); the settled
+    /// frame's selection.
+    fn settle(&mut self, camera: Camera, frames: usize) -> Vec<u32> {
+        for i in 0..frames {
+            let (done, _, selection) = self.frame(camera, &format!("paused frame {i}"));
+            if done {
+                eprintln!("settled after {} paused frames", i + 1);
+                return selection;
+            }
+        }
+        panic!("the stream did not settle within {frames} frames");
     }
 
     /// One checked frame: GPU selection = the CPU reference for the same flags, no flag
@@ -234,12 +268,7 @@ impl Rig {
 fn streaming_at_a_quarter_of_the_repository_draws_the_cpu_reference_every_frame() {
     let (b, repo) = built("mesh/armadillo.off");
     let ctx = gpu();
-    let attributes = repo.header().attributes;
-    let blob: u64 = repo
-        .tets()
-        .iter()
-        .map(|t| drawn_patch_bytes(t, attributes))
-        .sum();
+    let blob = tessera_tests::drawn_blob_bytes(&repo);
     // The pool holds a quarter of the repository's patches (the fixed allocations — tables,
     // lists, the 240 × 160 target — come on top: at this size they are most of the budget).
     let budget = budget_for_pool(&ctx, &repo, blob / 4);
@@ -278,24 +307,12 @@ fn streaming_at_a_quarter_of_the_repository_draws_the_cpu_reference_every_frame(
         working_set_and_records(&repo, &pause),
         rig.streamer.stats()
     );
-    let mut settled = None;
-    for i in 0..200 {
-        let (done, _, selection) = rig.frame(pause, &format!("paused frame {i}"));
-        if done {
-            eprintln!("settled after {} paused frames", i + 1);
-            settled = Some(selection);
-            break;
-        }
-    }
-    let settled = settled.expect("the stream settles within 200 frames");
+    let settled = rig.settle(pause, 200);
     let fed = rig.streamer.stats().feedback_frames;
     // All but a frame or two of the 40-frame fly-in and the pause (feedback comes a frame or
     // two late).
     assert!(fed >= 38, "GPU feedback read back for {fed} frames");
-    let eye = pause.eye_local(repo.header().origin);
-    let rhos = diamond_rhos(repo.diamonds(), eye, &pause.metric());
-    let cull = check_request(pause).cull;
-    let unlimited = drawn(&repo, &select_visible(repo.tets(), &rhos, TAU, eye, &cull));
+    let unlimited = unlimited_cut(&repo, pause);
     assert_eq!(
         settled, unlimited,
         "the settled frame is not the unlimited one"
@@ -310,18 +327,9 @@ fn streaming_at_a_quarter_of_the_repository_draws_the_cpu_reference_every_frame(
 /// pools grow several times, and the settled cut is the unlimited one.
 #[test]
 fn the_pools_grow_from_one_page_as_units_land_and_every_frame_stays_exact() {
-    use tessera_runtime::gpu::stream_pool::PoolGrowth;
     let (b, repo) = built("mesh/armadillo.off");
     let ctx = gpu();
-    let growth = PoolGrowth {
-        page_bytes: 64 << 10,
-        first_slot_pairs: 16,
-    };
-    let options = RendererOptions {
-        pool_growth: growth,
-        ..options(1 << 30)
-    };
-    let mut rig = Rig::with_options(ctx, repo.clone(), options);
+    let mut rig = Rig::with_options(ctx, repo.clone(), small_growth_options(1 << 30));
     // The traversal's depth (found from the diamond table) is the tree's: every level from the
     // roots' to the deepest simplex's.
     let tets = repo.tets();
@@ -343,15 +351,7 @@ fn the_pools_grow_from_one_page_as_units_land_and_every_frame_stays_exact() {
     for (i, &camera) in path.iter().enumerate() {
         rig.frame(camera, &format!("fly-in frame {i}"));
     }
-    let mut settled = None;
-    for i in 0..200 {
-        let (done, _, selection) = rig.frame(path[39], &format!("paused frame {i}"));
-        if done {
-            settled = Some(selection);
-            break;
-        }
-    }
-    let settled = settled.expect("the stream settles within 200 frames");
+    let settled = rig.settle(path[39], 200);
     let end = rig.streamer.stats();
     eprintln!("start {start:?}\nend {end:?}");
     assert!(
@@ -365,11 +365,7 @@ fn the_pools_grow_from_one_page_as_units_land_and_every_frame_stays_exact() {
         0,
         "nothing to evict"
     );
-    let camera = path[39];
-    let eye = camera.eye_local(repo.header().origin);
-    let rhos = diamond_rhos(repo.diamonds(), eye, &camera.metric());
-    let cull = check_request(camera).cull;
-    let unlimited = drawn(&repo, &select_visible(repo.tets(), &rhos, TAU, eye, &cull));
+    let unlimited = unlimited_cut(&repo, path[39]);
     assert_eq!(
         settled, unlimited,
         "the settled frame is not the unlimited one"
@@ -383,25 +379,11 @@ fn the_pools_grow_from_one_page_as_units_land_and_every_frame_stays_exact() {
 /// settles at the pause on a view that fits, with the unlimited cut.
 #[test]
 fn grown_pools_stream_under_pressure_across_their_pages() {
-    use tessera_runtime::gpu::stream_pool::PoolGrowth;
     let (b, repo) = built("mesh/armadillo.off");
     let ctx = gpu();
-    let growth = PoolGrowth {
-        page_bytes: 64 << 10,
-        first_slot_pairs: 16,
-    };
-    let with_growth = |budget_bytes| RendererOptions {
-        pool_growth: growth,
-        ..options(budget_bytes)
-    };
-    let attributes = repo.header().attributes;
-    let blob: u64 = repo
-        .tets()
-        .iter()
-        .map(|t| drawn_patch_bytes(t, attributes))
-        .sum();
-    let budget = tessera_tests::budget_for_pool(&ctx, &repo, with_growth, blob / 4);
-    let mut rig = Rig::with_options(ctx, repo.clone(), with_growth(budget));
+    let blob = tessera_tests::drawn_blob_bytes(&repo);
+    let budget = tessera_tests::budget_for_pool(&ctx, &repo, small_growth_options, blob / 4);
+    let mut rig = Rig::with_options(ctx, repo.clone(), small_growth_options(budget));
     let path = fly_in(&b.repo, 40);
     for (i, &camera) in path.iter().enumerate() {
         rig.frame(camera, &format!("fly-in frame {i}"));
@@ -430,19 +412,8 @@ fn grown_pools_stream_under_pressure_across_their_pages() {
             bytes <= fits && records <= fits_records
         })
         .expect("some view of the path fits");
-    let mut settled = None;
-    for i in 0..300 {
-        let (done, _, selection) = rig.frame(pause, &format!("paused frame {i}"));
-        if done {
-            settled = Some(selection);
-            break;
-        }
-    }
-    let settled = settled.expect("the stream settles within 300 frames");
-    let eye = pause.eye_local(repo.header().origin);
-    let rhos = diamond_rhos(repo.diamonds(), eye, &pause.metric());
-    let cull = check_request(pause).cull;
-    let unlimited = drawn(&repo, &select_visible(repo.tets(), &rhos, TAU, eye, &cull));
+    let settled = rig.settle(pause, 300);
+    let unlimited = unlimited_cut(&repo, pause);
     assert_eq!(
         settled, unlimited,
         "the settled frame is not the unlimited one"
