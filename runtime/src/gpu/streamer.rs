@@ -19,7 +19,7 @@
 //!
 //! The roots are placed at creation and pinned, their records in slots `0..root_count`. No
 //! GPU buffer and no CPU table here is sized by the model's simplex count; per diamond, the
-//! CPU keeps the residency's state (`stream::residency`) and `placed`.
+//! CPU keeps the residency's state (`stream::residency`); `placed` holds the placed units only.
 
 use std::collections::{BTreeMap, HashMap, VecDeque};
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -59,8 +59,8 @@ pub fn feedback_capacity(tets: usize, width: u32, height: u32, limits: &wgpu::Li
 /// Whether unit `u` fits one empty page of the pool: its patches, each 8-aligned as the
 /// loader lays them out, within the page's bytes, and its non-empty patches within the page's
 /// selection list. Decided from the unit table's sizes where they settle it (nearly always:
-/// the pages are at least the largest unit, `stream_pool::PatchSizes::largest_unit`), so that
-/// opening does not read every record through the map.
+/// the pages are made over the largest unit, `stream_budget::fixed_bytes`), so that opening
+/// does not read every record through the map.
 fn fits_a_page(
     repo: &Repository,
     units: &UnitTable,
