@@ -723,14 +723,30 @@ fn bench_trade_off_measures_ours_and_the_peers() {
     check_rows("ours", &v["rows"]);
     // The metric is stated, and every row keeps its sample count.
     assert_eq!(v["metric"]["distance"], "euclidean");
-    assert_eq!(v["metric"]["sides"], "cut_to_original");
-    assert_eq!(v["metric"]["visible_only"], false);
+    assert_eq!(v["metric"]["sides"], "two-sided");
+    assert_eq!(v["metric"]["visible_only"], true);
     assert_eq!(v["metric"]["image_pixels"], "model");
-    assert!(v["rows"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .all(|r| r["error_samples"].as_u64().unwrap() > 0));
+    for r in v["rows"].as_array().unwrap() {
+        // Both directions measured; the pooled columns are theirs together.
+        let side = |key: &str, field: &str| r[key][field].as_f64().unwrap();
+        let (forward, backward) = (
+            side("error_to_original", "samples"),
+            side("error_to_cut", "samples"),
+        );
+        assert!(forward > 0.0 && backward > 0.0, "{r}");
+        assert_eq!(r["error_samples"].as_f64(), Some(forward + backward), "{r}");
+        let max = r["error_max_px"].as_f64().unwrap();
+        assert_eq!(
+            max,
+            side("error_to_original", "max_px").max(side("error_to_cut", "max_px")),
+            "{r}"
+        );
+        // A closed mesh seen from outside hides at least half of itself (a convex one
+        // exactly half, from afar): hidden samples are counted, not measured.
+        let hidden = r["hidden_samples"].as_f64().unwrap();
+        let share = hidden / (hidden + forward + backward);
+        assert!((0.45..0.85).contains(&share), "{share}: {r}");
+    }
     let peers = v["peers"].as_object().unwrap();
     for name in ["full_resolution", "discrete_lod", "cluster_dag"] {
         check_rows(name, &peers[name]);
@@ -749,6 +765,14 @@ fn bench_trade_off_measures_ours_and_the_peers() {
     assert_eq!(v["discrete_lod_levels"].as_array().unwrap().len(), 4);
     assert!(v["cluster_dag"]["clusters"].as_u64().unwrap() > 0);
     assert_eq!(v["verdict"].as_array().unwrap().len(), 3);
+    // At equal max error too, each level one of our rows' pooled max.
+    let at_max = v["verdict_max"].as_array().unwrap();
+    assert_eq!(at_max.len(), 3, "{v}");
+    for (level, row) in at_max.iter().zip(ours) {
+        assert_eq!(level["statistic"], "max");
+        assert_eq!(level["error_max_px"], row["error_max_px"], "{level}");
+        assert!(level["triangles"]["cluster_dag"]["value"].as_f64().unwrap() > 0.0);
+    }
     for name in [
         "triangles_vs_tau.png",
         "error_vs_tau.png",

@@ -1,21 +1,25 @@
-//! The measured geometric error of a frame, in pixels.
+//! The measured geometric error of a frame, in pixels, both ways.
 //!
-//! 1. Sample: `SamplingConfig::samples_per_view` points on the drawn surface, area-weighted
-//!    (a triangle by its area in the CDF, a point in it by uniform barycentrics), from a fixed
+//! 1. Sample: `SamplingConfig::samples_per_view` points on a surface, area-weighted (a
+//!    triangle by its area in the CDF, a point in it by uniform barycentrics), from a fixed
 //!    seed: the same surface gives the same samples on every run and machine.
-//! 2. Project: each sample's depth along the view direction; samples behind the eye, nearer
-//!    than the near plane or outside the four side planes of the frustum are skipped (they
-//!    are not on screen).
-//! 3. Measure: the exact distance d to the original mesh (`ReferenceMesh`), in pixels at the
-//!    sample's depth: d · K / depth, K = height / (2·tan(fovy/2)) — the same K as ρ, so a
-//!    measured error is comparable with τ.
+//! 2. Keep what the eye sees: samples behind the eye, nearer than the near plane or outside
+//!    the four side planes of the frustum are off screen; samples another part of their own
+//!    surface hides (`visibility.rs`, a segment cast from the eye) are hidden. Both are
+//!    counted and skipped.
+//! 3. Measure: the exact distance d to the other surface (`ReferenceMesh`), in pixels at the
+//!    sample's Euclidean distance from the eye as the run-time rule projects an error:
+//!    d · K / |p − eye|, K = height / (2·tan(fovy/2)) — the same K as ρ, so a measured error
+//!    is comparable with τ.
 //!
-//! The distance is one-sided (drawn → original): it says how far what is drawn strays, not
-//! whether some part of the original is missing (a hole would show in `image_diff`).
+//! Two-sided (`two_sided_errors`): the visible samples of the drawn cut against the original
+//! (how far what is drawn strays) and the visible samples of the original against the drawn
+//! cut (what the cut lost: a hole, a flattened feature, a closed gap). The pair's pooled
+//! maximum is a sampled lower bound of the visible two-sided (Hausdorff) distance in pixels.
 
 use rayon::prelude::*;
 
-use super::nearest::ReferenceMesh;
+use super::nearest::{MeshError, ReferenceMesh};
 use crate::camera::Camera;
 use crate::vec3::{cross, dot, length, sub};
 
@@ -46,13 +50,52 @@ impl Default for SamplingConfig {
     }
 }
 
-/// One view's measured samples.
+/// One view's measured samples, one direction.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct ViewErrors {
-    /// Error of every on-screen sample, pixels, in sample order.
+    /// Error of every visible sample, pixels, in sample order.
     pub errors_px: Vec<f64>,
     /// Samples skipped as off-screen (behind the eye, before the near plane, outside a side).
     pub skipped: usize,
+    /// On-screen samples skipped as hidden by their own surface.
+    pub hidden: usize,
+}
+
+/// One view's measured samples both ways.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct TwoSidedErrors {
+    /// Samples of the drawn cut, distance to the original.
+    pub to_original: ViewErrors,
+    /// Samples of the original, distance to the drawn cut (infinite where nothing is drawn).
+    pub to_cut: ViewErrors,
+}
+
+/// The samples of a surface the eye sees, with each one's pixels per unit of distance.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct VisibleSamples {
+    pub points: Vec<[f64; 3]>,
+    /// K / |p − eye| per point: a distance d at the point is d · scale pixels.
+    pub pixels_per_unit: Vec<f64>,
+    /// Off screen (see `ViewErrors::skipped`).
+    pub skipped: usize,
+    /// Hidden by the surface itself.
+    pub hidden: usize,
+}
+
+impl VisibleSamples {
+    /// Each sample's distance to `other`, in pixels.
+    pub fn errors_to(&self, other: &ReferenceMesh) -> ViewErrors {
+        ViewErrors {
+            errors_px: self
+                .points
+                .par_iter()
+                .zip(&self.pixels_per_unit)
+                .map(|(&p, &scale)| other.distance(p) * scale)
+                .collect(),
+            skipped: self.skipped,
+            hidden: self.hidden,
+        }
+    }
 }
 
 /// Max, 99th percentile (nearest rank) and mean of pooled pixel errors.
@@ -133,31 +176,25 @@ fn sample_surface(surface: Surface<'_>, count: usize, seed: u64) -> Vec<[f64; 3]
         .collect()
 }
 
-/// The measured error of one view: samples on `surface` (positions relative to `origin`, the
-/// reference mesh's frame), each one's distance to `reference` in pixels of `camera`, at the
-/// sample's Euclidean distance from the eye as the run-time rule projects (samples outside
-/// the view frustum skipped).
+/// The samples of `mesh`'s own surface that `camera` sees: on screen (inside the view
+/// frustum) and not hidden by `mesh` (`ReferenceMesh::hides`). Positions are relative to
+/// `origin`, the mesh's frame.
 ///
-/// - `surface`: every index in range (panics otherwise);
-/// - `camera`: its `height` and `fov_y_degrees` give K; `near` and the side planes the
-///   frustum test;
-/// - `origin`: the model-space point the surface and the reference are relative to.
-///
-/// Cost: `samples_per_view` BVH queries, spread over rayon's threads.
-pub fn pixel_errors(
-    reference: &ReferenceMesh,
-    surface: Surface<'_>,
+/// Cost: `samples_per_view` segment casts, spread over rayon's threads.
+pub fn visible_samples(
+    mesh: &ReferenceMesh,
     camera: &Camera,
     origin: [f64; 3],
     config: &SamplingConfig,
-) -> ViewErrors {
-    let samples = sample_surface(surface, config.samples_per_view, config.seed);
+) -> VisibleSamples {
+    let samples = sample_surface(mesh.surface(), config.samples_per_view, config.seed);
     let basis = camera.basis();
     let eye = sub(camera.eye, origin);
     let tan_y = (0.5 * camera.fov_y_degrees.to_radians()).tan();
     let tan_x = tan_y * camera.aspect();
     let k = camera.height as f64 / (2.0 * tan_y);
-    let errors: Vec<Option<f64>> = samples
+    // None: off screen; Some(None): hidden; Some(Some(scale)): seen.
+    let seen: Vec<Option<Option<f64>>> = samples
         .par_iter()
         .map(|&p| {
             let d = sub(p, eye);
@@ -168,13 +205,64 @@ pub fn pixel_errors(
                 && dot(d, basis.up).abs() <= depth * tan_y;
             // Projected as the run-time rule projects an error: over the Euclidean distance
             // to the eye (ρ = error · K / |c − eye|), not the depth along the view axis.
-            on_screen.then(|| reference.distance(p) * k / length(d))
+            on_screen.then(|| (!mesh.hides(eye, p)).then(|| k / length(d)))
         })
         .collect();
-    let skipped = errors.iter().filter(|e| e.is_none()).count();
-    ViewErrors {
-        errors_px: errors.into_iter().flatten().collect(),
-        skipped,
+    let mut out = VisibleSamples::default();
+    for (p, s) in samples.into_iter().zip(seen) {
+        match s {
+            None => out.skipped += 1,
+            Some(None) => out.hidden += 1,
+            Some(Some(scale)) => {
+                out.points.push(p);
+                out.pixels_per_unit.push(scale);
+            }
+        }
+    }
+    out
+}
+
+/// The measured error of one view, both ways: the visible samples of `drawn` (the surface a
+/// frame drew, positions relative to `origin`) against `reference`, and `original`
+/// (`visible_samples` of the reference for the same camera, computed once per view and shared
+/// by every cut measured from it) against `drawn`.
+///
+/// Errors: `drawn` with a non-finite position or an index out of range. A drawn surface with
+/// no triangle has no samples, and every original sample is infinitely far from it.
+/// Cost: a BVH over `drawn` (O(n log n)), then `samples_per_view` segment casts and
+/// 2 · `samples_per_view` distance queries.
+pub fn two_sided_errors(
+    reference: &ReferenceMesh,
+    original: &VisibleSamples,
+    drawn: Surface<'_>,
+    camera: &Camera,
+    origin: [f64; 3],
+    config: &SamplingConfig,
+) -> Result<TwoSidedErrors, MeshError> {
+    if drawn.triangles.is_empty() {
+        return Ok(TwoSidedErrors {
+            to_original: ViewErrors::default(),
+            to_cut: ViewErrors {
+                errors_px: vec![f64::INFINITY; original.points.len()],
+                skipped: original.skipped,
+                hidden: original.hidden,
+            },
+        });
+    }
+    let drawn = ReferenceMesh::new(drawn.positions.to_vec(), drawn.triangles.to_vec())?;
+    let seen = visible_samples(&drawn, camera, origin, config);
+    Ok(TwoSidedErrors {
+        to_original: seen.errors_to(reference),
+        to_cut: original.errors_to(&drawn),
+    })
+}
+
+/// The seed of the original's samples for a view whose cut samples use `config.seed`: a
+/// different stream, so the two directions never sample the same barycentrics.
+pub fn original_sampling(config: &SamplingConfig) -> SamplingConfig {
+    SamplingConfig {
+        seed: config.seed.rotate_left(32) ^ 0x0419_1a15,
+        ..*config
     }
 }
 
@@ -219,6 +307,19 @@ mod tests {
         }
     }
 
+    /// The visible samples of `surface` against `reference` (one direction).
+    fn pixel_errors(
+        reference: &ReferenceMesh,
+        surface: Surface<'_>,
+        camera: &Camera,
+        origin: [f64; 3],
+        config: &SamplingConfig,
+    ) -> ViewErrors {
+        let drawn =
+            ReferenceMesh::new(surface.positions.to_vec(), surface.triangles.to_vec()).unwrap();
+        visible_samples(&drawn, camera, origin, config).errors_to(reference)
+    }
+
     #[test]
     fn samples_of_the_original_have_no_error() {
         let (positions, triangles) = square(1.0, 0.0, 8);
@@ -228,7 +329,8 @@ mod tests {
             triangles: &triangles,
         };
         let v = pixel_errors(&reference, surface, &camera(3.0), [0.0; 3], &config(2000));
-        assert_eq!(v.errors_px.len() + v.skipped, 2000);
+        assert_eq!(v.errors_px.len() + v.skipped + v.hidden, 2000);
+        assert_eq!(v.hidden, 0, "a flat square hides nothing of itself");
         assert!(v.errors_px.len() > 1500, "the square fills the view centre");
         let s = ErrorSummary::of(&v.errors_px).unwrap();
         assert!(s.max_px < 1e-9, "{s:?}");
@@ -299,6 +401,129 @@ mod tests {
         // Very close: most of the square is outside the side planes.
         let near = pixel_errors(&reference, surface, &camera(0.2), [0.0; 3], &config(1000));
         assert!(near.skipped > 800 && !near.errors_px.is_empty(), "{near:?}");
+    }
+
+    /// Two parallel squares seen from above: the lower one's samples are hidden, and only the
+    /// upper one's are measured.
+    #[test]
+    fn hidden_samples_are_counted_and_skipped() {
+        let (mut positions, mut triangles) = square(1.0, 0.0, 4);
+        let (lower, lower_triangles) = square(1.0, -0.5, 4);
+        let base = positions.len() as u32;
+        positions.extend(lower);
+        triangles.extend(lower_triangles.iter().map(|t| t.map(|v| v + base)));
+        let reference = ReferenceMesh::new(positions.clone(), triangles.clone()).unwrap();
+        // Seen from straight above, far enough for the whole of both to be on screen.
+        let cam = camera(6.0);
+        let seen = visible_samples(&reference, &cam, [0.0; 3], &config(4000));
+        assert_eq!(seen.skipped, 0);
+        assert_eq!(seen.points.len() + seen.hidden, 4000);
+        // Half the area is the lower square; from straight above all of it is hidden.
+        let share = seen.hidden as f64 / 4000.0;
+        assert!((share - 0.5).abs() < 0.04, "{share}");
+        assert!(
+            seen.points.iter().all(|p| p[2] == 0.0),
+            "only the upper square is seen"
+        );
+    }
+
+    /// A sphere seen from distance D: the eye sees the cap within the tangent cone, a share
+    /// (1 − 1/D)/2 of the area (an icosphere, four subdivisions, is close enough).
+    #[test]
+    fn a_sphere_shows_the_cap_its_tangent_cone_sees() {
+        let (mut positions, mut triangles) = (
+            vec![
+                [1.0, 0.0, 0.0],
+                [-1.0, 0.0, 0.0],
+                [0.0, 1.0, 0.0],
+                [0.0, -1.0, 0.0],
+                [0.0, 0.0, 1.0],
+                [0.0, 0.0, -1.0],
+            ],
+            vec![
+                [0, 2, 4],
+                [2, 1, 4],
+                [1, 3, 4],
+                [3, 0, 4],
+                [2, 0, 5],
+                [1, 2, 5],
+                [3, 1, 5],
+                [0, 3, 5],
+            ],
+        );
+        for _ in 0..5 {
+            let mut next = Vec::new();
+            let mut middle = std::collections::HashMap::new();
+            let mut mid = |a: u32, b: u32, positions: &mut Vec<[f64; 3]>| {
+                *middle.entry((a.min(b), a.max(b))).or_insert_with(|| {
+                    let m: [f64; 3] =
+                        [0, 1, 2].map(|i| positions[a as usize][i] + positions[b as usize][i]);
+                    let l = length(m);
+                    positions.push(m.map(|x| x / l));
+                    positions.len() as u32 - 1
+                })
+            };
+            for [a, b, c] in triangles {
+                let (ab, bc, ca) = (
+                    mid(a, b, &mut positions),
+                    mid(b, c, &mut positions),
+                    mid(c, a, &mut positions),
+                );
+                next.extend([[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]]);
+            }
+            triangles = next;
+        }
+        let sphere = ReferenceMesh::new(positions, triangles).unwrap();
+        let seen = visible_samples(&sphere, &camera(10.0), [0.0; 3], &config(8000));
+        assert_eq!(seen.skipped, 0, "the whole sphere is on screen");
+        let share = seen.points.len() as f64 / 8000.0;
+        assert!((share - 0.45).abs() < 0.02, "{share}");
+        // Every seen sample faces the eye.
+        assert!(
+            seen.points.iter().all(|p| p[2] > 0.09),
+            "behind the tangent circle"
+        );
+    }
+
+    /// A cut with a hole: its own samples are all on the original (0 px), but the original's
+    /// samples in the hole are far from the cut — what a one-sided metric cannot see.
+    #[test]
+    fn the_two_sided_error_sees_a_hole() {
+        let (positions, triangles) = square(1.0, 0.0, 8);
+        let reference = ReferenceMesh::new(positions.clone(), triangles.clone()).unwrap();
+        // Drop the triangles of the quadrant x > 0, y > 0.
+        let holed: Vec<[u32; 3]> = triangles
+            .iter()
+            .copied()
+            .filter(|t| {
+                !t.iter()
+                    .all(|&v| positions[v as usize][0] >= 0.0 && positions[v as usize][1] >= 0.0)
+            })
+            .collect();
+        assert!(holed.len() < triangles.len());
+        let cam = camera(3.0);
+        let cfg = config(3000);
+        let original = visible_samples(&reference, &cam, [0.0; 3], &original_sampling(&cfg));
+        let drawn = Surface {
+            positions: &positions,
+            triangles: &holed,
+        };
+        let e = two_sided_errors(&reference, &original, drawn, &cam, [0.0; 3], &cfg).unwrap();
+        let forward = ErrorSummary::of(&e.to_original.errors_px).unwrap();
+        assert!(forward.max_px < 1e-9, "{forward:?}");
+        let backward = ErrorSummary::of(&e.to_cut.errors_px).unwrap();
+        // The hole's centre (0.5, 0.5) is 0.5 from the cut: 0.5 · K / ~3 pixels.
+        let k = 480.0 / (2.0 * (30f64).to_radians().tan());
+        assert!(backward.max_px > 0.4 * k / 3.1, "{backward:?}");
+        // Nothing drawn: every visible original sample is infinitely far.
+        let empty = Surface {
+            positions: &positions,
+            triangles: &[],
+        };
+        let e = two_sided_errors(&reference, &original, empty, &cam, [0.0; 3], &cfg).unwrap();
+        assert!(e.to_original.errors_px.is_empty());
+        assert_eq!(e.to_cut.errors_px.len(), original.points.len());
+        assert!(e.to_cut.errors_px.iter().all(|x| x.is_infinite()));
     }
 
     #[test]

@@ -7,9 +7,12 @@
 //!   the simplices the GPU selected, or any triangle list a peer renderer drew;
 //! - `nearest`: the original mesh in a BVH (`obvhs`), and the exact closest distance from a
 //!   point to it;
-//! - `geometric_error`: area-weighted, deterministic samples on the drawn surface, each one's
-//!   distance to the original mesh converted to pixels at its depth (d · K / depth), and
-//!   the summary (max, p99, mean) over every sample of every view;
+//! - `geometric_error`: area-weighted, deterministic samples, both ways (the drawn surface
+//!   against the original, the original against the drawn surface), only those the eye sees,
+//!   each one's distance converted to pixels at its distance from the eye (d · K / |p − eye|),
+//!   and the summary (max, p99, mean, count) over every sample of every view;
+//! - `visibility`: whether a surface hides a point from the eye (a segment cast through its
+//!   BVH), the exact form of a frame's depth test;
 //! - `image_diff`: a frame against the full-resolution frame of the same view (share of pixels
 //!   that differ, PSNR).
 //!
@@ -23,8 +26,12 @@ pub mod drawn;
 pub mod geometric_error;
 pub mod image_diff;
 pub mod nearest;
+pub mod visibility;
 
 pub use drawn::{drawn_cut, DrawnSurface};
-pub use geometric_error::{pixel_errors, ErrorSummary, SamplingConfig, Surface, ViewErrors};
+pub use geometric_error::{
+    original_sampling, two_sided_errors, visible_samples, ErrorSummary, SamplingConfig, Surface,
+    TwoSidedErrors, ViewErrors, VisibleSamples,
+};
 pub use image_diff::{compare_images, psnr_of_mse, ImageDiff, DIFF_THRESHOLD, PSNR_SATURATED_DB};
 pub use nearest::{MeshError, ReferenceMesh};

@@ -34,9 +34,9 @@ pub enum MeshError {
 
 /// A triangle mesh with a BVH over its triangles, for closest-distance queries.
 pub struct ReferenceMesh {
-    positions: Vec<[f64; 3]>,
-    triangles: Vec<[u32; 3]>,
-    bvh: Bvh2,
+    pub(super) positions: Vec<[f64; 3]>,
+    pub(super) triangles: Vec<[u32; 3]>,
+    pub(super) bvh: Bvh2,
 }
 
 /// Grows the f32 boxes by this many f32 epsilons of the largest coordinate magnitude: covers
@@ -97,6 +97,14 @@ impl ReferenceMesh {
         })
     }
 
+    /// The mesh as a surface to sample.
+    pub fn surface(&self) -> super::Surface<'_> {
+        super::Surface {
+            positions: &self.positions,
+            triangles: &self.triangles,
+        }
+    }
+
     /// Triangles of the mesh.
     pub fn triangle_count(&self) -> usize {
         self.triangles.len()
@@ -151,7 +159,7 @@ impl ReferenceMesh {
 }
 
 /// Squared distance from `p` to a box (0 inside), in f64.
-fn box_distance_squared(aabb: &Aabb, p: [f64; 3]) -> f64 {
+pub(super) fn box_distance_squared(aabb: &Aabb, p: [f64; 3]) -> f64 {
     let (lo, hi) = (aabb.min.to_array(), aabb.max.to_array());
     (0..3)
         .map(|i| {

@@ -1,17 +1,20 @@
 //! The measured error of our cut without a GPU: the CPU reference selection
 //! (`tessera_core::cut::select_visible`, the rule with the frustum and normal-cone tests of a
 //! lit frame — what `Renderer` draws for the same camera), measured like a drawn frame
-//! (`measure::drawn_cut` + `measure::pixel_errors`). `bench build` uses it per leaf size.
+//! (`measure::drawn_cut` + `measure::two_sided_errors`: both ways, visible samples only, as
+//! `bench` measures). `bench build` uses it per leaf size.
 
 use tessera_core::cull::CullTests;
 use tessera_core::cut::{diamond_rhos, select_visible};
 use tessera_core::repository::reader::Repository;
 use tessera_runtime::camera::Camera;
 use tessera_runtime::measure::{
-    drawn_cut, pixel_errors, ErrorSummary, ReferenceMesh, SamplingConfig,
+    drawn_cut, original_sampling, two_sided_errors, visible_samples, ErrorSummary, ReferenceMesh,
+    SamplingConfig,
 };
 
-/// The error of the τ cut over `cameras`, all samples pooled (`None` when none is on screen).
+/// The two-sided error of the τ cut over `cameras`, all samples of both directions pooled
+/// (`None` when none is seen).
 /// `reference`: the original mesh relative to the repository origin.
 pub fn cut_error(
     repo: &Repository,
@@ -35,9 +38,17 @@ pub fn cut_error(
             seed: sampling.seed.wrapping_add(v as u64),
             ..*sampling
         };
-        errors.extend(
-            pixel_errors(reference, surface.surface(), camera, h.origin, &sampling).errors_px,
-        );
+        let original = visible_samples(reference, camera, h.origin, &original_sampling(&sampling));
+        let both = two_sided_errors(
+            reference,
+            &original,
+            surface.surface(),
+            camera,
+            h.origin,
+            &sampling,
+        )?;
+        errors.extend(both.to_original.errors_px);
+        errors.extend(both.to_cut.errors_px);
     }
     Ok(ErrorSummary::of(&errors))
 }

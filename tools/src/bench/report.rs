@@ -2,12 +2,16 @@
 //!
 //! Row keys, fixed: `tolerance`, `patches`, `triangles`, `cpu_ms`, `gpu_ms`, `error_max_px`,
 //! `error_p99_px`, `error_mean_px`, `pixels_differing`, `psnr`; added: `wall_ms`, `views`,
-//! `error_samples`, and `level` for a subject with discrete levels. `pixels_differing` is a
+//! `error_samples`, `error_to_original` and `error_to_cut` (each direction's `max_px`, `p99_px`,
+//! `mean_px`, `samples`; the `error_*` keys pool both), `hidden_samples`, and `level` for a
+//! subject with discrete levels. `pixels_differing` is a
 //! share in [0, 1] (mean over views); `psnr` is in dB, of the views' mean MSE, saturated at
 //! 99 (identical frames); `gpu_ms` is null
 //! without timestamps (and misses compute passes on lavapipe: compare `wall_ms` there).
 
 use serde_json::json;
+
+use tessera_runtime::measure::ErrorSummary;
 
 use super::trade_off::Row;
 use super::verdict::group_digits;
@@ -25,6 +29,9 @@ pub fn row_json(row: &Row) -> serde_json::Value {
         "error_p99_px": row.error.map(|e| e.p99_px),
         "error_mean_px": row.error.map(|e| e.mean_px),
         "error_samples": row.error.map_or(0, |e| e.samples),
+        "error_to_original": row.error_to_original.map(summary_json),
+        "error_to_cut": row.error_to_cut.map(summary_json),
+        "hidden_samples": row.hidden_samples,
         "pixels_differing": row.pixels_differing,
         "psnr": row.psnr,
         "views": row.views,
@@ -33,6 +40,10 @@ pub fn row_json(row: &Row) -> serde_json::Value {
         v["level"] = json!(level);
     }
     v
+}
+
+fn summary_json(e: ErrorSummary) -> serde_json::Value {
+    json!({"max_px": e.max_px, "p99_px": e.p99_px, "mean_px": e.mean_px, "samples": e.samples})
 }
 
 fn number(x: Option<f64>, digits: usize) -> String {
@@ -44,13 +55,15 @@ fn number(x: Option<f64>, digits: usize) -> String {
 pub fn table(title: &str, rows: &[Row]) -> Vec<String> {
     let mut lines = vec![title.to_string()];
     lines.push(format!(
-        "{:>6} {:>9} {:>10} {:>9} {:>9} {:>9} {:>7} {:>8} {:>6} {:>9} {:>8} {:>8}",
+        "{:>6} {:>9} {:>10} {:>9} {:>9} {:>9} {:>9} {:>9} {:>7} {:>8} {:>6} {:>9} {:>8} {:>8}",
         "τ px",
         "patches",
         "triangles",
         "p99 px",
         "max px",
         "mean px",
+        "max c→o",
+        "max o→c",
         "p99/τ",
         "differ %",
         "PSNR",
@@ -64,13 +77,15 @@ pub fn table(title: &str, rows: &[Row]) -> Vec<String> {
             .filter(|_| r.tolerance > 0.0)
             .map(|e| e.p99_px / r.tolerance as f64);
         lines.push(format!(
-            "{:>6} {:>9} {:>10} {:>9} {:>9} {:>9} {:>7} {:>8} {:>6} {:>9} {:>8} {:>8}",
+            "{:>6} {:>9} {:>10} {:>9} {:>9} {:>9} {:>9} {:>9} {:>7} {:>8} {:>6} {:>9} {:>8} {:>8}",
             r.tolerance,
             group_digits(r.patches),
             group_digits(r.triangles),
             number(r.error.map(|e| e.p99_px), 3),
             number(r.error.map(|e| e.max_px), 3),
             number(r.error.map(|e| e.mean_px), 3),
+            number(r.error_to_original.map(|e| e.max_px), 3),
+            number(r.error_to_cut.map(|e| e.max_px), 3),
             number(ratio, 2),
             number(r.pixels_differing.map(|d| 100.0 * d), 2),
             number(r.psnr, 1),

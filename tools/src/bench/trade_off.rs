@@ -3,22 +3,24 @@
 //!
 //! Per view:
 //! 1. the full-resolution frame (when that peer is there): the reference picture;
-//! 2. one measured frame per (subject, τ): counts, the surface drawn sampled against the
-//!    original mesh (`measure::pixel_errors`), the image against the reference;
+//! 2. one measured frame per (subject, τ): counts, the error both ways between the surface
+//!    drawn and the original mesh over the samples the eye sees (`measure::two_sided_errors`;
+//!    the original's visible samples are drawn once per view and shared by every cut), the
+//!    image against the reference;
 //! 3. timed rounds: one warm-up round, then `frames` rounds, each drawing one frame of every
 //!    (subject, τ) in turn — interleaved, so that the shared machine's drifting load hits every
 //!    subject alike — each frame waited for. Per view the median of each time is kept.
 //!
 //! Per (subject, τ) the rows average the per-view numbers (counts, median times, share of
 //! differing pixels, MSE — the PSNR is the mean MSE's) and pool the error samples of all views
-//! before summarising them.
+//! before summarising them: each direction apart, and both together (the row's `error`).
 
 use tessera_runtime::camera::Camera;
 use tessera_runtime::gpu::target::BACKGROUND_RGBA8;
 use tessera_runtime::gpu::GpuContext;
 use tessera_runtime::measure::{
-    compare_images, pixel_errors, psnr_of_mse, ErrorSummary, ReferenceMesh, SamplingConfig,
-    DIFF_THRESHOLD, PSNR_SATURATED_DB,
+    compare_images, original_sampling, psnr_of_mse, two_sided_errors, visible_samples,
+    ErrorSummary, ReferenceMesh, SamplingConfig, TwoSidedErrors, DIFF_THRESHOLD, PSNR_SATURATED_DB,
 };
 
 use tessera_bench::subject::{timed_frame, FrameTimes, Subject};
@@ -51,8 +53,15 @@ pub struct Row {
     pub wall_ms: f64,
     /// `None` where the adapter has no timestamps.
     pub gpu_ms: Option<f64>,
-    /// Over the samples of all views; `None` when no sample was on screen.
+    /// Two-sided: over the samples of all views, both directions pooled; `None` when no
+    /// sample was seen.
     pub error: Option<ErrorSummary>,
+    /// The drawn cut's visible samples against the original.
+    pub error_to_original: Option<ErrorSummary>,
+    /// The original's visible samples against the drawn cut.
+    pub error_to_cut: Option<ErrorSummary>,
+    /// Samples skipped as hidden (both directions, all views; summed, not averaged).
+    pub hidden_samples: usize,
     /// Mean over views of the share of differing pixels; `None` without a reference picture.
     pub pixels_differing: Option<f64>,
     /// PSNR (dB) of the views' mean MSE — of all the views' frames as one — saturated at
@@ -79,7 +88,9 @@ struct Tally {
     wall_ms: f64,
     gpu_ms: Option<f64>,
     gpu_missing: bool,
-    errors: Vec<f64>,
+    to_original: Vec<f64>,
+    to_cut: Vec<f64>,
+    hidden: usize,
     differing: Option<f64>,
     mse: Option<f64>,
 }
@@ -100,6 +111,12 @@ impl Tally {
         }
     }
 
+    fn add_errors(&mut self, e: TwoSidedErrors) {
+        self.hidden += e.to_original.hidden + e.to_cut.hidden;
+        self.to_original.extend(e.to_original.errors_px);
+        self.to_cut.extend(e.to_cut.errors_px);
+    }
+
     fn row(&self, tolerance: f32) -> Row {
         let n = self.views.max(1) as f64;
         Row {
@@ -114,7 +131,10 @@ impl Tally {
                 .then_some(self.gpu_ms)
                 .flatten()
                 .map(|g| g / n),
-            error: ErrorSummary::of(&self.errors),
+            error: ErrorSummary::of(&[&self.to_original[..], &self.to_cut[..]].concat()),
+            error_to_original: ErrorSummary::of(&self.to_original),
+            error_to_cut: ErrorSummary::of(&self.to_cut),
+            hidden_samples: self.hidden,
             pixels_differing: self.differing.map(|d| d / n),
             psnr: self.mse.map(|mse| psnr_of_mse(mse / n)),
         }
@@ -155,23 +175,36 @@ pub fn measure(
             seed: settings.sampling.seed.wrapping_add(v as u64),
             ..settings.sampling
         };
+        let original = visible_samples(
+            reference,
+            camera,
+            settings.origin,
+            &original_sampling(&sampling),
+        );
         for (subject, tallies) in subjects.iter_mut().zip(&mut tallies) {
             for (&tau, tally) in taus.iter().zip(tallies.iter_mut()) {
                 let (drawn, image) = subject.measured_frame(ctx, camera, tau)?;
-                let errors = pixel_errors(
+                let errors = two_sided_errors(
                     reference,
+                    &original,
                     subject.surface(),
                     camera,
                     settings.origin,
                     &sampling,
-                );
+                )
+                .map_err(|e| {
+                    anyhow::anyhow!(
+                        "{} drew a surface that cannot be measured: {e}",
+                        subject.name()
+                    )
+                })?;
                 tally.views += 1;
                 tally.patches += drawn.patches as f64;
                 tally.triangles += drawn.triangles as f64;
                 if let Some(level) = drawn.level {
                     *tally.levels.get_or_insert(0.0) += level as f64;
                 }
-                tally.errors.extend(errors.errors_px);
+                tally.add_errors(errors);
                 if let Some(reference_image) = &reference_image {
                     // Over the model's pixels: the frame around it is left out.
                     let [r, g, b, _] = BACKGROUND_RGBA8;
@@ -229,6 +262,8 @@ pub fn measure(
                     p99_px: 0.0,
                     mean_px: 0.0,
                 }),
+                error_to_original: None,
+                error_to_cut: None,
                 pixels_differing: Some(0.0),
                 psnr: Some(PSNR_SATURATED_DB),
                 ..full_tally.row(tau)

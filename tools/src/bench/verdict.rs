@@ -1,7 +1,8 @@
 //! Who wins where: the fewest triangles at equal *measured* error.
 //!
-//! The error levels are ours: the measured p99 of each of our rows. At each level, every other
-//! subject's triangle count is read off its own (p99, triangles) curve:
+//! The error levels are ours: the measured p99 (or max: `Statistic`) of each of our rows. At
+//! each level, every other subject's triangle count is read off its own (error, triangles)
+//! curve:
 //! - the curve is its Pareto front (a row is kept only if it draws fewer triangles than every
 //!   row with a smaller error), interpolated linearly in (log error, log triangles) between
 //!   neighbours (linearly in error next to an error of 0);
@@ -16,6 +17,32 @@
 use serde_json::json;
 
 use super::trade_off::{Row, SubjectRows};
+
+/// Which summary of the measured error sets the levels.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Statistic {
+    /// The 99th percentile of the samples.
+    P99,
+    /// The largest sample (a sampled lower bound of the visible two-sided distance).
+    Max,
+}
+
+impl Statistic {
+    fn of(self, row: &Row) -> Option<f64> {
+        row.error.map(|e| match self {
+            Statistic::P99 => e.p99_px,
+            Statistic::Max => e.max_px,
+        })
+    }
+
+    /// "p99" or "max".
+    pub fn name(self) -> &'static str {
+        match self {
+            Statistic::P99 => "p99",
+            Statistic::Max => "max",
+        }
+    }
+}
 
 /// A subject's triangle count at an error level.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -63,9 +90,11 @@ impl Estimate {
 /// One error level.
 #[derive(Clone, Debug)]
 pub struct Comparison {
-    /// Our τ whose measured p99 sets the level.
+    /// Our τ whose measured error sets the level.
     pub tolerance: f32,
-    pub error_p99_px: f64,
+    /// The level: our row's error under `statistic`.
+    pub statistic: Statistic,
+    pub error_px: f64,
     pub estimates: Vec<(&'static str, Estimate)>,
     /// The subject with the fewest triangles, `None` when a bound leaves it open.
     pub winner: Option<&'static str>,
@@ -84,12 +113,13 @@ pub fn group_digits(n: f64) -> String {
     out
 }
 
-/// The Pareto front of a subject's rows: (p99, triangles), error ascending, triangles strictly
-/// descending.
-fn front(rows: &[Row]) -> Vec<(f64, f64)> {
+/// The Pareto front of a subject's rows: (error, triangles), error ascending, triangles
+/// strictly descending.
+fn front(rows: &[Row], statistic: Statistic) -> Vec<(f64, f64)> {
     let mut points: Vec<(f64, f64)> = rows
         .iter()
-        .filter_map(|r| Some((r.error?.p99_px, r.triangles)))
+        .filter_map(|r| Some((statistic.of(r)?, r.triangles)))
+        .filter(|p| p.0.is_finite())
         .collect();
     points.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
     let mut kept: Vec<(f64, f64)> = Vec::new();
@@ -101,7 +131,7 @@ fn front(rows: &[Row]) -> Vec<(f64, f64)> {
     kept
 }
 
-/// A subject's triangles at measured p99 `error`, from its front.
+/// A subject's triangles at measured `error`, from its front.
 fn estimate(front: &[(f64, f64)], error: f64) -> Option<Estimate> {
     let (first, last) = (front.first()?, front.last()?);
     if error < first.0 {
@@ -124,13 +154,18 @@ fn estimate(front: &[(f64, f64)], error: f64) -> Option<Estimate> {
     Some(Estimate::Interpolated((t0.ln() + s * (t1 / t0).ln()).exp()))
 }
 
-/// The comparisons at each of our rows' measured p99 (`ours` is the subject they come from).
-pub fn compare(ours: &SubjectRows, others: &[&SubjectRows]) -> Vec<Comparison> {
-    let fronts: Vec<Vec<(f64, f64)>> = others.iter().map(|s| front(&s.rows)).collect();
+/// The comparisons at each of our rows' measured error under `statistic` (`ours` is the
+/// subject they come from).
+pub fn compare(
+    ours: &SubjectRows,
+    others: &[&SubjectRows],
+    statistic: Statistic,
+) -> Vec<Comparison> {
+    let fronts: Vec<Vec<(f64, f64)>> = others.iter().map(|s| front(&s.rows, statistic)).collect();
     ours.rows
         .iter()
         .filter_map(|row| {
-            let error = row.error?.p99_px;
+            let error = statistic.of(row).filter(|e| e.is_finite())?;
             let mut estimates = vec![(ours.name, Estimate::Measured(row.triangles))];
             for (s, f) in others.iter().zip(&fronts) {
                 if let Some(e) = estimate(f, error) {
@@ -153,7 +188,8 @@ pub fn compare(ours: &SubjectRows, others: &[&SubjectRows]) -> Vec<Comparison> {
             });
             Some(Comparison {
                 tolerance: row.tolerance,
-                error_p99_px: error,
+                statistic,
+                error_px: error,
                 estimates,
                 winner: winner.map(|(name, _)| name),
             })
@@ -194,8 +230,9 @@ pub fn lines(comparisons: &[Comparison]) -> Vec<String> {
             None => "undecided (a bound leaves the order open)".to_string(),
         };
         lines.push(format!(
-            "  p99 {:.3} px (ours at τ = {}): {} → {verdict}",
-            c.error_p99_px,
+            "  {} {:.3} px (ours at τ = {}): {} → {verdict}",
+            c.statistic.name(),
+            c.error_px,
             c.tolerance,
             counts.join(", ")
         ));
@@ -205,7 +242,8 @@ pub fn lines(comparisons: &[Comparison]) -> Vec<String> {
         .map(|(n, k)| format!("{n} at {k} of {} levels", comparisons.len()))
         .collect();
     lines.push(format!(
-        "  fewest triangles at equal measured p99: {}",
+        "  fewest triangles at equal measured {}: {}",
+        comparisons.first().map_or("error", |c| c.statistic.name()),
         if tally.is_empty() {
             "no level decided".to_string()
         } else {
@@ -215,16 +253,23 @@ pub fn lines(comparisons: &[Comparison]) -> Vec<String> {
     lines
 }
 
-/// The comparisons as JSON.
+/// The comparisons as JSON: per level `statistic`, `error_px` (also as `error_p99_px` or
+/// `error_max_px`, the key scripts read before `statistic` was added), `tolerance`, each
+/// subject's `triangles` (`value`, `kind`) and the `winner`.
 pub fn to_json(comparisons: &[Comparison]) -> serde_json::Value {
     json!(comparisons
         .iter()
-        .map(|c| json!({
-            "tolerance": c.tolerance,
-            "error_p99_px": c.error_p99_px,
-            "triangles": c.estimates.iter().map(|(n, e)| (n.to_string(), json!({"value": e.triangles(), "kind": e.kind()}))).collect::<serde_json::Map<_, _>>(),
-            "winner": c.winner,
-        }))
+        .map(|c| {
+            let mut v = json!({
+                "tolerance": c.tolerance,
+                "statistic": c.statistic.name(),
+                "error_px": c.error_px,
+                "triangles": c.estimates.iter().map(|(n, e)| (n.to_string(), json!({"value": e.triangles(), "kind": e.kind()}))).collect::<serde_json::Map<_, _>>(),
+                "winner": c.winner,
+            });
+            v[format!("error_{}_px", c.statistic.name())] = json!(c.error_px);
+            v
+        })
         .collect::<Vec<_>>())
 }
 
@@ -252,6 +297,9 @@ mod tests {
                     p99_px: p99,
                     mean_px: p99,
                 }),
+                error_to_original: None,
+                error_to_cut: None,
+                hidden_samples: 0,
                 pixels_differing: None,
                 psnr: None,
             })
@@ -260,12 +308,10 @@ mod tests {
 
     #[test]
     fn fronts_drop_dominated_rows_and_interpolate_in_logs() {
-        let f = front(&rows(&[
-            (1.0, 1000.0),
-            (4.0, 100.0),
-            (2.0, 2000.0),
-            (0.0, 5000.0),
-        ]));
+        let f = front(
+            &rows(&[(1.0, 1000.0), (4.0, 100.0), (2.0, 2000.0), (0.0, 5000.0)]),
+            Statistic::P99,
+        );
         assert_eq!(f, vec![(0.0, 5000.0), (1.0, 1000.0), (4.0, 100.0)]);
         // Halfway in log error between 1 and 4 is 2: halfway in log triangles, √(1000·100).
         let Some(Estimate::Interpolated(t)) = estimate(&f, 2.0) else {
@@ -278,9 +324,30 @@ mod tests {
         };
         assert!((t - (5000.0f64 * 1000.0).sqrt()).abs() < 1e-6);
         assert_eq!(estimate(&f, 9.0), Some(Estimate::AtMost(100.0)));
-        let g = front(&rows(&[(1.0, 10.0)]));
+        let g = front(&rows(&[(1.0, 10.0)]), Statistic::P99);
         assert_eq!(estimate(&g, 0.5), Some(Estimate::AtLeast(10.0)));
         assert_eq!(estimate(&[], 0.5), None);
+    }
+
+    /// The levels follow the statistic asked for; an infinite error (nothing drawn where the
+    /// original shows) is no level and no point of a front.
+    #[test]
+    fn levels_are_the_statistic_asked_for() {
+        let mut ours = rows(&[(1.0, 1000.0), (2.0, 500.0)]);
+        ours[0].error.as_mut().unwrap().max_px = 3.0;
+        ours[1].error.as_mut().unwrap().max_px = f64::INFINITY;
+        assert_eq!(front(&ours, Statistic::Max), vec![(3.0, 1000.0)]);
+        let ours = SubjectRows {
+            name: "ours",
+            rows: ours,
+        };
+        let c = compare(&ours, &[], Statistic::Max);
+        assert_eq!(c.len(), 1);
+        assert_eq!((c[0].statistic, c[0].error_px), (Statistic::Max, 3.0));
+        assert_eq!(compare(&ours, &[], Statistic::P99).len(), 2);
+        let j = to_json(&c);
+        assert_eq!(j[0]["error_max_px"], 3.0);
+        assert_eq!(j[0]["statistic"], "max");
     }
 
     #[test]
@@ -293,7 +360,7 @@ mod tests {
             name: "peer",
             rows: rows(&[(0.25, 2000.0), (2.0, 600.0)]),
         };
-        let c = compare(&ours, &[&peer]);
+        let c = compare(&ours, &[&peer], Statistic::P99);
         assert_eq!(c.len(), 3);
         assert_eq!(c[0].winner, Some("ours"));
         assert_eq!(c[1].winner, Some("ours"));
@@ -303,7 +370,7 @@ mod tests {
             name: "cheap",
             rows: rows(&[(2.0, 10.0)]),
         };
-        let c = compare(&ours, &[&cheap]);
+        let c = compare(&ours, &[&cheap], Statistic::P99);
         // Below its finest row the peer needs ≥ 10 — fewer than ours, or not: open.
         assert_eq!(c[0].winner, None);
         assert_eq!(c[1].winner, None);
