@@ -44,16 +44,40 @@ fn bounded_errors_are_stored_larger_and_the_repository_checks_clean() {
     // `bench errors`: every cut of the bounded build stays within its largest stored error
     // of the leaves (the leaves stand within the quantisation of the input, too).
     let quantisation = bounded["quantisation_error"].as_f64().unwrap();
+    let written = dir.path().join("cuts");
     let measured = run(&[
         "bench",
         "errors",
         repo.to_str().unwrap(),
         "--cuts",
         "5",
+        "--write-cuts",
+        written.to_str().unwrap(),
         "--json",
     ]);
     let cuts = measured["cuts"].as_array().unwrap();
     assert_eq!(cuts.len(), 5, "{measured}");
+    // The cuts and the leaves written for an independent tool: one PLY each, as many faces as
+    // measured.
+    let faces = |name: &str| -> u64 {
+        let bytes = std::fs::read(written.join(name)).unwrap();
+        let header = String::from_utf8_lossy(&bytes[..bytes.len().min(512)]).to_string();
+        let line = header
+            .lines()
+            .find(|l| l.starts_with("element face "))
+            .unwrap_or_else(|| panic!("{name}: {header}"));
+        line["element face ".len()..].parse().unwrap()
+    };
+    assert_eq!(
+        faces("leaves.ply"),
+        measured["leaf_triangles"].as_u64().unwrap()
+    );
+    for (k, cut) in cuts.iter().enumerate() {
+        assert_eq!(
+            faces(&format!("cut-{k}.ply")),
+            cut["triangles"].as_u64().unwrap()
+        );
+    }
     for cut in cuts {
         let distance = cut["sampled_distance"].as_f64().unwrap();
         let largest = cut["largest_drawn_error"].as_f64().unwrap();

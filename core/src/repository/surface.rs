@@ -68,6 +68,12 @@ pub struct CutMeasure {
     pub samples: u64,
 }
 
+/// The simplices of the object-space cut at `epsilon`: err(diamond) ≤ ε < err(parent diamond).
+pub fn object_cut(repo: &Repository, epsilon: f32) -> Vec<u32> {
+    let errors: Vec<f32> = repo.diamonds().iter().map(|d| d.error).collect();
+    select_stateless(repo.tets(), &errors, epsilon)
+}
+
 /// Measures the cut at object-space threshold `epsilon` against `leaves` (`leaf_surface`).
 pub fn measure_object_cut(
     repo: &Repository,
@@ -78,7 +84,7 @@ pub fn measure_object_cut(
 ) -> Result<CutMeasure, RepositoryError> {
     let errors: Vec<f32> = repo.diamonds().iter().map(|d| d.error).collect();
     let tets = repo.tets();
-    let drawn = select_stateless(tets, &errors, epsilon);
+    let drawn = object_cut(repo, epsilon);
     let largest_error = drawn
         .iter()
         .map(|&t| match tets[t as usize].diamond {
