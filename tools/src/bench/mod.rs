@@ -87,8 +87,9 @@ pub struct TradeArgs {
     /// original (against each drawn surface) to measure the error both ways.
     #[arg(long, default_value_t = 20_000)]
     pub samples: usize,
-    /// Timed frames per view, subject and τ (after one warm-up frame); the median counts.
-    #[arg(long, default_value_t = 3)]
+    /// Timed runs: rounds of one frame per view, subject and τ (after one warm-up round); a
+    /// row's times are the median run's, with the fastest and slowest run as the spread.
+    #[arg(long, default_value_t = 5)]
     pub frames: usize,
     /// Up direction of the cameras (default 0,1,0 for meshes, 0,0,1 for terrains).
     #[arg(long, value_parser = parse_vec3)]
@@ -285,7 +286,7 @@ pub fn run(args: TradeArgs) -> anyhow::Result<Outcome> {
     println!("adapter: {}", ctx.adapter_description());
     println!(
         "model: {} ({} triangles); {} views outside the bounding sphere, {}x{}; {} samples a \
-         view; {} timed frames per view and subject after 1 warm-up",
+         view; {} timed runs (one frame per view, subject and τ each) after 1 warm-up",
         repo_path.display(),
         h.input_triangle_count,
         cameras.len(),

@@ -2,7 +2,8 @@
 //!
 //! Row keys, fixed: `tolerance`, `patches`, `triangles`, `cpu_ms`, `gpu_ms`, `error_max_px`,
 //! `error_p99_px`, `error_mean_px`, `pixels_differing`, `psnr`; added: `wall_ms`, `views`,
-//! `error_samples`, `error_to_original` and `error_to_cut` (each direction's `max_px`, `p99_px`,
+//! `wall_ms_min` and `wall_ms_max` (the fastest and slowest of `runs` timed runs; the times
+//! are the runs' median), `error_samples`, `error_to_original` and `error_to_cut` (each direction's `max_px`, `p99_px`,
 //! `mean_px`, `samples`; the `error_*` keys pool both), `hidden_samples`, and `level` for a
 //! subject with discrete levels. `pixels_differing` is a
 //! share in [0, 1] (mean over views); `psnr` is in dB, of the views' mean MSE, saturated at
@@ -25,6 +26,9 @@ pub fn row_json(row: &Row) -> serde_json::Value {
         "cpu_ms": row.cpu_ms,
         "gpu_ms": row.gpu_ms,
         "wall_ms": row.wall_ms,
+        "wall_ms_min": row.wall_ms_spread.0,
+        "wall_ms_max": row.wall_ms_spread.1,
+        "runs": row.runs,
         "error_max_px": row.error.map(|e| e.max_px),
         "error_p99_px": row.error.map(|e| e.p99_px),
         "error_mean_px": row.error.map(|e| e.mean_px),
@@ -55,7 +59,7 @@ fn number(x: Option<f64>, digits: usize) -> String {
 pub fn table(title: &str, rows: &[Row]) -> Vec<String> {
     let mut lines = vec![title.to_string()];
     lines.push(format!(
-        "{:>6} {:>9} {:>10} {:>9} {:>9} {:>9} {:>9} {:>9} {:>7} {:>8} {:>6} {:>9} {:>8} {:>8}",
+        "{:>6} {:>9} {:>10} {:>9} {:>9} {:>9} {:>9} {:>9} {:>7} {:>8} {:>6} {:>20} {:>8} {:>8}",
         "τ px",
         "patches",
         "triangles",
@@ -67,7 +71,7 @@ pub fn table(title: &str, rows: &[Row]) -> Vec<String> {
         "p99/τ",
         "differ %",
         "PSNR",
-        "wall ms",
+        "wall ms (runs)",
         "GPU ms",
         "CPU ms",
     ));
@@ -77,7 +81,7 @@ pub fn table(title: &str, rows: &[Row]) -> Vec<String> {
             .filter(|_| r.tolerance > 0.0)
             .map(|e| e.p99_px / r.tolerance as f64);
         lines.push(format!(
-            "{:>6} {:>9} {:>10} {:>9} {:>9} {:>9} {:>9} {:>9} {:>7} {:>8} {:>6} {:>9} {:>8} {:>8}",
+            "{:>6} {:>9} {:>10} {:>9} {:>9} {:>9} {:>9} {:>9} {:>7} {:>8} {:>6} {:>20} {:>8} {:>8}",
             r.tolerance,
             group_digits(r.patches),
             group_digits(r.triangles),
@@ -89,7 +93,12 @@ pub fn table(title: &str, rows: &[Row]) -> Vec<String> {
             number(ratio, 2),
             number(r.pixels_differing.map(|d| 100.0 * d), 2),
             number(r.psnr, 1),
-            number(Some(r.wall_ms), 2),
+            format!(
+                "{} ({}–{})",
+                number(Some(r.wall_ms), 2),
+                number(Some(r.wall_ms_spread.0), 1),
+                number(Some(r.wall_ms_spread.1), 1)
+            ),
             number(r.gpu_ms, 2),
             number(Some(r.cpu_ms), 3),
         ));

@@ -9,10 +9,14 @@
 //!    image against the reference;
 //! 3. timed rounds: one warm-up round, then `frames` rounds, each drawing one frame of every
 //!    (subject, τ) in turn — interleaved, so that the shared machine's drifting load hits every
-//!    subject alike — each frame waited for. Per view the median of each time is kept.
+//!    subject alike — each frame waited for.
 //!
-//! Per (subject, τ) the rows average the per-view numbers (counts, median times, share of
-//! differing pixels, MSE — the PSNR is the mean MSE's) and pool the error samples of all views
+//! Times: run r is the r-th timed round of every view; its time is the mean over views of that
+//! round's frame. A row's time is the median over the runs, with the fastest and slowest run
+//! as its spread (`frames` runs: 5 by default).
+//!
+//! Per (subject, τ) the rows average the per-view numbers (counts, share of differing pixels,
+//! MSE — the PSNR is the mean MSE's) and pool the error samples of all views
 //! before summarising them: each direction apart, and both together (the row's `error`).
 
 use tessera_runtime::camera::Camera;
@@ -48,9 +52,13 @@ pub struct Row {
     pub triangles: f64,
     /// Mean level drawn, for a subject with discrete levels.
     pub level: Option<f64>,
-    /// Mean over views of the per-view median.
+    /// Median over runs of the run's mean over views (see the module comment).
     pub cpu_ms: f64,
     pub wall_ms: f64,
+    /// The fastest and the slowest run's wall time.
+    pub wall_ms_spread: (f64, f64),
+    /// Timed runs behind the times.
+    pub runs: usize,
     /// `None` where the adapter has no timestamps.
     pub gpu_ms: Option<f64>,
     /// Two-sided: over the samples of all views, both directions pooled; `None` when no
@@ -84,9 +92,10 @@ struct Tally {
     patches: f64,
     triangles: f64,
     levels: Option<f64>,
-    cpu_ms: f64,
-    wall_ms: f64,
-    gpu_ms: Option<f64>,
+    /// Per run (timed round), sums over views.
+    cpu_ms: Vec<f64>,
+    wall_ms: Vec<f64>,
+    gpu_ms: Vec<f64>,
     gpu_missing: bool,
     to_original: Vec<f64>,
     to_cut: Vec<f64>,
@@ -96,16 +105,20 @@ struct Tally {
 }
 
 impl Tally {
+    /// One view's timed frames, one per run.
     fn add_times(&mut self, times: &[FrameTimes]) {
-        let median = |mut v: Vec<f64>| {
-            v.sort_by(f64::total_cmp);
-            v[(v.len() - 1) / 2]
+        let add = |sums: &mut Vec<f64>, values: &mut dyn Iterator<Item = f64>| {
+            for (r, x) in values.enumerate() {
+                if sums.len() <= r {
+                    sums.push(0.0);
+                }
+                sums[r] += x;
+            }
         };
-        self.cpu_ms += median(times.iter().map(|t| t.cpu_ms).collect());
-        self.wall_ms += median(times.iter().map(|t| t.wall_ms).collect());
-        let gpu: Vec<f64> = times.iter().filter_map(|t| t.gpu_ms).collect();
-        if gpu.len() == times.len() && !gpu.is_empty() {
-            *self.gpu_ms.get_or_insert(0.0) += median(gpu);
+        add(&mut self.cpu_ms, &mut times.iter().map(|t| t.cpu_ms));
+        add(&mut self.wall_ms, &mut times.iter().map(|t| t.wall_ms));
+        if times.iter().all(|t| t.gpu_ms.is_some()) && !times.is_empty() {
+            add(&mut self.gpu_ms, &mut times.iter().filter_map(|t| t.gpu_ms));
         } else {
             self.gpu_missing = true;
         }
@@ -119,18 +132,39 @@ impl Tally {
 
     fn row(&self, tolerance: f32) -> Row {
         let n = self.views.max(1) as f64;
+        // Median over runs of the per-run mean over views.
+        let median = |sums: &[f64]| -> f64 {
+            if sums.is_empty() {
+                return 0.0;
+            }
+            let mut v: Vec<f64> = sums.iter().map(|x| x / n).collect();
+            v.sort_by(f64::total_cmp);
+            let k = v.len() / 2;
+            if v.len() % 2 == 1 {
+                v[k]
+            } else {
+                0.5 * (v[k - 1] + v[k])
+            }
+        };
+        let runs = self.wall_ms.iter().map(|x| x / n);
+        let spread = runs.fold((f64::INFINITY, 0.0f64), |(lo, hi), x| {
+            (lo.min(x), hi.max(x))
+        });
         Row {
             tolerance,
             views: self.views,
             patches: self.patches / n,
             triangles: self.triangles / n,
             level: self.levels.map(|l| l / n),
-            cpu_ms: self.cpu_ms / n,
-            wall_ms: self.wall_ms / n,
-            gpu_ms: (!self.gpu_missing)
-                .then_some(self.gpu_ms)
-                .flatten()
-                .map(|g| g / n),
+            cpu_ms: median(&self.cpu_ms),
+            wall_ms: median(&self.wall_ms),
+            wall_ms_spread: if self.wall_ms.is_empty() {
+                (0.0, 0.0)
+            } else {
+                spread
+            },
+            runs: self.wall_ms.len(),
+            gpu_ms: (!self.gpu_missing && !self.gpu_ms.is_empty()).then(|| median(&self.gpu_ms)),
             error: ErrorSummary::of(&[&self.to_original[..], &self.to_cut[..]].concat()),
             error_to_original: ErrorSummary::of(&self.to_original),
             error_to_cut: ErrorSummary::of(&self.to_cut),
@@ -271,4 +305,45 @@ pub fn measure(
             .collect(),
     });
     Ok((rows, full_rows))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn times(wall: &[f64]) -> Vec<FrameTimes> {
+        wall.iter()
+            .map(|&w| FrameTimes {
+                cpu_ms: w / 10.0,
+                wall_ms: w,
+                gpu_ms: None,
+            })
+            .collect()
+    }
+
+    /// A run is one timed round over every view: its time is the views' mean; a row keeps the
+    /// median run and the fastest and slowest.
+    #[test]
+    fn times_are_the_median_run_with_its_spread() {
+        let mut tally = Tally {
+            views: 2,
+            ..Default::default()
+        };
+        tally.add_times(&times(&[1.0, 2.0, 9.0]));
+        tally.add_times(&times(&[3.0, 4.0, 1.0]));
+        let row = tally.row(1.0);
+        // Runs: (1 + 3) / 2 = 2, (2 + 4) / 2 = 3, (9 + 1) / 2 = 5.
+        assert_eq!(row.runs, 3);
+        assert_eq!(row.wall_ms, 3.0);
+        assert_eq!(row.wall_ms_spread, (2.0, 5.0));
+        assert!((row.cpu_ms - 0.3).abs() < 1e-12);
+        assert_eq!(row.gpu_ms, None, "no timestamps, no GPU time");
+        // An even number of runs: the mean of the middle two.
+        let mut even = Tally {
+            views: 1,
+            ..Default::default()
+        };
+        even.add_times(&times(&[4.0, 1.0, 3.0, 2.0]));
+        assert_eq!(even.row(1.0).wall_ms, 2.5);
+    }
 }

@@ -290,6 +290,8 @@ mod tests {
                 level: None,
                 cpu_ms: 0.0,
                 wall_ms: 0.0,
+                wall_ms_spread: (0.0, 0.0),
+                runs: 1,
                 gpu_ms: None,
                 error: Some(ErrorSummary {
                     samples: 1,
