@@ -48,7 +48,7 @@ impl ReferenceMesh {
                 {
                     let t = self.triangles[primitive as usize];
                     let corners = t.map(|v| self.positions[v as usize]);
-                    if crossing(eye, d, corners).is_some_and(|t| t > 0.0 && t < limit) {
+                    if ray_triangle(eye, d, corners).is_some_and(|t| t > 0.0 && t < limit) {
                         return true;
                     }
                 }
@@ -84,9 +84,10 @@ fn segment_meets_box(aabb: &Aabb, eye: [f64; 3], d: [f64; 3], limit: f64) -> boo
     true
 }
 
-/// The parameter t at which `eye + t·d` crosses the triangle (Möller–Trumbore in f64, edges
-/// included); `None` when it misses or the triangle is edge-on to the segment.
-fn crossing(eye: [f64; 3], d: [f64; 3], [a, b, c]: [[f64; 3]; 3]) -> Option<f64> {
+/// The parameter t at which the line `eye + t·d` crosses the triangle, either face
+/// (Möller–Trumbore in f64, edges included, t of either sign); `None` when it misses or the
+/// triangle is edge-on to the line. (The viewer's picking uses it too, with t > 0.)
+pub fn ray_triangle(eye: [f64; 3], d: [f64; 3], [a, b, c]: [[f64; 3]; 3]) -> Option<f64> {
     let e1 = sub(b, a);
     let e2 = sub(c, a);
     let pvec = cross(d, e2);
@@ -190,7 +191,7 @@ mod tests {
             let p = [r(), r(), r()];
             let d = sub(p, eye);
             let brute = triangles.iter().any(|t| {
-                crossing(eye, d, t.map(|v| positions[v as usize]))
+                ray_triangle(eye, d, t.map(|v| positions[v as usize]))
                     .is_some_and(|t| t > 0.0 && t < 1.0 - HIDDEN_SLACK)
             });
             assert_eq!(mesh.hides(eye, p), brute, "{eye:?} → {p:?}");

@@ -9,7 +9,7 @@
 
 use tessera_core::repository::format::dequantize_position;
 use tessera_core::repository::reader::Repository;
-use tessera_runtime::vec3::{cross, dot, sub};
+use tessera_runtime::vec3::{dot, sub};
 
 /// The nearest intersection of the ray `origin + t·dir` (t > 0, `dir` a unit vector) with the
 /// triangles of the patches of `tets`: its distance t, or `None` (a missing or unreadable patch
@@ -65,28 +65,10 @@ fn length_of(a: [f64; 3]) -> f64 {
     dot(a, a).sqrt()
 }
 
-/// Möller–Trumbore, both faces: the distance along the ray to the triangle, if it is hit at
-/// t > 0.
-fn ray_triangle(origin: [f64; 3], dir: [f64; 3], [a, b, c]: [[f64; 3]; 3]) -> Option<f64> {
-    let (e1, e2) = (sub(b, a), sub(c, a));
-    let p = cross(dir, e2);
-    let det = dot(e1, p);
-    if det.abs() <= f64::MIN_POSITIVE {
-        return None;
-    }
-    let inv = 1.0 / det;
-    let s = sub(origin, a);
-    let u = dot(s, p) * inv;
-    if !(0.0..=1.0).contains(&u) {
-        return None;
-    }
-    let q = cross(s, e1);
-    let v = dot(dir, q) * inv;
-    if v < 0.0 || u + v > 1.0 {
-        return None;
-    }
-    let t = dot(e2, q) * inv;
-    (t > 0.0).then_some(t)
+/// The distance along the ray (in units of `dir`) to the triangle, either face, if it is hit
+/// at t > 0.
+fn ray_triangle(origin: [f64; 3], dir: [f64; 3], triangle: [[f64; 3]; 3]) -> Option<f64> {
+    tessera_runtime::measure::visibility::ray_triangle(origin, dir, triangle).filter(|&t| t > 0.0)
 }
 
 #[cfg(test)]
