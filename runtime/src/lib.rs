@@ -9,6 +9,7 @@
 pub mod border_loops;
 pub mod camera;
 pub mod cut_patches;
+pub mod faces;
 pub mod geometric_check;
 pub mod gpu;
 pub mod measure;

@@ -28,6 +28,7 @@ use tessera_core::repository::reader::Repository;
 use tessera_preprocess::import::load_mesh;
 use tessera_preprocess::InputMesh;
 use tessera_runtime::camera::{bounding_radius, Camera};
+use tessera_runtime::faces::Faces;
 use tessera_runtime::gpu::full_mesh::{relative_positions, FullMeshRenderer};
 use tessera_runtime::gpu::{FrameRequest, Readback};
 
@@ -182,8 +183,9 @@ pub fn run(args: RenderBenchArgs) -> anyhow::Result<Outcome> {
                 &s.positions,
                 &s.triangles,
                 h.origin,
-                camera.width,
-                camera.height,
+                (camera.width, camera.height),
+                // As ours draws: `FrameRequest::new`, one-sided.
+                Faces::Front,
             )
             .with_context(|| format!("uploading {}", s.path.display()))?,
         ),

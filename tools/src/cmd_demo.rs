@@ -24,6 +24,7 @@ use tessera_core::repository::reader::Repository;
 use tessera_preprocess::procedural::{demo_mesh, demo_mesh_refined, DEMO_SUBDIVISIONS};
 use tessera_preprocess::{build_repository, BuildConfig};
 use tessera_runtime::camera::Camera;
+use tessera_runtime::faces::Faces;
 use tessera_runtime::geometric_check::{check_cuts, decode_all_patches, CheckConfig};
 use tessera_runtime::gpu::{
     FrameRequest, GpuContext, Readback, RenderError, Renderer, RendererOptions, ShadingMode,
@@ -351,8 +352,9 @@ fn trade_off_table(
             ..Default::default()
         },
         origin: h.origin,
+        faces: Faces::Front,
     };
-    let mut ours = Ours::new(repo, renderer);
+    let mut ours = Ours::new(repo, renderer, Faces::Front);
     let (rows, _) = measure(
         ctx,
         &cameras,
@@ -364,8 +366,9 @@ fn trade_off_table(
     )?;
     let mut lines = vec![
         format!(
-            "trade-off ({TRADE_VIEWS} views outside the model, {}x{}; error measured against \
-             the generated mesh, {TRADE_SAMPLES} samples a view):",
+            "trade-off ({TRADE_VIEWS} views outside the model, {}x{}; error measured both ways \
+             against the generated mesh over visible samples, {TRADE_SAMPLES} samples a view \
+             and direction):",
             size.0, size.1
         ),
         format!(

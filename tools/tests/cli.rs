@@ -726,6 +726,12 @@ fn bench_trade_off_measures_ours_and_the_peers() {
     assert_eq!(v["metric"]["sides"], "two-sided");
     assert_eq!(v["metric"]["visible_only"], true);
     assert_eq!(v["metric"]["image_pixels"], "model");
+    // One face rule for every subject and the measurement: back faces culled by default.
+    assert!(
+        v["metric"]["faces"].as_str().unwrap().starts_with("front"),
+        "{}",
+        v["metric"]
+    );
     for r in v["rows"].as_array().unwrap() {
         // Both directions measured; the pooled columns are theirs together.
         let side = |key: &str, field: &str| r[key][field].as_f64().unwrap();

@@ -5,8 +5,9 @@
 //! shading as `ShadingMode::Lit` on a model without stored normals (`shaders/full_mesh.wgsl`),
 //! same `Frame` uniforms (`FrameUniforms::new`, so the view, eye and light are bit-identical),
 //! and the same GPU timestamps as `Renderer::read_gpu_ms` (here: start to end of the one render
-//! pass; there is no traversal). No culling at all: like the lit fill pass it draws both faces,
-//! and it has no frustum or back-face test on the CPU or in a compute pass.
+//! pass; there is no traversal). The face rule is the caller's (`Faces`: back faces culled in
+//! the rasteriser, as the renderer's default lit frame, or both drawn, as a two-sided one);
+//! no frustum test on the CPU or in a compute pass.
 //!
 //! Positions are f32 relative to the repository origin, so the peer sees the model in the
 //! same eye-relative frame as the renderer (`relative_positions`). The runtime never imports
@@ -30,6 +31,7 @@ use super::frame::{FrameUniforms, ShadingMode};
 use super::target::{RenderTarget, BACKGROUND, COLOR_FORMAT, DEPTH_FORMAT};
 use super::timing::FrameTimer;
 use crate::camera::Camera;
+use crate::faces::Faces;
 use crate::mesh_problem::{check_finite, check_indices, MeshProblem};
 
 /// The full-mesh pass (`vs_full_mesh`, `fs_full_mesh`), prefixed by the shared records.
@@ -98,14 +100,15 @@ impl FullMeshRenderer {
     /// - `triangles`: counter-clockwise vertex indices, each `< positions.len()`; at least one,
     ///   at most `max_buffer_size / 12` and at most 1,431,655,765 (3 × count fits in u32);
     /// - `origin`: the model-space point the positions are relative to (the repository's), so
-    ///   the eye is placed in the same frame.
+    ///   the eye is placed in the same frame;
+    /// - `faces`: which faces are drawn (the frame it is compared with must draw the same).
     pub fn new(
         ctx: &GpuContext,
         positions: &[[f32; 3]],
         triangles: &[[u32; 3]],
         origin: [f64; 3],
-        width: u32,
-        height: u32,
+        (width, height): (u32, u32),
+        faces: Faces,
     ) -> Result<FullMeshRenderer, FullMeshError> {
         super::target::check_target_size(&ctx.limits, width, height)?;
         if triangles.is_empty() {
@@ -198,12 +201,12 @@ impl FullMeshRenderer {
                     attributes: &wgpu::vertex_attr_array![0 => Float32x3],
                 })],
             },
-            // As the renderer's lit fill pass: both faces drawn, reverse-Z depth test.
+            // As the renderer's lit fill passes: the faces asked for, reverse-Z depth test.
             primitive: wgpu::PrimitiveState {
                 topology: wgpu::PrimitiveTopology::TriangleList,
                 strip_index_format: None,
                 front_face: wgpu::FrontFace::Ccw,
-                cull_mode: None,
+                cull_mode: faces.cull_mode(),
                 unclipped_depth: false,
                 polygon_mode: wgpu::PolygonMode::Fill,
                 conservative: false,
@@ -404,7 +407,9 @@ mod tests {
             origin,
         );
         let triangles = [[0, 1, 2], [0, 2, 3]];
-        let mut r = FullMeshRenderer::new(&ctx, &positions, &triangles, origin, 64, 48).unwrap();
+        let mut r =
+            FullMeshRenderer::new(&ctx, &positions, &triangles, origin, (64, 48), Faces::Front)
+                .unwrap();
         assert_eq!(r.triangle_count(), 2);
         let camera = Camera {
             up: [0.0, 1.0, 0.0],
@@ -421,6 +426,22 @@ mod tests {
         if ctx.capabilities.timestamps {
             assert!(r.read_gpu_ms(&ctx).unwrap().is_some());
         }
+        // Seen from behind: nothing with `Faces::Front`, the square with `Faces::Both`.
+        let behind = Camera {
+            up: [0.0, 1.0, 0.0],
+            width: 64,
+            height: 48,
+            ..Camera::looking_at([100.0, 0.0, -3.0], [100.0, 0.0, 0.0], 1.5)
+        };
+        r.render(&ctx, &behind, true);
+        let back = r.read_image(&ctx).unwrap();
+        assert_eq!(back.get_pixel(32, 24).0, corner, "back faces culled");
+        let mut both =
+            FullMeshRenderer::new(&ctx, &positions, &triangles, origin, (64, 48), Faces::Both)
+                .unwrap();
+        both.render(&ctx, &behind, true);
+        let back = both.read_image(&ctx).unwrap();
+        assert_ne!(back.get_pixel(32, 24).0, corner, "both faces drawn");
         // Another triangle list over the same vertices: one triangle leaves half empty,
         // none draws nothing, more than the first upload grows the buffer.
         r.set_triangles(&ctx, &[[0, 1, 2]]).unwrap();
@@ -448,10 +469,13 @@ mod tests {
             }))
         ));
         for bad in [&[[0, 1, 4]][..], &[][..]] {
-            assert!(FullMeshRenderer::new(&ctx, &positions, bad, origin, 64, 48).is_err());
+            assert!(
+                FullMeshRenderer::new(&ctx, &positions, bad, origin, (64, 48), Faces::Front)
+                    .is_err()
+            );
         }
         assert!(matches!(
-            FullMeshRenderer::new(&ctx, &positions, &triangles, origin, 0, 48),
+            FullMeshRenderer::new(&ctx, &positions, &triangles, origin, (0, 48), Faces::Front),
             Err(FullMeshError::BadSize(_))
         ));
     }

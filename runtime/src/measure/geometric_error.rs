@@ -5,7 +5,8 @@
 //!    seed: the same surface gives the same samples on every run and machine.
 //! 2. Keep what the eye sees: samples behind the eye, nearer than the near plane or outside
 //!    the four side planes of the frustum are off screen; samples another part of their own
-//!    surface hides (`visibility.rs`, a segment cast from the eye) are hidden. Both are
+//!    surface hides (`visibility.rs`, a segment cast from the eye), or on a triangle the
+//!    frame's face rule does not draw (`Faces::Front`: facing away), are hidden. Both are
 //!    counted and skipped.
 //! 3. Measure: the exact distance d to the other surface (`ReferenceMesh`), in pixels at the
 //!    sample's Euclidean distance from the eye as the run-time rule projects an error:
@@ -21,6 +22,7 @@ use rayon::prelude::*;
 
 use super::nearest::{MeshError, ReferenceMesh};
 use crate::camera::Camera;
+use crate::faces::Faces;
 use crate::vec3::{cross, dot, length, sub};
 
 /// A triangle soup to sample: positions in the reference mesh's frame (f64).
@@ -57,7 +59,8 @@ pub struct ViewErrors {
     pub errors_px: Vec<f64>,
     /// Samples skipped as off-screen (behind the eye, before the near plane, outside a side).
     pub skipped: usize,
-    /// On-screen samples skipped as hidden by their own surface.
+    /// On-screen samples skipped as hidden by their own surface (or facing away, see
+    /// `VisibleSamples::hidden`).
     pub hidden: usize,
 }
 
@@ -78,7 +81,8 @@ pub struct VisibleSamples {
     pub pixels_per_unit: Vec<f64>,
     /// Off screen (see `ViewErrors::skipped`).
     pub skipped: usize,
-    /// Hidden by the surface itself.
+    /// Hidden by the surface itself, or on a triangle the frame does not draw (facing away
+    /// under `Faces::Front`).
     pub hidden: usize,
 }
 
@@ -145,7 +149,16 @@ impl SplitMix64 {
 }
 
 /// `count` area-weighted points on `surface` (none when it has no area).
+#[cfg(test)]
 fn sample_surface(surface: Surface<'_>, count: usize, seed: u64) -> Vec<[f64; 3]> {
+    sample_triangles(surface, count, seed)
+        .into_iter()
+        .map(|(p, _)| p)
+        .collect()
+}
+
+/// `sample_surface` with each point's triangle (its index in `surface.triangles`).
+fn sample_triangles(surface: Surface<'_>, count: usize, seed: u64) -> Vec<([f64; 3], usize)> {
     let corners = |t: &[u32; 3]| t.map(|v| surface.positions[v as usize]);
     // Cumulative areas (twice the area; the factor cancels).
     let mut cumulative = Vec::with_capacity(surface.triangles.len());
@@ -171,14 +184,15 @@ fn sample_surface(surface: Surface<'_>, count: usize, seed: u64) -> Vec<[f64; 3]
             let (r1, r2) = (rng.next_f64().sqrt(), rng.next_f64());
             let (wb, wc) = (r1 * (1.0 - r2), r1 * r2);
             let wa = 1.0 - wb - wc;
-            [0, 1, 2].map(|i| wa * a[i] + wb * b[i] + wc * c[i])
+            ([0, 1, 2].map(|i| wa * a[i] + wb * b[i] + wc * c[i]), k)
         })
         .collect()
 }
 
-/// The samples of `mesh`'s own surface that `camera` sees: on screen (inside the view
-/// frustum) and not hidden by `mesh` (`ReferenceMesh::hides`). Positions are relative to
-/// `origin`, the mesh's frame.
+/// The samples of `mesh`'s own surface that `camera` sees in a frame drawn with `faces`: on
+/// screen (inside the view frustum), on a triangle the frame draws (with `Faces::Front`, one
+/// facing the eye) and not hidden by `mesh` (`ReferenceMesh::hides`). Positions are relative
+/// to `origin`, the mesh's frame.
 ///
 /// Cost: `samples_per_view` segment casts, spread over rayon's threads.
 pub fn visible_samples(
@@ -186,17 +200,19 @@ pub fn visible_samples(
     camera: &Camera,
     origin: [f64; 3],
     config: &SamplingConfig,
+    faces: Faces,
 ) -> VisibleSamples {
-    let samples = sample_surface(mesh.surface(), config.samples_per_view, config.seed);
+    let surface = mesh.surface();
+    let samples = sample_triangles(surface, config.samples_per_view, config.seed);
     let basis = camera.basis();
     let eye = sub(camera.eye, origin);
     let tan_y = (0.5 * camera.fov_y_degrees.to_radians()).tan();
     let tan_x = tan_y * camera.aspect();
-    let k = camera.height as f64 / (2.0 * tan_y);
+    let scale = camera.height as f64 / (2.0 * tan_y);
     // None: off screen; Some(None): hidden; Some(Some(scale)): seen.
     let seen: Vec<Option<Option<f64>>> = samples
         .par_iter()
-        .map(|&p| {
+        .map(|&(p, k)| {
             let d = sub(p, eye);
             let depth = dot(d, basis.forward);
             let on_screen = depth > 0.0
@@ -205,11 +221,14 @@ pub fn visible_samples(
                 && dot(d, basis.up).abs() <= depth * tan_y;
             // Projected as the run-time rule projects an error: over the Euclidean distance
             // to the eye (ρ = error · K / |c − eye|), not the depth along the view axis.
-            on_screen.then(|| (!mesh.hides(eye, p)).then(|| k / length(d)))
+            let corners = surface.triangles[k].map(|v| surface.positions[v as usize]);
+            on_screen.then(|| {
+                (faces.shows(eye, corners) && !mesh.hides(eye, p, faces)).then(|| scale / length(d))
+            })
         })
         .collect();
     let mut out = VisibleSamples::default();
-    for (p, s) in samples.into_iter().zip(seen) {
+    for ((p, _), s) in samples.into_iter().zip(seen) {
         match s {
             None => out.skipped += 1,
             Some(None) => out.hidden += 1,
@@ -223,9 +242,9 @@ pub fn visible_samples(
 }
 
 /// The measured error of one view, both ways: the visible samples of `drawn` (the surface a
-/// frame drew, positions relative to `origin`) against `reference`, and `original`
-/// (`visible_samples` of the reference for the same camera, computed once per view and shared
-/// by every cut measured from it) against `drawn`.
+/// frame drew with `faces`, positions relative to `origin`) against `reference`, and
+/// `original` (`visible_samples` of the reference for the same camera and `faces`, computed
+/// once per view and shared by every cut measured from it) against `drawn`.
 ///
 /// Errors: `drawn` with a non-finite position or an index out of range. A drawn surface with
 /// no triangle has no samples, and every original sample is infinitely far from it.
@@ -238,6 +257,7 @@ pub fn two_sided_errors(
     camera: &Camera,
     origin: [f64; 3],
     config: &SamplingConfig,
+    faces: Faces,
 ) -> Result<TwoSidedErrors, MeshError> {
     if drawn.triangles.is_empty() {
         return Ok(TwoSidedErrors {
@@ -250,7 +270,7 @@ pub fn two_sided_errors(
         });
     }
     let drawn = ReferenceMesh::new(drawn.positions.to_vec(), drawn.triangles.to_vec())?;
-    let seen = visible_samples(&drawn, camera, origin, config);
+    let seen = visible_samples(&drawn, camera, origin, config, faces);
     Ok(TwoSidedErrors {
         to_original: seen.errors_to(reference),
         to_cut: original.errors_to(&drawn),
@@ -317,7 +337,7 @@ mod tests {
     ) -> ViewErrors {
         let drawn =
             ReferenceMesh::new(surface.positions.to_vec(), surface.triangles.to_vec()).unwrap();
-        visible_samples(&drawn, camera, origin, config).errors_to(reference)
+        visible_samples(&drawn, camera, origin, config, Faces::Front).errors_to(reference)
     }
 
     #[test]
@@ -415,7 +435,7 @@ mod tests {
         let reference = ReferenceMesh::new(positions.clone(), triangles.clone()).unwrap();
         // Seen from straight above, far enough for the whole of both to be on screen.
         let cam = camera(6.0);
-        let seen = visible_samples(&reference, &cam, [0.0; 3], &config(4000));
+        let seen = visible_samples(&reference, &cam, [0.0; 3], &config(4000), Faces::Front);
         assert_eq!(seen.skipped, 0);
         assert_eq!(seen.points.len() + seen.hidden, 4000);
         // Half the area is the lower square; from straight above all of it is hidden.
@@ -474,7 +494,7 @@ mod tests {
             triangles = next;
         }
         let sphere = ReferenceMesh::new(positions, triangles).unwrap();
-        let seen = visible_samples(&sphere, &camera(10.0), [0.0; 3], &config(8000));
+        let seen = visible_samples(&sphere, &camera(10.0), [0.0; 3], &config(8000), Faces::Both);
         assert_eq!(seen.skipped, 0, "the whole sphere is on screen");
         let share = seen.points.len() as f64 / 8000.0;
         assert!((share - 0.45).abs() < 0.02, "{share}");
@@ -503,12 +523,27 @@ mod tests {
         assert!(holed.len() < triangles.len());
         let cam = camera(3.0);
         let cfg = config(3000);
-        let original = visible_samples(&reference, &cam, [0.0; 3], &original_sampling(&cfg));
+        let original = visible_samples(
+            &reference,
+            &cam,
+            [0.0; 3],
+            &original_sampling(&cfg),
+            Faces::Front,
+        );
         let drawn = Surface {
             positions: &positions,
             triangles: &holed,
         };
-        let e = two_sided_errors(&reference, &original, drawn, &cam, [0.0; 3], &cfg).unwrap();
+        let e = two_sided_errors(
+            &reference,
+            &original,
+            drawn,
+            &cam,
+            [0.0; 3],
+            &cfg,
+            Faces::Front,
+        )
+        .unwrap();
         let forward = ErrorSummary::of(&e.to_original.errors_px).unwrap();
         assert!(forward.max_px < 1e-9, "{forward:?}");
         let backward = ErrorSummary::of(&e.to_cut.errors_px).unwrap();
@@ -520,7 +555,16 @@ mod tests {
             positions: &positions,
             triangles: &[],
         };
-        let e = two_sided_errors(&reference, &original, empty, &cam, [0.0; 3], &cfg).unwrap();
+        let e = two_sided_errors(
+            &reference,
+            &original,
+            empty,
+            &cam,
+            [0.0; 3],
+            &cfg,
+            Faces::Front,
+        )
+        .unwrap();
         assert!(e.to_original.errors_px.is_empty());
         assert_eq!(e.to_cut.errors_px.len(), original.points.len());
         assert!(e.to_cut.errors_px.iter().all(|x| x.is_infinite()));

@@ -7,8 +7,9 @@
 //! renderer it measures). A sample lies on a triangle of the surface it is tested against, so
 //! its own triangle (and, near an edge, its neighbours) meet the segment at its very end:
 //! a crossing counts only before `1 − HIDDEN_SLACK` of the segment. Triangles seen edge-on
-//! (no area across the segment) hide nothing. Both faces of a triangle hide: a surface's
-//! back is as opaque as its front.
+//! (no area across the segment) hide nothing. Which triangles hide follows the frame's face
+//! rule (`Faces`): with `Both` a surface's back is as opaque as its front; with `Front` only
+//! triangles facing the eye are drawn, so only they hide.
 //!
 //! Cost: one any-hit descent per sample, O(log n) boxes when little lies between the eye and
 //! the sample.
@@ -16,6 +17,7 @@
 use obvhs::aabb::Aabb;
 
 use super::nearest::ReferenceMesh;
+use crate::faces::Faces;
 use crate::vec3::{cross, dot, length, sub};
 
 /// A crossing hides a sample only this far (relative to the eye–sample distance) in front of
@@ -25,9 +27,9 @@ use crate::vec3::{cross, dot, length, sub};
 pub const HIDDEN_SLACK: f64 = 1e-6;
 
 impl ReferenceMesh {
-    /// Whether some triangle crosses the segment from `eye` to `p` before `p` (both in the
-    /// mesh's frame): `p` is hidden from `eye` by this mesh.
-    pub fn hides(&self, eye: [f64; 3], p: [f64; 3]) -> bool {
+    /// Whether some triangle that `faces` draws crosses the segment from `eye` to `p` before
+    /// `p` (both in the mesh's frame): `p` is hidden from `eye` by this mesh.
+    pub fn hides(&self, eye: [f64; 3], p: [f64; 3], faces: Faces) -> bool {
         let d = sub(p, eye);
         let limit = 1.0 - HIDDEN_SLACK;
         let nodes = &self.bvh.nodes;
@@ -48,7 +50,9 @@ impl ReferenceMesh {
                 {
                     let t = self.triangles[primitive as usize];
                     let corners = t.map(|v| self.positions[v as usize]);
-                    if ray_triangle(eye, d, corners).is_some_and(|t| t > 0.0 && t < limit) {
+                    if ray_triangle(eye, d, corners).is_some_and(|t| t > 0.0 && t < limit)
+                        && faces.shows(eye, corners)
+                    {
                         return true;
                     }
                 }
@@ -144,18 +148,25 @@ mod tests {
             [1.0, 1.0, 0.0],
             [0.5, 0.5, 0.0],
         ] {
-            assert!(!mesh.hides(eye, p), "{p:?} is on the front square");
+            assert!(
+                !mesh.hides(eye, p, Faces::Both),
+                "{p:?} is on the front square"
+            );
         }
         assert!(
-            mesh.hides(eye, [0.3, -0.2, -1.0]),
+            mesh.hides(eye, [0.3, -0.2, -1.0], Faces::Both),
             "behind the front square"
         );
-        // Seen from below, the back square hides the front one.
-        assert!(mesh.hides([0.0, 0.0, -5.0], [0.3, -0.2, 0.0]));
-        assert!(!mesh.hides([0.0, 0.0, -5.0], [0.3, -0.2, -1.0]));
+        // Seen from below, the back square hides the front one, unless back faces are not
+        // drawn (both squares face +z).
+        assert!(mesh.hides([0.0, 0.0, -5.0], [0.3, -0.2, 0.0], Faces::Both));
+        assert!(!mesh.hides([0.0, 0.0, -5.0], [0.3, -0.2, 0.0], Faces::Front));
+        assert!(!mesh.hides([0.0, 0.0, -5.0], [0.3, -0.2, -1.0], Faces::Both));
+        // From above the front square faces the eye: it hides with either rule.
+        assert!(mesh.hides(eye, [0.3, -0.2, -1.0], Faces::Front));
         // Past the front square's edge the back square is in view.
         // (3, 0, 5) → (0.9, 0, −1) crosses z = 0 at x = 1.25, outside the front square.
-        assert!(!mesh.hides([3.0, 0.0, 5.0], [0.9, 0.0, -1.0]));
+        assert!(!mesh.hides([3.0, 0.0, 5.0], [0.9, 0.0, -1.0], Faces::Both));
     }
 
     #[test]
@@ -166,8 +177,8 @@ mod tests {
             vec![[0, 1, 2]],
         )
         .unwrap();
-        assert!(!mesh.hides([0.0, 0.0, 5.0], [0.0, 0.0, -5.0]));
-        assert!(mesh.hides([0.0, 1.0, 0.0], [0.0, -1.0, 0.0]));
+        assert!(!mesh.hides([0.0, 0.0, 5.0], [0.0, 0.0, -5.0], Faces::Both));
+        assert!(mesh.hides([0.0, 1.0, 0.0], [0.0, -1.0, 0.0], Faces::Both));
     }
 
     /// The BVH descent answers what a scan of every triangle answers.
@@ -194,7 +205,7 @@ mod tests {
                 ray_triangle(eye, d, t.map(|v| positions[v as usize]))
                     .is_some_and(|t| t > 0.0 && t < 1.0 - HIDDEN_SLACK)
             });
-            assert_eq!(mesh.hides(eye, p), brute, "{eye:?} → {p:?}");
+            assert_eq!(mesh.hides(eye, p, Faces::Both), brute, "{eye:?} → {p:?}");
             hidden += brute as usize;
         }
         assert!(

@@ -8,6 +8,7 @@ use tessera_core::cull::CullTests;
 use tessera_core::cut::{diamond_rhos, select_visible};
 use tessera_core::repository::reader::Repository;
 use tessera_runtime::camera::Camera;
+use tessera_runtime::faces::Faces;
 use tessera_runtime::measure::{
     drawn_cut, original_sampling, two_sided_errors, visible_samples, ErrorSummary, ReferenceMesh,
     SamplingConfig,
@@ -38,7 +39,14 @@ pub fn cut_error(
             seed: sampling.seed.wrapping_add(v as u64),
             ..*sampling
         };
-        let original = visible_samples(reference, camera, h.origin, &original_sampling(&sampling));
+        // One-sided, as the cut was culled (normal cones on).
+        let original = visible_samples(
+            reference,
+            camera,
+            h.origin,
+            &original_sampling(&sampling),
+            Faces::Front,
+        );
         let both = two_sided_errors(
             reference,
             &original,
@@ -46,6 +54,7 @@ pub fn cut_error(
             camera,
             h.origin,
             &sampling,
+            Faces::Front,
         )?;
         errors.extend(both.to_original.errors_px);
         errors.extend(both.to_cut.errors_px);

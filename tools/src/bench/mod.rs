@@ -36,6 +36,7 @@ use tessera_bench::subject::Subject;
 use tessera_core::repository::format::Header;
 use tessera_core::repository::reader::Repository;
 use tessera_runtime::camera::{bounding_radius, Camera};
+use tessera_runtime::faces::Faces;
 use tessera_runtime::gpu::full_mesh::FullMeshRenderer;
 use tessera_runtime::measure::{ReferenceMesh, SamplingConfig, PSNR_SATURATED_DB};
 use tessera_runtime::views::outside_views;
@@ -64,6 +65,16 @@ static METRIC: std::sync::LazyLock<serde_json::Value> = std::sync::LazyLock::new
         "image_pixels": "model",
     })
 });
+
+/// The metric as stated for a run drawn with `faces`.
+fn metric(faces: Faces) -> serde_json::Value {
+    let mut m = METRIC.clone();
+    m["faces"] = json!(match faces {
+        Faces::Front => "front (back faces culled by every subject; samples facing away not seen)",
+        Faces::Both => "both (every subject draws both faces; no normal-cone culling)",
+    });
+    m
+}
 
 #[derive(Args)]
 pub struct TradeArgs {
@@ -98,6 +109,11 @@ pub struct TradeArgs {
     /// if missing).
     #[arg(long)]
     pub plot: Option<PathBuf>,
+    /// Every subject draws both faces of every triangle (ours and the cluster DAG without
+    /// normal-cone culling), and the error counts samples on faces turned away. Default: back
+    /// faces culled by every subject, as our default frame draws, and such samples not seen.
+    #[arg(long)]
+    pub two_sided: bool,
     #[command(flatten)]
     pub gpu: crate::gpu_args::GpuArgs,
     /// Print one JSON object on stdout.
@@ -191,22 +207,35 @@ pub fn run(args: TradeArgs) -> anyhow::Result<Outcome> {
     let ctx = args.gpu.context()?;
     let size = args.size;
     let renderer = args.gpu.renderer(&ctx, &repo, (size.0, size.1))?;
-    let mut ours = ours::Ours::new(&repo, renderer);
+    // One face rule for every subject and for the measurement.
+    let faces = if args.two_sided {
+        Faces::Both
+    } else {
+        Faces::Front
+    };
+    let mut ours = ours::Ours::new(&repo, renderer, faces);
     let full_renderer = FullMeshRenderer::new(
         &ctx,
         &peer_mesh.positions,
         &peer_mesh.triangles,
         h.origin,
-        size.0,
-        size.1,
+        size,
+        faces,
     )
     .with_context(|| format!("uploading {}", source_path.display()))?;
     let mut full = full_resolution::FullResolution::new(&peer_mesh, full_renderer);
     let centre = [0, 1, 2].map(|i| (0.5 * (h.bbox_min[i] + h.bbox_max[i]) - h.origin[i]) as f32);
     let radius = bounding_radius(h.bbox_min, h.bbox_max) as f32;
-    let mut discrete =
-        discrete_lod::DiscreteLod::new(&ctx, &peer_mesh, levels, centre, radius, h.origin, size)?;
-    let mut cluster = cluster_dag::ClusterDag::new(&ctx, &peer_mesh, dag, h.origin, size)?;
+    let mut discrete = discrete_lod::DiscreteLod::new(
+        &ctx,
+        &peer_mesh,
+        levels,
+        (centre, radius),
+        h.origin,
+        size,
+        faces,
+    )?;
+    let mut cluster = cluster_dag::ClusterDag::new(&ctx, &peer_mesh, dag, h.origin, size, faces)?;
 
     // The measurement.
     let up = args.up.unwrap_or(default_up(h.dimension));
@@ -219,6 +248,7 @@ pub fn run(args: TradeArgs) -> anyhow::Result<Outcome> {
             ..Default::default()
         },
         origin: h.origin,
+        faces,
     };
     let t = Instant::now();
     let mut subjects: [&mut dyn Subject; 3] = [&mut ours, &mut discrete, &mut cluster];
@@ -258,7 +288,7 @@ pub fn run(args: TradeArgs) -> anyhow::Result<Outcome> {
         "frames": args.frames,
         "psnr_saturated_db": PSNR_SATURATED_DB,
         // What the error columns measure.
-        "metric": METRIC.clone(),
+        "metric": metric(faces),
         "rows": ours_rows.rows.iter().map(report::row_json).collect::<Vec<_>>(),
         "peers": peers.iter().map(|s| (s.name.to_string(), json!(s.rows.iter().map(report::row_json).collect::<Vec<_>>()))).collect::<serde_json::Map<_, _>>(),
         "discrete_lod_levels": discrete.levels().map(|l| json!({

@@ -4,6 +4,7 @@
 
 use tessera_core::repository::reader::Repository;
 use tessera_runtime::camera::Camera;
+use tessera_runtime::faces::Faces;
 use tessera_runtime::gpu::{FrameRequest, GpuContext, Readback, Renderer};
 use tessera_runtime::measure::{drawn_cut, DrawnSurface, Surface};
 
@@ -13,15 +14,26 @@ pub struct Ours<'r> {
     repo: &'r Repository,
     renderer: Renderer,
     surface: DrawnSurface,
+    faces: Faces,
 }
 
 impl<'r> Ours<'r> {
-    /// `renderer` must hold `repo`, with a target of the cameras' size.
-    pub fn new(repo: &'r Repository, renderer: Renderer) -> Ours<'r> {
+    /// `renderer` must hold `repo`, with a target of the cameras' size; frames draw `faces`
+    /// (`Both`: `FrameRequest::two_sided`, no cone culling).
+    pub fn new(repo: &'r Repository, renderer: Renderer, faces: Faces) -> Ours<'r> {
         Ours {
             repo,
             renderer,
             surface: DrawnSurface::default(),
+            faces,
+        }
+    }
+
+    fn request(&self, camera: &Camera, tau: f32) -> FrameRequest {
+        let request = FrameRequest::new(*camera, tau);
+        match self.faces {
+            Faces::Front => request,
+            Faces::Both => request.two_sided(),
         }
     }
 }
@@ -34,7 +46,7 @@ impl Subject for Ours<'_> {
     fn submit(&mut self, ctx: &GpuContext, camera: &Camera, tau: f32) -> anyhow::Result<f64> {
         Ok(self
             .renderer
-            .render(ctx, &FrameRequest::new(*camera, tau), Readback::default()))
+            .render(ctx, &self.request(camera, tau), Readback::default()))
     }
 
     fn gpu_ms(&self, ctx: &GpuContext) -> anyhow::Result<Option<f64>> {
@@ -49,7 +61,7 @@ impl Subject for Ours<'_> {
     ) -> anyhow::Result<(Drawn, image::RgbaImage)> {
         let frame = self
             .renderer
-            .render_and_read(ctx, &FrameRequest::new(*camera, tau))?;
+            .render_and_read(ctx, &self.request(camera, tau))?;
         self.surface = drawn_cut(self.repo, &frame.selection)?;
         let drawn = Drawn {
             patches: frame.selection.len() as u64,

@@ -20,6 +20,7 @@
 //! before summarising them: each direction apart, and both together (the row's `error`).
 
 use tessera_runtime::camera::Camera;
+use tessera_runtime::faces::Faces;
 use tessera_runtime::gpu::target::BACKGROUND_RGBA8;
 use tessera_runtime::gpu::GpuContext;
 use tessera_runtime::measure::{
@@ -40,6 +41,8 @@ pub struct Settings {
     pub sampling: SamplingConfig,
     /// The repository origin: the frame of every surface and of the reference mesh.
     pub origin: [f64; 3],
+    /// The face rule every subject draws with, and the measurement sees with.
+    pub faces: Faces,
 }
 
 /// One subject at one τ, averaged over the views.
@@ -214,6 +217,7 @@ pub fn measure(
             camera,
             settings.origin,
             &original_sampling(&sampling),
+            settings.faces,
         );
         for (subject, tallies) in subjects.iter_mut().zip(&mut tallies) {
             for (&tau, tally) in taus.iter().zip(tallies.iter_mut()) {
@@ -225,6 +229,7 @@ pub fn measure(
                     camera,
                     settings.origin,
                     &sampling,
+                    settings.faces,
                 )
                 .map_err(|e| {
                     anyhow::anyhow!(

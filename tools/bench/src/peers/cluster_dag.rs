@@ -9,8 +9,10 @@
 //!   error · K / max(|centre − eye| − radius, near) (`ScreenSpaceMetric::rho`); clusterlod
 //!   makes these bounds monotone along the DAG, so the cut is consistent.
 //! - Culling, as our renderer culls patches: a cluster whose own sphere
-//!   (`ClodCluster::bounds`, for culling) is outside the frustum, or whose triangles all face
-//!   away (`meshopt::compute_cluster_bounds`'s normal cone, the apex test), is not drawn.
+//!   (`ClodCluster::bounds`, for culling) is outside the frustum, or — when back faces are not
+//!   drawn (`Faces::Front`, as our default frame) — whose triangles all face away
+//!   (`meshopt::compute_cluster_bounds`'s normal cone, the apex test), is not drawn; the
+//!   rasteriser draws the faces asked for.
 //! - Drawing: the selected clusters' triangles are gathered and uploaded every frame
 //!   (`FullMeshRenderer::set_triangles`); its CPU time includes the selection and that upload.
 
@@ -20,6 +22,7 @@ use anyhow::Context;
 use tessera_core::cull::dot;
 use tessera_core::metric::center_minus_eye;
 use tessera_runtime::camera::Camera;
+use tessera_runtime::faces::Faces;
 use tessera_runtime::gpu::full_mesh::FullMeshRenderer;
 use tessera_runtime::gpu::GpuContext;
 use tessera_runtime::measure::Surface;
@@ -152,29 +155,32 @@ pub struct ClusterDag<'m> {
     dag: Dag,
     renderer: FullMeshRenderer,
     origin: [f64; 3],
+    faces: Faces,
     /// The last frame's cut: its triangles and cluster count.
     selected: Vec<[u32; 3]>,
     selected_clusters: u64,
 }
 
 impl<'m> ClusterDag<'m> {
-    /// A renderer over the peers' vertices (`width` × `height`) that draws a cut of `dag`
+    /// A renderer over the peers' vertices (`size`, drawing `faces`) that draws a cut of `dag`
     /// per frame; `origin`: the repository's, the frame of the DAG's bounds.
     pub fn new(
         ctx: &GpuContext,
         mesh: &'m PeerMesh,
         dag: Dag,
         origin: [f64; 3],
-        (width, height): (u32, u32),
+        size: (u32, u32),
+        faces: Faces,
     ) -> anyhow::Result<ClusterDag<'m>> {
         let renderer =
-            FullMeshRenderer::new(ctx, &mesh.positions, &mesh.triangles, origin, width, height)
+            FullMeshRenderer::new(ctx, &mesh.positions, &mesh.triangles, origin, size, faces)
                 .context("uploading the cluster DAG's vertices")?;
         Ok(ClusterDag {
             mesh,
             dag,
             renderer,
             origin,
+            faces,
             selected: Vec::new(),
             selected_clusters: 0,
         })
@@ -200,7 +206,7 @@ impl<'m> ClusterDag<'m> {
             if !volume.sphere_visible(center_minus_eye(c.cull.centre, eye), c.cull.radius) {
                 continue;
             }
-            if c.cull.cone_cutoff < 1.0 {
+            if self.faces == Faces::Front && c.cull.cone_cutoff < 1.0 {
                 let to_apex = center_minus_eye(c.cull.cone_apex, eye);
                 let length = dot(to_apex, to_apex).sqrt();
                 if dot(to_apex, c.cull.cone_axis) >= c.cull.cone_cutoff * length {

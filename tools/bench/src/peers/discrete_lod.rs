@@ -10,6 +10,7 @@
 //! - Drawing: one `FullMeshRenderer` per level (all resident), no culling.
 
 use std::time::Instant;
+use tessera_runtime::faces::Faces;
 
 use anyhow::Context;
 use tessera_core::metric::center_minus_eye;
@@ -86,16 +87,17 @@ pub struct DiscreteLod<'m> {
 }
 
 impl<'m> DiscreteLod<'m> {
-    /// Uploads every level (one renderer each, `width` × `height` targets). `centre` and
-    /// `radius`: the object's bounding sphere relative to `origin` (the repository's).
+    /// Uploads every level (one renderer each, `width` × `height` targets, drawing `faces`).
+    /// `(centre, radius)`: the object's bounding sphere relative to `origin` (the
+    /// repository's).
     pub fn new(
         ctx: &GpuContext,
         mesh: &'m PeerMesh,
         levels: Vec<Level>,
-        centre: [f32; 3],
-        radius: f32,
+        (centre, radius): ([f32; 3], f32),
         origin: [f64; 3],
-        (width, height): (u32, u32),
+        size: (u32, u32),
+        faces: Faces,
     ) -> anyhow::Result<DiscreteLod<'m>> {
         let levels = levels
             .into_iter()
@@ -106,8 +108,8 @@ impl<'m> DiscreteLod<'m> {
                     &mesh.positions,
                     &level.triangles,
                     origin,
-                    width,
-                    height,
+                    size,
+                    faces,
                 )
                 .with_context(|| format!("uploading discrete level {i}"))?;
                 Ok((level, renderer))

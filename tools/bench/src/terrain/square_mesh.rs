@@ -5,6 +5,7 @@ use std::time::Instant;
 
 use anyhow::Context;
 use tessera_runtime::camera::Camera;
+use tessera_runtime::faces::Faces;
 use tessera_runtime::gpu::full_mesh::FullMeshRenderer;
 use tessera_runtime::gpu::GpuContext;
 
@@ -34,9 +35,17 @@ impl SquareMesh {
                 [0, 1, 2].map(|k| (w[k] - origin[k]) as f32)
             })
             .collect();
-        let renderer =
-            FullMeshRenderer::new(ctx, &positions, &[[0, 1, n as u32]], origin, size.0, size.1)
-                .context("uploading the padded grid")?;
+        // Both faces, as the terrain baselines always drew (seen from above a height field
+        // shows front faces only wherever nothing nearer hides it).
+        let renderer = FullMeshRenderer::new(
+            ctx,
+            &positions,
+            &[[0, 1, n as u32]],
+            origin,
+            size,
+            Faces::Both,
+        )
+        .context("uploading the padded grid")?;
         Ok(SquareMesh {
             renderer,
             side: grid.side as usize,
