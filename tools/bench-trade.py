@@ -80,6 +80,11 @@ def table(name, source, flags, bench):
         )
     out.append("Verdict at equal measured max error: " + "; ".join(levels) + ".")
     out.append("")
+    out.append(
+        f"Plots: `docs/bench/trade/{name}/` (`triangles_vs_max_error.png`: the trade at equal "
+        "max error; triangles, error and frame time against τ)."
+    )
+    out.append("")
     return out
 
 
@@ -105,8 +110,9 @@ def main():
         repo = work / f"{name}.tsr"
         if not repo.exists():
             run([args.tessera, "build", source, "-o", repo, *flags], stdout=subprocess.DEVNULL)
+        plots = ROOT / "docs" / "bench" / "trade" / name
         result = run(
-            [args.tessera, "bench", repo, "--source", source, "--json"],
+            [args.tessera, "bench", repo, "--source", source, "--json", "--plot", plots],
             capture_output=True, text=True, env=env,
         )
         (work / f"{name}.json").write_text(result.stdout)

@@ -783,6 +783,7 @@ fn bench_trade_off_measures_ours_and_the_peers() {
         "triangles_vs_tau.png",
         "error_vs_tau.png",
         "frame_time_vs_tau.png",
+        "triangles_vs_max_error.png",
     ] {
         let png = image::open(plots.join(name)).unwrap_or_else(|e| panic!("{name}: {e}"));
         assert!(png.width() > 100 && png.height() > 100, "{name}");

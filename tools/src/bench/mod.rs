@@ -105,8 +105,8 @@ pub struct TradeArgs {
     /// Up direction of the cameras (default 0,1,0 for meshes, 0,0,1 for terrains).
     #[arg(long, value_parser = parse_vec3)]
     pub up: Option<[f64; 3]>,
-    /// Write triangles_vs_tau.png, error_vs_tau.png and frame_time_vs_tau.png here (created
-    /// if missing).
+    /// Write triangles_vs_tau.png, error_vs_tau.png, frame_time_vs_tau.png and
+    /// triangles_vs_max_error.png here (created if missing).
     #[arg(long)]
     pub plot: Option<PathBuf>,
     /// Every subject draws both faces of every triangle (ours and the cluster DAG without

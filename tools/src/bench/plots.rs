@@ -4,7 +4,10 @@
 //! - `error_vs_tau.png`: measured error against τ (log–log): p99 solid, max dashed, and the
 //!   line y = τ (the bound the cut rule aims at); a subject whose error is 0 (the full
 //!   resolution, by definition) has no point on a log axis and says so in its legend;
-//! - `frame_time_vs_tau.png`: wall milliseconds per frame against τ (log–log).
+//! - `frame_time_vs_tau.png`: wall milliseconds per frame against τ (log–log);
+//! - `triangles_vs_max_error.png`: each subject's rows as (measured max error, triangles),
+//!   joined in τ order (log–log): the trade itself, read at equal error (the full resolution,
+//!   error 0 by definition, is left out).
 //!
 //! Rows with τ ≤ 0 are left out (no place on a log axis). Each plot is drawn into memory and
 //! written through a temporary file (`output::save_png`). Text is drawn with DejaVu Sans
@@ -20,10 +23,11 @@ use super::trade_off::{Row, SubjectRows};
 use crate::output::save_png;
 
 /// The file names, in the order `write_plots` returns them.
-pub const PLOT_FILES: [&str; 3] = [
+pub const PLOT_FILES: [&str; 4] = [
     "triangles_vs_tau.png",
     "error_vs_tau.png",
     "frame_time_vs_tau.png",
+    "triangles_vs_max_error.png",
 ];
 
 const SIZE: (u32, u32) = (960, 640);
@@ -81,6 +85,7 @@ fn label(v: &f64) -> String {
 struct Plot<'a> {
     file: &'a str,
     caption: &'a str,
+    x_label: &'a str,
     y_label: &'a str,
     /// Where the legend goes (away from the curves).
     legend: SeriesLabelPosition,
@@ -98,7 +103,7 @@ type Chart<'a, 'b> = ChartContext<
 fn draw_plot(
     dir: &Path,
     plot: &Plot<'_>,
-    taus: std::ops::Range<f64>,
+    xs: std::ops::Range<f64>,
     values: std::ops::Range<f64>,
     series: impl FnOnce(&mut Chart<'_, '_>) -> anyhow::Result<()>,
 ) -> anyhow::Result<PathBuf> {
@@ -112,11 +117,11 @@ fn draw_plot(
             .margin(16)
             .x_label_area_size(48)
             .y_label_area_size(80)
-            .build_cartesian_2d(taus.log_scale(), values.log_scale())
+            .build_cartesian_2d(xs.log_scale(), values.log_scale())
             .map_err(|e| err(&e))?;
         chart
             .configure_mesh()
-            .x_desc("tolerance τ (px)")
+            .x_desc(plot.x_label)
             .y_desc(plot.y_label)
             .x_label_formatter(&label)
             .y_label_formatter(&label)
@@ -174,7 +179,7 @@ pub fn register_font() -> anyhow::Result<()> {
         .map_err(|_| anyhow!("the embedded DejaVu Sans font does not parse"))
 }
 
-/// Writes the three plots into `dir` (created if missing); returns their paths.
+/// Writes the four plots into `dir` (created if missing); returns their paths.
 pub fn write_plots(dir: &Path, subjects: &[&SubjectRows]) -> anyhow::Result<Vec<PathBuf>> {
     std::fs::create_dir_all(dir)
         .with_context(|| format!("cannot create --plot {}", dir.display()))?;
@@ -189,6 +194,7 @@ pub fn write_plots(dir: &Path, subjects: &[&SubjectRows]) -> anyhow::Result<Vec<
         &Plot {
             file: PLOT_FILES[0],
             caption: "Triangles drawn",
+            x_label: TAU_LABEL,
             y_label: "triangles (mean over views)",
             legend: SeriesLabelPosition::UpperRight,
         },
@@ -217,6 +223,7 @@ pub fn write_plots(dir: &Path, subjects: &[&SubjectRows]) -> anyhow::Result<Vec<
         &Plot {
             file: PLOT_FILES[1],
             caption: "Measured screen-space error (p99 solid, max dashed)",
+            x_label: TAU_LABEL,
             y_label: "error (px)",
             legend: SeriesLabelPosition::UpperLeft,
         },
@@ -265,10 +272,11 @@ pub fn write_plots(dir: &Path, subjects: &[&SubjectRows]) -> anyhow::Result<Vec<
         &Plot {
             file: PLOT_FILES[2],
             caption: "Frame time (wall: record, submit, GPU, wait)",
+            x_label: TAU_LABEL,
             y_label: "wall ms per frame (mean over views)",
             legend: SeriesLabelPosition::UpperRight,
         },
-        taus,
+        taus.clone(),
         log_range(all_rows().map(|r| r.wall_ms)),
         |chart| {
             for s in subjects {
@@ -282,5 +290,41 @@ pub fn write_plots(dir: &Path, subjects: &[&SubjectRows]) -> anyhow::Result<Vec<
             Ok(())
         },
     )?);
+
+    // The trade: triangles at each measured max error.
+    let measured = || {
+        subjects
+            .iter()
+            .filter(|s| s.name != "full_resolution")
+            .flat_map(|s| s.rows.iter())
+    };
+    let max_errors = measured().filter_map(|r| r.error.map(|e| e.max_px));
+    written.push(draw_plot(
+        dir,
+        &Plot {
+            file: PLOT_FILES[3],
+            caption: "Triangles against measured max error (two-sided, visible)",
+            x_label: "measured max error (px)",
+            y_label: "triangles (mean over views)",
+            legend: SeriesLabelPosition::UpperRight,
+        },
+        log_range(max_errors),
+        log_range(measured().map(|r| r.triangles)),
+        |chart| {
+            for s in subjects.iter().filter(|s| s.name != "full_resolution") {
+                let trade: Vec<(f64, f64)> = s
+                    .rows
+                    .iter()
+                    .filter_map(|r| Some((r.error?.max_px, r.triangles)))
+                    .filter(|p| p.0 > 0.0 && p.0.is_finite() && p.1 > 0.0)
+                    .collect();
+                line(chart, s.name, trade, s.name.to_string())?;
+            }
+            Ok(())
+        },
+    )?);
     Ok(written)
 }
+
+/// The x axis of the plots against τ.
+const TAU_LABEL: &str = "tolerance τ (px)";
