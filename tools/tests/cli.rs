@@ -770,6 +770,14 @@ fn bench_trade_off_measures_ours_and_the_peers() {
     assert!(ours[0]["error_p99_px"].as_f64().unwrap() > 0.0, "{v}");
     assert_eq!(v["discrete_lod_levels"].as_array().unwrap().len(), 4);
     assert!(v["cluster_dag"]["clusters"].as_u64().unwrap() > 0);
+    // The DAG's per-frame upload is charged apart from its CPU ms; ours uploads nothing per
+    // frame.
+    for row in peers["cluster_dag"].as_array().unwrap() {
+        assert!(row["upload_ms"].as_f64().unwrap() > 0.0, "{row}");
+    }
+    for row in ours {
+        assert_eq!(row["upload_ms"].as_f64(), Some(0.0), "{row}");
+    }
     assert_eq!(v["verdict"].as_array().unwrap().len(), 3);
     // At equal max error too, each level one of our rows' pooled max.
     let at_max = v["verdict_max"].as_array().unwrap();

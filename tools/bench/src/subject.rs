@@ -10,9 +10,12 @@ use tessera_runtime::measure::Surface;
 /// The times of one frame, waited for.
 #[derive(Clone, Copy, Debug)]
 pub struct FrameTimes {
-    /// CPU work of the frame: the subject's selection, uploads, recording and submit (not the
-    /// wait).
+    /// CPU work of the frame: the subject's selection, recording and submit (not the wait),
+    /// without its uploads.
     pub cpu_ms: f64,
+    /// CPU time the frame spent uploading what it selected (the cluster DAG's triangles; 0
+    /// for a subject whose data stays resident).
+    pub upload_ms: f64,
     /// From the first CPU instruction of the frame to the end of the GPU's work.
     pub wall_ms: f64,
     /// GPU timestamps, where the adapter has them (on lavapipe they miss compute passes).
@@ -41,6 +44,12 @@ pub trait Subject {
     /// GPU milliseconds of the last frame, where the adapter has timestamps.
     fn gpu_ms(&self, ctx: &GpuContext) -> anyhow::Result<Option<f64>>;
 
+    /// The part of the last `submit`'s CPU milliseconds spent uploading per-frame data (charged
+    /// apart from the selection: a resident implementation would not pay it).
+    fn upload_ms(&self) -> f64 {
+        0.0
+    }
+
     /// Renders one frame with read-back: its counts and image; the surface it drew is then
     /// `surface()`.
     fn measured_frame(
@@ -66,8 +75,10 @@ pub fn timed_frame(
     let cpu_ms = subject.submit(ctx, camera, tau)?;
     ctx.wait_idle()?;
     let wall_ms = start.elapsed().as_secs_f64() * 1e3;
+    let upload_ms = subject.upload_ms();
     Ok(FrameTimes {
-        cpu_ms,
+        cpu_ms: cpu_ms - upload_ms,
+        upload_ms,
         wall_ms,
         gpu_ms: subject.gpu_ms(ctx)?,
     })

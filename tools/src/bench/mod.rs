@@ -343,7 +343,8 @@ pub fn run(args: TradeArgs) -> anyhow::Result<Outcome> {
             ),
             "cluster_dag" => format!(
                 "cluster_dag (clod_build: {} clusters in {} groups, {} levels; CPU cut with \
-                 frustum + cone culling, triangles uploaded per frame: in its CPU ms)",
+                 frustum + cone culling, triangles uploaded per frame: upload_ms in --json, apart \
+                 from its CPU ms, in its wall ms)",
                 stats.clusters, stats.groups, stats.levels
             ),
             other => other.to_string(),

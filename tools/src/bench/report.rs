@@ -2,7 +2,8 @@
 //!
 //! Row keys, fixed: `tolerance`, `patches`, `triangles`, `cpu_ms`, `gpu_ms`, `error_max_px`,
 //! `error_p99_px`, `error_mean_px`, `pixels_differing`, `psnr`; added: `wall_ms`, `views`,
-//! `wall_ms_min` and `wall_ms_max` (the fastest and slowest of `runs` timed runs; the times
+//! `upload_ms` (per-frame uploads, apart from `cpu_ms`: the cluster DAG's), `wall_ms_min`
+//! and `wall_ms_max` (the fastest and slowest of `runs` timed runs; the times
 //! are the runs' median), `error_samples`, `error_to_original` and `error_to_cut` (each direction's `max_px`, `p99_px`,
 //! `mean_px`, `samples`; the `error_*` keys pool both), `hidden_samples`, and `level` for a
 //! subject with discrete levels. `pixels_differing` is a
@@ -24,6 +25,7 @@ pub fn row_json(row: &Row) -> serde_json::Value {
         "patches": row.patches,
         "triangles": row.triangles,
         "cpu_ms": row.cpu_ms,
+        "upload_ms": row.upload_ms,
         "gpu_ms": row.gpu_ms,
         "wall_ms": row.wall_ms,
         "wall_ms_min": row.wall_ms_spread.0,

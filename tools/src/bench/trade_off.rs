@@ -55,8 +55,10 @@ pub struct Row {
     pub triangles: f64,
     /// Mean level drawn, for a subject with discrete levels.
     pub level: Option<f64>,
-    /// Median over runs of the run's mean over views (see the module comment).
+    /// Median over runs of the run's mean over views (see the module comment); without the
+    /// uploads, which `upload_ms` counts.
     pub cpu_ms: f64,
+    pub upload_ms: f64,
     pub wall_ms: f64,
     /// The fastest and the slowest run's wall time.
     pub wall_ms_spread: (f64, f64),
@@ -97,6 +99,7 @@ struct Tally {
     levels: Option<f64>,
     /// Per run (timed round), sums over views.
     cpu_ms: Vec<f64>,
+    upload_ms: Vec<f64>,
     wall_ms: Vec<f64>,
     gpu_ms: Vec<f64>,
     gpu_missing: bool,
@@ -119,6 +122,7 @@ impl Tally {
             }
         };
         add(&mut self.cpu_ms, &mut times.iter().map(|t| t.cpu_ms));
+        add(&mut self.upload_ms, &mut times.iter().map(|t| t.upload_ms));
         add(&mut self.wall_ms, &mut times.iter().map(|t| t.wall_ms));
         if times.iter().all(|t| t.gpu_ms.is_some()) && !times.is_empty() {
             add(&mut self.gpu_ms, &mut times.iter().filter_map(|t| t.gpu_ms));
@@ -160,6 +164,7 @@ impl Tally {
             triangles: self.triangles / n,
             level: self.levels.map(|l| l / n),
             cpu_ms: median(&self.cpu_ms),
+            upload_ms: median(&self.upload_ms),
             wall_ms: median(&self.wall_ms),
             wall_ms_spread: if self.wall_ms.is_empty() {
                 (0.0, 0.0)
@@ -320,6 +325,7 @@ mod tests {
         wall.iter()
             .map(|&w| FrameTimes {
                 cpu_ms: w / 10.0,
+                upload_ms: w / 100.0,
                 wall_ms: w,
                 gpu_ms: None,
             })
@@ -342,6 +348,7 @@ mod tests {
         assert_eq!(row.wall_ms, 3.0);
         assert_eq!(row.wall_ms_spread, (2.0, 5.0));
         assert!((row.cpu_ms - 0.3).abs() < 1e-12);
+        assert!((row.upload_ms - 0.03).abs() < 1e-12);
         assert_eq!(row.gpu_ms, None, "no timestamps, no GPU time");
         // An even number of runs: the mean of the middle two.
         let mut even = Tally {

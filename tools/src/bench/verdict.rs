@@ -289,6 +289,7 @@ mod tests {
                 triangles,
                 level: None,
                 cpu_ms: 0.0,
+                upload_ms: 0.0,
                 wall_ms: 0.0,
                 wall_ms_spread: (0.0, 0.0),
                 runs: 1,
