@@ -35,6 +35,8 @@ MODELS = {
     "dragon-bounded": (MESH / "dragon_vrip.ply.gz", ["--bounded-errors"]),
     "armadillo": (MESH / "armadillo.off", []),
     "lion-head": (MESH / "lion-head.off", []),
+    "bear": (MESH / "bear.off", []),
+    "chinese-dragon": (MESH / "ChineseDragon-10kv.off", []),
 }
 
 SUBJECTS = [("ours", "ours"), ("cluster_dag", "cluster DAG"), ("discrete_lod", "discrete LODs")]
