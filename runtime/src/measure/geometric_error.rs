@@ -1,8 +1,7 @@
 //! The measured geometric error of a frame, in pixels, both ways.
 //!
-//! 1. Sample: `SamplingConfig::samples_per_view` points on a surface, area-weighted (a
-//!    triangle by its area in the CDF, a point in it by uniform barycentrics), from a fixed
-//!    seed: the same surface gives the same samples on every run and machine.
+//! 1. Sample: `SamplingConfig::samples_per_view` points on a surface, area-weighted from a
+//!    fixed seed (`sampling.rs`): the same surface gives the same samples on every run.
 //! 2. Keep what the eye sees: samples behind the eye, nearer than the near plane or outside
 //!    the four side planes of the frustum are off screen; samples another part of their own
 //!    surface hides (`visibility.rs`, a segment cast from the eye), or on a triangle the
@@ -21,9 +20,10 @@
 use rayon::prelude::*;
 
 use super::nearest::{MeshError, ReferenceMesh};
+use super::sampling::sample_triangles;
 use crate::camera::Camera;
 use crate::faces::Faces;
-use crate::vec3::{cross, dot, length, sub};
+use crate::vec3::{dot, length, sub};
 
 /// A triangle soup to sample: positions in the reference mesh's frame (f64).
 #[derive(Clone, Copy, Debug)]
@@ -127,66 +127,6 @@ impl ErrorSummary {
             mean_px: sorted.iter().sum::<f64>() / sorted.len() as f64,
         })
     }
-}
-
-/// SplitMix64: a small, fixed, portable generator (the samples must not depend on a crate's
-/// version).
-struct SplitMix64(u64);
-
-impl SplitMix64 {
-    fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in [0, 1).
-    fn next_f64(&mut self) -> f64 {
-        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
-    }
-}
-
-/// `count` area-weighted points on `surface` (none when it has no area).
-#[cfg(test)]
-fn sample_surface(surface: Surface<'_>, count: usize, seed: u64) -> Vec<[f64; 3]> {
-    sample_triangles(surface, count, seed)
-        .into_iter()
-        .map(|(p, _)| p)
-        .collect()
-}
-
-/// `sample_surface` with each point's triangle (its index in `surface.triangles`).
-fn sample_triangles(surface: Surface<'_>, count: usize, seed: u64) -> Vec<([f64; 3], usize)> {
-    let corners = |t: &[u32; 3]| t.map(|v| surface.positions[v as usize]);
-    // Cumulative areas (twice the area; the factor cancels).
-    let mut cumulative = Vec::with_capacity(surface.triangles.len());
-    let mut total = 0.0;
-    for t in surface.triangles {
-        let [a, b, c] = corners(t);
-        let n = cross(sub(b, a), sub(c, a));
-        total += dot(n, n).sqrt();
-        cumulative.push(total);
-    }
-    if !(total > 0.0 && total.is_finite()) {
-        return Vec::new();
-    }
-    let mut rng = SplitMix64(seed);
-    (0..count)
-        .map(|_| {
-            let target = rng.next_f64() * total;
-            let k = cumulative
-                .partition_point(|&c| c <= target)
-                .min(cumulative.len() - 1);
-            let [a, b, c] = corners(&surface.triangles[k]);
-            // Uniform on the triangle: (1 − √r1, √r1 (1 − r2), √r1 r2).
-            let (r1, r2) = (rng.next_f64().sqrt(), rng.next_f64());
-            let (wb, wc) = (r1 * (1.0 - r2), r1 * r2);
-            let wa = 1.0 - wb - wc;
-            ([0, 1, 2].map(|i| wa * a[i] + wb * b[i] + wc * c[i]), k)
-        })
-        .collect()
 }
 
 /// The samples of `mesh`'s own surface that `camera` sees in a frame drawn with `faces`: on
@@ -568,37 +508,6 @@ mod tests {
         assert!(e.to_original.errors_px.is_empty());
         assert_eq!(e.to_cut.errors_px.len(), original.points.len());
         assert!(e.to_cut.errors_px.iter().all(|x| x.is_infinite()));
-    }
-
-    #[test]
-    fn sampling_is_deterministic_and_area_weighted() {
-        // Two triangles: the second has 3× the area of the first.
-        let positions = vec![
-            [0.0, 0.0, 0.0],
-            [1.0, 0.0, 0.0],
-            [0.0, 1.0, 0.0],
-            [3.0, 0.0, 0.0],
-            [4.0, 0.0, 0.0],
-            [3.0, 3.0, 0.0],
-        ];
-        let triangles = vec![[0, 1, 2], [3, 4, 5]];
-        let surface = Surface {
-            positions: &positions,
-            triangles: &triangles,
-        };
-        let a = sample_surface(surface, 4000, 1);
-        assert_eq!(a, sample_surface(surface, 4000, 1));
-        assert_ne!(a, sample_surface(surface, 4000, 2));
-        let second = a.iter().filter(|p| p[0] >= 3.0).count() as f64 / 4000.0;
-        assert!((second - 0.75).abs() < 0.03, "{second}");
-        assert!(a.iter().all(|p| p[0] + p[1] <= 1.0 + 1e-12 || p[0] >= 3.0));
-        // No area, no samples.
-        let flat = vec![[0, 0, 1]];
-        let none = Surface {
-            positions: &positions,
-            triangles: &flat,
-        };
-        assert!(sample_surface(none, 10, 1).is_empty());
     }
 
     #[test]

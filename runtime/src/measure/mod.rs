@@ -7,7 +7,8 @@
 //!   the simplices the GPU selected, or any triangle list a peer renderer drew;
 //! - `nearest`: the original mesh in a BVH (`obvhs`), and the exact closest distance from a
 //!   point to it;
-//! - `geometric_error`: area-weighted, deterministic samples, both ways (the drawn surface
+//! - `sampling`: area-weighted, deterministic samples on a triangle surface;
+//! - `geometric_error`: samples both ways (the drawn surface
 //!   against the original, the original against the drawn surface), only those the eye sees,
 //!   each one's distance converted to pixels at its distance from the eye (d · K / |p − eye|),
 //!   and the summary (max, p99, mean, count) over every sample of every view;
@@ -26,6 +27,7 @@ pub mod drawn;
 pub mod geometric_error;
 pub mod image_diff;
 pub mod nearest;
+pub mod sampling;
 pub mod visibility;
 
 pub use drawn::{drawn_cut, DrawnSurface};
