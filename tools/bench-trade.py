@@ -125,8 +125,9 @@ def main():
         f"{started:%Y-%m-%d %H:%M}–{finished:%H:%M} UTC, load {load:.1f} at the start; each model: "
         "`tessera build SOURCE -o REPO [FLAGS]`, then `tessera bench REPO --source SOURCE --json` "
         "(8 views, 1920×1080, 20,000 samples a view and direction, 5 timed runs). Errors: "
-        "two-sided, visible samples only, pooled over views (bold: max above τ). Times: the "
-        "median run (fastest–slowest).",
+        "two-sided, visible samples only, pooled over views; max is the largest sample (a lower "
+        "bound of the true distance), p99 is not a max (bold: max above τ). Times: the median "
+        "run (fastest–slowest). Peers in the same runs; the verdict names who wins each level.",
         "",
     ]
     text = "\n".join(header + lines)
