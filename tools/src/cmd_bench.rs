@@ -57,6 +57,10 @@ pub enum BenchWhat {
     /// Object-space cuts against the input: the sampled two-sided distance of each cut to the
     /// leaves, against the largest error the cut's diamonds store (are they bounds?).
     Errors(crate::cmd_bench_errors::ErrorsBenchArgs),
+    /// Where our triangles go (no GPU): each τ's cut with the sphere projection against a
+    /// box projection of each diamond's own patches, and each level's reduction and the share
+    /// of kept triangles on the locked border.
+    Breakdown(crate::cmd_bench_breakdown::BreakdownBenchArgs),
 }
 
 #[derive(Args)]
@@ -94,6 +98,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<Outcome> {
         Some(BenchWhat::Terrain(a)) => crate::terrain::bench::run(a),
         Some(BenchWhat::Stream(a)) => crate::cmd_bench_stream::run(a),
         Some(BenchWhat::Errors(a)) => crate::cmd_bench_errors::run(a),
+        Some(BenchWhat::Breakdown(a)) => crate::cmd_bench_breakdown::run(a),
         None => crate::bench::run(args.trade),
     }
 }

@@ -13,6 +13,7 @@ mod build_checkpoint;
 mod camera_path;
 mod check_errors;
 mod cmd_bench;
+mod cmd_bench_breakdown;
 mod cmd_bench_errors;
 mod cmd_bench_render;
 mod cmd_bench_stream;
