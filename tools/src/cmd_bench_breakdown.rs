@@ -236,8 +236,8 @@ fn diamond_boxes(repo: &Repository) -> anyhow::Result<Vec<([f32; 3], [f32; 3])>>
         let b = &mut boxes[t.diamond as usize];
         for v in 0..view.vertex_count() {
             let p = dequantize_position(view.position(v), h.bbox_min, h.position_step);
-            for k in 0..3 {
-                let x = (p[k] - h.origin[k]) as f32;
+            for (k, (&coordinate, &origin)) in p.iter().zip(&h.origin).enumerate() {
+                let x = (coordinate - origin) as f32;
                 b.0[k] = b.0[k].min(x);
                 b.1[k] = b.1[k].max(x);
             }
