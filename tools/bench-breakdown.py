@@ -34,6 +34,7 @@ MODELS = {
 }
 LEVELS = {"p99": [0.25, 0.5, 1.0, 2.0, 4.0], "max": [0.5, 1.0, 2.0, 4.0, 8.0]}
 
+sys.dont_write_bytecode = True  # no __pycache__ in tools/
 _spec = importlib.util.spec_from_file_location("leaf", ROOT / "tools" / "bench-leaf-size.py")
 leaf = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(leaf)

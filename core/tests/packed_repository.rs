@@ -1,10 +1,11 @@
-//! Packed repositories: every patch decodes to exactly the raw repository's bytes, and a packed
-//! patch that is damaged behind a valid checksum is an error naming its tet, never a panic.
+//! Packed repositories (today's strip coding and the one before it, which older files hold):
+//! every patch decodes to exactly the raw repository's bytes, and a packed patch that is
+//! damaged behind a valid checksum is an error naming its tet, never a panic.
 mod common;
 
 use common::contents;
 use tessera_core::repository::format::{
-    PatchCodec, ATTR_ALL, SECTION_PACKED_PATCHES, SECTION_PATCHES,
+    PatchCodec, ATTR_ALL, SECTION_PACKED_PATCHES, SECTION_PACKED_STRIPS, SECTION_PATCHES,
 };
 use tessera_core::repository::packed::pack_contents;
 use tessera_core::repository::{write_repository, Repository, RepositoryError};
@@ -22,37 +23,49 @@ fn packed_patches_decode_to_the_raw_bytes() {
         .chain([(3, ATTR_ALL, true), (2, 0, true)])
     {
         let (raw, patches) = contents(dimension, attributes, big);
-        let packed = pack_contents(&raw);
-        let (raw_repo, packed_repo) = (open(&raw), open(&packed));
-        assert_eq!(raw_repo.codec(), PatchCodec::Raw);
-        assert_eq!(packed_repo.codec(), PatchCodec::Packed);
-        let kinds: Vec<u32> = packed_repo.sections().iter().map(|e| e.kind).collect();
-        assert!(kinds.contains(&SECTION_PACKED_PATCHES) && !kinds.contains(&SECTION_PATCHES));
-        assert!(packed_repo.patch_blob().len() < raw_repo.patch_blob().len());
-        for (i, original) in patches.iter().enumerate() {
-            let size = packed_repo.decoded_patch_bytes(i).unwrap();
-            assert_eq!(size, raw_repo.patch_bytes(i).unwrap().len());
-            let mut decoded = vec![0xEE; size];
-            packed_repo.read_patch(i, &mut decoded).unwrap();
-            assert!(decoded == raw_repo.patch_bytes(i).unwrap(), "tet {i}");
-            let patch = packed_repo.patch(i).unwrap();
-            assert_eq!(patch.view().to_patch_data(), *original, "tet {i}");
-            assert_eq!(patch.view().bytes(), raw_repo.patch_bytes(i).unwrap());
-            // The raw repository reads the same through the same calls.
-            let mut copied = vec![0; size];
-            raw_repo.read_patch(i, &mut copied).unwrap();
-            assert_eq!(copied, decoded);
+        for (codec, kind) in [
+            (PatchCodec::Packed, SECTION_PACKED_STRIPS),
+            (PatchCodec::PackedV1, SECTION_PACKED_PATCHES),
+        ] {
+            let packed = pack_contents(&raw, codec);
+            let (raw_repo, packed_repo) = (open(&raw), open(&packed));
+            assert_eq!(raw_repo.codec(), PatchCodec::Raw);
+            assert_eq!(packed_repo.codec(), codec);
+            let kinds: Vec<u32> = packed_repo.sections().iter().map(|e| e.kind).collect();
+            assert!(kinds.contains(&kind) && !kinds.contains(&SECTION_PATCHES));
+            assert_eq!(
+                kinds
+                    .iter()
+                    .filter(|k| [SECTION_PACKED_STRIPS, SECTION_PACKED_PATCHES].contains(k))
+                    .count(),
+                1
+            );
+            assert!(packed_repo.patch_blob().len() < raw_repo.patch_blob().len());
+            for (i, original) in patches.iter().enumerate() {
+                let size = packed_repo.decoded_patch_bytes(i).unwrap();
+                assert_eq!(size, raw_repo.patch_bytes(i).unwrap().len());
+                let mut decoded = vec![0xEE; size];
+                packed_repo.read_patch(i, &mut decoded).unwrap();
+                assert!(decoded == raw_repo.patch_bytes(i).unwrap(), "tet {i}");
+                let patch = packed_repo.patch(i).unwrap();
+                assert_eq!(patch.view().to_patch_data(), *original, "tet {i}");
+                assert_eq!(patch.view().bytes(), raw_repo.patch_bytes(i).unwrap());
+                // The raw repository reads the same through the same calls.
+                let mut copied = vec![0; size];
+                raw_repo.read_patch(i, &mut copied).unwrap();
+                assert_eq!(copied, decoded);
+            }
+            packed_repo.validate_patches().unwrap();
+            // A destination of the wrong size is an error, not a panic.
+            assert!(packed_repo.read_patch(0, &mut [0; 3]).is_err());
         }
-        packed_repo.validate_patches().unwrap();
-        // A destination of the wrong size is an error, not a panic.
-        assert!(packed_repo.read_patch(0, &mut [0; 3]).is_err());
     }
 }
 
 #[test]
 fn damaged_packed_patches_behind_valid_checksums_are_errors() {
     let (raw, _) = contents(3, ATTR_ALL, false);
-    let packed = pack_contents(&raw);
+    let packed = pack_contents(&raw, PatchCodec::Packed);
     let mut damaged_any = 0;
     for tet in 0..packed.tets.len() {
         let t = packed.tets[tet];

@@ -19,7 +19,7 @@ use rustc_hash::FxHashMap as HashMap;
 use tessera_core::bounds::{NormalCone, Sphere};
 use tessera_core::leb::SimplexKey;
 use tessera_core::repository::format::{patch_checksum, PatchCodec};
-use tessera_core::repository::packed::pack_patch;
+use tessera_core::repository::packed::{pack_patch, StripCoding};
 use tessera_core::repository::patch::{encode_patch, patch_bytes};
 use tessera_core::repository::BlobFeed;
 
@@ -239,13 +239,14 @@ fn encode(live: &LivePatch, encoding: &PatchEncoding) -> (Vec<u8>, Vec<u8>, Fini
     ));
     let mut ids = Vec::with_capacity(2 * patch.global_ids.len());
     let placement = encode_patch(&patch, encoding.attributes, &mut bytes, &mut ids);
-    if encoding.codec == PatchCodec::Packed {
+    if let Some(strips) = StripCoding::of(encoding.codec) {
         let mut packed = Vec::new();
         pack_patch(
             &bytes,
             patch.global_ids.len(),
             patch.strip.len(),
             encoding.attributes,
+            strips,
             &mut packed,
         );
         bytes = packed;

@@ -295,7 +295,7 @@ fn check_grid(grid: &HeightGrid) {
 /// (or a restart), and pack and decode again to the same bytes.
 pub fn packed_patch(data: &[u8]) -> bool {
     use tessera_core::repository::format::{unpack_position, POSITION_MAX};
-    use tessera_core::repository::packed::{pack_patch, unpack_patch};
+    use tessera_core::repository::packed::{pack_patch, unpack_patch, StripCoding};
     use tessera_core::repository::patch::{patch_bytes, strip_byte_offset};
     if data.len() < 5 {
         return false;
@@ -303,9 +303,15 @@ pub fn packed_patch(data: &[u8]) -> bool {
     let n = u16::from_le_bytes([data[0], data[1]]) as usize;
     let m = u16::from_le_bytes([data[2], data[3]]) as usize;
     let attributes = (data[4] & 7) as u32;
+    // Bit 3 picks the older strip coding (repositories packed before the twelfth session).
+    let strips = if data[4] & 8 != 0 {
+        StripCoding::IndexSequence
+    } else {
+        StripCoding::Nibbles
+    };
     let packed = &data[5..];
     let mut out = vec![0u8; patch_bytes(n, m, attributes)];
-    if let Err(e) = unpack_patch(packed, n, m, attributes, &mut out) {
+    if let Err(e) = unpack_patch(packed, n, m, attributes, strips, &mut out) {
         assert!(!e.to_string().trim().is_empty(), "an empty error message");
         return false;
     }
@@ -324,9 +330,9 @@ pub fn packed_patch(data: &[u8]) -> bool {
         );
     }
     let mut again = Vec::new();
-    pack_patch(&out, n, m, attributes, &mut again);
+    pack_patch(&out, n, m, attributes, strips, &mut again);
     let mut twice = vec![0u8; out.len()];
-    unpack_patch(&again, n, m, attributes, &mut twice).expect("a repacked patch decodes");
+    unpack_patch(&again, n, m, attributes, strips, &mut twice).expect("a repacked patch decodes");
     assert!(twice == out, "packing what was decoded changes it");
     true
 }

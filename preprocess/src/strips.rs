@@ -1,6 +1,7 @@
 //! Patch encoding: vertex-cache-optimised triangle strips with restart markers, every segment
 //! starting at an even strip position (`even_segments`: the renderer knows a triangle's winding
-//! parity from its position alone, `PatchView::parse` checks it), vertices in first-use order, positions quantised on the one global grid (so a vertex shared by patches
+//! parity from its position alone, `PatchView::parse` checks it), vertices in order of first use
+//! by the strip, positions quantised on the one global grid (so a vertex shared by patches
 //! is bit-identical in all of them), and the attributes the input has.
 
 use tessera_core::repository::format::{oct_encode_normal, quantize_position};
@@ -47,6 +48,10 @@ pub fn build_patch(
                 .expect("stripify of a valid index list"),
         )
     };
+    // Renumber again by first use in the strip itself: then every index is either the next
+    // new vertex or one seen before, which the packed strip codes in a few bits
+    // (`tessera_core::repository::strip_codec`).
+    let (strip, order) = strip_first_use(&strip, &order);
     let rows: Vec<usize> = order.iter().map(|&g| vertices.row(g)).collect();
     PatchData {
         positions: rows
@@ -69,6 +74,32 @@ pub fn build_patch(
         strip,
         triangle_count: triangles.len() as u32,
     }
+}
+
+/// `strip` renumbered by first use (restart markers kept), with `order` (global id of each
+/// vertex) permuted to match. Every vertex of `order` is used by the strip.
+fn strip_first_use(strip: &[u32], order: &[u32]) -> (Vec<u32>, Vec<u32>) {
+    let mut remap = vec![u32::MAX; order.len()];
+    let mut first_use: Vec<u32> = Vec::with_capacity(order.len());
+    let renumbered = strip
+        .iter()
+        .map(|&i| {
+            if i == RESTART {
+                return RESTART;
+            }
+            if remap[i as usize] == u32::MAX {
+                remap[i as usize] = first_use.len() as u32;
+                first_use.push(order[i as usize]);
+            }
+            remap[i as usize]
+        })
+        .collect();
+    assert_eq!(
+        first_use.len(),
+        order.len(),
+        "a patch vertex the strip does not use"
+    );
+    (renumbered, first_use)
 }
 
 /// `strip` with one extra restart marker wherever a segment would start at an odd position, so

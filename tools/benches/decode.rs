@@ -2,8 +2,10 @@
 //!
 //! `cargo bench -p tessera-tools --bench decode`: builds the demo mesh (subdivision 7, 327,680
 //! triangles with normals) packed, then times `Repository::read_patch` over every patch on one
-//! thread — the loader's work for a unit — against the same reads from an unpacked build (a
-//! copy out of the map). Throughput is decoded bytes: what the GPU receives.
+//! thread — the loader's work for a unit — against the same patches packed with the strip
+//! coding before the twelfth session (`packed-v1`, meshoptimizer's index-sequence codec) and
+//! the same reads from an unpacked build (a copy out of the map). Throughput is decoded bytes:
+//! what the GPU receives.
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use tessera_core::repository::{write_repository, PatchCodec, Repository};
@@ -35,7 +37,11 @@ fn read_all(repo: &Repository, out: &mut Vec<u8>) -> usize {
 
 fn decode(c: &mut Criterion) {
     let mut group = c.benchmark_group("read_patch");
-    for (name, codec) in [("packed", PatchCodec::Packed), ("raw", PatchCodec::Raw)] {
+    for (name, codec) in [
+        ("packed", PatchCodec::Packed),
+        ("packed-v1", PatchCodec::PackedV1),
+        ("raw", PatchCodec::Raw),
+    ] {
         let repo = repository(codec);
         let mut out = Vec::new();
         let decoded = read_all(&repo, &mut out) as u64;

@@ -1,6 +1,8 @@
 //! `tessera repack REPO -o OUT [--no-compress] [--json]`: the same repository with its patches
 //! packed (the default) or stored as drawn, without a rebuild — for repositories built before
-//! packing, or with `build --no-compress` (`core::repository::repack`).
+//! packing, packed with the older strip coding (`packed-v1`: repacked, their strips take the
+//! current coding; their vertex order stays, so they pack less well than a rebuild), or built
+//! with `build --no-compress` (`core::repository::repack`).
 
 use std::path::PathBuf;
 use std::time::Instant;

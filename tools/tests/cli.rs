@@ -283,7 +283,7 @@ fn corrupt_repositories_are_rejected_with_exit_two() {
     };
     let (tets, patches) = (
         section(tessera_core::repository::format::SECTION_TETS),
-        section(tessera_core::repository::format::SECTION_PACKED_PATCHES),
+        section(tessera_core::repository::format::SECTION_PACKED_STRIPS),
     );
     let cases: Vec<(&str, Vec<u8>)> = vec![
         ("truncated", bytes[..bytes.len() / 2].to_vec()),

@@ -7,10 +7,10 @@ use std::ops::Range;
 use super::directory_check::check_header_fields;
 use super::format::{
     compute_checksum, section_name, Header, PatchCodec, SectionEntry, DIAMOND_RECORD_SIZE,
-    FORMAT_VERSION, HEADER_SIZE, MAGIC, MAX_SECTIONS, REQUIRED_SECTIONS, SECTION_DIAMONDS,
-    SECTION_ENTRY_SIZE, SECTION_FLAGS_ALL, SECTION_FLAG_OPTIONAL, SECTION_IDS,
-    SECTION_PACKED_PATCHES, SECTION_PATCHES, SECTION_TETS, TABLE_ALIGN, TET_RECORD_SIZE,
-    WRITTEN_SECTIONS,
+    FORMAT_VERSION, HEADER_SIZE, MAGIC, MAX_SECTIONS, PATCH_SECTIONS, REQUIRED_SECTIONS,
+    SECTION_DIAMONDS, SECTION_ENTRY_SIZE, SECTION_FLAGS_ALL, SECTION_FLAG_OPTIONAL, SECTION_IDS,
+    SECTION_PACKED_PATCHES, SECTION_PACKED_STRIPS, SECTION_PATCHES, SECTION_TETS, TABLE_ALIGN,
+    TET_RECORD_SIZE, WRITTEN_SECTIONS,
 };
 use super::reader::{corrupt, RepositoryError, RELEASE_CHUNK};
 
@@ -84,11 +84,11 @@ pub(crate) fn check_layout(
     };
     let (diamonds, diamond_sum) = find(SECTION_DIAMONDS);
     let (tets, tet_sum) = find(SECTION_TETS);
-    let codec = if entries.iter().any(|e| e.kind == SECTION_PACKED_PATCHES) {
-        PatchCodec::Packed
-    } else {
-        PatchCodec::Raw
-    };
+    // Present: `section_ranges` requires exactly one patch blob.
+    let codec = entries
+        .iter()
+        .find_map(|e| PatchCodec::of_section(e.kind))
+        .expect("patch blob checked");
     let (patch_blob, _) = find(codec.section_kind());
     let (id_blob, id_blob_checksum) = find(SECTION_IDS);
     for (kind, range, stored) in [
@@ -147,7 +147,7 @@ fn section_ranges(
         let record = match e.kind {
             SECTION_DIAMONDS => Some((h.diamond_count, DIAMOND_RECORD_SIZE)),
             SECTION_TETS => Some((h.tet_count, TET_RECORD_SIZE)),
-            SECTION_PATCHES | SECTION_PACKED_PATCHES | SECTION_IDS => None,
+            SECTION_PATCHES | SECTION_PACKED_PATCHES | SECTION_PACKED_STRIPS | SECTION_IDS => None,
             _ if e.flags & SECTION_FLAG_OPTIONAL != 0 => None,
             _ => {
                 return Err(corrupt(format!(
@@ -175,7 +175,7 @@ fn section_ranges(
     }
     let patch_blobs = entries
         .iter()
-        .filter(|e| matches!(e.kind, SECTION_PATCHES | SECTION_PACKED_PATCHES))
+        .filter(|e| PATCH_SECTIONS.contains(&e.kind))
         .count();
     if patch_blobs != 1 {
         return Err(corrupt(format!(

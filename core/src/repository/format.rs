@@ -8,7 +8,8 @@
 //!   SECTION_DIAMONDS   DiamondRecord × diamond_count                (56 bytes each)
 //!   SECTION_TETS       TetRecord × tet_count                        (88 bytes each)
 //!   SECTION_PATCHES    patch blob                                   (see `patch.rs`)
-//!     or SECTION_PACKED_PATCHES, the same patches packed            (see `packed.rs`)
+//!     or SECTION_PACKED_STRIPS, the same patches packed             (see `packed.rs`)
+//!     or SECTION_PACKED_PATCHES, packed with the older strip coding (read, not written)
 //!   SECTION_IDS        id blob                                      (see `global_ids.rs`)
 //! end of file        = the end of the last section
 //! ```
@@ -30,7 +31,8 @@
 //! The patch blob is what a renderer uploads (positions, attributes, strips); the id blob holds
 //! each patch's global vertex ids, which only the CPU needs (crack checks). A repository holds
 //! its patches either as they are drawn (`SECTION_PATCHES`, `build --no-compress`) or packed
-//! (`SECTION_PACKED_PATCHES`, the default): then each `TetRecord`'s `patch_offset`,
+//! (`SECTION_PACKED_STRIPS`, the default since the twelfth session; `SECTION_PACKED_PATCHES`
+//! before it, whose strips meshoptimizer's index-sequence codec packs): then each `TetRecord`'s `patch_offset`,
 //! `patch_bytes` and `patch_checksum` describe the packed bytes, and the loader decodes them
 //! into the drawn layout, whose size the record's counts give (`patch::patch_bytes`). A
 //! tessera that predates packing refuses such a file as "made by a newer tessera" (an unknown
@@ -85,9 +87,19 @@ pub const SECTION_TETS: u32 = 2;
 pub const SECTION_PATCHES: u32 = 3;
 /// Section kind: the global-id blob.
 pub const SECTION_IDS: u32 = 4;
-/// Section kind: the patch blob with every patch packed (`packed.rs`); a repository has
-/// exactly one of `SECTION_PATCHES` and this.
+/// Section kind: the patch blob with every patch packed (`packed.rs`), strips by
+/// meshoptimizer's index-sequence codec (`PatchCodec::PackedV1`: written before the twelfth
+/// session, still read). A repository has exactly one patch blob.
 pub const SECTION_PACKED_PATCHES: u32 = 5;
+/// Section kind: the patch blob with every patch packed (`packed.rs`), strips by
+/// `strip_codec.rs` (`PatchCodec::Packed`, the default).
+pub const SECTION_PACKED_STRIPS: u32 = 6;
+/// The kinds of a patch blob: a repository has exactly one of them.
+pub const PATCH_SECTIONS: [u32; 3] = [
+    SECTION_PATCHES,
+    SECTION_PACKED_PATCHES,
+    SECTION_PACKED_STRIPS,
+];
 /// The kinds every version-4 repository has, exactly once each, besides its one patch blob
 /// (`SECTION_PATCHES` or `SECTION_PACKED_PATCHES`).
 pub const REQUIRED_SECTIONS: [u32; 3] = [SECTION_DIAMONDS, SECTION_TETS, SECTION_IDS];
@@ -99,9 +111,13 @@ pub const WRITTEN_SECTIONS: usize = REQUIRED_SECTIONS.len() + 1;
 pub enum PatchCodec {
     /// As drawn: `SECTION_PATCHES`, each patch exactly `patch::patch_bytes(..)`.
     Raw,
-    /// Packed: `SECTION_PACKED_PATCHES` (`packed.rs`), decoded when loaded.
+    /// Packed: `SECTION_PACKED_STRIPS` (`packed.rs`, strips by `strip_codec.rs`), decoded
+    /// when loaded.
     #[default]
     Packed,
+    /// Packed as before the twelfth session: `SECTION_PACKED_PATCHES`, strips by
+    /// meshoptimizer's index-sequence codec. Read (and written by tests, to prove it).
+    PackedV1,
 }
 
 impl PatchCodec {
@@ -110,6 +126,7 @@ impl PatchCodec {
         match self {
             PatchCodec::Raw => "raw",
             PatchCodec::Packed => "packed",
+            PatchCodec::PackedV1 => "packed-v1",
         }
     }
 
@@ -117,8 +134,24 @@ impl PatchCodec {
     pub fn section_kind(self) -> u32 {
         match self {
             PatchCodec::Raw => SECTION_PATCHES,
-            PatchCodec::Packed => SECTION_PACKED_PATCHES,
+            PatchCodec::Packed => SECTION_PACKED_STRIPS,
+            PatchCodec::PackedV1 => SECTION_PACKED_PATCHES,
         }
+    }
+
+    /// The codec of a patch blob section of kind `kind`.
+    pub fn of_section(kind: u32) -> Option<PatchCodec> {
+        match kind {
+            SECTION_PATCHES => Some(PatchCodec::Raw),
+            SECTION_PACKED_STRIPS => Some(PatchCodec::Packed),
+            SECTION_PACKED_PATCHES => Some(PatchCodec::PackedV1),
+            _ => None,
+        }
+    }
+
+    /// True for the packed codecs (the loader decodes each patch).
+    pub fn is_packed(self) -> bool {
+        self != PatchCodec::Raw
     }
 }
 /// Section flag: a reader that does not know the section's kind may ignore it.
@@ -360,7 +393,8 @@ pub fn section_name(kind: u32) -> String {
         SECTION_DIAMONDS => "diamond table".into(),
         SECTION_TETS => "tet table".into(),
         SECTION_PATCHES => "patch blob".into(),
-        SECTION_PACKED_PATCHES => "packed patch blob".into(),
+        SECTION_PACKED_PATCHES => "packed patch blob (v1)".into(),
+        SECTION_PACKED_STRIPS => "packed patch blob".into(),
         SECTION_IDS => "id blob".into(),
         other => format!("section kind {other}"),
     }

@@ -5,7 +5,7 @@
 //! - `patch`: one simplex's patch (packed positions, attributes, a triangle strip with primitive
 //!   restart over local vertices): `encode_patch` and the zero-copy `PatchView`;
 //! - `packed`: the packed (compressed) form of a patch, the default on disk, decoded on load
-//!   into exactly what `encode_patch` writes;
+//!   into exactly what `encode_patch` writes; `strip_codec`: its strips in 4-bit symbols;
 //! - `global_ids`: each patch's global vertex ids, delta + varint coded in their own blob (the
 //!   CPU's checks need them, the GPU does not);
 //! - `writer`: `write_repository[_file]` (temporary file, fsync, rename; stale temporaries of
@@ -29,6 +29,7 @@ pub mod reader;
 pub mod repack;
 pub mod streamed_writer;
 pub mod strip;
+pub mod strip_codec;
 pub mod surface;
 pub mod writer;
 

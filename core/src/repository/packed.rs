@@ -1,4 +1,4 @@
-//! Packed patches: the compressed form a repository stores by default (`SECTION_PACKED_PATCHES`),
+//! Packed patches: the compressed form a repository stores by default (`SECTION_PACKED_STRIPS`),
 //! decoded on the loader's thread into exactly the bytes `patch::encode_patch` writes (seed 001:
 //! "stored externally in a compressed representation from which a version optimized for
 //! efficient rendering can be rapidly extracted").
@@ -14,9 +14,11 @@
 //! normals           vertex codec over n × [i16; 2]          if ATTR_NORMALS
 //! colours           vertex codec over n × [u8; 4]           if ATTR_COLORS
 //! uvs               vertex codec over n × [f32; 2]          if ATTR_UVS
-//! strip             meshopt index-sequence codec over the m stored indices (u16 values with
-//!                   restart 0xFFFF when n ≤ 65,535, u32 with 0xFFFF_FFFF otherwise), which
-//!                   keeps their order: strips and their restarts survive as they are
+//! strip             `strip_codec.rs` over the m stored indices (`StripCoding::Nibbles`, the
+//!                   default), or meshopt's index-sequence codec over them (u16 values with
+//!                   restart 0xFFFF when n ≤ 65,535, u32 with 0xFFFF_FFFF otherwise;
+//!                   `StripCoding::IndexSequence`, repositories packed before the twelfth
+//!                   session): both keep their order, strips and restarts as they are
 //! zero padding      to a multiple of 8
 //! ```
 //!
@@ -30,16 +32,38 @@
 //! (every coordinate ≤ `POSITION_MAX`, every index < n or a restart), so a crafted patch whose
 //! checksum matches still cannot make a renderer read outside the patch.
 
+use super::format::PatchCodec;
 use super::format::{
     align8, pack_position, unpack_position, ATTR_ALL, ATTR_COLORS, ATTR_NORMALS, ATTR_UVS,
     POSITION_MAX,
 };
 use super::patch::{patch_bytes_checked, MAX_U16_PATCH_VERTICES};
+use super::strip_codec::{decode_strip as decode_nibbles, encode_strip};
 
 /// The vertex codec's format version this writer pins.
 const VERTEX_CODEC_VERSION: i32 = 1;
 /// The vertex codec's compression level (meshoptimizer's default; 3 gains < 0.1 % here).
 const VERTEX_CODEC_LEVEL: i32 = 2;
+
+/// How a packed patch stores its strip (the rest is the same either way).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StripCoding {
+    /// meshoptimizer's index-sequence codec (`PatchCodec::PackedV1`).
+    IndexSequence,
+    /// `strip_codec.rs`: 4-bit symbols for first-use order (`PatchCodec::Packed`).
+    Nibbles,
+}
+
+impl StripCoding {
+    /// The strip coding of a packed codec (`None` for `Raw`).
+    pub fn of(codec: PatchCodec) -> Option<StripCoding> {
+        match codec {
+            PatchCodec::Raw => None,
+            PatchCodec::Packed => Some(StripCoding::Nibbles),
+            PatchCodec::PackedV1 => Some(StripCoding::IndexSequence),
+        }
+    }
+}
 
 /// Why a packed patch cannot be decoded (the reader adds the tet).
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
@@ -70,13 +94,15 @@ fn streams(attributes: u32) -> impl Iterator<Item = (&'static str, usize)> {
 
 /// Appends the packed form of `raw` (one patch as `encode_patch` wrote it, padding included,
 /// for `vertex_count` vertices, `strip_index_count` strip indices and the `attributes` mask)
-/// to `out`, whose length must be a multiple of 8; returns the packed size (a multiple of 8).
-/// Panics if `raw` is not such a patch (the build made it: a bug, not an input).
+/// to `out`, whose length must be a multiple of 8, its strip coded by `strips`; returns the
+/// packed size (a multiple of 8). Panics if `raw` is not such a patch (the build made it: a
+/// bug, not an input).
 pub fn pack_patch(
     raw: &[u8],
     vertex_count: usize,
     strip_index_count: usize,
     attributes: u32,
+    strips: StripCoding,
     out: &mut Vec<u8>,
 ) -> usize {
     assert!(
@@ -117,15 +143,25 @@ pub fn pack_patch(
                         .map(|c| u16::from_le_bytes([c[0], c[1]]) as u32)
                         .collect()
                 };
-                // The bound grows with the largest value, and restarts are the largest.
-                let largest = indices.iter().max().map_or(0, |&i| i as usize + 1);
-                let stream = meshopt::encoding::encode_index_sequence(&indices, largest)
-                    .expect("index sequence encoding");
-                assert!(
-                    !stream.is_empty(),
-                    "index sequence encoding ran out of room"
-                );
-                stream
+                match strips {
+                    StripCoding::Nibbles => {
+                        let restart = if wide { u32::MAX } else { u16::MAX as u32 };
+                        let mut stream = Vec::new();
+                        encode_strip(&indices, restart, &mut stream);
+                        stream
+                    }
+                    StripCoding::IndexSequence => {
+                        // The bound grows with the largest value, and restarts are the largest.
+                        let largest = indices.iter().max().map_or(0, |&i| i as usize + 1);
+                        let stream = meshopt::encoding::encode_index_sequence(&indices, largest)
+                            .expect("index sequence encoding");
+                        assert!(
+                            !stream.is_empty(),
+                            "index sequence encoding ran out of room"
+                        );
+                        stream
+                    }
+                }
             }
             _ => {
                 let bytes = &raw[at..at + size * n];
@@ -171,13 +207,14 @@ thread_local! {
 
 /// Decodes a packed patch into `out`, which must be exactly the decoded size
 /// (`patch_bytes(vertex_count, strip_index_count, attributes)`): afterwards `out` holds the
-/// bytes `encode_patch` wrote for it. Never panics; allocates at most 12 bytes a vertex of
-/// scratch, once per thread.
+/// bytes `encode_patch` wrote for it. `strips` is how the strip was packed. Never panics;
+/// allocates at most 12 bytes a vertex of scratch, once per thread.
 pub fn unpack_patch(
     packed: &[u8],
     vertex_count: usize,
     strip_index_count: usize,
     attributes: u32,
+    strips: StripCoding,
     out: &mut [u8],
 ) -> Result<(), UnpackError> {
     if attributes & !ATTR_ALL != 0 {
@@ -191,8 +228,8 @@ pub fn unpack_patch(
             out.len()
         ));
     }
-    out.fill(0);
     if vertex_count == 0 && strip_index_count == 0 {
+        out.fill(0);
         return match packed.len() {
             0 => Ok(()),
             len => fail(format!("an empty patch packed in {len} bytes, not 0")),
@@ -223,13 +260,21 @@ pub fn unpack_patch(
                 let wide = n > MAX_U16_PATCH_VERTICES;
                 let width = if wide { 4 } else { 2 };
                 let target = &mut out[to..to + width * strip_index_count];
-                decode_strip(stream, n, strip_index_count, width, target)
+                match strips {
+                    StripCoding::Nibbles => decode_nibble_strip(stream, n, width, target),
+                    StripCoding::IndexSequence => {
+                        decode_strip(stream, n, strip_index_count, width, target)
+                    }
+                }
             }
             _ => decode_vertices(stream, n, size, &mut out[to..to + size * n]),
         };
         decoded.map_err(|e| UnpackError(format!("{name}: {}", e.0)))?;
         to += if name == "positions" { 8 * n } else { size * n };
     }
+    // Every array was written in full; only the padding after the strip is left.
+    let strip_width = if n > MAX_U16_PATCH_VERTICES { 4 } else { 2 };
+    out[to + strip_width * strip_index_count..].fill(0);
     let padding = &packed[from..];
     if padding.len() >= 8 || padding.iter().any(|&b| b != 0) || !packed.len().is_multiple_of(8) {
         return fail(format!(
@@ -292,6 +337,15 @@ fn decode_positions(stream: &[u8], n: usize, target: &mut [u8]) -> Result<(), Un
     })
 }
 
+fn decode_nibble_strip(
+    stream: &[u8],
+    n: usize,
+    width: usize,
+    target: &mut [u8],
+) -> Result<(), UnpackError> {
+    decode_nibbles(stream, n, width, target).map_err(UnpackError)
+}
+
 fn decode_strip(
     stream: &[u8],
     n: usize,
@@ -334,17 +388,19 @@ fn decode_strip(
 #[path = "packed_tests.rs"]
 mod tests;
 
-/// `contents` (a raw repository) with its patch blob packed: each patch packed in table order,
-/// the tets' patch ranges moved to match (checksums are the writer's). Panics if `contents` is
-/// already packed or a patch does not fit its record (an invalid repository).
+/// `contents` (a raw repository) with its patch blob packed as `codec`: each patch packed in
+/// table order, the tets' patch ranges moved to match (checksums are the writer's). Panics if
+/// `contents` is already packed, `codec` is not a packed one, or a patch does not fit its
+/// record (an invalid repository).
 pub fn pack_contents(
     contents: &super::writer::RepositoryContents,
+    codec: PatchCodec,
 ) -> super::writer::RepositoryContents {
-    use super::format::PatchCodec;
     assert_eq!(contents.codec, PatchCodec::Raw, "already packed");
+    let strips = StripCoding::of(codec).expect("a packed codec");
     let attributes = contents.header.attributes;
     let mut packed = contents.clone();
-    packed.codec = PatchCodec::Packed;
+    packed.codec = codec;
     packed.patch_blob.clear();
     for t in &mut packed.tets {
         let start = t.patch_offset as usize;
@@ -355,6 +411,7 @@ pub fn pack_contents(
             t.vertex_count as usize,
             t.strip_index_count as usize,
             attributes,
+            strips,
             &mut packed.patch_blob,
         );
         t.patch_bytes = size as u32;

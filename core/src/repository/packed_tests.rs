@@ -53,28 +53,35 @@ fn raw_bytes(p: &PatchData, attributes: u32) -> Vec<u8> {
     raw
 }
 
+const CODINGS: [StripCoding; 2] = [StripCoding::Nibbles, StripCoding::IndexSequence];
+
+/// Packs and unpacks `p` with both strip codings.
 fn round_trip(p: &PatchData, attributes: u32) {
     let raw = raw_bytes(p, attributes);
     let (n, m) = (p.vertex_count(), p.strip.len());
-    let mut packed = vec![0u8; 8];
-    let size = pack_patch(&raw, n, m, attributes, &mut packed);
-    assert_eq!(packed.len(), 8 + size);
-    assert_eq!(size % 8, 0);
-    let mut out = vec![0xAA; raw.len()];
-    unpack_patch(&packed[8..], n, m, attributes, &mut out).expect("decodes");
-    assert!(
-        out == raw,
-        "{n} vertices, {m} indices, attributes {attributes:#x}"
-    );
+    for strips in CODINGS {
+        let mut packed = vec![0u8; 8];
+        let size = pack_patch(&raw, n, m, attributes, strips, &mut packed);
+        assert_eq!(packed.len(), 8 + size);
+        assert_eq!(size % 8, 0);
+        let mut out = vec![0xAA; raw.len()];
+        unpack_patch(&packed[8..], n, m, attributes, strips, &mut out).expect("decodes");
+        assert!(
+            out == raw,
+            "{n} vertices, {m} indices, attributes {attributes:#x}, {strips:?}"
+        );
+    }
 }
 
 #[test]
 fn empty_patches_pack_to_nothing() {
     let empty = PatchData::default();
     round_trip(&empty, 0);
-    assert_eq!(pack_patch(&[], 0, 0, 0, &mut Vec::new()), 0);
-    let err = unpack_patch(&[0; 8], 0, 0, 0, &mut []).unwrap_err();
-    assert!(err.0.contains("empty patch"), "{err}");
+    for strips in CODINGS {
+        assert_eq!(pack_patch(&[], 0, 0, 0, strips, &mut Vec::new()), 0);
+        let err = unpack_patch(&[0; 8], 0, 0, 0, strips, &mut []).unwrap_err();
+        assert!(err.0.contains("empty patch"), "{err}");
+    }
 }
 
 #[test]
@@ -98,17 +105,19 @@ proptest! {
     fn damaged_patches_never_panic(
         n in 1usize..200, m in 3usize..400, attributes in 0u32..8, seed: u64,
         at in any::<prop::sample::Index>(), xor in 1u8..=255, cut in any::<prop::sample::Index>(),
+        nibbles: bool,
     ) {
+        let strips = CODINGS[usize::from(!nibbles)];
         let p = patch(n, m, attributes, seed);
         let raw = raw_bytes(&p, attributes);
         let mut packed = Vec::new();
-        pack_patch(&raw, n, p.strip.len(), attributes, &mut packed);
+        pack_patch(&raw, n, p.strip.len(), attributes, strips, &mut packed);
         let mut out = vec![0; raw.len()];
         let mut flipped = packed.clone();
         flipped[at.index(packed.len())] ^= xor;
         let truncated = &packed[..cut.index(packed.len())];
         for bytes in [&flipped[..], truncated] {
-            if unpack_patch(bytes, n, p.strip.len(), attributes, &mut out).is_ok() {
+            if unpack_patch(bytes, n, p.strip.len(), attributes, strips, &mut out).is_ok() {
                 let positions = &out[..8 * n];
                 for w in positions.chunks_exact(8) {
                     let q = unpack_position([le_u32(&w[..4]), le_u32(&w[4..])]);
@@ -134,19 +143,32 @@ fn align_strip(p: &PatchData, attributes: u32) -> usize {
 fn wrong_sizes_are_errors() {
     let p = patch(50, 120, ATTR_NORMALS, 3);
     let raw = raw_bytes(&p, ATTR_NORMALS);
+    let strips = StripCoding::Nibbles;
     let mut packed = Vec::new();
-    pack_patch(&raw, 50, p.strip.len(), ATTR_NORMALS, &mut packed);
+    pack_patch(&raw, 50, p.strip.len(), ATTR_NORMALS, strips, &mut packed);
     let mut out = vec![0; raw.len()];
     // Another attribute mask decodes into another size: refused before any decoding.
-    assert!(unpack_patch(&packed, 50, p.strip.len(), ATTR_UVS, &mut out).is_err());
+    assert!(unpack_patch(&packed, 50, p.strip.len(), ATTR_UVS, strips, &mut out).is_err());
     // A stream size past the end.
     let mut bad = packed.clone();
     bad[0..4].copy_from_slice(&u32::MAX.to_le_bytes());
-    let err = unpack_patch(&bad, 50, p.strip.len(), ATTR_NORMALS, &mut out).unwrap_err();
+    let err = unpack_patch(&bad, 50, p.strip.len(), ATTR_NORMALS, strips, &mut out).unwrap_err();
     assert!(err.0.contains("positions stream"), "{err}");
     // Trailing bytes beyond the padding.
     let mut long = packed.clone();
     long.extend_from_slice(&[0; 8]);
-    let err = unpack_patch(&long, 50, p.strip.len(), ATTR_NORMALS, &mut out).unwrap_err();
+    let err = unpack_patch(&long, 50, p.strip.len(), ATTR_NORMALS, strips, &mut out).unwrap_err();
     assert!(err.0.contains("after the streams"), "{err}");
+    // A strip packed one way does not decode the other way into the same indices.
+    let mut v1 = Vec::new();
+    pack_patch(
+        &raw,
+        50,
+        p.strip.len(),
+        ATTR_NORMALS,
+        StripCoding::IndexSequence,
+        &mut v1,
+    );
+    let decoded = unpack_patch(&v1, 50, p.strip.len(), ATTR_NORMALS, strips, &mut out);
+    assert!(decoded.is_err() || out != raw);
 }

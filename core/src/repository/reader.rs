@@ -25,7 +25,7 @@ use super::format::{
     patch_checksum, section_name, DiamondRecord, Header, PatchCodec, SectionEntry, TetRecord,
     HEADER_SIZE, MAGIC, SECTION_IDS, TET_RECORD_SIZE,
 };
-use super::packed::unpack_patch;
+use super::packed::{unpack_patch, StripCoding};
 use super::patch::{patch_bytes_checked, PatchSource, PatchView};
 
 /// A validated patch (`Repository::patch`): borrowed from the map, or decoded from a packed
@@ -459,13 +459,14 @@ impl Repository {
                 out.copy_from_slice(stored);
                 Ok(())
             }
-            PatchCodec::Packed => {
+            PatchCodec::Packed | PatchCodec::PackedV1 => {
                 let t = self.tet(tet_index)?;
                 unpack_patch(
                     stored,
                     t.vertex_count as usize,
                     t.strip_index_count as usize,
                     self.header.attributes,
+                    StripCoding::of(self.codec).expect("packed"),
                     out,
                 )
                 .map_err(|e| corrupt(format!("tet {tet_index}: {e}")))
@@ -485,7 +486,7 @@ impl Repository {
                 self.patch_bytes(tet_index)?;
                 PatchBytes::Mapped
             }
-            PatchCodec::Packed => {
+            PatchCodec::Packed | PatchCodec::PackedV1 => {
                 let len = self.decoded_patch_bytes(tet_index)?;
                 let mut words = vec![0u64; len.div_ceil(8)];
                 self.read_patch(tet_index, &mut bytemuck::cast_slice_mut(&mut words)[..len])?;

@@ -12,7 +12,7 @@ use std::io;
 use std::path::Path;
 
 use super::format::{patch_checksum, PatchCodec, TetRecord};
-use super::packed::pack_patch;
+use super::packed::{pack_patch, StripCoding};
 use super::reader::{Repository, RepositoryError};
 use super::streamed_writer::{write_repository_streamed, BlobFeed, RepositoryDirectory};
 
@@ -32,7 +32,7 @@ fn stored(
             out.resize(at + size, 0);
             source.read_patch(i, &mut out[at..])
         }
-        PatchCodec::Packed => {
+        PatchCodec::Packed | PatchCodec::PackedV1 => {
             scratch.resize(size, 0);
             source.read_patch(i, scratch)?;
             pack_patch(
@@ -40,6 +40,7 @@ fn stored(
                 t.vertex_count as usize,
                 t.strip_index_count as usize,
                 source.header().attributes,
+                StripCoding::of(codec).expect("packed"),
                 out,
             );
             Ok(())

@@ -1,0 +1,536 @@
+//! The strip of a packed patch, coded in 4-bit symbols that keep every index and restart in
+//! order (seed 001: "topology is compressed using a mesh encoding scheme preserving
+//! stripification").
+//!
+//! The builder numbers a patch's vertices in order of first use by its strip
+//! (`tessera_preprocess::strips`), so each index is either the next unseen vertex or one seen
+//! a few vertices before. With `next` = one past the largest index so far (0 at the start):
+//!
+//! ```text
+//! nibble 0        the new vertex: index = next, next += 1
+//! nibble 1        a restart marker
+//! nibble 2..=13   back b = nibble − 2 (0..11): index = next − 1 − b
+//! nibble 14, n    back b = 12 + n (12..27)
+//! nibble 15, v    v a varint of nibbles (3 bits each, low groups first, bit 3 = more):
+//!                 v even: back b = 28 + v / 2; v odd: forward, index = next + 1 + (v − 1) / 2
+//!                 and next = index + 1 (a strip not in first-use order still codes)
+//! ```
+//!
+//! Nibbles fill each byte low half first; an odd count leaves a zero high half. On the
+//! Stanford dragon's patches (first-use order) this takes 5.0 bits an index where meshopt's
+//! index-sequence codec takes 8.4 (BENCHMARKS.md). Decoding is a few branches an index,
+//! checked: every index below the patch's vertex count, every back reference to a
+//! vertex already seen, the stream used exactly (a crafted stream is an error, never a read
+//! outside it or an index past the patch).
+
+/// `SYMBOLS` entry bit: a restart marker.
+const RESTART_BIT: u32 = 4;
+
+/// `PAIRS` entry bits: both nibbles of the byte are one-nibble symbols (0..=13); the first
+/// (shifted by 1 for the second) is a restart. Bits 8–15 and 16–23: each one's distance.
+const PAIR_BIT: u32 = 1;
+const PAIR_RESTART: u32 = 2;
+
+/// For every byte of two nibbles (the first lowest) that are both one-nibble symbols.
+static PAIRS: [u32; 256] = pairs();
+
+const fn pairs() -> [u32; 256] {
+    let mut table = [0u32; 256];
+    let mut b = 0;
+    while b < 256 {
+        let (first, second) = (b & 15, b >> 4);
+        if first < 14 && second < 14 {
+            let mut entry = PAIR_BIT;
+            let mut half = 0;
+            while half < 2 {
+                let nibble = if half == 0 { first } else { second };
+                if nibble == 1 {
+                    entry |= PAIR_RESTART << half;
+                }
+                let distance = if nibble >= 2 { nibble as u32 - 1 } else { 0 };
+                entry |= distance << (8 + 8 * half);
+                half += 1;
+            }
+            table[b] = entry;
+        }
+        b += 1;
+    }
+    table
+}
+
+/// For every three nibbles (the first lowest): bits 0–1 how many nibbles the symbol they
+/// start takes (0: a varint of three nibbles or more, decoded apart), bit 2 a restart, bits
+/// 16–31 the distance d as i16 (index = next − d).
+static SYMBOLS: [u32; 4096] = symbols();
+
+const fn symbols() -> [u32; 4096] {
+    let mut table = [0u32; 4096];
+    let mut w = 0;
+    while w < 4096 {
+        let (a, b, c) = (w & 15, (w >> 4) & 15, (w >> 8) & 15);
+        // (nibbles, distance, restart)
+        let (width, distance, restart): (u32, i32, bool) = match a {
+            0 => (1, 0, false),
+            1 => (1, 0, true),
+            2..=13 => (1, a as i32 - 1, false),
+            14 => (2, 13 + b as i32, false),
+            _ => {
+                let (width, v) = if b & 8 == 0 {
+                    (2, b & 7)
+                } else if c & 8 == 0 {
+                    (3, (b & 7) | ((c & 7) << 3))
+                } else {
+                    (0, 0)
+                };
+                if v % 2 == 0 {
+                    // back 28 + v / 2: index = next − 1 − back
+                    (width, 29 + (v / 2) as i32, false)
+                } else {
+                    // forward: index = next + 1 + (v − 1) / 2
+                    (width, -(1 + ((v - 1) / 2) as i32), false)
+                }
+            }
+        };
+        let restart_bit = if restart { RESTART_BIT } else { 0 };
+        table[w] = width | restart_bit | ((distance as i16 as u16 as u32) << 16);
+        w += 1;
+    }
+    table
+}
+
+/// Largest varint (in nibbles) a back or forward distance below 2^32 needs: 33 bits / 3.
+const MAX_VARINT_NIBBLES: usize = 11;
+
+/// Appends the coding of `indices` (restart markers equal to `restart`) to `out`; returns the
+/// bytes written.
+pub fn encode_strip(indices: &[u32], restart: u32, out: &mut Vec<u8>) -> usize {
+    let start = out.len();
+    let mut nibbles = Nibbles { out, half: false };
+    let mut next: u64 = 0;
+    for &index in indices {
+        if index == restart {
+            nibbles.push(1);
+            continue;
+        }
+        let index = index as u64;
+        if index == next {
+            nibbles.push(0);
+            next += 1;
+        } else if index < next {
+            let back = next - 1 - index;
+            if back < 12 {
+                nibbles.push(2 + back as u8);
+            } else if back < 28 {
+                nibbles.push(14);
+                nibbles.push((back - 12) as u8);
+            } else {
+                nibbles.push(15);
+                nibbles.varint((back - 28) * 2);
+            }
+        } else {
+            nibbles.push(15);
+            nibbles.varint((index - next - 1) * 2 + 1);
+            next = index + 1;
+        }
+    }
+    out.len() - start
+}
+
+struct Nibbles<'a> {
+    out: &'a mut Vec<u8>,
+    /// True when the last byte's high half is free.
+    half: bool,
+}
+
+impl Nibbles<'_> {
+    fn push(&mut self, nibble: u8) {
+        debug_assert!(nibble < 16);
+        if self.half {
+            *self.out.last_mut().expect("a half byte") |= nibble << 4;
+        } else {
+            self.out.push(nibble);
+        }
+        self.half = !self.half;
+    }
+
+    fn varint(&mut self, mut value: u64) {
+        while value >= 8 {
+            self.push((value & 7) as u8 | 8);
+            value >>= 3;
+        }
+        self.push(value as u8);
+    }
+}
+
+/// Decodes the strip of a patch of `vertex_count` vertices from `stream` into `target`, the
+/// stored indices as little-endian u16 (`width` 2, restart 0xFFFF) or u32 (`width` 4, restart
+/// 0xFFFF_FFFF), as many as `target` holds. Fails on any stream that `encode_strip` could not
+/// have written for such a patch: truncated, with bytes or a non-zero half byte left over, an
+/// index at or past `vertex_count`, a back reference before the first vertex, a varint longer
+/// than a u32 distance needs.
+pub fn decode_strip(
+    stream: &[u8],
+    vertex_count: usize,
+    width: usize,
+    target: &mut [u8],
+) -> Result<(), String> {
+    match width {
+        2 => decode::<2>(stream, vertex_count as u64, target),
+        4 => decode::<4>(stream, vertex_count as u64, target),
+        _ => Err(format!("strip indices of {width} bytes")),
+    }
+}
+
+/// `decode_strip` for `W`-byte indices. Every symbol of at most three nibbles (all but the
+/// varints of three nibbles or more: 3.8 % of the dragon's indices) is read from one table
+/// entry for the next three nibbles: how many it takes and its distance d, index = next − d
+/// (d < 0 for a forward jump), next = max(next, index + 1); the reader's 64-bit buffer holds
+/// at least three nibbles between refills of 7 bytes.
+fn decode<const W: usize>(stream: &[u8], n: u64, target: &mut [u8]) -> Result<(), String> {
+    let restart: u64 = if W == 2 {
+        u16::MAX as u64
+    } else {
+        u32::MAX as u64
+    };
+    // The reader's state in plain locals, so that the loop keeps it in registers (a struct
+    // whose address a call takes lives on the stack: one store and load an index).
+    let (mut rest, mut buffer, mut available) = (stream, 0u64, 0u32);
+    let mut next: u64 = 0;
+    let count = target.len() / W;
+    let mut k = 0;
+    while k < count {
+        if available < 3 {
+            match rest.first_chunk::<8>() {
+                Some(eight) => {
+                    let word = u64::from_le_bytes(*eight) & 0x00FF_FFFF_FFFF_FFFF;
+                    buffer |= word << (4 * available);
+                    available += 14;
+                    rest = &rest[7..];
+                }
+                None => {
+                    // The stream's last bytes: the general path, one symbol.
+                    let reader = Reader {
+                        rest,
+                        buffer,
+                        available,
+                    };
+                    let (value, after_next, after) = any_symbol(reader, next, n, restart, k)?;
+                    (next, rest, buffer, available) =
+                        (after_next, after.rest, after.buffer, after.available);
+                    write::<W>(&mut target[k * W..k * W + W], value);
+                    k += 1;
+                    continue;
+                }
+            }
+        }
+        // Two one-nibble symbols at once where they come in a pair (most of the time): one
+        // table read for both halves the dependent chain of reads an index.
+        let pair = PAIRS[(buffer & 0xFF) as usize];
+        if pair & PAIR_BIT != 0 && k + 1 < count {
+            buffer >>= 8;
+            available -= 2;
+            for (half, slot) in [(0, k), (1, k + 1)] {
+                let restarts = pair & (PAIR_RESTART << half) != 0;
+                let index = next.wrapping_sub(((pair >> (8 + 8 * half)) & 0xFF) as u64);
+                if index >= n && !restarts {
+                    return Err(out_of_range(slot, index, n));
+                }
+                if !restarts {
+                    next = next.max(index + 1);
+                }
+                let value = if restarts { restart } else { index };
+                write::<W>(&mut target[slot * W..slot * W + W], value);
+            }
+            k += 2;
+            continue;
+        }
+        let entry = SYMBOLS[(buffer & 0xFFF) as usize];
+        let width = entry & 3;
+        let value = if width == 0 {
+            // A long varint: the general path.
+            let reader = Reader {
+                rest,
+                buffer,
+                available,
+            };
+            let (value, after_next, after) = any_symbol(reader, next, n, restart, k)?;
+            (next, rest, buffer, available) =
+                (after_next, after.rest, after.buffer, after.available);
+            value
+        } else {
+            buffer >>= 4 * width;
+            available -= width;
+            if entry & RESTART_BIT != 0 {
+                restart
+            } else {
+                let index = next.wrapping_sub((entry as i32 >> 16) as i64 as u64);
+                // A back before the first vertex wraps past n.
+                if index >= n {
+                    return Err(out_of_range(k, index, n));
+                }
+                next = next.max(index + 1);
+                index
+            }
+        };
+        write::<W>(&mut target[k * W..k * W + W], value);
+        k += 1;
+    }
+    let reader = Reader {
+        rest,
+        buffer,
+        available,
+    };
+    let consumed = reader.consumed(stream);
+    let used = consumed.div_ceil(2);
+    if used != stream.len() {
+        return Err(format!(
+            "{} bytes after the strip's {} indices",
+            stream.len() - used,
+            target.len() / W
+        ));
+    }
+    if consumed % 2 == 1 && stream[used - 1] >> 4 != 0 {
+        return Err("a non-zero half byte after the strip".into());
+    }
+    Ok(())
+}
+
+#[inline(always)]
+fn write<const W: usize>(slot: &mut [u8], index: u64) {
+    slot.copy_from_slice(&index.to_le_bytes()[..W]);
+}
+
+/// One symbol decoded the general way, for what the hot loop leaves: refilling from the
+/// stream's last bytes, a varint of three nibbles or more, a stream that ends inside a symbol.
+/// Returns the value to store, `next` after it and the reader after it. Apart and cold, and
+/// the reader passed by value, so that the hot loop keeps its state in registers.
+#[cold]
+#[inline(never)]
+fn any_symbol<'a>(
+    mut reader: Reader<'a>,
+    next: u64,
+    n: u64,
+    restart: u64,
+    k: usize,
+) -> Result<(u64, u64, Reader<'a>), String> {
+    reader.ensure_three();
+    if reader.available == 0 {
+        return Err(truncated(k));
+    }
+    let entry = SYMBOLS[(reader.buffer & 0xFFF) as usize];
+    let width = entry & 3;
+    let index = if width != 0 {
+        if width > reader.available {
+            return Err(truncated(k));
+        }
+        reader.buffer >>= 4 * width;
+        reader.available -= width;
+        if entry & RESTART_BIT != 0 {
+            return Ok((restart, next, reader));
+        }
+        next.wrapping_sub((entry as i32 >> 16) as i64 as u64)
+    } else {
+        reader.buffer >>= 4;
+        reader.available -= 1;
+        let v = reader
+            .varint()
+            .ok_or_else(|| format!("strip index {k}: a truncated or over-long varint"))?;
+        if v % 2 == 0 {
+            next.wrapping_sub(29 + v / 2)
+        } else {
+            next + 1 + (v - 1) / 2
+        }
+    };
+    if index >= n {
+        return Err(out_of_range(k, index, n));
+    }
+    Ok((index, next.max(index + 1), reader))
+}
+
+#[cold]
+#[inline(never)]
+fn out_of_range(k: usize, index: u64, n: u64) -> String {
+    if index > u64::MAX / 2 {
+        format!("strip index {k} refers back before the first vertex")
+    } else {
+        format!("strip index {k} is {index}, past the {n} vertices")
+    }
+}
+
+#[cold]
+fn truncated(k: usize) -> String {
+    format!("the strip stream ends before index {k}")
+}
+
+/// The last (fewer than 8) bytes of a stream as a word, and how many of them it holds (at
+/// most 7). Apart and cold: its variable-length copy would otherwise make the decoding loop
+/// save its registers around a call.
+#[cold]
+#[inline(never)]
+fn tail_word(rest: &[u8]) -> (u64, usize) {
+    let take = rest.len().min(7);
+    let mut bytes = [0u8; 8];
+    bytes[..take].copy_from_slice(&rest[..take]);
+    (u64::from_le_bytes(bytes), take)
+}
+
+#[derive(Clone, Copy)]
+struct Reader<'a> {
+    /// The bytes not yet moved into `buffer`.
+    rest: &'a [u8],
+    /// The next nibbles, lowest first.
+    buffer: u64,
+    /// Nibbles left in `buffer`.
+    available: u32,
+}
+
+impl Reader<'_> {
+    /// At least three nibbles in `buffer` unless the stream has fewer left.
+    #[inline(always)]
+    fn ensure_three(&mut self) {
+        if self.available < 3 {
+            self.refill();
+        }
+    }
+
+    /// Appends up to 7 bytes to the (at most two) nibbles left: 64 bits at most. One
+    /// unaligned 8-byte load while 8 bytes remain; a copy only at the stream's end.
+    #[inline(always)]
+    fn refill(&mut self) {
+        let (word, take) = match self.rest.first_chunk::<8>() {
+            Some(eight) => (u64::from_le_bytes(*eight) & 0x00FF_FFFF_FFFF_FFFF, 7),
+            None => tail_word(self.rest),
+        };
+        self.buffer |= word << (4 * self.available);
+        self.available += 2 * take as u32;
+        self.rest = &self.rest[take..];
+    }
+
+    #[inline(always)]
+    fn next(&mut self) -> Option<u8> {
+        if self.available == 0 {
+            self.refill();
+            if self.available == 0 {
+                return None;
+            }
+        }
+        let nibble = (self.buffer & 15) as u8;
+        self.buffer >>= 4;
+        self.available -= 1;
+        Some(nibble)
+    }
+
+    /// Nibbles taken so far from `stream` (which this reader started on).
+    fn consumed(&self, stream: &[u8]) -> usize {
+        2 * (stream.len() - self.rest.len()) - self.available as usize
+    }
+
+    fn varint(&mut self) -> Option<u64> {
+        let mut value = 0u64;
+        for shift in 0..MAX_VARINT_NIBBLES {
+            let nibble = self.next()?;
+            value |= ((nibble & 7) as u64) << (3 * shift);
+            if nibble & 8 == 0 {
+                return Some(value);
+            }
+        }
+        None
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const R: u32 = u32::MAX;
+
+    /// Codes `indices` (u32 restarts) and decodes them as u32 and, where they fit, as u16.
+    fn round_trip(indices: &[u32], vertex_count: usize) -> Vec<u8> {
+        let mut stream = Vec::new();
+        let written = encode_strip(indices, R, &mut stream);
+        assert_eq!(written, stream.len());
+        let mut wide = vec![0u8; 4 * indices.len()];
+        decode_strip(&stream, vertex_count, 4, &mut wide)
+            .unwrap_or_else(|e| panic!("{indices:?}: {e}"));
+        let expected: Vec<u8> = indices.iter().flat_map(|i| i.to_le_bytes()).collect();
+        assert_eq!(wide, expected);
+        if vertex_count < u16::MAX as usize {
+            let narrow: Vec<u32> = indices
+                .iter()
+                .map(|&i| if i == R { u16::MAX as u32 } else { i })
+                .collect();
+            let mut stream16 = Vec::new();
+            encode_strip(&narrow, u16::MAX as u32, &mut stream16);
+            assert_eq!(stream16, stream, "the coding does not depend on the width");
+            let mut short = vec![0u8; 2 * indices.len()];
+            decode_strip(&stream, vertex_count, 2, &mut short).unwrap();
+            let expected: Vec<u8> = narrow
+                .iter()
+                .flat_map(|&i| (i as u16).to_le_bytes())
+                .collect();
+            assert_eq!(short, expected);
+        }
+        stream
+    }
+
+    #[test]
+    fn every_symbol_round_trips() {
+        // New vertices, short and long backs, restarts, far backs through the varint.
+        let mut strip: Vec<u32> = (0..40).collect();
+        strip.extend([39, 38, 27, 28, 12, 11, 0, R, R, 5, 39, 1]);
+        round_trip(&strip, 40);
+        // Forward jumps: a strip not in first-use order.
+        round_trip(&[5, 2, 7, R, 0, 1, 9, 8, 3], 10);
+        // Large distances (u32 patches).
+        let far = [0, 1, 2, 3_000_000, 3_000_001, 1, 0, 2_999_999];
+        round_trip(&far, 3_000_002);
+        round_trip(&[], 0);
+        round_trip(&[R, R], 0);
+    }
+
+    #[test]
+    fn first_use_order_costs_a_nibble_for_new_vertices_and_short_backs() {
+        // A strip of 2 rows: 0 1 2 3 … 9, then backs of 1 (a zigzag along a row).
+        let strip: Vec<u32> = (0..10).chain([8, 9, 7]).collect();
+        let stream = round_trip(&strip, 10);
+        assert_eq!(stream.len(), 13usize.div_ceil(2));
+    }
+
+    #[test]
+    fn crafted_streams_fail_cleanly() {
+        let stream = round_trip(&[0, 1, 2, 1, 0], 3);
+        let decode =
+            |s: &[u8], count: usize, n: usize| decode_strip(s, n, 4, &mut vec![0; 4 * count]);
+        assert!(decode(&stream, 5, 3).is_ok());
+        // Truncated: fewer indices in the stream than asked for (an even count of nibbles,
+        // so no padding half byte reads as a new vertex; with one, that index is past the
+        // vertices).
+        let even = round_trip(&[0, 1, 2, 1], 3);
+        assert!(decode(&even, 5, 3).unwrap_err().contains("ends before"));
+        assert!(decode(&stream, 6, 3).unwrap_err().contains("past the 3"));
+        // Bytes left over.
+        let mut long = stream.clone();
+        long.push(0);
+        assert!(decode(&long, 5, 3).unwrap_err().contains("after the strip"));
+        // Too few vertices for the indices.
+        assert!(decode(&stream, 5, 2)
+            .unwrap_err()
+            .contains("past the 2 vertices"));
+        // A back reference before the first vertex: nibble 2 (back 0) first.
+        assert!(decode(&[0x02], 1, 3)
+            .unwrap_err()
+            .contains("before the first"));
+        // A non-zero half byte after an odd count.
+        assert!(decode(&[0x10], 1, 3).unwrap_err().contains("half byte"));
+        // An endless varint.
+        assert!(decode(&[0xFF; 16], 1, 3).unwrap_err().contains("varint"));
+        // Any byte string decodes or fails, never panics.
+        for a in 0..=255u8 {
+            for b in [0u8, 0x0F, 0xF0, 0x8F, 0xFF] {
+                for count in 0..4 {
+                    let _ = decode(&[a, b], count, 4);
+                }
+            }
+        }
+    }
+}
