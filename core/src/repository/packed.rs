@@ -34,7 +34,7 @@
 
 use super::format::PatchCodec;
 use super::format::{
-    align8, pack_position, unpack_position, ATTR_ALL, ATTR_COLORS, ATTR_NORMALS, ATTR_UVS,
+    align8, unpack_position, ATTR_ALL, ATTR_COLORS, ATTR_NORMALS, ATTR_UVS, POSITION_BITS,
     POSITION_MAX,
 };
 use super::patch::{patch_bytes_checked, MAX_U16_PATCH_VERTICES};
@@ -311,27 +311,30 @@ fn decode_vertices(
 
 fn decode_positions(stream: &[u8], n: usize, target: &mut [u8]) -> Result<(), UnpackError> {
     POSITIONS.with_borrow_mut(|scratch| {
-        scratch.clear();
-        scratch.resize(n, [0; 3]);
-        decode_vertices(
-            stream,
-            n,
-            12,
-            bytemuck::cast_slice_mut(scratch.as_mut_slice()),
-        )?;
-        if let Some(k) = scratch
-            .iter()
-            .position(|q| q.iter().any(|&c| c > POSITION_MAX))
-        {
+        // Grown once per thread, never cleared: the decoder writes all of `..n`.
+        if scratch.len() < n {
+            scratch.resize(n, [0; 3]);
+        }
+        let scratch = &mut scratch[..n];
+        decode_vertices(stream, n, 12, bytemuck::cast_slice_mut(scratch))?;
+        // One pass packs (`pack_position`'s layout) and gathers every coordinate's bits: one
+        // above the grid's makes the patch an error (found again only then, for the message).
+        let mut bits = 0u32;
+        for (q, to) in scratch.iter().zip(target.chunks_exact_mut(8)) {
+            bits |= q[0] | q[1] | q[2];
+            let packed =
+                q[0] as u64 | (q[1] as u64) << POSITION_BITS | (q[2] as u64) << (2 * POSITION_BITS);
+            to.copy_from_slice(&packed.to_le_bytes());
+        }
+        if bits > POSITION_MAX {
+            let k = scratch
+                .iter()
+                .position(|q| q.iter().any(|&c| c > POSITION_MAX))
+                .expect("a coordinate above the grid");
             return fail(format!(
                 "vertex {k} at {:?} exceeds the {POSITION_MAX} grid",
                 scratch[k]
             ));
-        }
-        for (q, to) in scratch.iter().zip(target.chunks_exact_mut(8)) {
-            let [a, b] = pack_position(*q);
-            to[..4].copy_from_slice(&a.to_le_bytes());
-            to[4..].copy_from_slice(&b.to_le_bytes());
         }
         Ok(())
     })
