@@ -26,6 +26,9 @@ import subprocess
 import sys
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
+sys.dont_write_bytecode = True  # no __pycache__ in tools/
+sys.path.insert(0, str(ROOT / "tools"))
+from benchmarks_block import replace_block  # noqa: E402
 MESH = ROOT / "testdata" / "mesh"
 MODELS = {
     "dragon": MESH / "dragon_vrip.ply.gz",
@@ -34,7 +37,6 @@ MODELS = {
 }
 LEVELS = {"p99": [0.25, 0.5, 1.0, 2.0, 4.0], "max": [0.5, 1.0, 2.0, 4.0, 8.0]}
 
-sys.dont_write_bytecode = True  # no __pycache__ in tools/
 _spec = importlib.util.spec_from_file_location("leaf", ROOT / "tools" / "bench-leaf-size.py")
 leaf = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(leaf)
@@ -137,14 +139,7 @@ def main():
     text = "\n".join(header + lines)
     print(text)
     if args.write:
-        path = pathlib.Path(args.write)
-        doc = path.read_text()
-        begin, end = "<!-- bench-breakdown:begin -->", "<!-- bench-breakdown:end -->"
-        if begin not in doc or end not in doc:
-            sys.exit(f"{path}: no {begin} … {end} block to replace")
-        head, rest = doc.split(begin, 1)
-        _, tail = rest.split(end, 1)
-        path.write_text(head + begin + "\n" + text + "\n" + end + tail)
+        replace_block(args.write, "bench-breakdown", text)
     return 0
 
 

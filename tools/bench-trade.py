@@ -27,6 +27,9 @@ import subprocess
 import sys
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
+sys.dont_write_bytecode = True  # no __pycache__ in tools/
+sys.path.insert(0, str(ROOT / "tools"))
+from benchmarks_block import replace_block  # noqa: E402
 MESH = ROOT / "testdata" / "mesh"
 
 # name: (source, build flags)
@@ -133,14 +136,7 @@ def main():
     text = "\n".join(header + lines)
     print(text)
     if args.write:
-        path = pathlib.Path(args.write)
-        doc = path.read_text()
-        begin, end = "<!-- bench-trade:begin -->", "<!-- bench-trade:end -->"
-        if begin not in doc or end not in doc:
-            sys.exit(f"{path}: no {begin} … {end} block to replace")
-        head, rest = doc.split(begin, 1)
-        _, tail = rest.split(end, 1)
-        path.write_text(head + begin + "\n" + text + "\n" + end + tail)
+        replace_block(args.write, "bench-trade", text)
     return 0
 
 

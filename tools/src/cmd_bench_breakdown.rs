@@ -24,18 +24,14 @@ use std::path::PathBuf;
 use anyhow::Context;
 use clap::Args;
 use serde_json::json;
-use tessera_core::cull::CullTests;
-use tessera_core::cut::{diamond_rhos, select_visible};
+use tessera_core::cut::diamond_rhos;
 use tessera_core::metric::center_minus_eye;
 use tessera_core::repository::format::dequantize_position;
 use tessera_core::repository::{Repository, NO_INDEX};
 use tessera_runtime::camera::Camera;
-use tessera_runtime::faces::Faces;
-use tessera_runtime::measure::{
-    drawn_cut, original_sampling, two_sided_errors, visible_samples, ErrorSummary, ReferenceMesh,
-    SamplingConfig,
-};
+use tessera_runtime::measure::SamplingConfig;
 
+use crate::bench::cpu_cut::{cut_error_with, MeasuredCut};
 use crate::bench::{outside_cameras, reference_mesh};
 use crate::cmd_render::default_up;
 use crate::Outcome;
@@ -64,12 +60,6 @@ pub struct BreakdownBenchArgs {
     pub json: bool,
 }
 
-/// One rule's cut at one τ over every view.
-struct CutRow {
-    triangles: f64,
-    error: Option<ErrorSummary>,
-}
-
 pub fn run(args: BreakdownBenchArgs) -> anyhow::Result<Outcome> {
     let repo = Repository::open(&args.repo)
         .with_context(|| format!("cannot open {}", args.repo.display()))?;
@@ -85,7 +75,7 @@ pub fn run(args: BreakdownBenchArgs) -> anyhow::Result<Outcome> {
 
     let mut rows = Vec::new();
     for &tau in &args.tolerances {
-        let sphere = cut_row(
+        let sphere = cut_error_with(
             &repo,
             &reference,
             &cameras,
@@ -93,7 +83,7 @@ pub fn run(args: BreakdownBenchArgs) -> anyhow::Result<Outcome> {
             &sampling,
             |camera, eye| diamond_rhos(repo.diamonds(), eye, &camera.metric()),
         )?;
-        let boxed = cut_row(
+        let boxed = cut_error_with(
             &repo,
             &reference,
             &cameras,
@@ -105,7 +95,7 @@ pub fn run(args: BreakdownBenchArgs) -> anyhow::Result<Outcome> {
     }
     let levels = level_reduction(&repo)?;
 
-    let row_json = |r: &CutRow| {
+    let row_json = |r: &MeasuredCut| {
         json!({
             "triangles": r.triangles,
             "error_max_px": r.error.map(|e| e.max_px),
@@ -139,7 +129,7 @@ pub fn run(args: BreakdownBenchArgs) -> anyhow::Result<Outcome> {
         args.size.1
     );
     println!("  τ px   sphere: triangles  max px  p99 px   box: triangles  max px  p99 px");
-    let e = |r: &CutRow| {
+    let e = |r: &MeasuredCut| {
         r.error
             .map_or((f64::NAN, f64::NAN), |e| (e.max_px, e.p99_px))
     };
@@ -164,61 +154,6 @@ pub fn run(args: BreakdownBenchArgs) -> anyhow::Result<Outcome> {
         );
     }
     Ok(Outcome::Ok)
-}
-
-/// The cut each camera's ρ (from `rhos_of(camera, eye_local)`) selects at τ, with the lit
-/// frame's culling: triangles (mean over the views) and the pooled two-sided errors.
-fn cut_row(
-    repo: &Repository,
-    reference: &ReferenceMesh,
-    cameras: &[Camera],
-    tau: f32,
-    sampling: &SamplingConfig,
-    rhos_of: impl Fn(&Camera, [f32; 3]) -> Vec<f32>,
-) -> anyhow::Result<CutRow> {
-    let h = repo.header();
-    let mut errors = Vec::new();
-    let mut triangles = 0u64;
-    for (v, camera) in cameras.iter().enumerate() {
-        let eye = camera.eye_local(h.origin);
-        let rhos = rhos_of(camera, eye);
-        let tests = CullTests {
-            frustum: Some(camera.view_volume()),
-            cones: true,
-        };
-        let selection = select_visible(repo.tets(), &rhos, tau, eye, &tests);
-        triangles += selection
-            .iter()
-            .map(|&t| repo.tets()[t as usize].triangle_count as u64)
-            .sum::<u64>();
-        let surface = drawn_cut(repo, &selection)?;
-        let sampling = SamplingConfig {
-            seed: sampling.seed.wrapping_add(v as u64),
-            ..*sampling
-        };
-        let original = visible_samples(
-            reference,
-            camera,
-            h.origin,
-            &original_sampling(&sampling),
-            Faces::Front,
-        );
-        let both = two_sided_errors(
-            reference,
-            &original,
-            surface.surface(),
-            camera,
-            h.origin,
-            &sampling,
-            Faces::Front,
-        )?;
-        errors.extend(both.to_original.errors_px);
-        errors.extend(both.to_cut.errors_px);
-    }
-    Ok(CutRow {
-        triangles: triangles as f64 / cameras.len().max(1) as f64,
-        error: ErrorSummary::of(&errors),
-    })
 }
 
 /// Per diamond, the box (origin-relative, f32) of its own patches' vertices: the geometry a

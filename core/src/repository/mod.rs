@@ -4,6 +4,7 @@
 //!   position / normal encodings;
 //! - `patch`: one simplex's patch (packed positions, attributes, a triangle strip with primitive
 //!   restart over local vertices): `encode_patch` and the zero-copy `PatchView`;
+//! - `patch_codec`: `PatchCodec`, raw or packed (and which strip coding), by section kind;
 //! - `packed`: the packed (compressed) form of a patch, the default on disk, decoded on load
 //!   into exactly what `encode_patch` writes; `strip_codec`: its strips in 4-bit symbols;
 //! - `global_ids`: each patch's global vertex ids, delta + varint coded in their own blob (the
@@ -25,6 +26,7 @@ pub mod format;
 pub mod global_ids;
 pub mod packed;
 pub mod patch;
+mod patch_codec;
 pub mod reader;
 pub mod repack;
 pub mod streamed_writer;

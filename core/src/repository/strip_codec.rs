@@ -26,38 +26,6 @@
 /// `SYMBOLS` entry bit: a restart marker.
 const RESTART_BIT: u32 = 4;
 
-/// `PAIRS` entry bits: both nibbles of the byte are one-nibble symbols (0..=13); the first
-/// (shifted by 1 for the second) is a restart. Bits 8–15 and 16–23: each one's distance.
-const PAIR_BIT: u32 = 1;
-const PAIR_RESTART: u32 = 2;
-
-/// For every byte of two nibbles (the first lowest) that are both one-nibble symbols.
-static PAIRS: [u32; 256] = pairs();
-
-const fn pairs() -> [u32; 256] {
-    let mut table = [0u32; 256];
-    let mut b = 0;
-    while b < 256 {
-        let (first, second) = (b & 15, b >> 4);
-        if first < 14 && second < 14 {
-            let mut entry = PAIR_BIT;
-            let mut half = 0;
-            while half < 2 {
-                let nibble = if half == 0 { first } else { second };
-                if nibble == 1 {
-                    entry |= PAIR_RESTART << half;
-                }
-                let distance = if nibble >= 2 { nibble as u32 - 1 } else { 0 };
-                entry |= distance << (8 + 8 * half);
-                half += 1;
-            }
-            table[b] = entry;
-        }
-        b += 1;
-    }
-    table
-}
-
 /// For every three nibbles (the first lowest): bits 0–1 how many nibbles the symbol they
 /// start takes (0: a varint of three nibbles or more, decoded apart), bit 2 a restart, bits
 /// 16–31 the distance d as i16 (index = next − d).
@@ -199,6 +167,7 @@ fn decode<const W: usize>(stream: &[u8], n: u64, target: &mut [u8]) -> Result<()
     let count = target.len() / W;
     let mut k = 0;
     while k < count {
+        let mut general = false;
         if available < 3 {
             match rest.first_chunk::<8>() {
                 Some(eight) => {
@@ -207,47 +176,14 @@ fn decode<const W: usize>(stream: &[u8], n: u64, target: &mut [u8]) -> Result<()
                     available += 14;
                     rest = &rest[7..];
                 }
-                None => {
-                    // The stream's last bytes: the general path, one symbol.
-                    let reader = Reader {
-                        rest,
-                        buffer,
-                        available,
-                    };
-                    let (value, after_next, after) = any_symbol(reader, next, n, restart, k)?;
-                    (next, rest, buffer, available) =
-                        (after_next, after.rest, after.buffer, after.available);
-                    write::<W>(&mut target[k * W..k * W + W], value);
-                    k += 1;
-                    continue;
-                }
+                // The stream's last bytes.
+                None => general = true,
             }
-        }
-        // Two one-nibble symbols at once where they come in a pair (most of the time): one
-        // table read for both halves the dependent chain of reads an index.
-        let pair = PAIRS[(buffer & 0xFF) as usize];
-        if pair & PAIR_BIT != 0 && k + 1 < count {
-            buffer >>= 8;
-            available -= 2;
-            for (half, slot) in [(0, k), (1, k + 1)] {
-                let restarts = pair & (PAIR_RESTART << half) != 0;
-                let index = next.wrapping_sub(((pair >> (8 + 8 * half)) & 0xFF) as u64);
-                if index >= n && !restarts {
-                    return Err(out_of_range(slot, index, n));
-                }
-                if !restarts {
-                    next = next.max(index + 1);
-                }
-                let value = if restarts { restart } else { index };
-                write::<W>(&mut target[slot * W..slot * W + W], value);
-            }
-            k += 2;
-            continue;
         }
         let entry = SYMBOLS[(buffer & 0xFFF) as usize];
         let width = entry & 3;
-        let value = if width == 0 {
-            // A long varint: the general path.
+        // A long varint (width 0) or the stream's end: the general path, one symbol.
+        let value = if general || width == 0 {
             let reader = Reader {
                 rest,
                 buffer,

@@ -1,0 +1,47 @@
+//! How a repository stores its patches: the codec a patch blob's section kind names.
+
+use super::format::{SECTION_PACKED_PATCHES, SECTION_PACKED_STRIPS, SECTION_PATCHES};
+
+/// How a repository stores its patches.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum PatchCodec {
+    /// As drawn: `SECTION_PATCHES`, each patch exactly `patch::patch_bytes(..)`.
+    Raw,
+    /// Packed: `SECTION_PACKED_STRIPS` (`packed.rs`, strips by `strip_codec.rs`), decoded
+    /// when loaded.
+    #[default]
+    Packed,
+    /// Packed as before the twelfth session: `SECTION_PACKED_PATCHES`, strips by
+    /// meshoptimizer's index-sequence codec. Read (and written by tests, to prove it).
+    PackedV1,
+}
+
+impl PatchCodec {
+    /// Its name in messages and JSON: `"raw"` or `"packed"`.
+    pub fn name(self) -> &'static str {
+        match self {
+            PatchCodec::Raw => "raw",
+            PatchCodec::Packed => "packed",
+            PatchCodec::PackedV1 => "packed-v1",
+        }
+    }
+
+    /// The section kind of this codec's patch blob.
+    pub fn section_kind(self) -> u32 {
+        match self {
+            PatchCodec::Raw => SECTION_PATCHES,
+            PatchCodec::Packed => SECTION_PACKED_STRIPS,
+            PatchCodec::PackedV1 => SECTION_PACKED_PATCHES,
+        }
+    }
+
+    /// The codec of a patch blob section of kind `kind`.
+    pub fn of_section(kind: u32) -> Option<PatchCodec> {
+        match kind {
+            SECTION_PATCHES => Some(PatchCodec::Raw),
+            SECTION_PACKED_STRIPS => Some(PatchCodec::Packed),
+            SECTION_PACKED_PATCHES => Some(PatchCodec::PackedV1),
+            _ => None,
+        }
+    }
+}
