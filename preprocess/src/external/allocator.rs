@@ -13,18 +13,24 @@
 pub const BUDGET_PER_ARENA: u64 = 512 << 20;
 
 /// Limits the allocator to one arena per [`BUDGET_PER_ARENA`] of `budget` bytes, at least
-/// one. Call before the worker threads start.
+/// one, and keeps freed heap tops returned to the system. Call before the worker threads
+/// start.
 pub fn arenas_for_budget(budget: u64) {
     let arenas = (budget / BUDGET_PER_ARENA).clamp(1, 64) as i32;
     #[cfg(all(target_os = "linux", target_env = "gnu"))]
     {
         const M_ARENA_MAX: i32 = -8;
+        // Setting the trim threshold also stops glibc from raising it (and the mmap
+        // threshold) as blocks are freed, which let a 2 M build at `--memory 64M` peak at
+        // 69.5 MiB once in CI; with it the same build peaks at 48 MiB here.
+        const M_TRIM_THRESHOLD: i32 = -1;
         extern "C" {
             fn mallopt(param: i32, value: i32) -> i32;
         }
         // SAFETY: mallopt only changes the allocator's tuning.
         unsafe {
             mallopt(M_ARENA_MAX, arenas);
+            mallopt(M_TRIM_THRESHOLD, 128 << 10);
         }
     }
     #[cfg(not(all(target_os = "linux", target_env = "gnu")))]
