@@ -488,7 +488,8 @@ fn build_in_pool(
         SimplifyError::Conformity(e) => BuildError::Conformity(e),
         SimplifyError::Finished(e) => temporary(e),
     })?;
-    let finished = finished.into_inner();
+    let mut finished = finished.into_inner();
+    finished.seal();
     stage("simplify", t);
 
     let stages = std::mem::take(&mut stages);

@@ -8,7 +8,7 @@ use std::path::Path;
 
 use tessera_core::bounds::{NormalCone, Sphere};
 
-use super::{FinishedPatch, FinishedPatches, Spill, Store};
+use super::{FinishedPatch, FinishedPatches, IndexKey, Spill, Store};
 use crate::checkpoint::{Dec, Enc, FileRecord};
 
 const PATCHES: &str = "finished-patches.bin";
@@ -27,7 +27,8 @@ impl FinishedPatches {
     /// An empty store in two named files of the checkpoint directory `dir`.
     pub fn new_named(dir: &Path) -> io::Result<FinishedPatches> {
         Ok(FinishedPatches {
-            index: Default::default(),
+            index: Vec::new(),
+            sorted: true,
             store: Store::Disk {
                 patches: Spill::at_end(open(&dir.join(PATCHES), true)?, 0, 0),
                 ids: Spill::at_end(open(&dir.join(IDS), true)?, 0, 0),
@@ -52,10 +53,10 @@ impl FinishedPatches {
                 crc32: spill.crc.clone().finalize(),
             });
         }
-        let mut index: Vec<(_, &FinishedPatch)> = self.index.iter().collect();
-        index.sort_unstable_by_key(|(k, _)| **k);
-        e.list(&index, |e, (k, p)| {
-            e.key(**k);
+        // In key order (the packed keys sort as the keys do), as the hash map's entries were.
+        self.seal();
+        e.list(&self.index, |e, (k, p)| {
+            e.key(k.key());
             p.sphere.center.iter().for_each(|&x| e.f64(x));
             e.f64(p.sphere.radius);
             p.cone.axis.iter().for_each(|&x| e.f32(x));
@@ -119,11 +120,27 @@ impl FinishedPatches {
                     "a finished patch beyond its file",
                 ));
             }
+            let key = IndexKey::of(key).ok_or_else(|| {
+                io::Error::new(
+                    io::ErrorKind::InvalidData,
+                    "a simplex key no hierarchy makes",
+                )
+            })?;
             Ok((key, p))
         })?;
-        Ok(FinishedPatches {
-            index: entries.into_iter().collect(),
+        let mut finished = FinishedPatches {
+            index: entries,
+            sorted: false,
             store: Store::Disk { patches, ids },
-        })
+        };
+        finished.index.sort_unstable_by_key(|(k, _)| *k);
+        finished.sorted = true;
+        if finished.index.windows(2).any(|w| w[0].0 == w[1].0) {
+            return Err(io::Error::new(
+                io::ErrorKind::InvalidData,
+                "a simplex finished twice",
+            ));
+        }
+        Ok(finished)
     }
 }
