@@ -11,10 +11,10 @@
 //! sort ends, fails, or the process is killed.
 
 use std::cmp::Reverse;
+use std::collections::binary_heap::PeekMut;
 use std::collections::BinaryHeap;
 use std::fs::File;
-use std::io::{self, BufReader, BufWriter, Read, Seek, SeekFrom, Write};
-use std::marker::PhantomData;
+use std::io::{self, BufWriter, Read, Seek, SeekFrom, Write};
 use std::path::Path;
 
 use bytemuck::Pod;
@@ -208,10 +208,15 @@ impl<T: Pod + Ord> Iterator for Merge<T> {
         if self.failed {
             return None;
         }
-        let Reverse((record, i)) = self.heap.pop()?;
+        // The smallest head is replaced by its run's next record in place (one sift down),
+        // or popped when its run is done.
+        let mut top = self.heap.peek_mut()?;
+        let Reverse((record, i)) = *top;
         match self.readers[i].next() {
-            Ok(Some(next)) => self.heap.push(Reverse((next, i))),
-            Ok(None) => {}
+            Ok(Some(next)) => *top = Reverse((next, i)),
+            Ok(None) => {
+                PeekMut::pop(top);
+            }
             Err(e) => {
                 self.failed = true;
                 return Some(Err(e));
@@ -222,34 +227,45 @@ impl<T: Pod + Ord> Iterator for Merge<T> {
 }
 
 struct RunReader<T> {
-    reader: BufReader<File>,
+    file: File,
+    /// Records read ahead, served from `at`.
+    block: Vec<T>,
+    at: usize,
+    /// Records of the run not yet in `block`.
     left: u64,
     /// The run's bytes stay charged while it is read.
     _charge: Charge,
-    _record: PhantomData<T>,
 }
 
 impl<T: Pod> RunReader<T> {
     fn new(mut run: Run) -> io::Result<Self> {
         run.file.seek(SeekFrom::Start(0))?;
         Ok(RunReader {
-            reader: BufReader::with_capacity(MERGE_BUFFER, run.file),
+            file: run.file,
+            block: Vec::new(),
+            at: 0,
             left: run.records,
             _charge: run.charge,
-            _record: PhantomData,
         })
     }
 
+    #[inline]
     fn next(&mut self) -> io::Result<Option<T>> {
-        if self.left == 0 {
-            return Ok(None);
+        if self.at == self.block.len() {
+            if self.left == 0 {
+                return Ok(None);
+            }
+            let per_block = (MERGE_BUFFER / std::mem::size_of::<T>().max(1)).max(1);
+            let n = self.left.min(per_block as u64) as usize;
+            self.block.resize(n, T::zeroed());
+            self.file
+                .read_exact(bytemuck::cast_slice_mut(&mut self.block[..n]))
+                .map_err(|e| io::Error::new(e.kind(), format!("reading a sort run back: {e}")))?;
+            self.left -= n as u64;
+            self.at = 0;
         }
-        let mut record = T::zeroed();
-        self.reader
-            .read_exact(bytemuck::bytes_of_mut(&mut record))
-            .map_err(|e| io::Error::new(e.kind(), format!("reading a sort run back: {e}")))?;
-        self.left -= 1;
-        Ok(Some(record))
+        self.at += 1;
+        Ok(Some(self.block[self.at - 1]))
     }
 }
 

@@ -79,6 +79,19 @@ impl<T: Pod> RecordFile<T> {
         })
     }
 
+    /// Streams the records in chunks of at most `records` (at least one), for passes that
+    /// work on many records at once.
+    pub fn read_chunks(&self, records: usize) -> io::Result<ChunkReader<T>> {
+        let mut file = self.file.try_clone()?;
+        file.seek(SeekFrom::Start(0))?;
+        Ok(ChunkReader {
+            file,
+            left: self.records,
+            chunk: records.max(1),
+            _record: PhantomData,
+        })
+    }
+
     /// Copies the records to a new file at `path`; returns the copy's CRC-32.
     pub(crate) fn copy_to(&self, path: &Path) -> io::Result<u32> {
         let mut from = self.file.try_clone()?;
@@ -140,6 +153,14 @@ impl<T: Pod> RecordWriter<T> {
         self.writer.write_all(bytemuck::bytes_of(record))
     }
 
+    /// Appends `records` in one write.
+    pub fn push_all(&mut self, records: &[T]) -> io::Result<()> {
+        let bytes: &[u8] = bytemuck::cast_slice(records);
+        self.records += records.len() as u64;
+        self.charge.grow(bytes.len() as u64);
+        self.writer.write_all(bytes)
+    }
+
     /// The records written so far.
     pub fn len(&self) -> u64 {
         self.records
@@ -187,6 +208,32 @@ impl<T: Pod> Iterator for RecordReader<T> {
 
     fn size_hint(&self) -> (usize, Option<usize>) {
         (self.left as usize, Some(self.left as usize))
+    }
+}
+
+/// Streams a `RecordFile`'s records a chunk at a time.
+pub struct ChunkReader<T: Pod> {
+    file: File,
+    left: u64,
+    chunk: usize,
+    _record: PhantomData<T>,
+}
+
+impl<T: Pod> Iterator for ChunkReader<T> {
+    type Item = io::Result<Vec<T>>;
+
+    fn next(&mut self) -> Option<io::Result<Vec<T>>> {
+        if self.left == 0 {
+            return None;
+        }
+        let n = self.left.min(self.chunk as u64) as usize;
+        self.left -= n as u64;
+        let mut records = vec![T::zeroed(); n];
+        Some(
+            self.file
+                .read_exact(bytemuck::cast_slice_mut(&mut records))
+                .map(|()| records),
+        )
     }
 }
 

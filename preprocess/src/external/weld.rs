@@ -6,16 +6,23 @@
 //!    first index is the group's *representative*. Groups numbered by first index order as
 //!    representatives are, so representatives stand in for group numbers until the end.
 //! 2. Map triangle corners to representatives, a window of the representative map at a time
-//!    (mapping is idempotent: a representative is its own), then drop degenerate triangles.
+//!    (windows ascending: a representative is at most its vertex's index, so a corner mapped
+//!    in one window is never in a later one), dropping degenerate triangles in the last pass.
 //! 3. Drop duplicates: sort (sorted corners, position); all but the first of each run go.
-//! 4. Number the referenced representatives in order (a sort of the corners), map the
-//!    corners to those numbers a window at a time, and pick the kept vertices' positions and
-//!    attributes in one pass over the raw files.
+//! 4. Number the referenced representatives in order (a bitmap of the raw ids where it fits,
+//!    else a sort of the corners), map the corners to those numbers a dense window of ids at
+//!    a time (ascending again), and pick the kept vertices' positions and attributes in one
+//!    pass over the raw files.
+//!
+//! The passes over the triangles read and write them in chunks and map each chunk in
+//! parallel: with shuffled vertex ids every lookup misses the cache, and only many lookups
+//! in flight at once hide that.
 
 use std::io;
 use std::path::Path;
 
 use bytemuck::{Pod, Zeroable};
+use rayon::prelude::*;
 
 use super::fallible::{check, ok_values};
 use super::sort::sort_external;
@@ -121,38 +128,36 @@ pub fn weld_external(raw: RawStaged, budget: usize, dir: &Path) -> io::Result<St
     }
     let representative = representative.finish()?;
 
-    // 2. Corners to representatives, a window at a time; then degenerate triangles dropped.
+    // 2. Corners to representatives, a window of the map at a time, in ascending windows (a
+    //    corner's representative is at most its index, so a corner mapped in one window is
+    //    never in a later one); degenerate triangles dropped in the last pass.
     let window = (half / 4).max(MIN_WINDOW);
+    let windows = raw_vertices.div_ceil(window as u64).max(1);
     let mut triangles = raw_triangle_file;
+    let mut reps = representative.read_chunks(window)?;
     let mut start = 0u64;
-    let mut reps = representative.read()?;
-    while start < raw_vertices {
-        let part: Vec<u32> = reps.by_ref().take(window).collect::<io::Result<_>>()?;
+    for pass in 0..windows {
+        let part = reps.next().transpose()?.unwrap_or_default();
         let end = start + part.len() as u64;
-        let mut mapped = RecordFile::<[u32; 3]>::create(dir)?;
-        for t in triangles.read()? {
-            let t = t?.map(|v| {
-                let v64 = v as u64;
-                if (start..end).contains(&v64) {
-                    part[(v64 - start) as usize]
-                } else {
-                    v
+        let last = pass + 1 == windows;
+        triangles = map_triangles(&triangles, dir, |chunk| {
+            chunk.par_iter_mut().for_each(|t| {
+                for v in t.iter_mut() {
+                    if (start..end).contains(&(*v as u64)) {
+                        *v = part[(*v as u64 - start) as usize];
+                    }
                 }
             });
-            mapped.push(&t)?;
-        }
-        triangles = mapped.finish()?;
+            if last {
+                chunk.retain(|m| m[0] != m[1] && m[1] != m[2] && m[0] != m[2]);
+            }
+            Ok(())
+        })?;
         start = end;
     }
-    let mut proper = RecordFile::<[u32; 3]>::create(dir)?;
-    for t in triangles.read()? {
-        let m = t?;
-        if m[0] != m[1] && m[1] != m[2] && m[0] != m[2] {
-            proper.push(&m)?;
-        }
-    }
-    let proper = proper.finish()?;
-    drop(triangles);
+    drop(reps);
+    drop(representative);
+    let proper = triangles;
     let degenerate = raw_triangles - proper.len();
 
     // 3. Duplicates: the first of each run of equal corner sets stays.
@@ -197,64 +202,75 @@ pub fn weld_external(raw: RawStaged, budget: usize, dir: &Path) -> io::Result<St
     let kept = kept.finish()?;
     drop(proper);
 
-    // 4. Referenced representatives, numbered in order.
-    let mut error = None;
-    let corners = ok_values(kept.read()?, &mut error).flat_map(|t| t.into_iter());
-    let sorted = sort_external(corners, half, dir)?;
-    check(error)?;
+    // 4. Referenced representatives, numbered in order: marked in a bitmap of the raw ids
+    //    where it fits half the budget (a bit a vertex), else by a sort of the corners.
     let mut referenced = RecordFile::<u32>::create(dir)?;
-    let mut last = None;
-    for v in sorted {
-        let v = v?;
-        if last != Some(v) {
-            referenced.push(&v)?;
-            last = Some(v);
+    if raw_vertices.div_ceil(8) <= half as u64 {
+        let mut marked = vec![0u64; raw_vertices.div_ceil(64) as usize];
+        for chunk in kept.read_chunks(PASS_TRIANGLES)? {
+            for v in chunk?.into_iter().flatten() {
+                let word = marked.get_mut(v as usize / 64).ok_or_else(|| {
+                    io::Error::other(format!("vertex index {v} past the {raw_vertices} vertices"))
+                })?;
+                *word |= 1 << (v % 64);
+            }
+        }
+        for (w, &bits) in marked.iter().enumerate() {
+            let mut bits = bits;
+            while bits != 0 {
+                referenced.push(&(w as u32 * 64 + bits.trailing_zeros()))?;
+                bits &= bits - 1;
+            }
+        }
+    } else {
+        let mut error = None;
+        let corners = ok_values(kept.read()?, &mut error).flat_map(|t| t.into_iter());
+        let sorted = sort_external(corners, half, dir)?;
+        check(error)?;
+        let mut last = None;
+        for v in sorted {
+            let v = v?;
+            if last != Some(v) {
+                referenced.push(&v)?;
+                last = Some(v);
+            }
         }
     }
     let referenced = referenced.finish()?;
-    let mut work = RecordFile::<MappedTriangle>::create(dir)?;
-    for t in kept.read()? {
-        work.push(&MappedTriangle {
-            corners: t?,
-            mapped: 0,
+    // Corners to their numbers, a dense window of the id range at a time, ascending (a
+    // number is at most its representative: a corner mapped once is never in a later window).
+    let window = window.min(raw_vertices as usize).max(1);
+    let mut dense = vec![u32::MAX; window];
+    let mut ids = referenced.read()?.peekable();
+    let mut number = 0u32;
+    let mut triangles = kept;
+    for pass in 0..raw_vertices.div_ceil(window as u64).max(1) {
+        let (start, end) = (pass * window as u64, (pass + 1) * window as u64);
+        dense.fill(u32::MAX);
+        while let Some(id) = ids.next_if(|id| id.as_ref().map_or(true, |&id| (id as u64) < end)) {
+            dense[(id? as u64 - start) as usize] = number;
+            number += 1;
+        }
+        let dense = &dense;
+        triangles = map_triangles(&triangles, dir, |chunk| {
+            chunk
+                .par_iter_mut()
+                .try_for_each(|t| {
+                    for v in t.iter_mut() {
+                        if (start..end).contains(&(*v as u64)) {
+                            match dense[(*v as u64 - start) as usize] {
+                                u32::MAX => return Err(()),
+                                n => *v = n,
+                            }
+                        }
+                    }
+                    Ok(())
+                })
+                .map_err(|()| io::Error::other("a referenced vertex is missing from its own list"))
         })?;
     }
-    let mut work = work.finish()?;
-    drop(kept);
-    let mut first = 0u32;
-    let mut ids = referenced.read()?;
-    loop {
-        let part: Vec<u32> = ids.by_ref().take(window).collect::<io::Result<_>>()?;
-        if part.is_empty() {
-            break;
-        }
-        let (lo, hi) = (part[0], *part.last().expect("non-empty"));
-        let mut next = RecordFile::<MappedTriangle>::create(dir)?;
-        for t in work.read()? {
-            let mut t = t?;
-            for k in 0..3 {
-                let v = t.corners[k];
-                if t.mapped & (1 << k) == 0 && (lo..=hi).contains(&v) {
-                    let at = part.binary_search(&v).map_err(|_| {
-                        io::Error::other("a referenced vertex is missing from its own list")
-                    })?;
-                    t.corners[k] = first + at as u32;
-                    t.mapped |= 1 << k;
-                }
-            }
-            next.push(&t)?;
-        }
-        work = next.finish()?;
-        first += part.len() as u32;
-    }
-    let mut welded = RecordFile::<[u32; 3]>::create(dir)?;
-    for t in work.read()? {
-        let t = t?;
-        debug_assert_eq!(t.mapped, 0b111);
-        welded.push(&t.corners)?;
-    }
-    let welded = welded.finish()?;
-    drop(work);
+    drop(dense);
+    let welded = triangles;
 
     // The kept vertices' positions and attributes, in one pass each.
     let a = &attributes;
@@ -304,12 +320,23 @@ struct DuplicateKey {
     position: u32,
 }
 
-/// A triangle whose corners are being renumbered: bit k set once corner k has its new id.
-#[derive(Clone, Copy, Debug, Pod, Zeroable)]
-#[repr(C)]
-struct MappedTriangle {
-    corners: [u32; 3],
-    mapped: u32,
+/// Triangles a pass reads and maps at once (768 KiB).
+const PASS_TRIANGLES: usize = 1 << 16;
+
+/// A new file of `from`'s triangles, each chunk changed by `map` (in place, in parallel
+/// where it likes; it may drop triangles).
+fn map_triangles(
+    from: &RecordFile<[u32; 3]>,
+    dir: &Path,
+    map: impl Fn(&mut Vec<[u32; 3]>) -> io::Result<()>,
+) -> io::Result<RecordFile<[u32; 3]>> {
+    let mut out = RecordFile::<[u32; 3]>::create(dir)?;
+    for chunk in from.read_chunks(PASS_TRIANGLES)? {
+        let mut chunk = chunk?;
+        map(&mut chunk)?;
+        out.push_all(&chunk)?;
+    }
+    out.finish()
 }
 
 /// The records of `from` whose index is in `indices` (ascending).
