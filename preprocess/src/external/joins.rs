@@ -13,7 +13,7 @@ use tessera_core::leb::SimplexKey;
 
 use super::fallible::{check, ok_values};
 use super::sort::sort_external;
-use super::staged::{RecordReader, StagedMesh};
+use super::staged::{ChunkReader, RecordFile, StagedMesh, IO_BUFFER};
 use crate::frame::LatticeFrame;
 use crate::hierarchy::{BarycentreSource, LeafListSpool};
 use crate::vertex_table::{LivePatch, VertexTable};
@@ -73,26 +73,27 @@ impl BarycentreSource for JoinedBarycentres<'_> {
             }
         }
         let chunk = (self.budget / JOIN_BYTES_PER_TRIANGLE).max(1 << 12);
-        let mut triangles = self.staged.triangles.read()?;
+        let mut triangles = self.staged.triangles.read_chunks(chunk)?;
         let mut first = 0u32;
-        loop {
-            let part: Vec<[u32; 3]> = triangles.by_ref().take(chunk).collect::<io::Result<_>>()?;
-            if part.is_empty() {
-                return Ok(());
-            }
+        // Buffers reused from chunk to chunk.
+        let (mut part, mut corners, mut at, mut block) =
+            (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        while triangles.read_into(&mut part)? {
             // (vertex, corner slot in the chunk), by vertex.
-            let mut corners: Vec<u64> = part
-                .iter()
-                .enumerate()
-                .flat_map(|(i, t)| (0..3).map(move |k| ((t[k] as u64) << 32) | (3 * i + k) as u64))
-                .collect();
-            corners.sort_unstable();
-            let mut at = vec![[0.0f64; 3]; corners.len()];
-            let mut positions = Cursor::new(self.staged.positions.read()?);
-            for c in corners {
-                at[c as u32 as usize] = positions.at((c >> 32) as u32);
-            }
-            check(positions.error.take())?;
+            corners.clear();
+            corners.extend(
+                part.iter()
+                    .enumerate()
+                    .flat_map(|(i, t): (usize, &[u32; 3])| {
+                        (0..3).map(move |k| ((t[k] as u64) << 32) | (3 * i + k) as u64)
+                    }),
+            );
+            corners.par_sort_unstable();
+            at.clear();
+            at.resize(corners.len(), [0.0f64; 3]);
+            gather(&self.staged.positions, &corners, &mut block, |slot, p| {
+                at[slot] = p
+            })?;
             for (i, corners) in at.chunks_exact(3).enumerate() {
                 f(
                     first + i as u32,
@@ -101,7 +102,43 @@ impl BarycentreSource for JoinedBarycentres<'_> {
             }
             first += part.len() as u32;
         }
+        Ok(())
     }
+}
+
+/// Hands `put(slot, record)` the record of `file` at each `index << 32 | slot` of `wanted`
+/// (ascending), reading the file once in order, a block at a time (`block` reused), blocks
+/// nothing is wanted from skipped.
+fn gather<T: bytemuck::Pod>(
+    file: &RecordFile<T>,
+    wanted: &[u64],
+    block: &mut Vec<T>,
+    mut put: impl FnMut(usize, T),
+) -> io::Result<()> {
+    let per_block = (IO_BUFFER / std::mem::size_of::<T>().max(1)).max(1) as u64;
+    let mut chunks = file.read_chunks(per_block as usize)?;
+    let (mut start, mut k) = (0u64, 0usize);
+    while let Some(&first) = wanted.get(k) {
+        let whole = ((first >> 32).saturating_sub(start)) / per_block * per_block;
+        chunks.skip_records(whole)?;
+        start += whole;
+        if !chunks.read_into(block)? {
+            return Err(io::Error::other(format!(
+                "record {} asked past the end of a staged file",
+                first >> 32
+            )));
+        }
+        let end = start + block.len() as u64;
+        while let Some(&w) = wanted.get(k) {
+            if w >> 32 >= end {
+                break;
+            }
+            put(w as u32 as usize, block[((w >> 32) - start) as usize]);
+            k += 1;
+        }
+        start = end;
+    }
+    Ok(())
 }
 
 /// The simplifier's f32 position of each vertex (`f32_of` of its input position) is moved
@@ -255,7 +292,7 @@ impl<'a> LeafGroups<'a> {
                 },
             })
             .collect();
-        let mut file = Cursor::new(self.staged.triangles.read()?);
+        let mut file = Cursor::new(&self.staged.triangles)?;
         for &(t, leaf) in &wanted {
             patches[leaf as usize].triangles.push(file.at(t));
         }
@@ -270,25 +307,10 @@ impl<'a> LeafGroups<'a> {
             pairs.extend(ids.into_iter().map(|v| ((v as u64) << 32) | leaf as u64));
         }
         pairs.sort_unstable();
-        let mut positions = Cursor::new(self.staged.positions.read()?);
-        let mut normals = attributes
-            .normals
-            .as_ref()
-            .map(|f| f.read())
-            .transpose()?
-            .map(Cursor::new);
-        let mut colors = attributes
-            .colors
-            .as_ref()
-            .map(|f| f.read())
-            .transpose()?
-            .map(Cursor::new);
-        let mut uvs = attributes
-            .uvs
-            .as_ref()
-            .map(|f| f.read())
-            .transpose()?
-            .map(Cursor::new);
+        let mut positions = Cursor::new(&self.staged.positions)?;
+        let mut normals = attributes.normals.as_ref().map(Cursor::new).transpose()?;
+        let mut colors = attributes.colors.as_ref().map(Cursor::new).transpose()?;
+        let mut uvs = attributes.uvs.as_ref().map(Cursor::new).transpose()?;
         for pair in pairs {
             let (v, leaf) = ((pair >> 32) as u32, pair as u32 as usize);
             let table = &mut patches[leaf].vertices;
@@ -318,41 +340,50 @@ impl<'a> LeafGroups<'a> {
     }
 }
 
-/// Reads a record file in order, answering `at(i)` for ascending (repeatable) indices.
+/// Reads a record file in order, answering `at(i)` for ascending (repeatable) indices: a
+/// block of records at a time, blocks with no index asked skipped without reading.
 struct Cursor<T: bytemuck::Pod> {
-    records: RecordReader<T>,
-    /// The last record read and its index.
-    current: Option<(u32, T)>,
+    chunks: ChunkReader<T>,
+    /// The block read last, and the index of its first record.
+    block: Vec<T>,
+    start: u64,
     /// The first read error (`at` then answers zeroes; the caller checks).
     error: Option<io::Error>,
 }
 
 impl<T: bytemuck::Pod> Cursor<T> {
-    fn new(records: RecordReader<T>) -> Self {
-        Cursor {
-            records,
-            current: None,
+    fn new(file: &RecordFile<T>) -> io::Result<Self> {
+        let records = (IO_BUFFER / std::mem::size_of::<T>().max(1)).max(1);
+        Ok(Cursor {
+            chunks: file.read_chunks(records)?,
+            block: Vec::new(),
+            start: 0,
             error: None,
-        }
+        })
     }
 
     fn at(&mut self, index: u32) -> T {
-        loop {
-            match self.current {
-                Some((i, record)) if i == index => return record,
-                Some((i, _)) if i > index => {
-                    panic!("record {index} asked after record {i}: indices must ascend")
-                }
-                _ => {}
-            }
-            let next = self.current.map_or(0, |(i, _)| i + 1);
-            match self.records.next() {
-                Some(Ok(record)) => self.current = Some((next, record)),
-                Some(Err(e)) => {
+        let index = index as u64;
+        assert!(
+            index >= self.start,
+            "record {index} asked after record {}: indices must ascend",
+            self.start
+        );
+        while index >= self.start + self.block.len() as u64 {
+            self.start += self.block.len() as u64;
+            let chunk = self.chunks.chunk_len() as u64;
+            let whole = (index - self.start) / chunk * chunk;
+            let next = self.chunks.skip_records(whole).and_then(|()| {
+                self.start += whole;
+                self.chunks.read_into(&mut self.block)
+            });
+            match next {
+                Ok(true) => {}
+                Err(e) => {
                     self.error.get_or_insert(e);
                     return T::zeroed();
                 }
-                None => {
+                Ok(false) => {
                     self.error.get_or_insert(io::Error::other(format!(
                         "record {index} asked past the end of a staged file"
                     )));
@@ -360,6 +391,7 @@ impl<T: bytemuck::Pod> Cursor<T> {
                 }
             }
         }
+        self.block[(index - self.start) as usize]
     }
 }
 

@@ -219,6 +219,35 @@ pub struct ChunkReader<T: Pod> {
     _record: PhantomData<T>,
 }
 
+impl<T: Pod> ChunkReader<T> {
+    /// Records in a full chunk.
+    pub fn chunk_len(&self) -> usize {
+        self.chunk
+    }
+
+    /// Reads the next chunk into `records` (its allocation reused); false at the end.
+    pub fn read_into(&mut self, records: &mut Vec<T>) -> io::Result<bool> {
+        records.clear();
+        if self.left == 0 {
+            return Ok(false);
+        }
+        let n = self.left.min(self.chunk as u64) as usize;
+        self.left -= n as u64;
+        records.resize(n, T::zeroed());
+        self.file.read_exact(bytemuck::cast_slice_mut(records))?;
+        Ok(true)
+    }
+
+    /// Passes over the next `records` records (at most those left) without reading them.
+    pub fn skip_records(&mut self, records: u64) -> io::Result<()> {
+        let records = records.min(self.left);
+        let bytes = records * std::mem::size_of::<T>() as u64;
+        self.file.seek(SeekFrom::Current(bytes as i64))?;
+        self.left -= records;
+        Ok(())
+    }
+}
+
 impl<T: Pod> Iterator for ChunkReader<T> {
     type Item = io::Result<Vec<T>>;
 

@@ -207,8 +207,9 @@ pub fn weld_external(raw: RawStaged, budget: usize, dir: &Path) -> io::Result<St
     let mut referenced = RecordFile::<u32>::create(dir)?;
     if raw_vertices.div_ceil(8) <= half as u64 {
         let mut marked = vec![0u64; raw_vertices.div_ceil(64) as usize];
-        for chunk in kept.read_chunks(PASS_TRIANGLES)? {
-            for v in chunk?.into_iter().flatten() {
+        let (mut chunks, mut chunk) = (kept.read_chunks(PASS_TRIANGLES)?, Vec::new());
+        while chunks.read_into(&mut chunk)? {
+            for &v in chunk.iter().flatten() {
                 let word = marked.get_mut(v as usize / 64).ok_or_else(|| {
                     io::Error::other(format!("vertex index {v} past the {raw_vertices} vertices"))
                 })?;
@@ -331,8 +332,8 @@ fn map_triangles(
     map: impl Fn(&mut Vec<[u32; 3]>) -> io::Result<()>,
 ) -> io::Result<RecordFile<[u32; 3]>> {
     let mut out = RecordFile::<[u32; 3]>::create(dir)?;
-    for chunk in from.read_chunks(PASS_TRIANGLES)? {
-        let mut chunk = chunk?;
+    let (mut chunks, mut chunk) = (from.read_chunks(PASS_TRIANGLES)?, Vec::new());
+    while chunks.read_into(&mut chunk)? {
         map(&mut chunk)?;
         out.push_all(&chunk)?;
     }
