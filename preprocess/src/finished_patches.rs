@@ -177,13 +177,21 @@ impl FinishedPatches {
 
     /// Sorts the index for lookups; panics if a simplex was finished twice.
     pub fn seal(&mut self) {
+        if let Some(key) = self.sort_index() {
+            panic!("simplex {key:?} finished twice");
+        }
+    }
+
+    /// Sorts the index; returns a simplex it holds twice, if any.
+    fn sort_index(&mut self) -> Option<SimplexKey> {
         if !self.sorted {
             self.index.par_sort_unstable_by_key(|(k, _)| *k);
             self.sorted = true;
         }
-        if let Some(pair) = self.index.windows(2).find(|w| w[0].0 == w[1].0) {
-            panic!("simplex {:?} finished twice", pair[0].0.key());
-        }
+        self.index
+            .windows(2)
+            .find(|w| w[0].0 == w[1].0)
+            .map(|w| w[0].0.key())
     }
 
     /// Encodes (in parallel) and stores the patches of these simplices; each simplex once.

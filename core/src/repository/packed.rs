@@ -261,7 +261,9 @@ pub fn unpack_patch(
                 let width = if wide { 4 } else { 2 };
                 let target = &mut out[to..to + width * strip_index_count];
                 match strips {
-                    StripCoding::Nibbles => decode_nibble_strip(stream, n, width, target),
+                    StripCoding::Nibbles => {
+                        decode_nibbles(stream, n, width, target).map_err(UnpackError)
+                    }
                     StripCoding::IndexSequence => {
                         decode_strip(stream, n, strip_index_count, width, target)
                     }
@@ -338,15 +340,6 @@ fn decode_positions(stream: &[u8], n: usize, target: &mut [u8]) -> Result<(), Un
         }
         Ok(())
     })
-}
-
-fn decode_nibble_strip(
-    stream: &[u8],
-    n: usize,
-    width: usize,
-    target: &mut [u8],
-) -> Result<(), UnpackError> {
-    decode_nibbles(stream, n, width, target).map_err(UnpackError)
 }
 
 fn decode_strip(

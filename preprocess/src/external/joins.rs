@@ -91,9 +91,13 @@ impl BarycentreSource for JoinedBarycentres<'_> {
             corners.par_sort_unstable();
             at.clear();
             at.resize(corners.len(), [0.0f64; 3]);
-            gather(&self.staged.positions, &corners, &mut block, |slot, p| {
-                at[slot] = p
-            })?;
+            let mut positions =
+                Cursor::reusing(&self.staged.positions, std::mem::take(&mut block))?;
+            for &c in &corners {
+                at[c as u32 as usize] = positions.at((c >> 32) as u32);
+            }
+            check(positions.error.take())?;
+            block = positions.block;
             for (i, corners) in at.chunks_exact(3).enumerate() {
                 f(
                     first + i as u32,
@@ -104,41 +108,6 @@ impl BarycentreSource for JoinedBarycentres<'_> {
         }
         Ok(())
     }
-}
-
-/// Hands `put(slot, record)` the record of `file` at each `index << 32 | slot` of `wanted`
-/// (ascending), reading the file once in order, a block at a time (`block` reused), blocks
-/// nothing is wanted from skipped.
-fn gather<T: bytemuck::Pod>(
-    file: &RecordFile<T>,
-    wanted: &[u64],
-    block: &mut Vec<T>,
-    mut put: impl FnMut(usize, T),
-) -> io::Result<()> {
-    let per_block = (IO_BUFFER / std::mem::size_of::<T>().max(1)).max(1) as u64;
-    let mut chunks = file.read_chunks(per_block as usize)?;
-    let (mut start, mut k) = (0u64, 0usize);
-    while let Some(&first) = wanted.get(k) {
-        let whole = ((first >> 32).saturating_sub(start)) / per_block * per_block;
-        chunks.skip_records(whole)?;
-        start += whole;
-        if !chunks.read_into(block)? {
-            return Err(io::Error::other(format!(
-                "record {} asked past the end of a staged file",
-                first >> 32
-            )));
-        }
-        let end = start + block.len() as u64;
-        while let Some(&w) = wanted.get(k) {
-            if w >> 32 >= end {
-                break;
-            }
-            put(w as u32 as usize, block[((w >> 32) - start) as usize]);
-            k += 1;
-        }
-        start = end;
-    }
-    Ok(())
 }
 
 /// The simplifier's f32 position of each vertex (`f32_of` of its input position) is moved
@@ -353,10 +322,17 @@ struct Cursor<T: bytemuck::Pod> {
 
 impl<T: bytemuck::Pod> Cursor<T> {
     fn new(file: &RecordFile<T>) -> io::Result<Self> {
+        Cursor::reusing(file, Vec::new())
+    }
+
+    /// A cursor reading into `block`'s allocation (a caller that reads a file many times
+    /// takes `block` back after each: a fresh block each time costs page faults).
+    fn reusing(file: &RecordFile<T>, mut block: Vec<T>) -> io::Result<Self> {
         let records = (IO_BUFFER / std::mem::size_of::<T>().max(1)).max(1);
+        block.clear();
         Ok(Cursor {
             chunks: file.read_chunks(records)?,
-            block: Vec::new(),
+            block,
             start: 0,
             error: None,
         })

@@ -252,17 +252,10 @@ impl<T: Pod> Iterator for ChunkReader<T> {
     type Item = io::Result<Vec<T>>;
 
     fn next(&mut self) -> Option<io::Result<Vec<T>>> {
-        if self.left == 0 {
-            return None;
-        }
-        let n = self.left.min(self.chunk as u64) as usize;
-        self.left -= n as u64;
-        let mut records = vec![T::zeroed(); n];
-        Some(
-            self.file
-                .read_exact(bytemuck::cast_slice_mut(&mut records))
-                .map(|()| records),
-        )
+        let mut records = Vec::new();
+        self.read_into(&mut records)
+            .map(|more| more.then_some(records))
+            .transpose()
     }
 }
 

@@ -133,12 +133,10 @@ impl FinishedPatches {
             sorted: false,
             store: Store::Disk { patches, ids },
         };
-        finished.index.sort_unstable_by_key(|(k, _)| *k);
-        finished.sorted = true;
-        if finished.index.windows(2).any(|w| w[0].0 == w[1].0) {
+        if let Some(key) = finished.sort_index() {
             return Err(io::Error::new(
                 io::ErrorKind::InvalidData,
-                "a simplex finished twice",
+                format!("simplex {key:?} finished twice"),
             ));
         }
         Ok(finished)
