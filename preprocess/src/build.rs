@@ -439,8 +439,9 @@ fn build_in_pool(
             );
             // Once the last group is made, nothing reads the staged mesh again: its files are
             // emptied (the caller still owns them; a checkpoint's copies stay until the
-            // checkpoint no longer needs them), which frees their disk space.
-            let mut next = || {
+            // checkpoint no longer needs them), which frees their disk space. The next group is
+            // joined on its own thread while this one is encoded.
+            let produce = || {
                 let group = groups.next_group()?;
                 if group.is_none() {
                     staged.discard()?;
@@ -448,9 +449,9 @@ fn build_in_pool(
                 Ok(group)
             };
             let current = current.expect("counted with the hierarchy");
-            match checkpoint_dir {
+            crate::external::prefetch::one_ahead(produce, |next| match checkpoint_dir {
                 None => simplify_from_leaves(
-                    &mut next,
+                    next,
                     input_vertices,
                     &hierarchy,
                     current,
@@ -459,7 +460,7 @@ fn build_in_pool(
                     &mut sink,
                 ),
                 Some(dir) => {
-                    LevelState::from_leaves_in(&mut next, input_vertices, current, &dir, &mut sink)
+                    LevelState::from_leaves_in(next, input_vertices, current, &dir, &mut sink)
                         .and_then(|state| {
                             after_level(&state)?;
                             simplify_levels(
@@ -472,7 +473,7 @@ fn build_in_pool(
                             )
                         })
                 }
-            }
+            })
         }
         (Source::Staged(_), None) => unreachable!("a staged build has a budget"),
         (Source::Memory(mesh), _) => simplify_hierarchy(

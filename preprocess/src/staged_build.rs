@@ -114,7 +114,9 @@ pub(crate) fn simplifier_positions<'f>(
 }
 
 /// Triangles a group of leaves may hold while it is joined (about 60 bytes a triangle: the
-/// triangle, its share of vertex rows and join pairs) within a quarter of the budget.
+/// triangle, its share of vertex rows and join pairs): two groups are alive at once (the next
+/// one is joined while this one is encoded, `external::prefetch`), within a quarter of the
+/// budget together.
 pub(crate) fn leaf_group_triangles(memory: &MemoryBudget) -> usize {
-    (memory.bytes as usize / 4 / 60).max(1 << 12)
+    (memory.bytes as usize / 8 / 60).max(1 << 12)
 }

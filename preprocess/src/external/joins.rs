@@ -27,13 +27,13 @@ use crate::vertex_table::{LivePatch, VertexTable};
 pub struct JoinedBarycentres<'a> {
     pub staged: &'a StagedMesh,
     pub frame: &'a LatticeFrame,
-    /// Bytes a chunk may hold in memory (about 110 a triangle), or the positions read whole.
+    /// Bytes a chunk may hold in memory (about 160 a triangle), or the positions read whole.
     pub budget: usize,
 }
 
 /// Bytes a triangle of a chunk takes: its corners (12), their sort keys (24), their positions
-/// (72).
-const JOIN_BYTES_PER_TRIANGLE: usize = 108;
+/// (72), and its barycentre twice (48: the chunk handed to `f` and the one made meanwhile).
+const JOIN_BYTES_PER_TRIANGLE: usize = 156;
 
 impl BarycentreSource for JoinedBarycentres<'_> {
     fn for_each_barycentre(&self, f: &mut dyn FnMut(u32, [f64; 3])) -> io::Result<()> {
@@ -78,7 +78,12 @@ impl BarycentreSource for JoinedBarycentres<'_> {
         // Buffers reused from chunk to chunk.
         let (mut part, mut corners, mut at, mut block) =
             (Vec::new(), Vec::new(), Vec::new(), Vec::new());
-        while triangles.read_into(&mut part)? {
+        // A chunk's barycentres are joined and computed on their own thread while the
+        // previous chunk's are handed to `f` (a spool's writes).
+        let produce = || {
+            if !triangles.read_into(&mut part)? {
+                return Ok(None);
+            }
             // (vertex, corner slot in the chunk), by vertex.
             corners.clear();
             corners.extend(
@@ -93,20 +98,26 @@ impl BarycentreSource for JoinedBarycentres<'_> {
             at.resize(corners.len(), [0.0f64; 3]);
             let mut positions =
                 Cursor::reusing(&self.staged.positions, std::mem::take(&mut block))?;
-            for &c in &corners {
+            for &c in corners.iter() {
                 at[c as u32 as usize] = positions.at((c >> 32) as u32);
             }
             check(positions.error.take())?;
-            block = positions.block;
-            for (i, corners) in at.chunks_exact(3).enumerate() {
-                f(
-                    first + i as u32,
-                    self.frame.barycentre([corners[0], corners[1], corners[2]]),
-                );
+            block = std::mem::take(&mut positions.block);
+            let barycentres: Vec<[f64; 3]> = at
+                .par_chunks_exact(3)
+                .map(|c| self.frame.barycentre([c[0], c[1], c[2]]))
+                .collect();
+            Ok(Some(barycentres))
+        };
+        super::prefetch::one_ahead(produce, |next| {
+            while let Some(barycentres) = next()? {
+                for b in barycentres {
+                    f(first, b);
+                    first += 1;
+                }
             }
-            first += part.len() as u32;
-        }
-        Ok(())
+            Ok(())
+        })
     }
 }
 
@@ -197,7 +208,7 @@ pub struct LeafGroups<'a> {
     staged: &'a StagedMesh,
     /// Each leaf's triangle indices, on disk (read a group at a time).
     lists: LeafListSpool,
-    simplifier_of: &'a dyn Fn(u32, [f64; 3]) -> [f32; 3],
+    simplifier_of: &'a (dyn Fn(u32, [f64; 3]) -> [f32; 3] + Sync),
     /// The next leaf, in the spool's key order.
     next: usize,
     max_triangles: usize,
@@ -207,7 +218,7 @@ impl<'a> LeafGroups<'a> {
     pub fn new(
         staged: &'a StagedMesh,
         lists: LeafListSpool,
-        simplifier_of: &'a dyn Fn(u32, [f64; 3]) -> [f32; 3],
+        simplifier_of: &'a (dyn Fn(u32, [f64; 3]) -> [f32; 3] + Sync),
         max_triangles: usize,
     ) -> Self {
         LeafGroups {

@@ -6,6 +6,7 @@
 pub mod allocator;
 mod fallible;
 pub mod joins;
+pub mod prefetch;
 pub mod sort;
 pub mod staged;
 pub mod temp_usage;

@@ -1,0 +1,102 @@
+//! Running a serial producer one item ahead of its consumer, on its own thread.
+//!
+//! The out-of-core build's leaf groups are joined from the staged files by one thread (a
+//! serial walk over sorted record files), then encoded in parallel and stored by another: in
+//! turn, one core idled through each join. Here the next group is joined while the current one
+//! is encoded. The channel holds no item (a rendezvous), so at most two items are alive: the
+//! one being consumed and the one made (or being made) next.
+
+use std::io;
+use std::sync::mpsc::sync_channel;
+
+/// A fallible source of items, `Ok(None)` at the end.
+pub type Next<'a, T> = dyn FnMut() -> io::Result<Option<T>> + 'a;
+
+/// Calls `consume` with a source giving `produce`'s items in order, `produce` running on its
+/// own thread one item ahead. `produce` is not called again after it returns an error or the
+/// end; when `consume` returns early, `produce` stops after the item it is making.
+pub fn one_ahead<T: Send, R>(
+    mut produce: impl FnMut() -> io::Result<Option<T>> + Send,
+    consume: impl FnOnce(&mut Next<'_, T>) -> R,
+) -> R {
+    std::thread::scope(|scope| {
+        let (sender, receiver) = sync_channel::<io::Result<Option<T>>>(0);
+        scope.spawn(move || loop {
+            let item = produce();
+            let last = !matches!(item, Ok(Some(_)));
+            // A closed channel: the consumer stopped early.
+            if sender.send(item).is_err() || last {
+                break;
+            }
+        });
+        let mut ended = false;
+        let mut next = move || {
+            if ended {
+                return Ok(None);
+            }
+            let item = receiver
+                .recv()
+                .map_err(|_| io::Error::other("the producing thread stopped"))?;
+            ended = !matches!(item, Ok(Some(_)));
+            item
+        };
+        // `next` (and with it the receiver) is dropped when `consume` returns, so a producer
+        // waiting to hand over an item is released before the scope joins it.
+        consume(&mut next)
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn gives_every_item_in_order_then_the_end() {
+        let mut n = 0;
+        let got = one_ahead(
+            || {
+                n += 1;
+                Ok((n <= 100).then_some(n))
+            },
+            |next| {
+                let mut got = Vec::new();
+                while let Some(x) = next().unwrap() {
+                    got.push(x);
+                }
+                assert!(next().unwrap().is_none(), "the end repeats");
+                got
+            },
+        );
+        assert_eq!(got, (1..=100).collect::<Vec<_>>());
+    }
+
+    #[test]
+    fn an_error_reaches_the_consumer_and_stops_the_producer() {
+        let mut calls = 0;
+        let result = one_ahead(
+            || {
+                calls += 1;
+                match calls {
+                    1 => Ok(Some(1)),
+                    _ => Err(io::Error::other("disk full")),
+                }
+            },
+            |next| {
+                assert_eq!(next().unwrap(), Some(1));
+                next().map(|_| ())
+            },
+        );
+        assert_eq!(result.unwrap_err().to_string(), "disk full");
+        assert_eq!(calls, 2, "nothing is made after an error");
+    }
+
+    #[test]
+    fn a_consumer_that_stops_early_releases_the_producer() {
+        let result: Option<u64> = one_ahead(
+            || Ok(Some(vec![0u8; 1024])),
+            |next| next().unwrap().map(|v| v.len() as u64),
+        );
+        // Returning at all shows the endless producer was released.
+        assert_eq!(result, Some(1024));
+    }
+}
