@@ -51,10 +51,8 @@ impl LevelState {
             let list: Vec<(SimplexKey, &LivePatch)> = group.iter().map(|(k, p)| (*k, p)).collect();
             finished(&list)?;
             drop(list);
-            for (key, patch) in group {
-                live.insert(key);
-                patches.insert(key, patch)?;
-            }
+            live.extend(group.iter().map(|(key, _)| *key));
+            patches.insert_all(group)?;
         }
         crate::external::allocator::release_freed_memory();
         Ok(LevelState {
@@ -261,6 +259,7 @@ pub fn simplify_levels(
                     .collect();
                 finished(&list)?;
                 drop(list);
+                let mut all_made = Vec::new();
                 for (r, made) in merged {
                     state.own_error[r.diamond] = r.error;
                     state.locked_vertices += r.locked;
@@ -271,10 +270,10 @@ pub fn simplify_levels(
                         }
                         state.live.insert(s.key);
                     }
-                    for (key, patch) in made {
-                        state.patches.insert(key, patch)?;
-                    }
+                    all_made.extend(made);
                 }
+                // The new patches' simplices are a level above the removed children.
+                state.patches.insert_all(all_made)?;
             }
             // Simplify the others again against the mesh with the batch merged, with more
             // locks.

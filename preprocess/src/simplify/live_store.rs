@@ -12,6 +12,7 @@ use std::io;
 use std::os::unix::fs::FileExt;
 use std::path::Path;
 
+use rayon::prelude::*;
 use rustc_hash::FxHashMap as HashMap;
 use tessera_core::leb::SimplexKey;
 
@@ -59,6 +60,10 @@ struct Record {
 }
 
 const HEAD: usize = 12;
+/// Records `insert_all` encodes in parallel and writes at once.
+const INSERT_CHUNK: usize = 64;
+/// Bytes of adjacent records a rewrite copies at once.
+const COPY_BYTES: u64 = 1 << 20;
 const NORMALS: u32 = 1;
 const COLORS: u32 = 2;
 const UVS: u32 = 4;
@@ -172,13 +177,34 @@ impl LiveStore {
         }
     }
 
-    pub(super) fn insert(&mut self, key: SimplexKey, patch: LivePatch) -> io::Result<()> {
+    /// Inserts `patches` in order (as `insert` one by one would): on disk, their records
+    /// encoded in parallel and written a chunk at a time.
+    pub(super) fn insert_all(&mut self, patches: Vec<(SimplexKey, LivePatch)>) -> io::Result<()> {
         match self {
             LiveStore::Memory(map) => {
-                map.insert(key, patch);
+                map.extend(patches);
                 Ok(())
             }
-            LiveStore::Disk(store) => store.append(key, &patch),
+            LiveStore::Disk(store) => {
+                for chunk in patches.chunks(INSERT_CHUNK) {
+                    let records: Vec<Vec<u8>> =
+                        chunk.par_iter().map(|(_, p)| encode_patch(p)).collect();
+                    let mut bytes = Vec::with_capacity(records.iter().map(Vec::len).sum());
+                    for ((key, patch), record) in chunk.iter().zip(&records) {
+                        store.index.insert(
+                            *key,
+                            Record {
+                                at: store.end + bytes.len() as u64,
+                                bytes: record.len() as u64,
+                                triangles: patch.triangles.len() as u32,
+                            },
+                        );
+                        bytes.extend_from_slice(record);
+                    }
+                    store.write_at_end(&bytes)?;
+                }
+                Ok(())
+            }
         }
     }
 
@@ -229,8 +255,27 @@ impl DiskStore {
         let mut records: Vec<(SimplexKey, Record)> =
             store.index.iter().map(|(k, r)| (*k, *r)).collect();
         records.sort_unstable_by_key(|(_, r)| r.at);
-        for (key, record) in records {
-            fresh.append(key, &store.read(&record)?)?;
+        // Records are copied as they are, a run of adjacent ones (up to `COPY_BYTES`) a read.
+        let mut buffer = Vec::new();
+        let mut rest = &records[..];
+        while let Some(&(_, first)) = rest.first() {
+            let mut end = first.at + first.bytes;
+            let n = 1 + rest[1..]
+                .iter()
+                .take_while(|(_, r)| {
+                    let adjacent = r.at == end && end - first.at < COPY_BYTES;
+                    end += r.bytes * adjacent as u64;
+                    adjacent
+                })
+                .count();
+            buffer.resize((end - first.at) as usize, 0);
+            store.file.read_exact_at(&mut buffer, first.at)?;
+            for &(key, record) in &rest[..n] {
+                let at = fresh.end + (record.at - first.at);
+                fresh.index.insert(key, Record { at, ..record });
+            }
+            fresh.write_at_end(&buffer)?;
+            rest = &rest[n..];
         }
         *store = fresh;
         Ok(())
@@ -257,16 +302,10 @@ impl DiskStore {
         })
     }
 
-    fn append(&mut self, key: SimplexKey, patch: &LivePatch) -> io::Result<()> {
-        let bytes = encode_patch(patch);
-        self.file.write_all_at(&bytes, self.end)?;
-        self.crc.update(&bytes);
-        let record = Record {
-            at: self.end,
-            bytes: bytes.len() as u64,
-            triangles: patch.triangles.len() as u32,
-        };
-        self.index.insert(key, record);
+    /// Appends records (already in the index) to the file.
+    fn write_at_end(&mut self, bytes: &[u8]) -> io::Result<()> {
+        self.file.write_all_at(bytes, self.end)?;
+        self.crc.update(bytes);
         self.end += bytes.len() as u64;
         self.live_bytes += bytes.len() as u64;
         self.charge.grow(bytes.len() as u64);
@@ -303,7 +342,13 @@ pub(super) fn encode_patch(patch: &LivePatch) -> Vec<u8> {
     let bits = (v.normals.is_some() as u32 * NORMALS)
         | (v.colors.is_some() as u32 * COLORS)
         | (v.uvs.is_some() as u32 * UVS);
-    let mut out = Vec::new();
+    let per_vertex = 4
+        + 24
+        + 12
+        + v.normals.as_ref().map_or(0, |_| 12)
+        + v.colors.as_ref().map_or(0, |_| 4)
+        + v.uvs.as_ref().map_or(0, |_| 8);
+    let mut out = Vec::with_capacity(HEAD + 12 * patch.triangles.len() + per_vertex * v.ids.len());
     for word in [patch.triangles.len() as u32, v.ids.len() as u32, bits] {
         out.extend_from_slice(&word.to_le_bytes());
     }
@@ -381,18 +426,26 @@ mod tests {
     fn a_disk_store_gives_back_what_it_was_given_through_removals_and_compaction() {
         let dir = tempfile::tempdir().unwrap();
         let roots = Simplex::roots(3, 10);
-        let keys: Vec<SimplexKey> = roots
-            .iter()
-            .flat_map(|r| {
-                let [a, b] = r.children();
-                [r.key, a.key, b.key]
-            })
-            .collect();
+        // Enough simplices for several of `insert_all`'s chunks.
+        let mut simplices: Vec<Simplex> = roots.clone();
+        let mut next = 0;
+        while simplices.len() < 3 * INSERT_CHUNK {
+            let [a, b] = simplices[next].children();
+            simplices.extend([a, b]);
+            next += 1;
+        }
+        let keys: Vec<SimplexKey> = simplices.iter().map(|s| s.key).collect();
         for attributes in [false, true] {
             let mut store = LiveStore::new(Some(dir.path())).unwrap();
-            for (i, k) in keys.iter().enumerate() {
-                store.insert(*k, patch(i as u32, attributes)).unwrap();
-            }
+            // One call, then another: records from two calls sit side by side.
+            let all: Vec<(SimplexKey, LivePatch)> = keys
+                .iter()
+                .enumerate()
+                .map(|(i, k)| (*k, patch(i as u32, attributes)))
+                .collect();
+            let (first, second) = all.split_at(5);
+            store.insert_all(first.to_vec()).unwrap();
+            store.insert_all(second.to_vec()).unwrap();
             for k in keys.iter().step_by(2) {
                 store.remove(k).unwrap();
             }
