@@ -36,7 +36,8 @@ pub struct BuildArgs {
     /// Build a complete hierarchy of L levels instead.
     #[arg(long, value_name = "L")]
     pub levels: Option<u16>,
-    /// Worker threads (default: one per core).
+    /// Worker threads (default: one per core). With more than one, a build under `--memory`
+    /// also runs one thread that reads the staged mesh ahead of the workers.
     #[arg(long, value_name = "N")]
     pub threads: Option<usize>,
     /// Memory budget (`512M`, `2G`): the stages that work out of core stay within it — today

@@ -79,7 +79,9 @@ impl BarycentreSource for JoinedBarycentres<'_> {
         let (mut part, mut corners, mut at, mut block) =
             (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         // A chunk's barycentres are joined and computed on their own thread while the
-        // previous chunk's are handed to `f` (a spool's writes).
+        // previous chunk's are handed to `f` (a spool's writes). That thread is outside the
+        // build's worker pool, so it works serially: parallel calls there would start rayon's
+        // global pool beside the one `--threads` sized.
         let produce = || {
             if !triangles.read_into(&mut part)? {
                 return Ok(None);
@@ -93,7 +95,7 @@ impl BarycentreSource for JoinedBarycentres<'_> {
                         (0..3).map(move |k| ((t[k] as u64) << 32) | (3 * i + k) as u64)
                     }),
             );
-            corners.par_sort_unstable();
+            corners.sort_unstable();
             at.clear();
             at.resize(corners.len(), [0.0f64; 3]);
             let mut positions =
@@ -104,7 +106,7 @@ impl BarycentreSource for JoinedBarycentres<'_> {
             check(positions.error.take())?;
             block = std::mem::take(&mut positions.block);
             let barycentres: Vec<[f64; 3]> = at
-                .par_chunks_exact(3)
+                .chunks_exact(3)
                 .map(|c| self.frame.barycentre([c[0], c[1], c[2]]))
                 .collect();
             Ok(Some(barycentres))

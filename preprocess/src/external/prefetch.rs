@@ -5,6 +5,11 @@
 //! turn, one core idled through each join. Here the next group is joined while the current one
 //! is encoded. The channel holds no item (a rendezvous), so at most two items are alive: the
 //! one being consumed and the one made (or being made) next.
+//!
+//! The producer's thread is not one of the build's rayon workers: it must not call rayon's
+//! parallel iterators (they would run on rayon's global pool, beside the pool `--threads`
+//! sized). With a single worker (`--threads 1`) the producer runs inline, on the caller's
+//! thread, so the build keeps to one thread.
 
 use std::io;
 use std::sync::mpsc::sync_channel;
@@ -19,6 +24,9 @@ pub fn one_ahead<T: Send, R>(
     mut produce: impl FnMut() -> io::Result<Option<T>> + Send,
     consume: impl FnOnce(&mut Next<'_, T>) -> R,
 ) -> R {
+    if rayon::current_num_threads() <= 1 {
+        return consume(&mut produce);
+    }
     std::thread::scope(|scope| {
         let (sender, receiver) = sync_channel::<io::Result<Option<T>>>(0);
         scope.spawn(move || loop {
@@ -88,6 +96,33 @@ mod tests {
         );
         assert_eq!(result.unwrap_err().to_string(), "disk full");
         assert_eq!(calls, 2, "nothing is made after an error");
+    }
+
+    #[test]
+    fn with_one_worker_the_producer_runs_inline() {
+        for (workers, inline) in [(1, true), (2, false)] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(workers)
+                .build()
+                .unwrap();
+            let (consumer, producers) = pool.install(|| {
+                let mut producers = Vec::new();
+                let consumer = std::thread::current().id();
+                one_ahead(
+                    || {
+                        producers.push(std::thread::current().id());
+                        Ok((producers.len() <= 3).then_some(()))
+                    },
+                    |next| while next().unwrap().is_some() {},
+                );
+                (consumer, producers)
+            });
+            assert_eq!(producers.len(), 4);
+            assert!(
+                producers.iter().all(|&p| (p == consumer) == inline),
+                "{workers} worker(s)"
+            );
+        }
     }
 
     #[test]

@@ -177,8 +177,8 @@ impl LiveStore {
         }
     }
 
-    /// Inserts `patches` in order (as `insert` one by one would): on disk, their records
-    /// encoded in parallel and written a chunk at a time.
+    /// Inserts `patches`: on disk, their records encoded in parallel and appended in order, a
+    /// chunk at a time.
     pub(super) fn insert_all(&mut self, patches: Vec<(SimplexKey, LivePatch)>) -> io::Result<()> {
         match self {
             LiveStore::Memory(map) => {
