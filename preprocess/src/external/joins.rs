@@ -100,7 +100,7 @@ impl BarycentreSource for JoinedBarycentres<'_> {
             at.resize(corners.len(), [0.0f64; 3]);
             let mut positions =
                 Cursor::reusing(&self.staged.positions, std::mem::take(&mut block))?;
-            for &c in corners.iter() {
+            for &c in &corners {
                 at[c as u32 as usize] = positions.at((c >> 32) as u32);
             }
             check(positions.error.take())?;

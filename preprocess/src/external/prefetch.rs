@@ -25,7 +25,7 @@ pub fn one_ahead<T: Send, R>(
     consume: impl FnOnce(&mut Next<'_, T>) -> R,
 ) -> R {
     if rayon::current_num_threads() <= 1 {
-        return consume(&mut produce);
+        return consume(&mut ending_once(produce));
     }
     std::thread::scope(|scope| {
         let (sender, receiver) = sync_channel::<io::Result<Option<T>>>(0);
@@ -37,65 +37,92 @@ pub fn one_ahead<T: Send, R>(
                 break;
             }
         });
-        let mut ended = false;
-        let mut next = move || {
-            if ended {
-                return Ok(None);
-            }
-            let item = receiver
-                .recv()
-                .map_err(|_| io::Error::other("the producing thread stopped"))?;
-            ended = !matches!(item, Ok(Some(_)));
-            item
-        };
         // `next` (and with it the receiver) is dropped when `consume` returns, so a producer
         // waiting to hand over an item is released before the scope joins it.
+        let mut next = ending_once(move || {
+            receiver
+                .recv()
+                .map_err(|_| io::Error::other("the producing thread stopped"))?
+        });
         consume(&mut next)
     })
+}
+
+/// `source`, not called again once it has given an error or the end (then the end, again).
+fn ending_once<T>(
+    mut source: impl FnMut() -> io::Result<Option<T>>,
+) -> impl FnMut() -> io::Result<Option<T>> {
+    let mut ended = false;
+    move || {
+        if ended {
+            return Ok(None);
+        }
+        let item = source();
+        ended = !matches!(item, Ok(Some(_)));
+        item
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
+    /// Runs `f` inline (one worker) and with the producer on its own thread (two).
+    fn in_both_modes(f: impl Fn() + Sync) {
+        for workers in [1, 2] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(workers)
+                .build()
+                .unwrap();
+            pool.install(&f);
+        }
+    }
+
     #[test]
     fn gives_every_item_in_order_then_the_end() {
-        let mut n = 0;
-        let got = one_ahead(
-            || {
-                n += 1;
-                Ok((n <= 100).then_some(n))
-            },
-            |next| {
-                let mut got = Vec::new();
-                while let Some(x) = next().unwrap() {
-                    got.push(x);
-                }
-                assert!(next().unwrap().is_none(), "the end repeats");
-                got
-            },
-        );
-        assert_eq!(got, (1..=100).collect::<Vec<_>>());
+        in_both_modes(|| {
+            let mut n = 0;
+            let got = one_ahead(
+                || {
+                    n += 1;
+                    Ok((n <= 100).then_some(n))
+                },
+                |next| {
+                    let mut got = Vec::new();
+                    while let Some(x) = next().unwrap() {
+                        got.push(x);
+                    }
+                    assert!(next().unwrap().is_none(), "the end repeats");
+                    got
+                },
+            );
+            assert_eq!(got, (1..=100).collect::<Vec<_>>());
+            assert_eq!(n, 101, "nothing is made after the end");
+        });
     }
 
     #[test]
     fn an_error_reaches_the_consumer_and_stops_the_producer() {
-        let mut calls = 0;
-        let result = one_ahead(
-            || {
-                calls += 1;
-                match calls {
-                    1 => Ok(Some(1)),
-                    _ => Err(io::Error::other("disk full")),
-                }
-            },
-            |next| {
-                assert_eq!(next().unwrap(), Some(1));
-                next().map(|_| ())
-            },
-        );
-        assert_eq!(result.unwrap_err().to_string(), "disk full");
-        assert_eq!(calls, 2, "nothing is made after an error");
+        in_both_modes(|| {
+            let mut calls = 0;
+            let result = one_ahead(
+                || {
+                    calls += 1;
+                    match calls {
+                        1 => Ok(Some(1)),
+                        _ => Err(io::Error::other("disk full")),
+                    }
+                },
+                |next| {
+                    assert_eq!(next().unwrap(), Some(1));
+                    let error = next().map(|_| ());
+                    assert!(next().unwrap().is_none(), "the end after an error");
+                    error
+                },
+            );
+            assert_eq!(result.unwrap_err().to_string(), "disk full");
+            assert_eq!(calls, 2, "nothing is made after an error");
+        });
     }
 
     #[test]
