@@ -269,8 +269,8 @@ fn load_or_resume(
             return Ok(crate::input::staged_input(staged, &args.heightfield));
         }
     }
-    let input = crate::input::load_build_input(&args.input, &args.heightfield, staging)?;
-    if let (Some(c), BuildInput::Staged { staged, .. }) = (checkpoint, &input) {
+    let mut input = crate::input::load_build_input(&args.input, &args.heightfield, staging)?;
+    if let (Some(c), BuildInput::Staged { staged, .. }) = (checkpoint, &mut input) {
         save_staged(c, staged).with_context(|| format!("checkpoint {}", c.dir().display()))?;
     }
     Ok(input)

@@ -1,6 +1,6 @@
-//! Stage `staged`: the welded mesh's record files, copied out of the import's unnamed
-//! temporaries into the checkpoint, with what welding counted; and opened again by a resumed
-//! build, which then skips the import.
+//! Stage `staged`: the welded mesh's record files, handed from the import's unnamed
+//! temporaries to the checkpoint (linked, so they are on disk once), with what welding
+//! counted; and opened again by a resumed build, which then skips the import.
 
 use std::collections::BTreeMap;
 use std::io;
@@ -20,17 +20,18 @@ const COUNTS: [&str; 6] = [
     "unreferenced_vertices",
 ];
 
-/// Copies `staged` into the checkpoint and commits stage `staged`.
-pub fn save_staged(checkpoint: &mut Checkpoint, staged: &StagedMesh) -> io::Result<()> {
-    fn copy<T: Pod>(
+/// Hands `staged`'s files to the checkpoint (`RecordFile::keep_at`: `staged` reads them
+/// there from then on) and commits stage `staged`.
+pub fn save_staged(checkpoint: &mut Checkpoint, staged: &mut StagedMesh) -> io::Result<()> {
+    fn keep<T: Pod>(
         c: &Checkpoint,
         name: &str,
-        file: Option<&RecordFile<T>>,
+        file: Option<&mut RecordFile<T>>,
         files: &mut Vec<FileRecord>,
     ) -> io::Result<()> {
         if let Some(file) = file {
             let name = format!("staged-{name}.bin");
-            let crc32 = file.copy_to(&c.path(&name))?;
+            let crc32 = file.keep_at(&c.path(&name))?;
             files.push(FileRecord {
                 name,
                 bytes: file.bytes(),
@@ -40,12 +41,22 @@ pub fn save_staged(checkpoint: &mut Checkpoint, staged: &StagedMesh) -> io::Resu
         Ok(())
     }
     let mut files = Vec::new();
-    let a = &staged.attributes;
-    copy(checkpoint, "positions", Some(&staged.positions), &mut files)?;
-    copy(checkpoint, "triangles", Some(&staged.triangles), &mut files)?;
-    copy(checkpoint, "normals", a.normals.as_ref(), &mut files)?;
-    copy(checkpoint, "colors", a.colors.as_ref(), &mut files)?;
-    copy(checkpoint, "uvs", a.uvs.as_ref(), &mut files)?;
+    keep(
+        checkpoint,
+        "positions",
+        Some(&mut staged.positions),
+        &mut files,
+    )?;
+    keep(
+        checkpoint,
+        "triangles",
+        Some(&mut staged.triangles),
+        &mut files,
+    )?;
+    let a = &mut staged.attributes;
+    keep(checkpoint, "normals", a.normals.as_mut(), &mut files)?;
+    keep(checkpoint, "colors", a.colors.as_mut(), &mut files)?;
+    keep(checkpoint, "uvs", a.uvs.as_mut(), &mut files)?;
     let counts = [
         staged.raw_vertices,
         staged.raw_triangles,

@@ -5,6 +5,7 @@
 
 pub mod allocator;
 mod fallible;
+pub mod holes;
 pub mod joins;
 pub mod prefetch;
 pub mod sort;

@@ -18,12 +18,47 @@ use bytemuck::Pod;
 use super::temp_usage::Charge;
 use crate::mesh::InputMesh;
 
+/// Gives an `O_TMPFILE` file the name `path` (`linkat` through `/proc/self/fd`); fails for a
+/// file that was created with a name and unlinked, and off Linux.
+fn link_unnamed(file: &File, path: &Path) -> io::Result<()> {
+    #[cfg(target_os = "linux")]
+    {
+        use std::ffi::CString;
+        use std::os::unix::ffi::OsStrExt;
+        use std::os::unix::io::AsRawFd;
+        let from = CString::new(format!("/proc/self/fd/{}", file.as_raw_fd()))?;
+        let to = CString::new(path.as_os_str().as_bytes())?;
+        // SAFETY: both are NUL-terminated paths that outlive the call.
+        let r = unsafe {
+            libc::linkat(
+                libc::AT_FDCWD,
+                from.as_ptr(),
+                libc::AT_FDCWD,
+                to.as_ptr(),
+                libc::AT_SYMLINK_FOLLOW,
+            )
+        };
+        if r == 0 {
+            Ok(())
+        } else {
+            Err(io::Error::last_os_error())
+        }
+    }
+    #[cfg(not(target_os = "linux"))]
+    {
+        let _ = (file, path);
+        Err(io::Error::from(io::ErrorKind::Unsupported))
+    }
+}
+
 /// Buffer size of the record readers and writers.
 pub(super) const IO_BUFFER: usize = 1 << 20;
 
 /// A file of fixed-size records, written once then read from the start (any number of times).
 pub struct RecordFile<T: Pod> {
-    file: File,
+    /// `None` once a checkpoint's file is discarded: closing it lets the disk space go when
+    /// the checkpoint removes the name.
+    file: std::sync::Mutex<Option<File>>,
     records: u64,
     charge: Charge,
     /// A checkpoint's file (`open_kept`): `discard` leaves it alone.
@@ -58,19 +93,34 @@ impl<T: Pod> RecordFile<T> {
     }
 
     /// Empties the file (its disk space is freed; the records are gone, reading fails). A
-    /// checkpoint's file is left as it is (the checkpoint removes it when it no longer needs it).
+    /// checkpoint's file is only closed: the checkpoint removes it when it no longer needs it,
+    /// and then nothing holds its space.
     pub fn discard(&self) -> io::Result<()> {
+        let mut file = self.file.lock().unwrap_or_else(|e| e.into_inner());
         if self.kept {
+            *file = None;
             return Ok(());
         }
-        self.file.set_len(0)?;
+        if let Some(file) = file.as_ref() {
+            file.set_len(0)?;
+        }
         self.charge.release();
         Ok(())
     }
 
+    /// A handle of its own on the file (its offset is its own to move).
+    fn handle(&self) -> io::Result<File> {
+        match self.file.lock().unwrap_or_else(|e| e.into_inner()).as_ref() {
+            Some(file) => file.try_clone(),
+            None => Err(io::Error::other(
+                "a staged file was read after it was discarded",
+            )),
+        }
+    }
+
     /// Streams every record from the first.
     pub fn read(&self) -> io::Result<RecordReader<T>> {
-        let mut file = self.file.try_clone()?;
+        let mut file = self.handle()?;
         file.seek(SeekFrom::Start(0))?;
         Ok(RecordReader {
             reader: BufReader::with_capacity(IO_BUFFER, file),
@@ -82,7 +132,7 @@ impl<T: Pod> RecordFile<T> {
     /// Streams the records in chunks of at most `records` (at least one), for passes that
     /// work on many records at once.
     pub fn read_chunks(&self, records: usize) -> io::Result<ChunkReader<T>> {
-        let mut file = self.file.try_clone()?;
+        let mut file = self.handle()?;
         file.seek(SeekFrom::Start(0))?;
         Ok(ChunkReader {
             file,
@@ -94,7 +144,7 @@ impl<T: Pod> RecordFile<T> {
 
     /// Copies the records to a new file at `path`; returns the copy's CRC-32.
     pub(crate) fn copy_to(&self, path: &Path) -> io::Result<u32> {
-        let mut from = self.file.try_clone()?;
+        let mut from = self.handle()?;
         from.seek(SeekFrom::Start(0))?;
         let mut to = File::create(path)?;
         let mut hasher = crc32fast::Hasher::new();
@@ -110,6 +160,40 @@ impl<T: Pod> RecordFile<T> {
         Ok(hasher.finalize())
     }
 
+    /// Names the records `path` (a checkpoint's file) and hands them to the checkpoint: from
+    /// then on `discard` leaves them and their bytes are the checkpoint's, not this file's
+    /// (the charge is given back). The unnamed file itself is linked at `path` where the file
+    /// system allows it (`O_TMPFILE` on Linux), so the records are on disk once and nothing
+    /// is copied; elsewhere they are copied and the unnamed file closed. Returns the
+    /// records' CRC-32.
+    pub(crate) fn keep_at(&mut self, path: &Path) -> io::Result<u32> {
+        match std::fs::remove_file(path) {
+            Err(e) if e.kind() != io::ErrorKind::NotFound => return Err(e),
+            _ => {}
+        }
+        let mut from = self.handle()?;
+        let crc32 = if link_unnamed(&from, path).is_ok() {
+            let mut hasher = crc32fast::Hasher::new();
+            from.seek(SeekFrom::Start(0))?;
+            let mut buf = vec![0u8; IO_BUFFER];
+            let mut left = self.bytes();
+            while left > 0 {
+                let n = left.min(buf.len() as u64) as usize;
+                from.read_exact(&mut buf[..n])?;
+                hasher.update(&buf[..n]);
+                left -= n as u64;
+            }
+            hasher.finalize()
+        } else {
+            let crc32 = self.copy_to(path)?;
+            *self.file.lock().unwrap_or_else(|e| e.into_inner()) = Some(File::open(path)?);
+            crc32
+        };
+        self.charge.release();
+        self.kept = true;
+        Ok(crc32)
+    }
+
     /// The records of a checkpoint's file (`copy_to`'s) of `bytes` bytes, opened read-only.
     pub(crate) fn open_kept(path: &Path, bytes: u64) -> io::Result<RecordFile<T>> {
         let size = std::mem::size_of::<T>() as u64;
@@ -120,7 +204,7 @@ impl<T: Pod> RecordFile<T> {
             ));
         }
         Ok(RecordFile {
-            file: File::open(path)?,
+            file: std::sync::Mutex::new(Some(File::open(path)?)),
             records: bytes / size,
             charge: Charge::new(),
             kept: true,
@@ -174,7 +258,7 @@ impl<T: Pod> RecordWriter<T> {
     pub fn finish(self) -> io::Result<RecordFile<T>> {
         let file = self.writer.into_inner().map_err(|e| e.into_error())?;
         Ok(RecordFile {
-            file,
+            file: std::sync::Mutex::new(Some(file)),
             records: self.records,
             charge: self.charge,
             kept: false,
@@ -483,11 +567,11 @@ mod tests {
             writer.push(&[i, i + 1, i + 2]).unwrap();
         }
         let file = writer.finish().unwrap();
-        assert_eq!(file.file.metadata().unwrap().len(), 12_000);
+        assert_eq!(file.handle().unwrap().metadata().unwrap().len(), 12_000);
         assert_eq!(file.charge.bytes(), 12_000);
         assert_eq!(file.read_all().unwrap()[999], [999, 1000, 1001]);
         file.discard().unwrap();
-        assert_eq!(file.file.metadata().unwrap().len(), 0);
+        assert_eq!(file.handle().unwrap().metadata().unwrap().len(), 0);
         assert_eq!(file.charge.bytes(), 0);
         assert!(
             file.read_all().is_err(),

@@ -39,6 +39,14 @@ impl Charge {
         PEAK.fetch_max(now, Ordering::Relaxed);
     }
 
+    /// The file gave back `bytes` of its space (at most what it holds).
+    pub fn shrink(&self, bytes: u64) {
+        let held = self.0.load(Ordering::Relaxed);
+        let bytes = bytes.min(held);
+        self.0.fetch_sub(bytes, Ordering::Relaxed);
+        CURRENT.fetch_sub(bytes, Ordering::Relaxed);
+    }
+
     /// The file was emptied.
     pub fn release(&self) {
         let held = self.0.swap(0, Ordering::Relaxed);

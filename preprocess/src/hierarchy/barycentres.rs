@@ -14,6 +14,13 @@ pub trait BarycentreSource {
     /// Calls `f(index, barycentre)` for every triangle, with indices 0, 1, 2, … in order and
     /// the same barycentres on every call.
     fn for_each_barycentre(&self, f: &mut dyn FnMut(u32, [f64; 3])) -> io::Result<()>;
+
+    /// The last pass a construction makes: `for_each_barycentre`, after which the source may
+    /// have given back what it held (a spool frees its disk as it is read) and cannot stream
+    /// again.
+    fn for_each_barycentre_last(&self, f: &mut dyn FnMut(u32, [f64; 3])) -> io::Result<()> {
+        self.for_each_barycentre(f)
+    }
 }
 
 /// Barycentres held in memory (tests, small inputs).
@@ -54,8 +61,13 @@ impl BarycentreSource for MeshBarycentres<'_> {
 pub struct SpooledBarycentres {
     file: File,
     triangles: u64,
-    _charge: crate::external::temp_usage::Charge,
+    charge: crate::external::temp_usage::Charge,
+    /// Set by the last pass, which frees the file.
+    consumed: std::sync::atomic::AtomicBool,
 }
+
+/// Bytes the last pass reads between two holes it punches behind itself.
+const CONSUME_BLOCK: usize = 1 << 20;
 
 impl SpooledBarycentres {
     /// Streams `source` once into a temporary file in `temp_dir`.
@@ -87,7 +99,8 @@ impl SpooledBarycentres {
         Ok(SpooledBarycentres {
             file,
             triangles,
-            _charge: charge,
+            charge,
+            consumed: Default::default(),
         })
     }
 
@@ -101,8 +114,20 @@ impl SpooledBarycentres {
     }
 }
 
+impl SpooledBarycentres {
+    fn check_not_consumed(&self) -> io::Result<()> {
+        if self.consumed.load(std::sync::atomic::Ordering::Relaxed) {
+            return Err(io::Error::other(
+                "spooled barycentres streamed after their last pass",
+            ));
+        }
+        Ok(())
+    }
+}
+
 impl BarycentreSource for SpooledBarycentres {
     fn for_each_barycentre(&self, f: &mut dyn FnMut(u32, [f64; 3])) -> io::Result<()> {
+        self.check_not_consumed()?;
         let mut file = &self.file;
         file.seek(SeekFrom::Start(0))?;
         let mut input = io::BufReader::with_capacity(1 << 20, file);
@@ -112,6 +137,36 @@ impl BarycentreSource for SpooledBarycentres {
             let (t, q) = read_record(&record);
             f(t, q);
         }
+        Ok(())
+    }
+
+    /// Reads a block at a time and punches a hole behind each block read, so that the
+    /// spool's disk shrinks as whatever this pass writes grows; the file is emptied at the end.
+    fn for_each_barycentre_last(&self, f: &mut dyn FnMut(u32, [f64; 3])) -> io::Result<()> {
+        use crate::external::holes::punch;
+        self.check_not_consumed()?;
+        self.consumed
+            .store(true, std::sync::atomic::Ordering::Relaxed);
+        let mut file = &self.file;
+        file.seek(SeekFrom::Start(0))?;
+        let block_records = CONSUME_BLOCK / RECORD_BYTES;
+        let mut block = vec![0u8; block_records * RECORD_BYTES];
+        let (mut read, mut freed_to) = (0u64, 0u64);
+        while read < self.triangles {
+            let records = (self.triangles - read).min(block_records as u64) as usize;
+            let bytes = &mut block[..records * RECORD_BYTES];
+            file.read_exact(bytes)?;
+            for record in bytes.chunks_exact(RECORD_BYTES) {
+                let (t, q) = read_record(record);
+                f(t, q);
+            }
+            read += records as u64;
+            let end = read * RECORD_BYTES as u64;
+            self.charge.shrink(punch(&self.file, freed_to, end));
+            freed_to = end / 4096 * 4096;
+        }
+        self.file.set_len(0)?;
+        self.charge.release();
         Ok(())
     }
 }
@@ -161,4 +216,39 @@ pub(super) fn read_record(r: &[u8]) -> (u32, [f64; 3]) {
     let t = u32::from_le_bytes(r[0..4].try_into().unwrap());
     let q = [0, 1, 2].map(|i| f64::from_le_bytes(r[4 + 8 * i..12 + 8 * i].try_into().unwrap()));
     (t, q)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn collect(
+        f: impl FnOnce(&mut dyn FnMut(u32, [f64; 3])) -> io::Result<()>,
+    ) -> Vec<(u32, [f64; 3])> {
+        let mut out = Vec::new();
+        f(&mut |t, q| out.push((t, q))).unwrap();
+        out
+    }
+
+    #[test]
+    fn a_spool_streams_the_same_until_its_last_pass_frees_it() {
+        let dir = tempfile::tempdir().unwrap();
+        // More than one of the last pass's blocks.
+        let source: Vec<[f64; 3]> = (0..100_000)
+            .map(|i| [i as f64 / 7.0, -(i as f64), 1e-300 * i as f64])
+            .collect();
+        let spool = SpooledBarycentres::new(&source[..], dir.path()).unwrap();
+        let expected: Vec<(u32, [f64; 3])> = source
+            .iter()
+            .enumerate()
+            .map(|(t, q)| (t as u32, *q))
+            .collect();
+        assert_eq!(collect(|f| spool.for_each_barycentre(f)), expected);
+        assert_eq!(collect(|f| spool.for_each_barycentre(f)), expected);
+        assert_eq!(collect(|f| spool.for_each_barycentre_last(f)), expected);
+        assert_eq!(spool.file.metadata().unwrap().len(), 0);
+        assert_eq!(spool.charge.bytes(), 0);
+        assert!(spool.for_each_barycentre(&mut |_, _| {}).is_err());
+        assert!(spool.for_each_barycentre_last(&mut |_, _| {}).is_err());
+    }
 }

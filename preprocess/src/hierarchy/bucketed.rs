@@ -183,7 +183,7 @@ pub fn build_hierarchy_bucketed_spooled(
         };
         let mut io_error = None;
         let mut order = InOrder::default();
-        source.for_each_barycentre(&mut |t, b| {
+        source.for_each_barycentre_last(&mut |t, b| {
             if io_error.is_some() || !order.accept(t) {
                 return;
             }

@@ -284,7 +284,7 @@ pub fn simplify_levels(
                     // Its children are still live: what it gathered is theirs.
                     let (gathered, ..) = gather_patches(&hierarchy.diamonds[d], &state.patches)?;
                     p.lock_more(&blocked, &gathered);
-                    p.result = simplify_diamond(
+                    let again = simplify_diamond(
                         &ctx,
                         d,
                         &hierarchy.diamonds[d],
@@ -293,6 +293,7 @@ pub fn simplify_levels(
                         &p.extra_locks,
                         &spill,
                     )?;
+                    spill.release(&std::mem::replace(&mut p.result, again).payload);
                     Ok(p)
                 })
                 .collect::<std::io::Result<_>>()?;

@@ -36,6 +36,16 @@ pub(super) struct DiskStore {
     /// one at each rewrite), and the CRC-32 of the bytes written so far.
     named: Option<(std::path::PathBuf, u32)>,
     crc: crc32fast::Hasher,
+    committed: Committed,
+}
+
+/// What the checkpoint's last commit holds of a named store: its generation and length, and
+/// the bytes of that generation's file kept while a newer one is current (a resumed build
+/// reads it; the next commit removes it).
+#[derive(Default)]
+struct Committed {
+    at: std::sync::Mutex<Option<(u32, u64)>>,
+    retained: Charge,
 }
 
 /// Where a checkpointed store's records are: its file's name, valid length and CRC-32, and
@@ -67,6 +77,10 @@ const COPY_BYTES: u64 = 1 << 20;
 const NORMALS: u32 = 1;
 const COLORS: u32 = 2;
 const UVS: u32 = 4;
+/// Triangles as u16 rows of the vertex table (else u32 global ids).
+const LOCAL_U16: u32 = 8;
+/// Positions as f32 (else f64).
+const POSITIONS_F32: u32 = 16;
 
 impl LiveStore {
     /// An empty store in memory, or in an unnamed file in `spill_dir`.
@@ -83,6 +97,7 @@ impl LiveStore {
             charge: Charge::new(),
             named: None,
             crc: crc32fast::Hasher::new(),
+            committed: Committed::default(),
         }))
     }
 
@@ -124,6 +139,10 @@ impl LiveStore {
             charge,
             named: Some((dir.to_path_buf(), at.generation)),
             crc: crc32fast::Hasher::new_with_initial_len(at.crc32, at.end),
+            committed: Committed {
+                at: std::sync::Mutex::new(Some((at.generation, at.end))),
+                retained: Charge::new(),
+            },
         }))
     }
 
@@ -140,6 +159,11 @@ impl LiveStore {
             .map(|(k, r)| (*k, r.at, r.bytes, r.triangles))
             .collect();
         records.sort_unstable_by_key(|r| r.0);
+        // Asked for by a commit: from then on the checkpoint names this file and length, and
+        // no longer an older generation's.
+        *store.committed.at.lock().unwrap_or_else(|e| e.into_inner()) =
+            Some((*generation, store.end));
+        store.committed.retained.release();
         Some(StoreCheckpoint {
             generation: *generation,
             end: store.end,
@@ -166,12 +190,11 @@ impl LiveStore {
             LiveStore::Disk(store) => match store.index.get(key) {
                 None => Ok(None),
                 Some(record) => {
-                    let mut triangles = vec![[0u32; 3]; record.triangles as usize];
-                    store.file.read_exact_at(
-                        bytemuck::cast_slice_mut(&mut triangles),
-                        record.at + HEAD as u64,
-                    )?;
-                    Ok(Some(Cow::Owned(triangles)))
+                    let mut head = [0u8; HEAD];
+                    store.file.read_exact_at(&mut head, record.at)?;
+                    let mut bytes = vec![0u8; triangle_bytes(&head)];
+                    store.file.read_exact_at(&mut bytes, record.at)?;
+                    Ok(Some(Cow::Owned(decode_triangles(&bytes))))
                 }
             },
         }
@@ -250,11 +273,22 @@ impl DiskStore {
                 charge: Charge::new(),
                 named: None,
                 crc: crc32fast::Hasher::new(),
+                committed: Committed::default(),
             },
         };
         let mut records: Vec<(SimplexKey, Record)> =
             store.index.iter().map(|(k, r)| (*k, *r)).collect();
         records.sort_unstable_by_key(|(_, r)| r.at);
+        // What the old file must keep: the prefix a checkpoint's last commit names (a resumed
+        // build reads it until the next commit names the new file); the rest is freed behind
+        // the copy (`holes::punch`), so the two files together hold about that prefix and the
+        // live records, not the whole old file besides.
+        let committed = *store.committed.at.lock().unwrap_or_else(|e| e.into_inner());
+        let kept = match (&store.named, committed) {
+            (Some((_, generation)), Some((g, end))) if g == *generation => end,
+            _ => 0,
+        };
+        let mut freed_to = kept;
         // Records are copied as they are, a run of adjacent ones (up to `COPY_BYTES`) a read.
         let mut buffer = Vec::new();
         let mut rest = &records[..];
@@ -276,7 +310,23 @@ impl DiskStore {
             }
             fresh.write_at_end(&buffer)?;
             rest = &rest[n..];
+            if end > freed_to {
+                let freed = crate::external::holes::punch(&store.file, freed_to, end);
+                store.charge.shrink(freed);
+                freed_to = end / 4096 * 4096;
+            }
         }
+        // The old file: cut back to the prefix a commit names, or removed if none does.
+        store.charge.release();
+        if let Some((dir, generation)) = &store.named {
+            if kept > 0 {
+                store.file.set_len(kept)?;
+                store.committed.retained.grow(kept);
+            } else {
+                std::fs::remove_file(dir.join(live_file_name(*generation)))?;
+            }
+        }
+        fresh.committed = std::mem::take(&mut store.committed);
         *store = fresh;
         Ok(())
     }
@@ -299,6 +349,7 @@ impl DiskStore {
             charge: Charge::new(),
             named: Some((dir.to_path_buf(), generation)),
             crc: crc32fast::Hasher::new(),
+            committed: Committed::default(),
         })
     }
 
@@ -325,36 +376,83 @@ fn head_fields(head: &[u8]) -> (usize, usize, u32) {
     (word(0) as usize, word(1) as usize, word(2))
 }
 
-fn record_bytes(head: &[u8]) -> u64 {
-    let (t, v, bits) = head_fields(head);
+/// Bytes of a record's triangles, of a vertex's position and of a vertex's whole row.
+fn layout(bits: u32) -> (usize, usize, usize) {
+    let triangle = if bits & LOCAL_U16 != 0 { 6 } else { 12 };
+    let position = if bits & POSITIONS_F32 != 0 { 12 } else { 24 };
     let per_vertex = 4
-        + 24
+        + position
         + 12
         + if bits & NORMALS != 0 { 12 } else { 0 }
         + if bits & COLORS != 0 { 4 } else { 0 }
         + if bits & UVS != 0 { 8 } else { 0 };
-    (HEAD + 12 * t + per_vertex * v) as u64
+    (triangle, position, per_vertex)
 }
 
-/// A patch's record (also `result_spill.rs`'s).
+fn record_bytes(head: &[u8]) -> u64 {
+    let (t, v, bits) = head_fields(head);
+    let (triangle, _, per_vertex) = layout(bits);
+    (HEAD + triangle * t + per_vertex * v) as u64
+}
+
+/// A patch's triangles as indices into its vertex table, if every corner is in the table
+/// and the table has at most 65,536 rows.
+fn local_u16(patch: &LivePatch) -> Option<Vec<[u16; 3]>> {
+    let ids = &patch.vertices.ids;
+    if ids.len() > 1 << 16 {
+        return None;
+    }
+    let row: HashMap<u32, u16> = ids
+        .iter()
+        .enumerate()
+        .map(|(i, &g)| (g, i as u16))
+        .collect();
+    if row.len() != ids.len() {
+        return None; // an id twice: its triangles could not say which row
+    }
+    patch
+        .triangles
+        .iter()
+        .map(|t| Some([*row.get(&t[0])?, *row.get(&t[1])?, *row.get(&t[2])?]))
+        .collect()
+}
+
+/// A patch's record (also `result_spill.rs`'s). Lossless: triangles are written as u16 rows
+/// of the vertex table and positions as f32 where that gives back the same values (a patch
+/// of an input read as f32 always), which makes a leaf's record about a third smaller.
 pub(super) fn encode_patch(patch: &LivePatch) -> Vec<u8> {
     let v = &patch.vertices;
+    let local = local_u16(patch);
+    let positions_f32 = v
+        .positions
+        .iter()
+        .flatten()
+        .all(|&x| (x as f32) as f64 == x);
     let bits = (v.normals.is_some() as u32 * NORMALS)
         | (v.colors.is_some() as u32 * COLORS)
-        | (v.uvs.is_some() as u32 * UVS);
-    let per_vertex = 4
-        + 24
-        + 12
-        + v.normals.as_ref().map_or(0, |_| 12)
-        + v.colors.as_ref().map_or(0, |_| 4)
-        + v.uvs.as_ref().map_or(0, |_| 8);
-    let mut out = Vec::with_capacity(HEAD + 12 * patch.triangles.len() + per_vertex * v.ids.len());
+        | (v.uvs.is_some() as u32 * UVS)
+        | (local.is_some() as u32 * LOCAL_U16)
+        | (positions_f32 as u32 * POSITIONS_F32);
+    let (triangle, _, per_vertex) = layout(bits);
+    let mut out =
+        Vec::with_capacity(HEAD + triangle * patch.triangles.len() + per_vertex * v.ids.len());
     for word in [patch.triangles.len() as u32, v.ids.len() as u32, bits] {
         out.extend_from_slice(&word.to_le_bytes());
     }
-    out.extend_from_slice(bytemuck::cast_slice(&patch.triangles));
+    match &local {
+        Some(rows) => out.extend_from_slice(bytemuck::cast_slice(rows)),
+        None => out.extend_from_slice(bytemuck::cast_slice(&patch.triangles)),
+    }
     out.extend_from_slice(bytemuck::cast_slice(&v.ids));
-    out.extend_from_slice(bytemuck::cast_slice(&v.positions));
+    if positions_f32 {
+        for p in &v.positions {
+            for x in p {
+                out.extend_from_slice(&(*x as f32).to_le_bytes());
+            }
+        }
+    } else {
+        out.extend_from_slice(bytemuck::cast_slice(&v.positions));
+    }
     out.extend_from_slice(bytemuck::cast_slice(&v.simplifier));
     if let Some(n) = &v.normals {
         out.extend_from_slice(bytemuck::cast_slice(n));
@@ -369,22 +467,50 @@ pub(super) fn encode_patch(patch: &LivePatch) -> Vec<u8> {
     out
 }
 
+// Records are written from aligned vectors but read at any offset: copy, never cast in place.
+fn column<T: bytemuck::Pod>(bytes: &[u8]) -> Vec<T> {
+    bytemuck::pod_collect_to_vec(bytes)
+}
+
+/// The triangles (global ids) of a record's first bytes: the head, the triangles and, for
+/// rows, the ids.
+fn decode_triangles(bytes: &[u8]) -> Vec<[u32; 3]> {
+    let (t, v, bits) = head_fields(bytes);
+    let (triangle, ..) = layout(bits);
+    let triangles = &bytes[HEAD..HEAD + triangle * t];
+    if bits & LOCAL_U16 == 0 {
+        return column(triangles);
+    }
+    let ids: Vec<u32> = column(&bytes[HEAD + triangle * t..HEAD + triangle * t + 4 * v]);
+    let rows: Vec<[u16; 3]> = column(triangles);
+    rows.iter().map(|r| r.map(|i| ids[i as usize])).collect()
+}
+
+/// Bytes `decode_triangles` needs of a record with this head.
+fn triangle_bytes(head: &[u8]) -> usize {
+    let (t, v, bits) = head_fields(head);
+    let (triangle, ..) = layout(bits);
+    HEAD + triangle * t + if bits & LOCAL_U16 != 0 { 4 * v } else { 0 }
+}
+
 /// The patch of a record written by `encode_patch`.
 pub(super) fn decode_patch(bytes: &[u8]) -> LivePatch {
     let (t, v, bits) = head_fields(bytes);
-    let mut at = HEAD;
+    let (triangle, position, _) = layout(bits);
+    let triangles = decode_triangles(bytes);
+    let mut at = HEAD + triangle * t;
     let mut take = |n: usize| {
         let part = &bytes[at..at + n];
         at += n;
         part
     };
-    // Records are written from aligned vectors but read at any offset: copy, never cast in place.
-    fn column<T: bytemuck::Pod>(bytes: &[u8]) -> Vec<T> {
-        bytemuck::pod_collect_to_vec(bytes)
-    }
-    let triangles: Vec<[u32; 3]> = column(take(12 * t));
     let ids: Vec<u32> = column(take(4 * v));
-    let positions: Vec<[f64; 3]> = column(take(24 * v));
+    let positions: Vec<[f64; 3]> = if position == 12 {
+        let narrow: Vec<[f32; 3]> = column(take(12 * v));
+        narrow.iter().map(|p| p.map(f64::from)).collect()
+    } else {
+        column(take(24 * v))
+    };
     let simplifier: Vec<[f32; 3]> = column(take(12 * v));
     let normals = (bits & NORMALS != 0).then(|| column(take(12 * v)));
     let colors = (bits & COLORS != 0).then(|| column(take(4 * v)));
@@ -467,6 +593,76 @@ mod tests {
                     assert_eq!(got, Some(expected));
                 }
             }
+        }
+    }
+
+    #[test]
+    fn records_are_compact_where_lossless_and_exact_everywhere() {
+        let compact = patch(3, true);
+        let mut wide = patch(3, true);
+        wide.vertices.positions[1][0] = 0.1; // not an f32
+        let mut foreign = patch(3, false);
+        foreign.triangles[1][2] = 999; // a corner outside the table
+        let mut twice = patch(3, false);
+        twice.vertices.ids[4] = twice.vertices.ids[3]; // an id in two rows
+        for (p, triangle, position) in [
+            (&compact, 6, 12),
+            (&wide, 6, 24),
+            (&foreign, 12, 12),
+            (&twice, 12, 12),
+        ] {
+            let record = encode_patch(p);
+            let (_, v, bits) = head_fields(&record);
+            assert_eq!(layout(bits).0, triangle);
+            assert_eq!(layout(bits).1, position);
+            assert_eq!(record.len() as u64, record_bytes(&record[..HEAD]));
+            assert_eq!(&decode_patch(&record), p);
+            assert_eq!(
+                decode_triangles(&record[..triangle_bytes(&record)]),
+                p.triangles
+            );
+            assert_eq!(v, p.vertices.ids.len());
+        }
+        assert!(encode_patch(&compact).len() < encode_patch(&wide).len());
+    }
+
+    #[test]
+    fn a_rewrite_keeps_of_the_old_file_only_what_the_last_commit_names() {
+        let dir = tempfile::tempdir().unwrap();
+        let keys: Vec<SimplexKey> = Simplex::roots(3, 10).iter().map(|s| s.key).collect();
+        let mut store = LiveStore::new_named(dir.path()).unwrap();
+        let all: Vec<(SimplexKey, LivePatch)> = keys
+            .iter()
+            .enumerate()
+            .map(|(i, k)| (*k, patch(i as u32, true)))
+            .collect();
+        store.insert_all(all[..3].to_vec()).unwrap();
+        let committed = store.checkpoint().unwrap();
+        store.insert_all(all[3..].to_vec()).unwrap();
+        for k in &keys[..4] {
+            store.remove(k).unwrap();
+        }
+        let LiveStore::Disk(disk) = &mut store else {
+            unreachable!()
+        };
+        disk.rewrite().unwrap();
+        // Generation 0 is what the commit names, cut back to its length; 1 is current.
+        let length =
+            |g: u32| std::fs::metadata(dir.path().join(live_file_name(g))).map(|m| m.len());
+        assert_eq!(length(0).unwrap(), committed.end);
+        disk.rewrite().unwrap();
+        // Generation 1 was never committed: gone.
+        assert!(length(1).is_err());
+        assert_eq!(length(0).unwrap(), committed.end);
+        for (i, k) in keys.iter().enumerate() {
+            let got = store.get(k).unwrap().map(Cow::into_owned);
+            assert_eq!(got, (i >= 4).then(|| patch(i as u32, true)));
+        }
+        // The committed records are still whole in generation 0.
+        let reopened = LiveStore::reopen(dir.path(), committed).unwrap();
+        for (i, k) in keys[..3].iter().enumerate() {
+            let got = reopened.get(k).unwrap().map(Cow::into_owned);
+            assert_eq!(got, Some(patch(i as u32, true)));
         }
     }
 }

@@ -64,7 +64,7 @@ impl ResultSpill {
         })
     }
 
-    /// The payload kept by `hold`.
+    /// The payload kept by `hold`; its bytes' disk space is given back (`release`).
     pub(super) fn take(&self, held: Held) -> io::Result<Payload> {
         match held {
             Held::Memory(payload) => Ok(payload),
@@ -72,8 +72,19 @@ impl ResultSpill {
                 let file = self.file.as_ref().expect("spilled without a file");
                 let mut buffer = vec![0u8; bytes as usize];
                 file.read_exact_at(&mut buffer, at)?;
+                self.release(&held);
                 Ok(decode(&buffer))
             }
+        }
+    }
+
+    /// Gives back the disk space of a payload that will not be taken again (taken, or
+    /// replaced by a diamond's simplification again): the whole blocks inside its bytes, so
+    /// the file holds about the results not yet merged rather than the whole level's.
+    pub(super) fn release(&self, held: &Held) {
+        if let (Some(file), Held::Spilled { at, bytes }) = (&self.file, held) {
+            self.charge
+                .shrink(crate::external::holes::punch(file, *at, at + bytes));
         }
     }
 }
