@@ -367,18 +367,21 @@ fn build_in_pool(
         }
         (source, memory, _) => {
             on_stage("hierarchy");
-            let (hierarchy, current, lists) =
+            let (hierarchy, current, mut lists) =
                 hierarchy_and_counts(source, memory, &frame, leaf_cap, config)?;
             if let (Some(c), Source::Staged(_)) = (checkpoint.as_deref_mut(), source) {
-                let lists = lists
+                let spooled = lists
                     .as_ref()
                     .expect("a staged build spools its leaves' lists");
-                save_hierarchy(c, &facts, &hierarchy, lists, &current).map_err(|source| {
-                    BuildError::Temporary {
-                        dir: c.dir().to_path_buf(),
-                        source,
-                    }
-                })?;
+                // The checkpoint's copy from then on: the spool's file is closed.
+                let saved =
+                    save_hierarchy(c, &facts, &hierarchy, spooled, &current).map_err(|source| {
+                        BuildError::Temporary {
+                            dir: c.dir().to_path_buf(),
+                            source,
+                        }
+                    })?;
+                lists = Some(saved);
             }
             stage("hierarchy", t);
             (hierarchy, Some(current), lists)

@@ -72,14 +72,16 @@ pub(crate) struct HierarchyCheckpoint {
 }
 
 /// Saves the hierarchy (with its leaves' triangle lists) and the use counts, and commits stage
-/// `hierarchy` (the staged mesh's files stay: the leaves are made from them).
+/// `hierarchy` (the staged mesh's files stay: the leaves are made from them). Returns the
+/// lists as saved, read from the checkpoint's file, for the build to use instead of `lists`
+/// (which it can then close: the lists are on disk once, and compact).
 pub(crate) fn save_hierarchy(
     checkpoint: &mut Checkpoint,
     facts: &InputFacts,
     hierarchy: &Hierarchy,
     lists: &LeafListSpool,
     current: &CurrentMesh,
-) -> io::Result<()> {
+) -> io::Result<LeafListSpool> {
     // Streamed to their files, a leaf's list at a time: at 100 M triangles the lists and
     // counts alone take 600 MB.
     let files = vec![
@@ -97,7 +99,8 @@ pub(crate) fn save_hierarchy(
             values: facts.values(),
         },
         true,
-    )
+    )?;
+    open_leaf_lists(&checkpoint.path(LEAF_TRIANGLES), hierarchy, facts.triangles)
 }
 
 /// The hierarchy and counts of a checkpoint whose last stage is `hierarchy`.

@@ -208,8 +208,9 @@ pub fn coincident_nudges(
 /// table comes out sorted by id. Nothing is written to disk.
 pub struct LeafGroups<'a> {
     staged: &'a StagedMesh,
-    /// Each leaf's triangle indices, on disk (read a group at a time).
-    lists: LeafListSpool,
+    /// Each leaf's triangle indices, on disk (read a group at a time); closed after the last
+    /// group, so its file's space goes as soon as nothing else names it.
+    lists: Option<LeafListSpool>,
     simplifier_of: &'a (dyn Fn(u32, [f64; 3]) -> [f32; 3] + Sync),
     /// The next leaf, in the spool's key order.
     next: usize,
@@ -225,7 +226,7 @@ impl<'a> LeafGroups<'a> {
     ) -> Self {
         LeafGroups {
             staged,
-            lists,
+            lists: Some(lists),
             simplifier_of,
             next: 0,
             max_triangles: max_triangles.max(1),
@@ -234,15 +235,19 @@ impl<'a> LeafGroups<'a> {
 
     /// The next group's patches; `None` after the last.
     pub fn next_group(&mut self) -> io::Result<Option<Vec<(SimplexKey, LivePatch)>>> {
-        let leaves = self.lists.leaves().len();
+        let Some(lists) = &self.lists else {
+            return Ok(None);
+        };
+        let leaves = lists.leaves().len();
         if self.next == leaves {
+            self.lists = None;
             return Ok(None);
         }
         let start = self.next;
         let mut keys = Vec::new();
         let mut triangles = 0;
         while start + keys.len() < leaves && (keys.is_empty() || triangles < self.max_triangles) {
-            let (key, n) = self.lists.leaf(start + keys.len());
+            let (key, n) = lists.leaf(start + keys.len());
             keys.push(key);
             triangles += n;
         }
@@ -252,7 +257,7 @@ impl<'a> LeafGroups<'a> {
         let mut wanted: Vec<(u32, u32)> = Vec::with_capacity(triangles);
         let mut sizes = Vec::with_capacity(keys.len());
         for (leaf, k) in keys.iter().enumerate() {
-            let list = self.lists.list(start + leaf)?;
+            let list = lists.list(start + leaf)?;
             assert!(
                 list.windows(2).all(|w| w[0] < w[1]),
                 "leaf {k:?} lists its triangles out of order"
