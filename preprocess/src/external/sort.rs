@@ -79,12 +79,18 @@ where
     while runs.len() > fan_in {
         stats.passes += 1;
         let mut merged = Vec::with_capacity(runs.len().div_ceil(fan_in));
-        for group in runs.chunks(fan_in) {
+        let mut left = runs.into_iter();
+        loop {
+            // The group's runs are the merge's to read and free as it goes.
+            let group: Vec<Run> = left.by_ref().take(fan_in).collect();
+            if group.is_empty() {
+                break;
+            }
             let mut file = tempfile::tempfile_in(temp_dir)?;
             let mut writer = BufWriter::with_capacity(MERGE_BUFFER, &mut file);
             let mut records = 0;
             let charge = Charge::new();
-            for record in Merge::<T>::new(group.iter().map(Run::share).collect())? {
+            for record in Merge::<T>::new(group)? {
                 writer.write_all(bytemuck::bytes_of(&record?))?;
                 records += 1;
                 charge.grow(size as u64);
@@ -144,20 +150,6 @@ struct Run {
     file: File,
     records: u64,
     charge: Charge,
-}
-
-impl Run {
-    /// Another handle to the same run, for reading; the charge stays with this one.
-    fn share(&self) -> Run {
-        Run {
-            file: self
-                .file
-                .try_clone()
-                .expect("duplicating a temporary file's handle"),
-            records: self.records,
-            charge: Charge::new(),
-        }
-    }
 }
 
 fn write_run<T: Pod>(records: &[T], temp_dir: &Path, stats: &mut SortStats) -> io::Result<Run> {
@@ -226,6 +218,8 @@ impl<T: Pod + Ord> Iterator for Merge<T> {
     }
 }
 
+/// Reads a run front to back, freeing its disk behind it (`holes::punch`, every
+/// `FREE_BEHIND` bytes), so a merge's runs shrink as its output grows.
 struct RunReader<T> {
     file: File,
     /// Records read ahead, served from `at`.
@@ -233,9 +227,15 @@ struct RunReader<T> {
     at: usize,
     /// Records of the run not yet in `block`.
     left: u64,
-    /// The run's bytes stay charged while it is read.
-    _charge: Charge,
+    /// Bytes read, and freed.
+    read: u64,
+    freed: u64,
+    /// The run's bytes still held.
+    charge: Charge,
 }
+
+/// Bytes a run reader reads between two holes it punches.
+const FREE_BEHIND: u64 = 1 << 20;
 
 impl<T: Pod> RunReader<T> {
     fn new(mut run: Run) -> io::Result<Self> {
@@ -245,7 +245,9 @@ impl<T: Pod> RunReader<T> {
             block: Vec::new(),
             at: 0,
             left: run.records,
-            _charge: run.charge,
+            read: 0,
+            freed: 0,
+            charge: run.charge,
         })
     }
 
@@ -263,6 +265,13 @@ impl<T: Pod> RunReader<T> {
                 .map_err(|e| io::Error::new(e.kind(), format!("reading a sort run back: {e}")))?;
             self.left -= n as u64;
             self.at = 0;
+            self.read += (n * std::mem::size_of::<T>()) as u64;
+            // The block just read is in memory: everything before it can go.
+            if self.read - self.freed >= FREE_BEHIND || self.left == 0 {
+                let freed = super::holes::punch(&self.file, self.freed, self.read);
+                self.charge.shrink(freed);
+                self.freed = self.read / 4096 * 4096;
+            }
         }
         self.at += 1;
         Ok(Some(self.block[self.at - 1]))

@@ -9,7 +9,7 @@
 //! build ends, fails or is killed.
 
 use std::fs::File;
-use std::io::{self, BufReader, BufWriter, Read, Seek, SeekFrom, Write};
+use std::io::{self, BufReader, BufWriter, Read, Write};
 use std::marker::PhantomData;
 use std::path::{Path, PathBuf};
 
@@ -108,7 +108,16 @@ impl<T: Pod> RecordFile<T> {
         Ok(())
     }
 
-    /// A handle of its own on the file (its offset is its own to move).
+    /// A reader of the records from the first, with an offset of its own: readers on other
+    /// threads do not move it.
+    fn reader_at_start(&self) -> io::Result<ReadAt> {
+        Ok(ReadAt {
+            file: self.handle()?,
+            at: 0,
+        })
+    }
+
+    /// Another handle on the file (it shares the offset: read it with `ReadAt`).
     fn handle(&self) -> io::Result<File> {
         match self.file.lock().unwrap_or_else(|e| e.into_inner()).as_ref() {
             Some(file) => file.try_clone(),
@@ -120,10 +129,8 @@ impl<T: Pod> RecordFile<T> {
 
     /// Streams every record from the first.
     pub fn read(&self) -> io::Result<RecordReader<T>> {
-        let mut file = self.handle()?;
-        file.seek(SeekFrom::Start(0))?;
         Ok(RecordReader {
-            reader: BufReader::with_capacity(IO_BUFFER, file),
+            reader: BufReader::with_capacity(IO_BUFFER, self.reader_at_start()?),
             left: self.records,
             _record: PhantomData,
         })
@@ -132,10 +139,8 @@ impl<T: Pod> RecordFile<T> {
     /// Streams the records in chunks of at most `records` (at least one), for passes that
     /// work on many records at once.
     pub fn read_chunks(&self, records: usize) -> io::Result<ChunkReader<T>> {
-        let mut file = self.handle()?;
-        file.seek(SeekFrom::Start(0))?;
         Ok(ChunkReader {
-            file,
+            file: self.reader_at_start()?,
             left: self.records,
             chunk: records.max(1),
             _record: PhantomData,
@@ -144,8 +149,7 @@ impl<T: Pod> RecordFile<T> {
 
     /// Copies the records to a new file at `path`; returns the copy's CRC-32.
     pub(crate) fn copy_to(&self, path: &Path) -> io::Result<u32> {
-        let mut from = self.handle()?;
-        from.seek(SeekFrom::Start(0))?;
+        let mut from = self.reader_at_start()?;
         let mut to = File::create(path)?;
         let mut hasher = crc32fast::Hasher::new();
         let mut buf = vec![0u8; IO_BUFFER];
@@ -171,10 +175,9 @@ impl<T: Pod> RecordFile<T> {
             Err(e) if e.kind() != io::ErrorKind::NotFound => return Err(e),
             _ => {}
         }
-        let mut from = self.handle()?;
-        let crc32 = if link_unnamed(&from, path).is_ok() {
+        let crc32 = if link_unnamed(&self.handle()?, path).is_ok() {
             let mut hasher = crc32fast::Hasher::new();
-            from.seek(SeekFrom::Start(0))?;
+            let mut from = self.reader_at_start()?;
             let mut buf = vec![0u8; IO_BUFFER];
             let mut left = self.bytes();
             while left > 0 {
@@ -268,8 +271,25 @@ impl<T: Pod> RecordWriter<T> {
 }
 
 /// Streams a `RecordFile`'s records.
+/// Reads a file from an offset of its own (`pread`): handles of one file share their offset,
+/// and a staged file is read by several passes at once (the use counts beside the
+/// barycentres' join).
+pub struct ReadAt {
+    file: File,
+    at: u64,
+}
+
+impl Read for ReadAt {
+    fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
+        use std::os::unix::fs::FileExt;
+        let n = self.file.read_at(buf, self.at)?;
+        self.at += n as u64;
+        Ok(n)
+    }
+}
+
 pub struct RecordReader<T: Pod> {
-    reader: BufReader<File>,
+    reader: BufReader<ReadAt>,
     left: u64,
     _record: PhantomData<T>,
 }
@@ -297,7 +317,7 @@ impl<T: Pod> Iterator for RecordReader<T> {
 
 /// Streams a `RecordFile`'s records a chunk at a time.
 pub struct ChunkReader<T: Pod> {
-    file: File,
+    file: ReadAt,
     left: u64,
     chunk: usize,
     _record: PhantomData<T>,
@@ -326,7 +346,7 @@ impl<T: Pod> ChunkReader<T> {
     pub fn skip_records(&mut self, records: u64) -> io::Result<()> {
         let records = records.min(self.left);
         let bytes = records * std::mem::size_of::<T>() as u64;
-        self.file.seek(SeekFrom::Current(bytes as i64))?;
+        self.file.at += bytes;
         self.left -= records;
         Ok(())
     }
@@ -558,6 +578,30 @@ impl StagedMesh {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn readers_of_one_file_keep_their_own_place() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut writer = RecordFile::<[u32; 3]>::create(dir.path()).unwrap();
+        for i in 0..100_000u32 {
+            writer.push(&[i, i, i]).unwrap();
+        }
+        let file = writer.finish().unwrap();
+        // Interleaved, as the use counts and the barycentres' join read the triangles.
+        let mut a = file.read().unwrap();
+        let mut b = file.read_chunks(777).unwrap();
+        let mut next = 0u32;
+        let mut chunk = Vec::new();
+        while b.read_into(&mut chunk).unwrap() {
+            for r in &chunk {
+                assert_eq!(*r, [next; 3]);
+                assert_eq!(a.next().unwrap().unwrap(), [next; 3]);
+                next += 1;
+            }
+        }
+        assert_eq!(next, 100_000);
+        assert!(a.next().is_none());
+    }
 
     #[test]
     fn a_discarded_file_gives_back_its_disk_and_cannot_be_read() {

@@ -78,14 +78,23 @@ impl SpooledBarycentres {
         let mut file = tempfile::tempfile_in(temp_dir)?;
         let mut order = InOrder::default();
         let mut io_error = None;
+        // Charged as it is written (a block of records at a time), not once written: other
+        // temporary files grow beside it.
+        const CHARGE_EVERY: u64 = 1 << 15;
+        let charge = crate::external::temp_usage::Charge::new();
         {
             let mut out = io::BufWriter::with_capacity(1 << 20, &mut file);
+            let mut written = 0u64;
             source.for_each_barycentre(&mut |t, q| {
                 if io_error.is_some() || !order.accept(t) {
                     return;
                 }
                 if let Err(e) = write_record(&mut out, t, q) {
                     io_error = Some(e);
+                }
+                written += 1;
+                if written.is_multiple_of(CHARGE_EVERY) {
+                    charge.grow(CHARGE_EVERY * RECORD_BYTES as u64);
                 }
             })?;
             if let Some(e) = io_error {
@@ -94,8 +103,7 @@ impl SpooledBarycentres {
             out.flush()?;
         }
         let triangles = order.finish(None)?;
-        let charge = crate::external::temp_usage::Charge::new();
-        charge.grow(triangles * RECORD_BYTES as u64);
+        charge.grow(triangles * RECORD_BYTES as u64 - charge.bytes());
         Ok(SpooledBarycentres {
             file,
             triangles,
