@@ -3,8 +3,8 @@
 //! manifest (`manifest.rs`) naming them, rewritten atomically after each completed stage.
 //!
 //! Stages, each a task with files in and out:
-//! - `staged`: the welded mesh's record files (`external/staged.rs`), copied out of the
-//!   import's unnamed temporaries (`staged.rs` here);
+//! - `staged`: the welded mesh's record files (`external/staged.rs`), the import's unnamed
+//!   temporaries linked into the checkpoint (`staged.rs` here);
 //! - `hierarchy`: the hierarchy with its leaves' triangle lists and the use counts
 //!   (`hierarchy.rs`; the staged mesh's files stay, the leaves are made from them);
 //! - `leaves`: the hierarchy (its split diamonds), the current mesh's use counts, the leaves'

@@ -54,7 +54,8 @@ impl BarycentreSource for MeshBarycentres<'_> {
 }
 
 /// A source's barycentres written once, in order, to an unnamed temporary file and streamed
-/// back from it sequentially as often as asked (28 bytes a triangle; the file is gone when
+/// back from it sequentially as often as asked (24 bytes a triangle, the barycentre alone: the
+/// index is the record's place; the file is gone when
 /// this is dropped, or if the process dies). For sources that are costly to stream again, such
 /// as a mesh whose vertices are not in memory or not in triangle order: the bucketed
 /// construction then reads the source once.
@@ -68,6 +69,21 @@ pub struct SpooledBarycentres {
 
 /// Bytes the last pass reads between two holes it punches behind itself.
 const CONSUME_BLOCK: usize = 1 << 20;
+
+/// Bytes of a spooled barycentre (3 × f64, little-endian).
+const SPOOL_RECORD: usize = 24;
+
+fn write_spooled(out: &mut impl Write, q: [f64; 3]) -> io::Result<()> {
+    let mut record = [0u8; SPOOL_RECORD];
+    for (i, x) in q.iter().enumerate() {
+        record[8 * i..8 * i + 8].copy_from_slice(&x.to_le_bytes());
+    }
+    out.write_all(&record)
+}
+
+fn read_spooled(r: &[u8]) -> [f64; 3] {
+    [0, 1, 2].map(|i| f64::from_le_bytes(r[8 * i..8 * i + 8].try_into().unwrap()))
+}
 
 impl SpooledBarycentres {
     /// Streams `source` once into a temporary file in `temp_dir`.
@@ -89,12 +105,12 @@ impl SpooledBarycentres {
                 if io_error.is_some() || !order.accept(t) {
                     return;
                 }
-                if let Err(e) = write_record(&mut out, t, q) {
+                if let Err(e) = write_spooled(&mut out, q) {
                     io_error = Some(e);
                 }
                 written += 1;
                 if written.is_multiple_of(CHARGE_EVERY) {
-                    charge.grow(CHARGE_EVERY * RECORD_BYTES as u64);
+                    charge.grow(CHARGE_EVERY * SPOOL_RECORD as u64);
                 }
             })?;
             if let Some(e) = io_error {
@@ -103,7 +119,7 @@ impl SpooledBarycentres {
             out.flush()?;
         }
         let triangles = order.finish(None)?;
-        charge.grow(triangles * RECORD_BYTES as u64 - charge.bytes());
+        charge.grow(triangles * SPOOL_RECORD as u64 - charge.bytes());
         Ok(SpooledBarycentres {
             file,
             triangles,
@@ -139,11 +155,10 @@ impl BarycentreSource for SpooledBarycentres {
         let mut file = &self.file;
         file.seek(SeekFrom::Start(0))?;
         let mut input = io::BufReader::with_capacity(1 << 20, file);
-        let mut record = [0u8; RECORD_BYTES];
-        for _ in 0..self.triangles {
+        let mut record = [0u8; SPOOL_RECORD];
+        for t in 0..self.triangles {
             input.read_exact(&mut record)?;
-            let (t, q) = read_record(&record);
-            f(t, q);
+            f(t as u32, read_spooled(&record));
         }
         Ok(())
     }
@@ -157,19 +172,18 @@ impl BarycentreSource for SpooledBarycentres {
             .store(true, std::sync::atomic::Ordering::Relaxed);
         let mut file = &self.file;
         file.seek(SeekFrom::Start(0))?;
-        let block_records = CONSUME_BLOCK / RECORD_BYTES;
-        let mut block = vec![0u8; block_records * RECORD_BYTES];
+        let block_records = CONSUME_BLOCK / SPOOL_RECORD;
+        let mut block = vec![0u8; block_records * SPOOL_RECORD];
         let (mut read, mut freed_to) = (0u64, 0u64);
         while read < self.triangles {
             let records = (self.triangles - read).min(block_records as u64) as usize;
-            let bytes = &mut block[..records * RECORD_BYTES];
+            let bytes = &mut block[..records * SPOOL_RECORD];
             file.read_exact(bytes)?;
-            for record in bytes.chunks_exact(RECORD_BYTES) {
-                let (t, q) = read_record(record);
-                f(t, q);
+            for (i, record) in bytes.chunks_exact(SPOOL_RECORD).enumerate() {
+                f((read + i as u64) as u32, read_spooled(record));
             }
             read += records as u64;
-            let end = read * RECORD_BYTES as u64;
+            let end = read * SPOOL_RECORD as u64;
             self.charge.shrink(punch(&self.file, freed_to, end));
             freed_to = end / 4096 * 4096;
         }

@@ -101,7 +101,9 @@ impl CurrentMesh {
         let keys = triangles()?
             .map_while(|t| t.map_err(|e| error = Some(e)).ok())
             .flat_map(|t| triangle_edges(&t).map(|(a, b)| edge_key(a, b)));
-        let sorted = crate::external::sort_external(keys, budget, temp_dir)?;
+        // Delta-coded runs: the keys take less than half the disk.
+        let codec = crate::external::sort::RunCodec::delta_u64();
+        let sorted = crate::external::sort::sort_external_with(keys, budget, temp_dir, codec)?;
         if let Some(e) = error {
             return Err(e);
         }

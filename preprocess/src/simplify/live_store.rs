@@ -3,8 +3,9 @@
 //! parallel (`pread`); the simplification's main thread adds and removes them. The file is
 //! append-only and rewritten with only the live patches when the dead ones outweigh them.
 //!
-//! A record: triangle count, vertex count, attribute bits (u32 each), then the triangles,
-//! ids, f64 positions, simplifier positions and the attributes present, little-endian.
+//! A record: triangle count, vertex count, attribute bits (u32 each), then the triangles
+//! (u16 rows of the vertex table, or u32 global ids), ids, positions (f32 where lossless, or
+//! f64), simplifier positions and the attributes present, little-endian.
 
 use std::borrow::Cow;
 use std::fs::File;
