@@ -397,24 +397,18 @@ fn record_bytes(head: &[u8]) -> u64 {
 }
 
 /// A patch's triangles as indices into its vertex table, if every corner is in the table
-/// and the table has at most 65,536 rows.
+/// and the table has at most 65,536 rows, its ids ascending (as `VertexTable` keeps them:
+/// a corner's row is found by binary search).
 fn local_u16(patch: &LivePatch) -> Option<Vec<[u16; 3]>> {
     let ids = &patch.vertices.ids;
-    if ids.len() > 1 << 16 {
+    if ids.len() > 1 << 16 || !ids.windows(2).all(|w| w[0] < w[1]) {
         return None;
     }
-    let row: HashMap<u32, u16> = ids
-        .iter()
-        .enumerate()
-        .map(|(i, &g)| (g, i as u16))
-        .collect();
-    if row.len() != ids.len() {
-        return None; // an id twice: its triangles could not say which row
-    }
+    let row = |g: u32| ids.binary_search(&g).ok().map(|r| r as u16);
     patch
         .triangles
         .iter()
-        .map(|t| Some([*row.get(&t[0])?, *row.get(&t[1])?, *row.get(&t[2])?]))
+        .map(|t| Some([row(t[0])?, row(t[1])?, row(t[2])?]))
         .collect()
 }
 
