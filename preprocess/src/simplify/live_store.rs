@@ -286,10 +286,10 @@ impl DiskStore {
         // live records, not the whole old file besides.
         let committed = *store.committed.at.lock().unwrap_or_else(|e| e.into_inner());
         let kept = match (&store.named, committed) {
-            (Some((_, generation)), Some((g, end))) if g == *generation => end,
-            _ => 0,
+            (Some((_, generation)), Some((g, end))) if g == *generation => Some(end),
+            _ => None,
         };
-        let mut freed_to = kept;
+        let mut freed_to = kept.unwrap_or(0);
         // Records are copied as they are, a run of adjacent ones (up to `COPY_BYTES`) a read.
         let mut buffer = Vec::new();
         let mut rest = &records[..];
@@ -320,11 +320,12 @@ impl DiskStore {
         // The old file: cut back to the prefix a commit names, or removed if none does.
         store.charge.release();
         if let Some((dir, generation)) = &store.named {
-            if kept > 0 {
-                store.file.set_len(kept)?;
-                store.committed.retained.grow(kept);
-            } else {
-                std::fs::remove_file(dir.join(live_file_name(*generation)))?;
+            match kept {
+                Some(kept) => {
+                    store.file.set_len(kept)?;
+                    store.committed.retained.grow(kept);
+                }
+                None => std::fs::remove_file(dir.join(live_file_name(*generation)))?,
             }
         }
         fresh.committed = std::mem::take(&mut store.committed);
