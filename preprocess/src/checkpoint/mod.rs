@@ -300,6 +300,22 @@ impl Checkpoint {
         for f in &stage.files {
             std::fs::File::open(self.path(&f.name))?.sync_data()?;
         }
+        // Until the files the manifest no longer names are removed, the new stage's files are
+        // on disk beside them: charged now, so the peak sees both (the live store and the
+        // finished patches carry their own charges).
+        let listed: Vec<&str> = self
+            .manifest
+            .stages
+            .iter()
+            .flat_map(|s| s.files.iter().map(|f| f.name.as_str()))
+            .collect();
+        let new_bytes: u64 = stage
+            .files
+            .iter()
+            .filter(|f| !charged_elsewhere(&f.name) && !listed.contains(&f.name.as_str()))
+            .map(|f| f.bytes)
+            .sum();
+        self.held.grow(new_bytes);
         let kind = |name: &str| name.split('-').next().unwrap_or_default().to_string();
         let new_kind = kind(&stage.name);
         self.manifest.stages.retain(|s| kind(&s.name) != new_kind);
@@ -331,7 +347,7 @@ impl Checkpoint {
             .stages
             .iter()
             .flat_map(|s| &s.files)
-            .filter(|f| !f.name.starts_with("live-") && !f.name.starts_with("finished-"))
+            .filter(|f| !charged_elsewhere(&f.name))
             .map(|f| f.bytes)
             .sum();
         self.held.release();
@@ -357,4 +373,10 @@ impl Checkpoint {
     pub fn remove(self) -> io::Result<()> {
         std::fs::remove_dir_all(&self.dir)
     }
+}
+
+/// Files whose bytes the build charges as it writes them (the live store's, the finished
+/// patches' spills), not the checkpoint.
+fn charged_elsewhere(name: &str) -> bool {
+    name.starts_with("live-") || name.starts_with("finished-")
 }
