@@ -303,12 +303,7 @@ impl Checkpoint {
         // Until the files the manifest no longer names are removed, the new stage's files are
         // on disk beside them: charged now, so the peak sees both (the live store and the
         // finished patches carry their own charges).
-        let listed: Vec<&str> = self
-            .manifest
-            .stages
-            .iter()
-            .flat_map(|s| s.files.iter().map(|f| f.name.as_str()))
-            .collect();
+        let listed = self.listed_names();
         let new_bytes: u64 = stage
             .files
             .iter()
@@ -352,12 +347,7 @@ impl Checkpoint {
             .sum();
         self.held.release();
         self.held.grow(charged);
-        let listed: Vec<&str> = self
-            .manifest
-            .stages
-            .iter()
-            .flat_map(|s| s.files.iter().map(|f| f.name.as_str()))
-            .collect();
+        let listed = self.listed_names();
         for entry in std::fs::read_dir(&self.dir)? {
             let entry = entry?;
             let name = entry.file_name();
@@ -367,6 +357,15 @@ impl Checkpoint {
             }
         }
         Ok(())
+    }
+
+    /// The names of every file the manifest lists.
+    fn listed_names(&self) -> Vec<&str> {
+        self.manifest
+            .stages
+            .iter()
+            .flat_map(|s| s.files.iter().map(|f| f.name.as_str()))
+            .collect()
     }
 
     /// Removes the directory (the build succeeded, or its checkpoint cannot serve).

@@ -5,6 +5,7 @@
 
 pub mod allocator;
 mod fallible;
+mod file_io;
 pub mod holes;
 pub mod joins;
 pub mod prefetch;

@@ -15,41 +15,9 @@ use std::path::{Path, PathBuf};
 
 use bytemuck::Pod;
 
+use super::file_io::{link_unnamed, ReadAt};
 use super::temp_usage::Charge;
 use crate::mesh::InputMesh;
-
-/// Gives an `O_TMPFILE` file the name `path` (`linkat` through `/proc/self/fd`); fails for a
-/// file that was created with a name and unlinked, and off Linux.
-fn link_unnamed(file: &File, path: &Path) -> io::Result<()> {
-    #[cfg(target_os = "linux")]
-    {
-        use std::ffi::CString;
-        use std::os::unix::ffi::OsStrExt;
-        use std::os::unix::io::AsRawFd;
-        let from = CString::new(format!("/proc/self/fd/{}", file.as_raw_fd()))?;
-        let to = CString::new(path.as_os_str().as_bytes())?;
-        // SAFETY: both are NUL-terminated paths that outlive the call.
-        let r = unsafe {
-            libc::linkat(
-                libc::AT_FDCWD,
-                from.as_ptr(),
-                libc::AT_FDCWD,
-                to.as_ptr(),
-                libc::AT_SYMLINK_FOLLOW,
-            )
-        };
-        if r == 0 {
-            Ok(())
-        } else {
-            Err(io::Error::last_os_error())
-        }
-    }
-    #[cfg(not(target_os = "linux"))]
-    {
-        let _ = (file, path);
-        Err(io::Error::from(io::ErrorKind::Unsupported))
-    }
-}
 
 /// Buffer size of the record readers and writers.
 pub(super) const IO_BUFFER: usize = 1 << 20;
@@ -149,8 +117,13 @@ impl<T: Pod> RecordFile<T> {
 
     /// Copies the records to a new file at `path`; returns the copy's CRC-32.
     pub(crate) fn copy_to(&self, path: &Path) -> io::Result<u32> {
-        let mut from = self.reader_at_start()?;
         let mut to = File::create(path)?;
+        self.stream_crc32(|bytes| to.write_all(bytes))
+    }
+
+    /// Hands every byte to `sink`, a block at a time; returns their CRC-32.
+    fn stream_crc32(&self, mut sink: impl FnMut(&[u8]) -> io::Result<()>) -> io::Result<u32> {
+        let mut from = self.reader_at_start()?;
         let mut hasher = crc32fast::Hasher::new();
         let mut buf = vec![0u8; IO_BUFFER];
         let mut left = self.bytes();
@@ -158,7 +131,7 @@ impl<T: Pod> RecordFile<T> {
             let n = left.min(buf.len() as u64) as usize;
             from.read_exact(&mut buf[..n])?;
             hasher.update(&buf[..n]);
-            to.write_all(&buf[..n])?;
+            sink(&buf[..n])?;
             left -= n as u64;
         }
         Ok(hasher.finalize())
@@ -176,17 +149,7 @@ impl<T: Pod> RecordFile<T> {
             _ => {}
         }
         let crc32 = if link_unnamed(&self.handle()?, path).is_ok() {
-            let mut hasher = crc32fast::Hasher::new();
-            let mut from = self.reader_at_start()?;
-            let mut buf = vec![0u8; IO_BUFFER];
-            let mut left = self.bytes();
-            while left > 0 {
-                let n = left.min(buf.len() as u64) as usize;
-                from.read_exact(&mut buf[..n])?;
-                hasher.update(&buf[..n]);
-                left -= n as u64;
-            }
-            hasher.finalize()
+            self.stream_crc32(|_| Ok(()))?
         } else {
             let crc32 = self.copy_to(path)?;
             *self.file.lock().unwrap_or_else(|e| e.into_inner()) = Some(File::open(path)?);
@@ -271,23 +234,6 @@ impl<T: Pod> RecordWriter<T> {
 }
 
 /// Streams a `RecordFile`'s records.
-/// Reads a file from an offset of its own (`pread`): handles of one file share their offset,
-/// and a staged file is read by several passes at once (the use counts beside the
-/// barycentres' join).
-pub struct ReadAt {
-    file: File,
-    at: u64,
-}
-
-impl Read for ReadAt {
-    fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
-        use std::os::unix::fs::FileExt;
-        let n = self.file.read_at(buf, self.at)?;
-        self.at += n as u64;
-        Ok(n)
-    }
-}
-
 pub struct RecordReader<T: Pod> {
     reader: BufReader<ReadAt>,
     left: u64,

@@ -2,10 +2,7 @@
 //! an unnamed temporary file with only an index in memory (issue 12). Workers read patches in
 //! parallel (`pread`); the simplification's main thread adds and removes them. The file is
 //! append-only and rewritten with only the live patches when the dead ones outweigh them.
-//!
-//! A record: triangle count, vertex count, attribute bits (u32 each), then the triangles
-//! (u16 rows of the vertex table, or u32 global ids), ids, positions (f32 where lossless, or
-//! f64), simplifier positions and the attributes present, little-endian.
+//! Its records are `live_record.rs`'s.
 
 use std::borrow::Cow;
 use std::fs::File;
@@ -17,8 +14,9 @@ use rayon::prelude::*;
 use rustc_hash::FxHashMap as HashMap;
 use tessera_core::leb::SimplexKey;
 
+use super::live_record::{decode_patch, decode_triangles, encode_patch, triangle_bytes, HEAD};
 use crate::external::temp_usage::Charge;
-use crate::vertex_table::{LivePatch, VertexTable};
+use crate::vertex_table::LivePatch;
 
 pub(super) enum LiveStore {
     Memory(HashMap<SimplexKey, LivePatch>),
@@ -70,18 +68,10 @@ struct Record {
     triangles: u32,
 }
 
-const HEAD: usize = 12;
 /// Records `insert_all` encodes in parallel and writes at once.
 const INSERT_CHUNK: usize = 64;
 /// Bytes of adjacent records a rewrite copies at once.
 const COPY_BYTES: u64 = 1 << 20;
-const NORMALS: u32 = 1;
-const COLORS: u32 = 2;
-const UVS: u32 = 4;
-/// Triangles as u16 rows of the vertex table (else u32 global ids).
-const LOCAL_U16: u32 = 8;
-/// Positions as f32 (else f64).
-const POSITIONS_F32: u32 = 16;
 
 impl LiveStore {
     /// An empty store in memory, or in an unnamed file in `spill_dir`.
@@ -373,160 +363,10 @@ impl DiskStore {
     }
 }
 
-fn head_fields(head: &[u8]) -> (usize, usize, u32) {
-    let word = |i: usize| u32::from_le_bytes(head[4 * i..4 * i + 4].try_into().expect("4 bytes"));
-    (word(0) as usize, word(1) as usize, word(2))
-}
-
-/// Bytes of a record's triangles, of a vertex's position and of a vertex's whole row.
-fn layout(bits: u32) -> (usize, usize, usize) {
-    let triangle = if bits & LOCAL_U16 != 0 { 6 } else { 12 };
-    let position = if bits & POSITIONS_F32 != 0 { 12 } else { 24 };
-    let per_vertex = 4
-        + position
-        + 12
-        + if bits & NORMALS != 0 { 12 } else { 0 }
-        + if bits & COLORS != 0 { 4 } else { 0 }
-        + if bits & UVS != 0 { 8 } else { 0 };
-    (triangle, position, per_vertex)
-}
-
-fn record_bytes(head: &[u8]) -> u64 {
-    let (t, v, bits) = head_fields(head);
-    let (triangle, _, per_vertex) = layout(bits);
-    (HEAD + triangle * t + per_vertex * v) as u64
-}
-
-/// A patch's triangles as indices into its vertex table, if every corner is in the table
-/// and the table has at most 65,536 rows, its ids ascending (as `VertexTable` keeps them:
-/// a corner's row is found by binary search).
-fn local_u16(patch: &LivePatch) -> Option<Vec<[u16; 3]>> {
-    let ids = &patch.vertices.ids;
-    if ids.len() > 1 << 16 || !ids.windows(2).all(|w| w[0] < w[1]) {
-        return None;
-    }
-    let row = |g: u32| ids.binary_search(&g).ok().map(|r| r as u16);
-    patch
-        .triangles
-        .iter()
-        .map(|t| Some([row(t[0])?, row(t[1])?, row(t[2])?]))
-        .collect()
-}
-
-/// A patch's record (also `result_spill.rs`'s). Lossless: triangles are written as u16 rows
-/// of the vertex table and positions as f32 where that gives back the same values (a patch
-/// of an input read as f32 always), which makes a leaf's record about a third smaller.
-pub(super) fn encode_patch(patch: &LivePatch) -> Vec<u8> {
-    let v = &patch.vertices;
-    let local = local_u16(patch);
-    let positions_f32 = v
-        .positions
-        .iter()
-        .flatten()
-        .all(|&x| (x as f32) as f64 == x);
-    let bits = (v.normals.is_some() as u32 * NORMALS)
-        | (v.colors.is_some() as u32 * COLORS)
-        | (v.uvs.is_some() as u32 * UVS)
-        | (local.is_some() as u32 * LOCAL_U16)
-        | (positions_f32 as u32 * POSITIONS_F32);
-    let (triangle, _, per_vertex) = layout(bits);
-    let mut out =
-        Vec::with_capacity(HEAD + triangle * patch.triangles.len() + per_vertex * v.ids.len());
-    for word in [patch.triangles.len() as u32, v.ids.len() as u32, bits] {
-        out.extend_from_slice(&word.to_le_bytes());
-    }
-    match &local {
-        Some(rows) => out.extend_from_slice(bytemuck::cast_slice(rows)),
-        None => out.extend_from_slice(bytemuck::cast_slice(&patch.triangles)),
-    }
-    out.extend_from_slice(bytemuck::cast_slice(&v.ids));
-    if positions_f32 {
-        for p in &v.positions {
-            for x in p {
-                out.extend_from_slice(&(*x as f32).to_le_bytes());
-            }
-        }
-    } else {
-        out.extend_from_slice(bytemuck::cast_slice(&v.positions));
-    }
-    out.extend_from_slice(bytemuck::cast_slice(&v.simplifier));
-    if let Some(n) = &v.normals {
-        out.extend_from_slice(bytemuck::cast_slice(n));
-    }
-    if let Some(c) = &v.colors {
-        out.extend_from_slice(bytemuck::cast_slice(c));
-    }
-    if let Some(u) = &v.uvs {
-        out.extend_from_slice(bytemuck::cast_slice(u));
-    }
-    debug_assert_eq!(out.len() as u64, record_bytes(&out[..HEAD]));
-    out
-}
-
-// Records are written from aligned vectors but read at any offset: copy, never cast in place.
-fn column<T: bytemuck::Pod>(bytes: &[u8]) -> Vec<T> {
-    bytemuck::pod_collect_to_vec(bytes)
-}
-
-/// The triangles (global ids) of a record's first bytes: the head, the triangles and, for
-/// rows, the ids.
-fn decode_triangles(bytes: &[u8]) -> Vec<[u32; 3]> {
-    let (t, v, bits) = head_fields(bytes);
-    let (triangle, ..) = layout(bits);
-    let triangles = &bytes[HEAD..HEAD + triangle * t];
-    if bits & LOCAL_U16 == 0 {
-        return column(triangles);
-    }
-    let ids: Vec<u32> = column(&bytes[HEAD + triangle * t..HEAD + triangle * t + 4 * v]);
-    let rows: Vec<[u16; 3]> = column(triangles);
-    rows.iter().map(|r| r.map(|i| ids[i as usize])).collect()
-}
-
-/// Bytes `decode_triangles` needs of a record with this head.
-fn triangle_bytes(head: &[u8]) -> usize {
-    let (t, v, bits) = head_fields(head);
-    let (triangle, ..) = layout(bits);
-    HEAD + triangle * t + if bits & LOCAL_U16 != 0 { 4 * v } else { 0 }
-}
-
-/// The patch of a record written by `encode_patch`.
-pub(super) fn decode_patch(bytes: &[u8]) -> LivePatch {
-    let (t, v, bits) = head_fields(bytes);
-    let (triangle, position, _) = layout(bits);
-    let triangles = decode_triangles(bytes);
-    let mut at = HEAD + triangle * t;
-    let mut take = |n: usize| {
-        let part = &bytes[at..at + n];
-        at += n;
-        part
-    };
-    let ids: Vec<u32> = column(take(4 * v));
-    let positions: Vec<[f64; 3]> = if position == 12 {
-        let narrow: Vec<[f32; 3]> = column(take(12 * v));
-        narrow.iter().map(|p| p.map(f64::from)).collect()
-    } else {
-        column(take(24 * v))
-    };
-    let simplifier: Vec<[f32; 3]> = column(take(12 * v));
-    let normals = (bits & NORMALS != 0).then(|| column(take(12 * v)));
-    let colors = (bits & COLORS != 0).then(|| column(take(4 * v)));
-    let uvs = (bits & UVS != 0).then(|| column(take(8 * v)));
-    LivePatch {
-        triangles,
-        vertices: VertexTable {
-            ids,
-            positions,
-            simplifier,
-            normals,
-            colors,
-            uvs,
-        },
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::vertex_table::VertexTable;
     use tessera_core::leb::Simplex;
 
     fn patch(seed: u32, attributes: bool) -> LivePatch {
@@ -590,36 +430,6 @@ mod tests {
                 }
             }
         }
-    }
-
-    #[test]
-    fn records_are_compact_where_lossless_and_exact_everywhere() {
-        let compact = patch(3, true);
-        let mut wide = patch(3, true);
-        wide.vertices.positions[1][0] = 0.1; // not an f32
-        let mut foreign = patch(3, false);
-        foreign.triangles[1][2] = 999; // a corner outside the table
-        let mut twice = patch(3, false);
-        twice.vertices.ids[4] = twice.vertices.ids[3]; // an id in two rows
-        for (p, triangle, position) in [
-            (&compact, 6, 12),
-            (&wide, 6, 24),
-            (&foreign, 12, 12),
-            (&twice, 12, 12),
-        ] {
-            let record = encode_patch(p);
-            let (_, v, bits) = head_fields(&record);
-            assert_eq!(layout(bits).0, triangle);
-            assert_eq!(layout(bits).1, position);
-            assert_eq!(record.len() as u64, record_bytes(&record[..HEAD]));
-            assert_eq!(&decode_patch(&record), p);
-            assert_eq!(
-                decode_triangles(&record[..triangle_bytes(&record)]),
-                p.triangles
-            );
-            assert_eq!(v, p.vertices.ids.len());
-        }
-        assert!(encode_patch(&compact).len() < encode_patch(&wide).len());
     }
 
     #[test]

@@ -15,7 +15,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 use tessera_core::leb::SimplexKey;
 
-use super::live_store::{decode_patch, encode_patch};
+use super::live_record::{decode_patch, encode_patch};
 use crate::external::temp_usage::Charge;
 use crate::vertex_table::LivePatch;
 
