@@ -167,10 +167,11 @@ pub(super) fn decode_patch(bytes: &[u8]) -> LivePatch {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
 
-    fn patch(seed: u32, attributes: bool) -> LivePatch {
+    /// A small patch of five vertices (ids from `seed`), with or without attributes.
+    pub(in crate::simplify) fn patch(seed: u32, attributes: bool) -> LivePatch {
         let ids: Vec<u32> = (0..5).map(|i| seed * 10 + i).collect();
         LivePatch {
             triangles: vec![[ids[0], ids[1], ids[2]], [ids[2], ids[3], ids[4]]],

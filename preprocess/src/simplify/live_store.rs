@@ -366,23 +366,8 @@ impl DiskStore {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::vertex_table::VertexTable;
+    use crate::simplify::live_record::tests::patch;
     use tessera_core::leb::Simplex;
-
-    fn patch(seed: u32, attributes: bool) -> LivePatch {
-        let ids: Vec<u32> = (0..5).map(|i| seed * 10 + i).collect();
-        LivePatch {
-            triangles: vec![[ids[0], ids[1], ids[2]], [ids[2], ids[3], ids[4]]],
-            vertices: VertexTable {
-                positions: ids.iter().map(|&g| [g as f64, 0.5, -1.0]).collect(),
-                simplifier: ids.iter().map(|&g| [g as f32, 0.25, 0.0]).collect(),
-                normals: attributes.then(|| ids.iter().map(|&g| [0.0, g as f32, 1.0]).collect()),
-                colors: attributes.then(|| ids.iter().map(|&g| [g as u8, 1, 2, 3]).collect()),
-                uvs: attributes.then(|| ids.iter().map(|&g| [g as f32, 0.0]).collect()),
-                ids,
-            },
-        }
-    }
 
     #[test]
     fn a_disk_store_gives_back_what_it_was_given_through_removals_and_compaction() {
