@@ -462,20 +462,24 @@ fn build_in_pool(
                     spill_dir,
                     &mut sink,
                 ),
-                Some(dir) => {
-                    LevelState::from_leaves_in(next, input_vertices, current, &dir, &mut sink)
-                        .and_then(|state| {
-                            after_level(&state)?;
-                            simplify_levels(
-                                state,
-                                &hierarchy,
-                                &config.simplify,
-                                spill_dir,
-                                &mut sink,
-                                &mut after_level,
-                            )
-                        })
-                }
+                Some(dir) => LevelState::from_leaves_in(
+                    next,
+                    input_vertices,
+                    current,
+                    (&dir, &hierarchy.frame),
+                    &mut sink,
+                )
+                .and_then(|state| {
+                    after_level(&state)?;
+                    simplify_levels(
+                        state,
+                        &hierarchy,
+                        &config.simplify,
+                        spill_dir,
+                        &mut sink,
+                        &mut after_level,
+                    )
+                }),
             })
         }
         (Source::Staged(_), None) => unreachable!("a staged build has a budget"),

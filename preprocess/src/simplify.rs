@@ -264,7 +264,7 @@ pub fn simplify_from_leaves(
     spill_dir: Option<&std::path::Path>,
     finished: &mut FinishedPatchSink,
 ) -> Result<Simplified, SimplifyError> {
-    let store = LiveStore::new(spill_dir)?;
+    let store = LiveStore::new(spill_dir, positions::SimplifierScale::of(&hierarchy.frame))?;
     let state = LevelState::from_leaves(leaves, vertex_count, current, store, finished)?;
     simplify_levels(state, hierarchy, settings, spill_dir, finished, &mut |_| {
         Ok(())

@@ -92,7 +92,7 @@ pub(crate) fn load_levels(checkpoint: &Checkpoint) -> io::Result<Option<LevelsCh
     let hierarchy = decode_hierarchy(&std::fs::read(checkpoint.path(HIERARCHY))?)?;
     let bytes = std::fs::read(checkpoint.path(&format!("state-{done}.bin")))?;
     let mut d = Dec::new(&bytes);
-    let state = LevelState::decode(&mut d, checkpoint.dir())?;
+    let state = LevelState::decode(&mut d, checkpoint.dir(), &hierarchy.frame)?;
     let finished = FinishedPatches::decode_checkpoint(&mut d, checkpoint.dir(), &stage.files)?;
     d.finish()?;
     if state.levels_done() as u64 != done {

@@ -11,12 +11,14 @@ use tessera_core::leb::SimplexKey;
 use super::batches::{query_edges, split_batch, Pending};
 use super::edge_census::count_edges;
 use super::live_store::{LiveStore, StoreCheckpoint};
+use super::positions::SimplifierScale;
 use super::result_spill::{Held, Payload, ResultSpill};
 use super::{
     gather_patches, numbering_table, simplify_diamond, Context, CurrentMesh, FinishedPatchSink,
     LeafSource, Simplified, SimplifyError, SimplifySettings, MERGE_GROUP,
 };
 use crate::checkpoint::{Dec, Enc};
+use crate::frame::LatticeFrame;
 use crate::hierarchy::Hierarchy;
 use crate::vertex_table::LivePatch;
 
@@ -67,15 +69,16 @@ impl LevelState {
         })
     }
 
-    /// `from_leaves` with the live patches in a named file of the checkpoint directory `dir`.
+    /// `from_leaves` with the live patches in a named file of the checkpoint directory `dir`
+    /// (the hierarchy's `frame`'s).
     pub fn from_leaves_in(
         leaves: &mut LeafSource,
         vertex_count: usize,
         current: CurrentMesh,
-        dir: &std::path::Path,
+        (dir, frame): (&std::path::Path, &LatticeFrame),
         finished: &mut FinishedPatchSink,
     ) -> Result<LevelState, SimplifyError> {
-        let store = LiveStore::new_named(dir)?;
+        let store = LiveStore::new_named(dir, SimplifierScale::of(frame))?;
         Self::from_leaves(leaves, vertex_count, current, store, finished)
     }
 
@@ -120,8 +123,12 @@ impl LevelState {
         Ok(())
     }
 
-    /// The state `encode` wrote, its live store reopened in `dir`.
-    pub(crate) fn decode(d: &mut Dec, dir: &std::path::Path) -> std::io::Result<LevelState> {
+    /// The state `encode` wrote, its live store reopened in `dir` (its hierarchy's `frame`'s).
+    pub(crate) fn decode(
+        d: &mut Dec,
+        dir: &std::path::Path,
+        frame: &LatticeFrame,
+    ) -> std::io::Result<LevelState> {
         let vertex_count = d.u64()? as usize;
         let levels_done = d.u64()? as usize;
         let locked_vertices = d.u64()? as usize;
@@ -150,6 +157,7 @@ impl LevelState {
                 crc32,
                 records,
             },
+            SimplifierScale::of(frame),
         )?;
         Ok(LevelState {
             patches,
@@ -196,7 +204,7 @@ pub fn simplify_levels(
         .collect();
     for level_group in levels.into_iter().skip(state.levels_done) {
         let no_extra = HashSet::default();
-        let spill = ResultSpill::new(spill_dir)?;
+        let spill = ResultSpill::new(spill_dir, SimplifierScale::of(frame))?;
         let mut pending: Vec<Pending> = level_group
             .par_iter()
             .map(|&d| {

@@ -1,8 +1,10 @@
 //! A live patch's record, in the live store's file and in a level's result spill: triangle
 //! count, vertex count, attribute bits (u32 each), then the triangles (u16 rows of the vertex
 //! table, or u32 global ids), ids, positions (f32 where lossless, or f64), simplifier
-//! positions and the attributes present, little-endian.
+//! positions (left out where `SimplifierScale` gives them back) and the attributes present,
+//! little-endian.
 
+use super::positions::SimplifierScale;
 use crate::vertex_table::{LivePatch, VertexTable};
 
 /// Bytes of a record's head.
@@ -14,6 +16,9 @@ const UVS: u32 = 4;
 const LOCAL_U16: u32 = 8;
 /// Positions as f32 (else f64).
 const POSITIONS_F32: u32 = 16;
+/// No simplifier positions: each is its position's `SimplifierScale::position` (every vertex
+/// but the few `separate_coincident` moved; a patch holding one of those stores them all).
+const SIMPLIFIER_DERIVED: u32 = 32;
 
 fn head_fields(head: &[u8]) -> (usize, usize, u32) {
     let word = |i: usize| u32::from_le_bytes(head[4 * i..4 * i + 4].try_into().expect("4 bytes"));
@@ -26,7 +31,11 @@ fn layout(bits: u32) -> (usize, usize, usize) {
     let position = if bits & POSITIONS_F32 != 0 { 12 } else { 24 };
     let per_vertex = 4
         + position
-        + 12
+        + if bits & SIMPLIFIER_DERIVED != 0 {
+            0
+        } else {
+            12
+        }
         + if bits & NORMALS != 0 { 12 } else { 0 }
         + if bits & COLORS != 0 { 4 } else { 0 }
         + if bits & UVS != 0 { 8 } else { 0 };
@@ -57,8 +66,9 @@ fn local_u16(patch: &LivePatch) -> Option<Vec<[u16; 3]>> {
 
 /// A patch's record (also `result_spill.rs`'s). Lossless: triangles are written as u16 rows
 /// of the vertex table and positions as f32 where that gives back the same values (a patch
-/// of an input read as f32 always), which makes a leaf's record about a third smaller.
-pub(super) fn encode_patch(patch: &LivePatch) -> Vec<u8> {
+/// of an input read as f32 always) and simplifier positions are left out where `scale` computes
+/// them again, which makes a leaf's record about half the size of a plain one.
+pub(super) fn encode_patch(patch: &LivePatch, scale: &SimplifierScale) -> Vec<u8> {
     let v = &patch.vertices;
     let local = local_u16(patch);
     let positions_f32 = v
@@ -66,11 +76,17 @@ pub(super) fn encode_patch(patch: &LivePatch) -> Vec<u8> {
         .iter()
         .flatten()
         .all(|&x| (x as f32) as f64 == x);
+    let derived = v
+        .positions
+        .iter()
+        .zip(&v.simplifier)
+        .all(|(&p, s)| scale.position(p).map(f32::to_bits) == s.map(f32::to_bits));
     let bits = (v.normals.is_some() as u32 * NORMALS)
         | (v.colors.is_some() as u32 * COLORS)
         | (v.uvs.is_some() as u32 * UVS)
         | (local.is_some() as u32 * LOCAL_U16)
-        | (positions_f32 as u32 * POSITIONS_F32);
+        | (positions_f32 as u32 * POSITIONS_F32)
+        | (derived as u32 * SIMPLIFIER_DERIVED);
     let (triangle, _, per_vertex) = layout(bits);
     let mut out =
         Vec::with_capacity(HEAD + triangle * patch.triangles.len() + per_vertex * v.ids.len());
@@ -91,7 +107,9 @@ pub(super) fn encode_patch(patch: &LivePatch) -> Vec<u8> {
     } else {
         out.extend_from_slice(bytemuck::cast_slice(&v.positions));
     }
-    out.extend_from_slice(bytemuck::cast_slice(&v.simplifier));
+    if !derived {
+        out.extend_from_slice(bytemuck::cast_slice(&v.simplifier));
+    }
     if let Some(n) = &v.normals {
         out.extend_from_slice(bytemuck::cast_slice(n));
     }
@@ -131,8 +149,8 @@ pub(super) fn triangle_bytes(head: &[u8]) -> usize {
     HEAD + triangle * t + if bits & LOCAL_U16 != 0 { 4 * v } else { 0 }
 }
 
-/// The patch of a record written by `encode_patch`.
-pub(super) fn decode_patch(bytes: &[u8]) -> LivePatch {
+/// The patch of a record written by `encode_patch` with the same `scale`.
+pub(super) fn decode_patch(bytes: &[u8], scale: &SimplifierScale) -> LivePatch {
     let (t, v, bits) = head_fields(bytes);
     let (triangle, position, _) = layout(bits);
     let triangles = decode_triangles(bytes);
@@ -149,7 +167,11 @@ pub(super) fn decode_patch(bytes: &[u8]) -> LivePatch {
     } else {
         column(take(24 * v))
     };
-    let simplifier: Vec<[f32; 3]> = column(take(12 * v));
+    let simplifier: Vec<[f32; 3]> = if bits & SIMPLIFIER_DERIVED != 0 {
+        positions.iter().map(|&p| scale.position(p)).collect()
+    } else {
+        column(take(12 * v))
+    };
     let normals = (bits & NORMALS != 0).then(|| column(take(12 * v)));
     let colors = (bits & COLORS != 0).then(|| column(take(4 * v)));
     let uvs = (bits & UVS != 0).then(|| column(take(8 * v)));
@@ -170,14 +192,23 @@ pub(super) fn decode_patch(bytes: &[u8]) -> LivePatch {
 pub(super) mod tests {
     use super::*;
 
-    /// A small patch of five vertices (ids from `seed`), with or without attributes.
+    /// The simplifier's scale of the test patches' model.
+    pub(in crate::simplify) fn scale() -> SimplifierScale {
+        let frame =
+            crate::frame::LatticeFrame::around_box([0.0, 0.0, -2.0], [60.0, 1.0, 0.0], 20, 3);
+        SimplifierScale::of(&frame)
+    }
+
+    /// A small patch of five vertices (ids from `seed`), with or without attributes; its
+    /// simplifier positions are `scale`'s.
     pub(in crate::simplify) fn patch(seed: u32, attributes: bool) -> LivePatch {
         let ids: Vec<u32> = (0..5).map(|i| seed * 10 + i).collect();
+        let positions: Vec<[f64; 3]> = ids.iter().map(|&g| [g as f64, 0.5, -1.0]).collect();
         LivePatch {
             triangles: vec![[ids[0], ids[1], ids[2]], [ids[2], ids[3], ids[4]]],
             vertices: VertexTable {
-                positions: ids.iter().map(|&g| [g as f64, 0.5, -1.0]).collect(),
-                simplifier: ids.iter().map(|&g| [g as f32, 0.25, 0.0]).collect(),
+                simplifier: positions.iter().map(|&p| scale().position(p)).collect(),
+                positions,
                 normals: attributes.then(|| ids.iter().map(|&g| [0.0, g as f32, 1.0]).collect()),
                 colors: attributes.then(|| ids.iter().map(|&g| [g as u8, 1, 2, 3]).collect()),
                 uvs: attributes.then(|| ids.iter().map(|&g| [g as f32, 0.0]).collect()),
@@ -191,28 +222,36 @@ pub(super) mod tests {
         let compact = patch(3, true);
         let mut wide = patch(3, true);
         wide.vertices.positions[1][0] = 0.1; // not an f32
+        wide.vertices.simplifier[1] = scale().position(wide.vertices.positions[1]);
         let mut foreign = patch(3, false);
         foreign.triangles[1][2] = 999; // a corner outside the table
         let mut twice = patch(3, false);
         twice.vertices.ids[4] = twice.vertices.ids[3]; // an id in two rows
-        for (p, triangle, position) in [
-            (&compact, 6, 12),
-            (&wide, 6, 24),
-            (&foreign, 12, 12),
-            (&twice, 12, 12),
+        let mut nudged = patch(3, true);
+        nudged.vertices.simplifier[2][1] =
+            f32::from_bits(nudged.vertices.simplifier[2][1].to_bits() + 1);
+        for (p, triangle, position, derived) in [
+            (&compact, 6, 12, true),
+            (&wide, 6, 24, true),
+            (&foreign, 12, 12, true),
+            (&twice, 12, 12, true),
+            (&nudged, 6, 12, false),
         ] {
-            let record = encode_patch(p);
+            let record = encode_patch(p, &scale());
             let (_, v, bits) = head_fields(&record);
             assert_eq!(layout(bits).0, triangle);
             assert_eq!(layout(bits).1, position);
+            assert_eq!(bits & SIMPLIFIER_DERIVED != 0, derived);
             assert_eq!(record.len() as u64, record_bytes(&record[..HEAD]));
-            assert_eq!(&decode_patch(&record), p);
+            assert_eq!(&decode_patch(&record, &scale()), p);
             assert_eq!(
                 decode_triangles(&record[..triangle_bytes(&record)]),
                 p.triangles
             );
             assert_eq!(v, p.vertices.ids.len());
         }
-        assert!(encode_patch(&compact).len() < encode_patch(&wide).len());
+        let size = |p: &LivePatch| encode_patch(p, &scale()).len();
+        assert!(size(&compact) < size(&wide));
+        assert_eq!(size(&compact) + 12 * 5, size(&nudged));
     }
 }

@@ -15,6 +15,7 @@ use rustc_hash::FxHashMap as HashMap;
 use tessera_core::leb::SimplexKey;
 
 use super::live_record::{decode_patch, decode_triangles, encode_patch, triangle_bytes, HEAD};
+use super::positions::SimplifierScale;
 use crate::external::temp_usage::Charge;
 use crate::vertex_table::LivePatch;
 
@@ -36,6 +37,8 @@ pub(super) struct DiskStore {
     named: Option<(std::path::PathBuf, u32)>,
     crc: crc32fast::Hasher,
     committed: Committed,
+    /// The simplifier's positions its records leave out are computed with this.
+    scale: SimplifierScale,
 }
 
 /// What the checkpoint's last commit holds of a named store: its generation and length, and
@@ -74,8 +77,9 @@ const INSERT_CHUNK: usize = 64;
 const COPY_BYTES: u64 = 1 << 20;
 
 impl LiveStore {
-    /// An empty store in memory, or in an unnamed file in `spill_dir`.
-    pub(super) fn new(spill_dir: Option<&Path>) -> io::Result<LiveStore> {
+    /// An empty store in memory, or in an unnamed file in `spill_dir` (its records' simplifier
+    /// positions computed with `scale` where they can be).
+    pub(super) fn new(spill_dir: Option<&Path>, scale: SimplifierScale) -> io::Result<LiveStore> {
         let Some(dir) = spill_dir else {
             return Ok(LiveStore::Memory(HashMap::default()));
         };
@@ -89,16 +93,21 @@ impl LiveStore {
             named: None,
             crc: crc32fast::Hasher::new(),
             committed: Committed::default(),
+            scale,
         }))
     }
 
     /// An empty store in a named file of a build's checkpoint directory.
-    pub(super) fn new_named(dir: &Path) -> io::Result<LiveStore> {
-        Ok(LiveStore::Disk(DiskStore::named(dir, 0)?))
+    pub(super) fn new_named(dir: &Path, scale: SimplifierScale) -> io::Result<LiveStore> {
+        Ok(LiveStore::Disk(DiskStore::named(dir, 0, scale)?))
     }
 
     /// A checkpointed store again (its file cut back to the checkpoint's length).
-    pub(super) fn reopen(dir: &Path, at: StoreCheckpoint) -> io::Result<LiveStore> {
+    pub(super) fn reopen(
+        dir: &Path,
+        at: StoreCheckpoint,
+        scale: SimplifierScale,
+    ) -> io::Result<LiveStore> {
         let path = dir.join(live_file_name(at.generation));
         let file = std::fs::OpenOptions::new()
             .read(true)
@@ -134,6 +143,7 @@ impl LiveStore {
                 at: std::sync::Mutex::new(Some((at.generation, at.end))),
                 retained: Charge::new(),
             },
+            scale,
         }))
     }
 
@@ -201,8 +211,11 @@ impl LiveStore {
             }
             LiveStore::Disk(store) => {
                 for chunk in patches.chunks(INSERT_CHUNK) {
-                    let records: Vec<Vec<u8>> =
-                        chunk.par_iter().map(|(_, p)| encode_patch(p)).collect();
+                    let scale = store.scale;
+                    let records: Vec<Vec<u8>> = chunk
+                        .par_iter()
+                        .map(|(_, p)| encode_patch(p, &scale))
+                        .collect();
                     let mut bytes = Vec::with_capacity(records.iter().map(Vec::len).sum());
                     for ((key, patch), record) in chunk.iter().zip(&records) {
                         store.index.insert(
@@ -254,7 +267,7 @@ impl DiskStore {
     fn rewrite(&mut self) -> io::Result<()> {
         let store = self;
         let mut fresh = match &store.named {
-            Some((dir, generation)) => DiskStore::named(dir, generation + 1)?,
+            Some((dir, generation)) => DiskStore::named(dir, generation + 1, store.scale)?,
             None => DiskStore {
                 file: tempfile::tempfile_in(&store.dir)?,
                 dir: store.dir.clone(),
@@ -265,6 +278,7 @@ impl DiskStore {
                 named: None,
                 crc: crc32fast::Hasher::new(),
                 committed: Committed::default(),
+                scale: store.scale,
             },
         };
         let mut records: Vec<(SimplexKey, Record)> =
@@ -325,7 +339,7 @@ impl DiskStore {
 
     /// An empty store in the checkpoint's file of `generation` (the older file stays until
     /// the checkpoint no longer names it).
-    fn named(dir: &Path, generation: u32) -> io::Result<DiskStore> {
+    fn named(dir: &Path, generation: u32, scale: SimplifierScale) -> io::Result<DiskStore> {
         let path = dir.join(live_file_name(generation));
         Ok(DiskStore {
             file: std::fs::OpenOptions::new()
@@ -342,6 +356,7 @@ impl DiskStore {
             named: Some((dir.to_path_buf(), generation)),
             crc: crc32fast::Hasher::new(),
             committed: Committed::default(),
+            scale,
         })
     }
 
@@ -359,14 +374,14 @@ impl DiskStore {
     fn read(&self, record: &Record) -> io::Result<LivePatch> {
         let mut bytes = vec![0u8; record.bytes as usize];
         self.file.read_exact_at(&mut bytes, record.at)?;
-        Ok(decode_patch(&bytes))
+        Ok(decode_patch(&bytes, &self.scale))
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::simplify::live_record::tests::patch;
+    use crate::simplify::live_record::tests::{patch, scale};
     use tessera_core::leb::Simplex;
 
     #[test]
@@ -383,7 +398,7 @@ mod tests {
         }
         let keys: Vec<SimplexKey> = simplices.iter().map(|s| s.key).collect();
         for attributes in [false, true] {
-            let mut store = LiveStore::new(Some(dir.path())).unwrap();
+            let mut store = LiveStore::new(Some(dir.path()), scale()).unwrap();
             // One call, then another: records from two calls sit side by side.
             let all: Vec<(SimplexKey, LivePatch)> = keys
                 .iter()
@@ -421,7 +436,7 @@ mod tests {
     fn a_rewrite_keeps_of_the_old_file_only_what_the_last_commit_names() {
         let dir = tempfile::tempdir().unwrap();
         let keys: Vec<SimplexKey> = Simplex::roots(3, 10).iter().map(|s| s.key).collect();
-        let mut store = LiveStore::new_named(dir.path()).unwrap();
+        let mut store = LiveStore::new_named(dir.path(), scale()).unwrap();
         let all: Vec<(SimplexKey, LivePatch)> = keys
             .iter()
             .enumerate()
@@ -450,7 +465,7 @@ mod tests {
             assert_eq!(got, (i >= 4).then(|| patch(i as u32, true)));
         }
         // The committed records are still whole in generation 0.
-        let reopened = LiveStore::reopen(dir.path(), committed).unwrap();
+        let reopened = LiveStore::reopen(dir.path(), committed, scale()).unwrap();
         for (i, k) in keys[..3].iter().enumerate() {
             let got = reopened.get(k).unwrap().map(Cow::into_owned);
             assert_eq!(got, Some(patch(i as u32, true)));

@@ -18,8 +18,30 @@ pub(crate) fn numbering_table(vertex_count: usize, budgeted: bool) -> Option<usi
 /// f32 (`separate_coincident` then moves apart distinct vertices that land on one point). The
 /// staged build (`staged_build.rs`) computes the same.
 pub fn simplifier_position(frame: &LatticeFrame, p: [f64; 3]) -> [f32; 3] {
-    let size = frame.model_size();
-    frame.relative(p).map(|x| (x / size) as f32)
+    SimplifierScale::of(frame).position(p)
+}
+
+/// What `simplifier_position` needs of the frame, so that a live record can leave out the
+/// simplifier's positions it can compute again (`live_record.rs`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct SimplifierScale {
+    origin: [f64; 3],
+    size: f64,
+}
+
+impl SimplifierScale {
+    pub(crate) fn of(frame: &LatticeFrame) -> SimplifierScale {
+        SimplifierScale {
+            origin: frame.model_origin,
+            size: frame.model_size(),
+        }
+    }
+
+    /// `simplifier_position`, bit for bit.
+    #[inline]
+    pub(crate) fn position(&self, p: [f64; 3]) -> [f32; 3] {
+        [0, 1, 2].map(|i| ((p[i] - self.origin[i]) / self.size) as f32)
+    }
 }
 
 /// Moves apart, by a few f32 ulps, distinct vertices whose f32 positions coincide (detail

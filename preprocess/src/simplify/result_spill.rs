@@ -16,6 +16,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use tessera_core::leb::SimplexKey;
 
 use super::live_record::{decode_patch, encode_patch};
+use super::positions::SimplifierScale;
 use crate::external::temp_usage::Charge;
 use crate::vertex_table::LivePatch;
 
@@ -38,14 +39,17 @@ pub(super) struct ResultSpill {
     file: Option<File>,
     end: AtomicU64,
     charge: Charge,
+    scale: SimplifierScale,
 }
 
 impl ResultSpill {
-    pub(super) fn new(dir: Option<&Path>) -> io::Result<ResultSpill> {
+    /// `scale`: as the live store's (`live_record.rs`).
+    pub(super) fn new(dir: Option<&Path>, scale: SimplifierScale) -> io::Result<ResultSpill> {
         Ok(ResultSpill {
             file: dir.map(tempfile::tempfile_in).transpose()?,
             end: AtomicU64::new(0),
             charge: Charge::new(),
+            scale,
         })
     }
 
@@ -54,7 +58,7 @@ impl ResultSpill {
         let Some(file) = &self.file else {
             return Ok(Held::Memory(payload));
         };
-        let bytes = encode(&payload);
+        let bytes = encode(&payload, &self.scale);
         let at = self.end.fetch_add(bytes.len() as u64, Ordering::Relaxed);
         file.write_all_at(&bytes, at)?;
         self.charge.grow(bytes.len() as u64);
@@ -73,7 +77,7 @@ impl ResultSpill {
                 let mut buffer = vec![0u8; bytes as usize];
                 file.read_exact_at(&mut buffer, at)?;
                 self.release(&held);
-                Ok(decode(&buffer))
+                Ok(decode(&buffer, &self.scale))
             }
         }
     }
@@ -89,14 +93,14 @@ impl ResultSpill {
     }
 }
 
-fn encode(payload: &Payload) -> Vec<u8> {
+fn encode(payload: &Payload, scale: &SimplifierScale) -> Vec<u8> {
     let mut out = Vec::new();
     out.extend_from_slice(&(payload.patches.len() as u32).to_le_bytes());
     for (key, patch) in &payload.patches {
         out.push(key.root);
         out.extend_from_slice(&key.level.to_le_bytes());
         out.extend_from_slice(&key.path.to_le_bytes());
-        let bytes = encode_patch(patch);
+        let bytes = encode_patch(patch, scale);
         out.extend_from_slice(&(bytes.len() as u64).to_le_bytes());
         out.extend_from_slice(&bytes);
     }
@@ -108,7 +112,7 @@ fn encode(payload: &Payload) -> Vec<u8> {
     out
 }
 
-fn decode(bytes: &[u8]) -> Payload {
+fn decode(bytes: &[u8], scale: &SimplifierScale) -> Payload {
     let mut at = 0;
     let mut take = |n: usize| {
         let part = &bytes[at..at + n];
@@ -124,7 +128,10 @@ fn decode(bytes: &[u8]) -> Payload {
         let level = u16::from_le_bytes(take(2).try_into().expect("2 bytes"));
         let path = u128::from_le_bytes(take(16).try_into().expect("16 bytes"));
         let n = u64_of(take(8)) as usize;
-        patches.push((SimplexKey { root, level, path }, decode_patch(take(n))));
+        patches.push((
+            SimplexKey { root, level, path },
+            decode_patch(take(n), scale),
+        ));
     }
     let n = u64_of(take(8)) as usize;
     let vertices = (0..n)
@@ -140,6 +147,7 @@ fn decode(bytes: &[u8]) -> Payload {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::simplify::live_record::tests::scale;
     use crate::vertex_table::VertexTable;
     use tessera_core::leb::Simplex;
 
@@ -160,7 +168,14 @@ mod tests {
                             triangles: vec![[seed, seed + 1, seed + 2]],
                             vertices: VertexTable {
                                 positions: ids.iter().map(|&g| [g as f64, 1.0, 2.0]).collect(),
-                                simplifier: ids.iter().map(|&g| [g as f32, 0.0, 0.5]).collect(),
+                                // Half the patches' simplifier positions are the scale's.
+                                simplifier: ids
+                                    .iter()
+                                    .map(|&g| match seed % 20 {
+                                        0 => scale().position([g as f64, 1.0, 2.0]),
+                                        _ => [g as f32, 0.0, 0.5],
+                                    })
+                                    .collect(),
                                 normals: Some(vec![[0.0, 0.0, 1.0]; 3]),
                                 colors: None,
                                 uvs: Some(vec![[0.5, 0.25]; 3]),
@@ -172,7 +187,7 @@ mod tests {
                 .collect(),
             vertices: vec![(seed, -3), (seed + 7, 2)],
         };
-        let spill = ResultSpill::new(Some(dir.path())).unwrap();
+        let spill = ResultSpill::new(Some(dir.path()), scale()).unwrap();
         let held: Vec<Held> = (0..5)
             .map(|s| spill.hold(payload(s * 10)).unwrap())
             .collect();
@@ -180,7 +195,7 @@ mod tests {
             assert!(matches!(h, Held::Spilled { .. }));
             assert_eq!(spill.take(h).unwrap(), payload(s as u32 * 10));
         }
-        let memory = ResultSpill::new(None).unwrap();
+        let memory = ResultSpill::new(None, scale()).unwrap();
         let h = memory.hold(payload(3)).unwrap();
         assert!(matches!(h, Held::Memory(_)));
         assert_eq!(memory.take(h).unwrap(), payload(3));
