@@ -9,7 +9,7 @@ use bytemuck::Pod;
 
 use super::{Checkpoint, FileRecord, StageRecord};
 use crate::external::staged::VertexAttributes;
-use crate::external::{RecordFile, StagedMesh};
+use crate::external::{PositionFile, RecordFile, StagedMesh};
 
 const COUNTS: [&str; 6] = [
     "raw_vertices",
@@ -41,12 +41,13 @@ pub fn save_staged(checkpoint: &mut Checkpoint, staged: &mut StagedMesh) -> io::
         Ok(())
     }
     let mut files = Vec::new();
-    keep(
-        checkpoint,
-        "positions",
-        Some(&mut staged.positions),
-        &mut files,
-    )?;
+    let name = staged.positions.checkpoint_name();
+    let crc32 = staged.positions.keep_at(&checkpoint.path(name))?;
+    files.push(FileRecord {
+        name: name.into(),
+        bytes: staged.positions.bytes(),
+        crc32,
+    });
     keep(
         checkpoint,
         "triangles",
@@ -105,7 +106,14 @@ pub fn open_staged(checkpoint: &Checkpoint) -> io::Result<Option<StagedMesh>> {
         |what: &str| io::Error::new(io::ErrorKind::InvalidData, format!("no {what} file"));
     let count = |k: &str| stage.values.get(k).copied().ok_or_else(|| missing(k));
     Ok(Some(StagedMesh {
-        positions: open(checkpoint, stage, "positions")?.ok_or_else(|| missing("positions"))?,
+        positions: stage
+            .files
+            .iter()
+            .find_map(|f| {
+                PositionFile::open_kept(&f.name, &checkpoint.path(&f.name), f.bytes).transpose()
+            })
+            .transpose()?
+            .ok_or_else(|| missing("positions"))?,
         triangles: open(checkpoint, stage, "triangles")?.ok_or_else(|| missing("triangles"))?,
         attributes: VertexAttributes {
             normals: open(checkpoint, stage, "normals")?,

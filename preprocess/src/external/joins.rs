@@ -11,9 +11,11 @@ use rayon::prelude::*;
 use rustc_hash::{FxHashMap as HashMap, FxHashSet as HashSet};
 use tessera_core::leb::SimplexKey;
 
+use super::cursor::Cursor;
 use super::fallible::{check, ok_values};
+use super::position_file::{PositionBlocks, PositionCursor};
 use super::sort::sort_external;
-use super::staged::{ChunkReader, RecordFile, StagedMesh, IO_BUFFER};
+use super::staged::StagedMesh;
 use crate::frame::LatticeFrame;
 use crate::hierarchy::{BarycentreSource, LeafListSpool};
 use crate::vertex_table::{LivePatch, VertexTable};
@@ -76,8 +78,8 @@ impl BarycentreSource for JoinedBarycentres<'_> {
         let mut triangles = self.staged.triangles.read_chunks(chunk)?;
         let mut first = 0u32;
         // Buffers reused from chunk to chunk.
-        let (mut part, mut corners, mut at, mut block) =
-            (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        let (mut part, mut corners, mut at) = (Vec::new(), Vec::new(), Vec::new());
+        let mut blocks = PositionBlocks::default();
         // A chunk's barycentres are joined and computed on their own thread while the
         // previous chunk's are handed to `f` (a spool's writes). That thread is outside the
         // build's worker pool, so it works serially: parallel calls there would start rayon's
@@ -98,13 +100,11 @@ impl BarycentreSource for JoinedBarycentres<'_> {
             corners.sort_unstable();
             at.clear();
             at.resize(corners.len(), [0.0f64; 3]);
-            let mut positions =
-                Cursor::reusing(&self.staged.positions, std::mem::take(&mut block))?;
+            let mut positions = PositionCursor::reusing(&self.staged.positions, &mut blocks)?;
             for &c in &corners {
                 at[c as u32 as usize] = positions.at((c >> 32) as u32);
             }
-            check(positions.error.take())?;
-            block = std::mem::take(&mut positions.block);
+            positions.finish(&mut blocks)?;
             let barycentres: Vec<[f64; 3]> = at
                 .chunks_exact(3)
                 .map(|c| self.frame.barycentre([c[0], c[1], c[2]]))
@@ -294,7 +294,7 @@ impl<'a> LeafGroups<'a> {
             pairs.extend(ids.into_iter().map(|v| ((v as u64) << 32) | leaf as u64));
         }
         pairs.sort_unstable();
-        let mut positions = Cursor::new(&self.staged.positions)?;
+        let mut positions = PositionCursor::new(&self.staged.positions)?;
         let mut normals = attributes.normals.as_ref().map(Cursor::new).transpose()?;
         let mut colors = attributes.colors.as_ref().map(Cursor::new).transpose()?;
         let mut uvs = attributes.uvs.as_ref().map(Cursor::new).transpose()?;
@@ -315,7 +315,7 @@ impl<'a> LeafGroups<'a> {
                 column.push(cursor.at(v));
             }
         }
-        check(positions.error.take())?;
+        positions.finish(&mut PositionBlocks::default())?;
         for cursor_error in [
             normals.and_then(|mut c| c.error.take()),
             colors.and_then(|mut c| c.error.take()),
@@ -324,68 +324,6 @@ impl<'a> LeafGroups<'a> {
             check(cursor_error)?;
         }
         Ok(Some(keys.iter().copied().zip(patches).collect()))
-    }
-}
-
-/// Reads a record file in order, answering `at(i)` for ascending (repeatable) indices: a
-/// block of records at a time, blocks with no index asked skipped without reading.
-struct Cursor<T: bytemuck::Pod> {
-    chunks: ChunkReader<T>,
-    /// The block read last, and the index of its first record.
-    block: Vec<T>,
-    start: u64,
-    /// The first read error (`at` then answers zeroes; the caller checks).
-    error: Option<io::Error>,
-}
-
-impl<T: bytemuck::Pod> Cursor<T> {
-    fn new(file: &RecordFile<T>) -> io::Result<Self> {
-        Cursor::reusing(file, Vec::new())
-    }
-
-    /// A cursor reading into `block`'s allocation (a caller that reads a file many times
-    /// takes `block` back after each: a fresh block each time costs page faults).
-    fn reusing(file: &RecordFile<T>, mut block: Vec<T>) -> io::Result<Self> {
-        let records = (IO_BUFFER / std::mem::size_of::<T>().max(1)).max(1);
-        block.clear();
-        Ok(Cursor {
-            chunks: file.read_chunks(records)?,
-            block,
-            start: 0,
-            error: None,
-        })
-    }
-
-    fn at(&mut self, index: u32) -> T {
-        let index = index as u64;
-        assert!(
-            index >= self.start,
-            "record {index} asked after record {}: indices must ascend",
-            self.start
-        );
-        while index >= self.start + self.block.len() as u64 {
-            self.start += self.block.len() as u64;
-            let chunk = self.chunks.chunk_len() as u64;
-            let whole = (index - self.start) / chunk * chunk;
-            let next = self.chunks.skip_records(whole).and_then(|()| {
-                self.start += whole;
-                self.chunks.read_into(&mut self.block)
-            });
-            match next {
-                Ok(true) => {}
-                Err(e) => {
-                    self.error.get_or_insert(e);
-                    return T::zeroed();
-                }
-                Ok(false) => {
-                    self.error.get_or_insert(io::Error::other(format!(
-                        "record {index} asked past the end of a staged file"
-                    )));
-                    return T::zeroed();
-                }
-            }
-        }
-        self.block[(index - self.start) as usize]
     }
 }
 

@@ -4,10 +4,12 @@
 //! repository bytes.
 
 pub mod allocator;
+mod cursor;
 mod fallible;
 mod file_io;
 pub mod holes;
 pub mod joins;
+pub mod position_file;
 pub mod prefetch;
 pub mod sort;
 pub mod staged;
@@ -15,6 +17,7 @@ pub mod temp_usage;
 pub mod weld;
 
 pub use joins::{coincident_nudges, JoinedBarycentres, LeafGroups};
+pub use position_file::PositionFile;
 pub use sort::{sort_external, SortStats, Sorted};
 pub use staged::{RawStaged, RawStager, RawVertex, RecordFile, StagedMesh};
 pub use weld::{weld_external, weld_within_budget};

@@ -3,7 +3,8 @@
 //! (`weld.rs`), read back in order or by ranges.
 //!
 //! Files (little-endian, records back to back):
-//! `positions` `[f64; 3]` per vertex, `triangles` `[u32; 3]` per triangle, and where the
+//! `positions` per vertex (`[f32; 3]` where every one is an f32, else `[f64; 3]`:
+//! `position_file.rs`), `triangles` `[u32; 3]` per triangle, and where the
 //! input has them `normals` `[f32; 3]`, `colors` `[u8; 4]`, `uvs` `[f32; 2]` per vertex. All
 //! files are unnamed temporaries (`tempfile::tempfile_in`): nothing is left behind when the
 //! build ends, fails or is killed.
@@ -16,6 +17,7 @@ use std::path::{Path, PathBuf};
 use bytemuck::Pod;
 
 use super::file_io::{link_unnamed, ReadAt};
+use super::position_file::{PositionFile, PositionWriter};
 use super::temp_usage::Charge;
 use crate::mesh::InputMesh;
 
@@ -339,7 +341,7 @@ impl VertexAttributes {
 
 /// A mesh as read from a file, before welding, staged on disk.
 pub struct RawStaged {
-    pub positions: RecordFile<[f64; 3]>,
+    pub positions: PositionFile,
     pub triangles: RecordFile<[u32; 3]>,
     pub attributes: VertexAttributes,
 }
@@ -372,7 +374,7 @@ impl RawStaged {
 /// triangles, in any interleaving.
 pub struct RawStager {
     dir: PathBuf,
-    positions: RecordWriter<[f64; 3]>,
+    positions: PositionWriter,
     triangles: RecordWriter<[u32; 3]>,
     normals: Option<RecordWriter<[f32; 3]>>,
     colors: Option<RecordWriter<[u8; 4]>>,
@@ -394,7 +396,7 @@ impl RawStager {
     pub fn new(dir: &Path, normals: bool, colors: bool, uvs: bool) -> io::Result<Self> {
         Ok(RawStager {
             dir: dir.to_path_buf(),
-            positions: RecordFile::create(dir)?,
+            positions: PositionFile::create(dir)?,
             triangles: RecordFile::create(dir)?,
             normals: normals.then(|| RecordFile::create(dir)).transpose()?,
             colors: colors.then(|| RecordFile::create(dir)).transpose()?,
@@ -441,7 +443,7 @@ impl RawStager {
 /// A welded, cleaned mesh on disk: the out-of-core counterpart of `InputMesh`, with the same
 /// vertex ids and triangle order the in-memory `import::weld` gives.
 pub struct StagedMesh {
-    pub positions: RecordFile<[f64; 3]>,
+    pub positions: PositionFile,
     pub triangles: RecordFile<[u32; 3]>,
     pub attributes: VertexAttributes,
     /// What welding did, as `import::ImportReport` counts it.
@@ -464,8 +466,12 @@ impl StagedMesh {
             file.finish()
         }
         let mesh = &report.mesh;
+        let mut positions = PositionFile::create(dir)?;
+        for p in &mesh.positions {
+            positions.push(p)?;
+        }
         Ok(StagedMesh {
-            positions: write(&mesh.positions, dir)?,
+            positions: positions.finish()?,
             triangles: write(&mesh.triangles, dir)?,
             attributes: VertexAttributes {
                 normals: mesh.normals.as_deref().map(|a| write(a, dir)).transpose()?,

@@ -25,6 +25,7 @@ use bytemuck::{Pod, Zeroable};
 use rayon::prelude::*;
 
 use super::fallible::{check, ok_values};
+use super::position_file::PositionFile;
 use super::sort::sort_external;
 use super::staged::{RawStaged, RecordFile, StagedMesh, VertexAttributes};
 use crate::import::weld::canonical_bits;
@@ -276,7 +277,7 @@ pub fn weld_external(raw: RawStaged, budget: usize, dir: &Path) -> io::Result<St
     // The kept vertices' positions and attributes, in one pass each.
     let a = &attributes;
     Ok(StagedMesh {
-        positions: pick(&raw_positions, &referenced, dir)?,
+        positions: pick_positions(&raw_positions, &referenced, dir)?,
         triangles: welded,
         attributes: VertexAttributes {
             normals: a
@@ -347,19 +348,40 @@ fn pick<T: Pod>(
     dir: &Path,
 ) -> io::Result<RecordFile<T>> {
     let mut out = RecordFile::<T>::create(dir)?;
+    pick_each(from.read()?, indices, |r| out.push(r))?;
+    out.finish()
+}
+
+/// `pick` of positions.
+fn pick_positions(
+    from: &PositionFile,
+    indices: &RecordFile<u32>,
+    dir: &Path,
+) -> io::Result<PositionFile> {
+    let mut out = PositionFile::create(dir)?;
+    pick_each(from.read()?, indices, |p| out.push(p))?;
+    out.finish()
+}
+
+/// Hands `push` the records of `from` at `indices` (ascending), in order.
+fn pick_each<T>(
+    from: impl Iterator<Item = io::Result<T>>,
+    indices: &RecordFile<u32>,
+    mut push: impl FnMut(&T) -> io::Result<()>,
+) -> io::Result<()> {
     let mut wanted = indices.read()?.peekable();
-    for (i, record) in from.read()?.enumerate() {
+    for (i, record) in from.enumerate() {
         let record = record?;
         match wanted.peek() {
             Some(Ok(w)) if *w as usize == i => {
-                out.push(&record)?;
+                push(&record)?;
                 wanted.next();
             }
             Some(Err(_)) => return Err(wanted.next().expect("peeked").expect_err("an error")),
             _ => {}
         }
     }
-    out.finish()
+    Ok(())
 }
 
 #[cfg(test)]

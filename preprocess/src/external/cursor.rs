@@ -1,0 +1,68 @@
+//! Reads a record file by ascending index, a block at a time (the joins' passes that pick
+//! records of sorted ids).
+
+use std::io;
+
+use super::staged::{ChunkReader, RecordFile, IO_BUFFER};
+
+/// Reads a record file in order, answering `at(i)` for ascending (repeatable) indices: a
+/// block of records at a time, blocks with no index asked skipped without reading.
+pub(super) struct Cursor<T: bytemuck::Pod> {
+    chunks: ChunkReader<T>,
+    /// The block read last, and the index of its first record.
+    pub(super) block: Vec<T>,
+    start: u64,
+    /// The first read error (`at` then answers zeroes; the caller checks).
+    pub(super) error: Option<io::Error>,
+}
+
+impl<T: bytemuck::Pod> Cursor<T> {
+    pub(super) fn new(file: &RecordFile<T>) -> io::Result<Self> {
+        Cursor::reusing(file, Vec::new())
+    }
+
+    /// A cursor reading into `block`'s allocation (a caller that reads a file many times
+    /// takes `block` back after each: a fresh block each time costs page faults).
+    pub(super) fn reusing(file: &RecordFile<T>, mut block: Vec<T>) -> io::Result<Self> {
+        let records = (IO_BUFFER / std::mem::size_of::<T>().max(1)).max(1);
+        block.clear();
+        Ok(Cursor {
+            chunks: file.read_chunks(records)?,
+            block,
+            start: 0,
+            error: None,
+        })
+    }
+
+    pub(super) fn at(&mut self, index: u32) -> T {
+        let index = index as u64;
+        assert!(
+            index >= self.start,
+            "record {index} asked after record {}: indices must ascend",
+            self.start
+        );
+        while index >= self.start + self.block.len() as u64 {
+            self.start += self.block.len() as u64;
+            let chunk = self.chunks.chunk_len() as u64;
+            let whole = (index - self.start) / chunk * chunk;
+            let next = self.chunks.skip_records(whole).and_then(|()| {
+                self.start += whole;
+                self.chunks.read_into(&mut self.block)
+            });
+            match next {
+                Ok(true) => {}
+                Err(e) => {
+                    self.error.get_or_insert(e);
+                    return T::zeroed();
+                }
+                Ok(false) => {
+                    self.error.get_or_insert(io::Error::other(format!(
+                        "record {index} asked past the end of a staged file"
+                    )));
+                    return T::zeroed();
+                }
+            }
+        }
+        self.block[(index - self.start) as usize]
+    }
+}
