@@ -40,9 +40,10 @@ pub struct BuildArgs {
     /// also runs one thread that reads the staged mesh ahead of the workers.
     #[arg(long, value_name = "N")]
     pub threads: Option<usize>,
-    /// Memory budget (`512M`, `2G`): the stages that work out of core stay within it — today
-    /// the import of a mesh file and the hierarchy's construction; simplification and strips
-    /// still hold the mesh (ARCHITECTURE.md). The repository is the same bytes either way.
+    /// Memory budget (`512M`, `2G`): a mesh file is staged on disk and built out of core, each
+    /// stage's working set sized to the budget; the repository is the same bytes either way.
+    /// Some per-simplex and per-vertex tables are still held whatever the budget (100 M
+    /// triangles need about 0.8 GiB: BENCHMARKS.md).
     #[arg(long, value_name = "SIZE", value_parser = parse_size)]
     pub memory: Option<u64>,
     /// Directory of the temporary files of `--memory` and of the build's checkpoint (default:
