@@ -1,8 +1,11 @@
 //! `build`'s checkpoint (`--resume`): where it is, whether this build keeps one, and what to do
 //! with one that is there. The checkpoint itself is `tessera_preprocess::checkpoint`.
 //!
-//! - A build keeps a checkpoint when it stages its input (a mesh file with `--memory`); from
-//!   standard input, or for a height field, it keeps none and `--resume` is refused.
+//! - A build keeps a checkpoint when it stages its input (a mesh file or standard input with
+//!   `--memory`); for a height field it keeps none and `--resume` is refused. Standard input is
+//!   fingerprinted as the import reads it (size, CRC-32 of every byte); `--resume` from
+//!   standard input reads it to its end to check it, when the checkpoint has a stage to
+//!   resume (else it is imported as usual).
 //! - Without `--resume`, a checkpoint left by an earlier build of the same output is removed
 //!   (said on stderr) and the build starts over.
 //! - With `--resume`, a checkpoint made by another build (input, flags, version) is refused,
@@ -47,12 +50,6 @@ pub fn prepare(
                  budget keeps a checkpoint"
             );
         }
-        if is_stdin {
-            bail!(
-                "--resume cannot continue a build from standard input: its input cannot be \
-                 checked against the checkpoint's (give the input's path)"
-            );
-        }
         if !checkpointable {
             bail!("--resume continues a mesh build: a height field's build keeps no checkpoint");
         }
@@ -69,14 +66,18 @@ pub fn prepare(
             dir.display()
         );
     }
-    if !checkpointable || is_stdin {
+    if !checkpointable {
         return Ok(None);
     }
-    let fingerprint = match Fingerprint::of(input) {
-        Ok(f) => f,
-        // The import names the problem with the input.
-        Err(_) if !resume => return Ok(None),
-        Err(e) => return Err(e).with_context(|| format!("reading {}", input.display())),
+    let fingerprint = if is_stdin {
+        stdin_fingerprint(&dir, resume)?
+    } else {
+        match Fingerprint::of(input) {
+            Ok(f) => f,
+            // The import names the problem with the input.
+            Err(_) if !resume => return Ok(None),
+            Err(e) => return Err(e).with_context(|| format!("reading {}", input.display())),
+        }
     };
     let manifest = manifest_for(fingerprint, config);
     let mut resumed = false;
@@ -122,6 +123,22 @@ pub fn prepare(
         }
     });
     Ok(Some(Prepared { checkpoint, lock }))
+}
+
+/// Standard input's fingerprint: read to its end when `resume` finds a stage to resume in the
+/// checkpoint at `dir` (it is checked against the checkpoint's), else the unread one (the
+/// import fingerprints the stream as it stages it).
+fn stdin_fingerprint(dir: &Path, resume: bool) -> anyhow::Result<Fingerprint> {
+    let resumable = resume && Checkpoint::read_manifest(dir)?.is_some_and(|m| !m.stages.is_empty());
+    if !resumable {
+        return Ok(Fingerprint::stream_unread());
+    }
+    use std::io::IsTerminal;
+    if std::io::stdin().is_terminal() {
+        bail!("standard input is a terminal: pipe the PLY mesh of the killed build into `-`");
+    }
+    eprintln!("reading standard input to its end, to check it against the checkpoint's");
+    Fingerprint::of_stream(std::io::stdin()).context("reading standard input")
 }
 
 /// A build's checkpoint, locked (`flock`) for as long as the build holds it.

@@ -69,8 +69,9 @@ pub struct BuildArgs {
     pub position_bits: u32,
     /// Continue the build of the same input, flags and output that was killed or failed, from
     /// its checkpoint (`.OUT.tessera-build/` beside the output or in `--temp`); the repository
-    /// is the same bytes. Needs `--memory` and an input file. Without `--resume` a leftover
-    /// checkpoint is removed and the build starts over.
+    /// is the same bytes. Needs `--memory`; from standard input (`-`), the same stream piped
+    /// again (it is read to its end and checked). Without `--resume` a leftover checkpoint is
+    /// removed and the build starts over.
     #[arg(long)]
     pub resume: bool,
     /// Print one JSON object on stdout.
@@ -270,9 +271,15 @@ fn load_or_resume(
             return Ok(crate::input::staged_input(staged, &args.heightfield));
         }
     }
-    let mut input = crate::input::load_build_input(&args.input, &args.heightfield, staging)?;
+    let (mut input, stream) =
+        crate::input::load_build_input(&args.input, &args.heightfield, staging)?;
     if let (Some(c), BuildInput::Staged { staged, .. }) = (checkpoint, &mut input) {
-        save_staged(c, staged).with_context(|| format!("checkpoint {}", c.dir().display()))?;
+        let at = format!("checkpoint {}", c.dir().display());
+        let at = || at.clone();
+        if let Some(fingerprint) = stream {
+            c.set_input(fingerprint).with_context(at)?;
+        }
+        save_staged(c, staged).with_context(at)?;
     }
     Ok(input)
 }

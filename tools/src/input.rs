@@ -4,9 +4,10 @@
 use std::io::IsTerminal;
 use std::path::Path;
 
-use anyhow::bail;
+use anyhow::{bail, Context};
 use clap::Args;
 use serde_json::json;
+use tessera_preprocess::checkpoint::{Fingerprint, StreamFingerprint};
 use tessera_preprocess::dem::{load_dem, DemFormat, DemOptions, HeightGrid, TerrainOptions};
 use tessera_preprocess::import::{
     load_mesh, load_mesh_from_reader, ImportError, ImportErrorKind, ImportReport, MeshFormat,
@@ -200,30 +201,41 @@ impl BuildInput {
 
 /// `build`'s input: with `staging` (temporary directory, memory budget), a mesh file or `-` is
 /// staged on disk and left there (a height field, or a mesh whose heights are exaggerated, is
-/// loaded as [`load_input_staged`] does).
+/// loaded as [`load_input_staged`] does). Standard input staged is read to its end and
+/// fingerprinted (for its checkpoint).
 pub fn load_build_input(
     path: &Path,
     args: &HeightFieldArgs,
     staging: Option<(&Path, u64)>,
-) -> anyhow::Result<BuildInput> {
+) -> anyhow::Result<(BuildInput, Option<Fingerprint>)> {
     let plain_mesh = is_plain_mesh(path, args)?;
     let Some((dir, budget)) = staging.filter(|_| plain_mesh) else {
-        return Ok(BuildInput::Loaded(load_input_staged(path, args, staging)?));
+        return Ok((
+            BuildInput::Loaded(load_input_staged(path, args, staging)?),
+            None,
+        ));
     };
-    let staged = if is_stdin(path) {
+    let (staged, fingerprint) = if is_stdin(path) {
         if std::io::stdin().is_terminal() {
             bail!("standard input is a terminal: pipe a PLY mesh into `-`");
         }
-        tessera_preprocess::import::stage_ply_from_reader(
-            std::io::stdin(),
+        let stream = StreamFingerprint::default();
+        let staged = tessera_preprocess::import::stage_ply_from_reader(
+            stream.reader(std::io::stdin()),
             "standard input",
             dir,
             budget as usize,
-        )?
+        )?;
+        // What the import left unread counts too: a resume reads the stream to its end.
+        std::io::copy(&mut stream.reader(std::io::stdin()), &mut std::io::sink())
+            .context("reading standard input")?;
+        (staged, Some(stream.fingerprint()))
     } else {
-        tessera_preprocess::import::stage_mesh(path, dir, budget as usize).map_err(import_error)?
+        let staged = tessera_preprocess::import::stage_mesh(path, dir, budget as usize)
+            .map_err(import_error)?;
+        (staged, None)
     };
-    Ok(staged_input(staged, args))
+    Ok((staged_input(staged, args), fingerprint))
 }
 
 /// Whether `path` is a mesh built as it is (not a height field, no exaggeration): what

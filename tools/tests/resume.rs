@@ -232,8 +232,94 @@ fn a_checkpoint_of_another_build_or_a_damaged_one_is_refused() {
     assert!(!checkpoint_of(&output).exists());
 }
 
+/// `build - -o OUTPUT --memory 64M` and `extra`, `input` piped into its standard input.
+fn build_from_stdin(input: &Path, output: &Path, extra: &[&str], env: &[(&str, &str)]) -> Output {
+    Command::new(TESSERA)
+        .args(
+            [
+                &[
+                    "build",
+                    "-",
+                    "-o",
+                    output.to_str().unwrap(),
+                    "--memory",
+                    "64M",
+                ],
+                extra,
+            ]
+            .concat(),
+        )
+        .envs(env.iter().copied())
+        .stdin(std::fs::File::open(input).unwrap())
+        .output()
+        .unwrap()
+}
+
 #[test]
-fn resume_needs_a_memory_budget_and_an_input_file() {
+fn a_build_from_standard_input_resumes_when_the_same_stream_is_piped_again() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = generate(dir.path(), 100_000);
+    let expected = reference(&input, dir.path());
+    let output = dir.path().join("out.tsr");
+    for stage in ["staged", "hierarchy", "level-3"] {
+        let _ = std::fs::remove_file(&output);
+        let fault = format!("kill-after-stage:{stage}");
+        let out = build_from_stdin(
+            &input,
+            &output,
+            &[],
+            &[
+                ("TESSERA_BUILD_FAULT", &fault),
+                ("TESSERA_CHECKPOINT_EVERY_LEVEL", "1"),
+            ],
+        );
+        assert_eq!(out.status.signal(), Some(9), "{stage}: {}", stderr(&out));
+        assert!(!output.exists(), "a killed build left {}", output.display());
+        let out = build_from_stdin(&input, &output, &["--resume"], &[]);
+        assert!(
+            out.status.success(),
+            "resume after {stage}: {}",
+            stderr(&out)
+        );
+        assert!(stderr(&out).contains("resuming from"), "{}", stderr(&out));
+        assert!(
+            std::fs::read(&output).unwrap() == expected,
+            "resumed from standard input after {stage}: other bytes than the file's build"
+        );
+        assert!(!checkpoint_of(&output).exists());
+    }
+    // Another stream: refused, naming the difference; nothing written, the checkpoint kept,
+    // and the same stream then resumes.
+    let _ = std::fs::remove_file(&output);
+    let out = build_from_stdin(
+        &input,
+        &output,
+        &[],
+        &[("TESSERA_BUILD_FAULT", "kill-after-stage:leaves")],
+    );
+    assert_eq!(out.status.signal(), Some(9), "{}", stderr(&out));
+    let bytes = std::fs::read(&input).unwrap();
+    let other = dir.path().join("other.ply");
+    let mut changed = bytes.clone();
+    let last = changed.len() - 1;
+    changed[last] ^= 1; // the same size, one bit of the last face's index differs
+    std::fs::write(&other, changed).unwrap();
+    let out = build_from_stdin(&other, &output, &["--resume"], &[]);
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("input contents (CRC-32 of every byte)"),
+        "{}",
+        stderr(&out)
+    );
+    assert!(!output.exists());
+    assert!(checkpoint_of(&output).join("manifest.json").exists());
+    let out = build_from_stdin(&input, &output, &["--resume"], &[]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert!(std::fs::read(&output).unwrap() == expected);
+}
+
+#[test]
+fn resume_needs_a_memory_budget() {
     let dir = tempfile::tempdir().unwrap();
     let input = generate(dir.path(), 2_000);
     let output = dir.path().join("out.tsr");
@@ -245,14 +331,6 @@ fn resume_needs_a_memory_budget_and_an_input_file() {
         "{}",
         stderr(&out)
     );
-    let out = Command::new(TESSERA)
-        .args(["build", "-", "-o", o, "--memory", "64M", "--resume"])
-        .stdin(std::fs::File::open(&input).unwrap())
-        .output()
-        .unwrap();
-    assert_eq!(out.status.code(), Some(2));
-    assert!(stderr(&out).contains("standard input"), "{}", stderr(&out));
-    assert!(!output.exists());
     // A build that fails on its input removes its checkpoint (a resume would fail alike).
     let broken = dir.path().join("broken.ply");
     let bytes = std::fs::read(&input).unwrap();

@@ -43,7 +43,8 @@ pub struct FileRecord {
 }
 
 /// What identifies an input file without reading all of it: its path, size, modification
-/// time, and CRC-32s of its first and last MiB.
+/// time, and CRC-32s of its first and last MiB. Standard input (path `-`) is identified by its
+/// size and the CRC-32 of every byte (`StreamFingerprint`), known once it is read to its end.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Fingerprint {
     pub path: String,
@@ -51,6 +52,10 @@ pub struct Fingerprint {
     pub mtime_ns: u64,
     pub head_crc32: u32,
     pub tail_crc32: u32,
+    /// Standard input's CRC-32 of every byte (`None` for a file, and for standard input not
+    /// yet read to its end).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stream_crc32: Option<u32>,
 }
 
 const ENDS: u64 = 1 << 20;
@@ -77,7 +82,74 @@ impl Fingerprint {
             head_crc32: crc_at(0)?,
             tail_crc32: crc_at(bytes.saturating_sub(ENDS))?,
             mtime_ns,
+            stream_crc32: None,
         })
+    }
+
+    /// Standard input's, before it is read: what a checkpoint holds until the import has read
+    /// the stream (no stage can be resumed before that).
+    pub fn stream_unread() -> Fingerprint {
+        Fingerprint {
+            path: STDIN.into(),
+            bytes: 0,
+            mtime_ns: 0,
+            head_crc32: 0,
+            tail_crc32: 0,
+            stream_crc32: None,
+        }
+    }
+
+    /// The fingerprint of what `read` gives until its end.
+    pub fn of_stream(read: impl Read) -> io::Result<Fingerprint> {
+        let stream = StreamFingerprint::default();
+        io::copy(&mut stream.reader(read), &mut io::sink())?;
+        Ok(stream.fingerprint())
+    }
+}
+
+/// The path a fingerprint of standard input names.
+const STDIN: &str = "-";
+
+/// The size and CRC-32 of a stream read through `reader`s (one or several in turn: the
+/// import's, then one that reads what it left), and its fingerprint once read to its end.
+#[derive(Clone, Default)]
+pub struct StreamFingerprint {
+    read: std::sync::Arc<std::sync::Mutex<(u64, crc32fast::Hasher)>>,
+}
+
+impl StreamFingerprint {
+    /// `inner`, counted into this fingerprint as it is read.
+    pub fn reader<R: Read>(&self, inner: R) -> FingerprintedReader<R> {
+        FingerprintedReader {
+            inner,
+            into: self.clone(),
+        }
+    }
+
+    /// The fingerprint of what was read (the stream's, once read to its end).
+    pub fn fingerprint(&self) -> Fingerprint {
+        let read = self.read.lock().unwrap_or_else(|e| e.into_inner());
+        Fingerprint {
+            bytes: read.0,
+            stream_crc32: Some(read.1.clone().finalize()),
+            ..Fingerprint::stream_unread()
+        }
+    }
+}
+
+/// A reader counted into a `StreamFingerprint`.
+pub struct FingerprintedReader<R> {
+    inner: R,
+    into: StreamFingerprint,
+}
+
+impl<R: Read> Read for FingerprintedReader<R> {
+    fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
+        let n = self.inner.read(buf)?;
+        let mut read = self.into.read.lock().unwrap_or_else(|e| e.into_inner());
+        read.0 += n as u64;
+        read.1.update(&buf[..n]);
+        Ok(n)
     }
 }
 
@@ -112,6 +184,14 @@ pub fn first_mismatch(made: &Manifest, now: &Manifest) -> Option<(String, String
             "input contents (CRC-32 of its first and last MiB)",
             format!("{:08x} {:08x}", i.head_crc32, i.tail_crc32),
             format!("{:08x} {:08x}", j.head_crc32, j.tail_crc32),
+        )
+    })
+    .or_else(|| {
+        let crc = |c: Option<u32>| c.map_or_else(|| "(none)".into(), |c| format!("{c:08x}"));
+        pair(
+            "input contents (CRC-32 of every byte)",
+            crc(i.stream_crc32),
+            crc(j.stream_crc32),
         )
     })
     .or_else(|| {

@@ -27,7 +27,9 @@ mod staged;
 pub(crate) use bytes::{Dec, Enc};
 pub(crate) use hierarchy::{load_hierarchy, save_hierarchy, HierarchyCheckpoint, InputFacts};
 pub(crate) use levels::{load_levels, save_levels, LevelsCheckpoint};
-pub use manifest::{FileRecord, Fingerprint, Manifest, StageRecord, CHECKPOINT_FORMAT};
+pub use manifest::{
+    FileRecord, Fingerprint, Manifest, StageRecord, StreamFingerprint, CHECKPOINT_FORMAT,
+};
 pub use staged::{open_staged, save_staged};
 
 use std::collections::BTreeMap;
@@ -179,18 +181,9 @@ impl Checkpoint {
             dir: dir.to_path_buf(),
             reason,
         };
-        let text = match std::fs::read_to_string(dir.join(MANIFEST)) {
-            Ok(text) => text,
-            Err(e) if e.kind() == io::ErrorKind::NotFound => return Ok(None),
-            Err(source) => {
-                return Err(CheckpointError::Io {
-                    dir: dir.to_path_buf(),
-                    source,
-                })
-            }
+        let Some(manifest) = Checkpoint::read_manifest(dir)? else {
+            return Ok(None);
         };
-        let manifest: Manifest = serde_json::from_str(&text)
-            .map_err(|e| damaged(format!("{MANIFEST} does not parse ({e})")))?;
         if let Some((what, made, now)) = manifest::first_mismatch(&manifest, &expected) {
             return Err(CheckpointError::Mismatch {
                 dir: dir.to_path_buf(),
@@ -240,6 +233,40 @@ impl Checkpoint {
                 source,
             })?;
         Ok(Some(checkpoint))
+    }
+
+    /// The manifest of the checkpoint at `dir`, if it has one, checked against nothing (what
+    /// `open` then checks it against may depend on it: standard input is read to its end only
+    /// to resume a stage).
+    pub fn read_manifest(dir: &Path) -> Result<Option<Manifest>, CheckpointError> {
+        let text = match std::fs::read_to_string(dir.join(MANIFEST)) {
+            Ok(text) => text,
+            Err(e) if e.kind() == io::ErrorKind::NotFound => return Ok(None),
+            Err(source) => {
+                return Err(CheckpointError::Io {
+                    dir: dir.to_path_buf(),
+                    source,
+                })
+            }
+        };
+        serde_json::from_str(&text)
+            .map(Some)
+            .map_err(|e| CheckpointError::Damaged {
+                dir: dir.to_path_buf(),
+                reason: format!("{MANIFEST} does not parse ({e})"),
+            })
+    }
+
+    /// Names the input once it is known (standard input, fingerprinted as the import read it);
+    /// only before the first stage is committed.
+    pub fn set_input(&mut self, input: Fingerprint) -> io::Result<()> {
+        if !self.manifest.stages.is_empty() {
+            return Err(io::Error::other(
+                "a checkpoint's input is named before its first stage",
+            ));
+        }
+        self.manifest.input = input;
+        self.write_manifest()
     }
 
     pub fn dir(&self) -> &Path {
