@@ -14,6 +14,10 @@ pub enum PositionFile {
     Wide(RecordFile<[f64; 3]>),
 }
 
+/// A checkpoint's names of the file: the record width is in them.
+const NARROW_NAME: &str = "staged-positions-f32.bin";
+const WIDE_NAME: &str = "staged-positions.bin";
+
 /// Whether `p` is exactly an f32 position.
 fn narrows(p: &[f64; 3]) -> bool {
     p.iter().all(|&x| (x as f32) as f64 == x)
@@ -69,11 +73,11 @@ impl PositionFile {
         self.read()?.collect()
     }
 
-    /// The name a checkpoint gives the file: the record width is in it.
+    /// The name a checkpoint gives the file.
     pub(crate) fn checkpoint_name(&self) -> &'static str {
         match self {
-            PositionFile::Narrow(_) => "staged-positions-f32.bin",
-            PositionFile::Wide(_) => "staged-positions.bin",
+            PositionFile::Narrow(_) => NARROW_NAME,
+            PositionFile::Wide(_) => WIDE_NAME,
         }
     }
 
@@ -89,10 +93,8 @@ impl PositionFile {
     /// read-only; `None` for another name.
     pub(crate) fn open_kept(name: &str, path: &Path, bytes: u64) -> io::Result<Option<Self>> {
         Ok(match name {
-            "staged-positions-f32.bin" => {
-                Some(PositionFile::Narrow(RecordFile::open_kept(path, bytes)?))
-            }
-            "staged-positions.bin" => Some(PositionFile::Wide(RecordFile::open_kept(path, bytes)?)),
+            NARROW_NAME => Some(PositionFile::Narrow(RecordFile::open_kept(path, bytes)?)),
+            WIDE_NAME => Some(PositionFile::Wide(RecordFile::open_kept(path, bytes)?)),
             _ => None,
         })
     }
