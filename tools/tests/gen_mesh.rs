@@ -249,16 +249,23 @@ fn bad_arguments_exit_two_with_a_message_and_leave_nothing() {
         assert!(stderr.contains(needle), "{args:?}: {stderr}");
         assert!(!out_path.exists(), "{args:?} left a file");
     }
-    // Garbage and a truncated mesh on standard input: exit 2, named, no repository.
+    // Garbage and a truncated mesh on standard input: exit 2, named, no repository, and under
+    // a budget no checkpoint left (a resume would fail alike).
     let repo = dir.path().join("r.tsr");
+    let checkpoint = dir.path().join(".r.tsr.tessera-build");
     let mut ply = Vec::new();
     let mesh = dir.path().join("m.ply");
     gen(&mesh, "1000", &[]);
     ply.extend(std::fs::read(&mesh).unwrap());
     ply.truncate(ply.len() - 5);
-    for input in [b"not a mesh\n".to_vec(), ply] {
+    let budgets: [&[&str]; 2] = [&[], &["--memory", "64M"]];
+    for (input, budget) in [b"not a mesh\n".to_vec(), ply]
+        .into_iter()
+        .flat_map(|input| budgets.map(|b| (input.clone(), b)))
+    {
         let mut build = Command::new(env!("CARGO_BIN_EXE_tessera"))
             .args(["build", "-", "-o", repo.to_str().unwrap()])
+            .args(budget)
             .stdin(Stdio::piped())
             .stderr(Stdio::piped())
             .stdout(Stdio::null())
@@ -270,5 +277,6 @@ fn bad_arguments_exit_two_with_a_message_and_leave_nothing() {
         assert_eq!(result.status.code(), Some(2), "{stderr}");
         assert!(stderr.contains("standard input: "), "{stderr}");
         assert!(!repo.exists());
+        assert!(!checkpoint.exists(), "{budget:?} left its checkpoint");
     }
 }
