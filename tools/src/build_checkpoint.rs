@@ -32,6 +32,49 @@ pub const FAULT_VAR: &str = "TESSERA_BUILD_FAULT";
 /// name a level), instead of when one is due.
 pub const EVERY_LEVEL_VAR: &str = "TESSERA_CHECKPOINT_EVERY_LEVEL";
 
+/// `build --stop-after STAGE`: the stage after whose commit the process ends (exit 0, the
+/// checkpoint kept for `--resume`), so that a build runs as several processes, one or more
+/// stages each.
+#[derive(Clone, Debug, PartialEq)]
+pub enum StopAfter {
+    Staged,
+    Hierarchy,
+    Leaves,
+    /// The first level checkpoint with at least this many levels merged (level checkpoints are
+    /// taken when due, not after every level).
+    Levels(u64),
+}
+
+impl StopAfter {
+    /// `staged`, `hierarchy`, `leaves` or `level-N` (N ≥ 1).
+    pub fn parse(text: &str) -> Result<StopAfter, String> {
+        match text {
+            "staged" => Ok(StopAfter::Staged),
+            "hierarchy" => Ok(StopAfter::Hierarchy),
+            "leaves" => Ok(StopAfter::Leaves),
+            _ => match text.strip_prefix("level-").map(str::parse::<u64>) {
+                Some(Ok(n)) if n >= 1 => Ok(StopAfter::Levels(n)),
+                _ => Err(format!(
+                    "`{text}`: a stage is staged, hierarchy, leaves or level-N (N ≥ 1)"
+                )),
+            },
+        }
+    }
+
+    /// Whether the committed stage `name` is this one (or, for levels, past it).
+    fn reached_by(&self, name: &str) -> bool {
+        match self {
+            StopAfter::Staged => name == "staged",
+            StopAfter::Hierarchy => name == "hierarchy",
+            StopAfter::Leaves => name == "leaves",
+            StopAfter::Levels(n) => name
+                .strip_prefix("level-")
+                .and_then(|m| m.parse::<u64>().ok())
+                .is_some_and(|m| m >= *n),
+        }
+    }
+}
+
 /// Opens or creates the build's checkpoint, or removes a stale one. `checkpointable`: the
 /// build stages a mesh file under a memory budget.
 pub fn prepare(
@@ -41,6 +84,7 @@ pub fn prepare(
     config: &BuildConfig,
     checkpointable: bool,
     resume: bool,
+    stop_after: Option<(StopAfter, bool)>,
 ) -> anyhow::Result<Option<Prepared>> {
     let is_stdin = crate::input::is_stdin(input);
     if resume {
@@ -67,6 +111,9 @@ pub fn prepare(
         );
     }
     if !checkpointable {
+        if stop_after.is_some() {
+            bail!("--stop-after needs a build that keeps a checkpoint: a mesh under --memory");
+        }
         return Ok(None);
     }
     let fingerprint = if is_stdin {
@@ -108,7 +155,13 @@ pub fn prepare(
     if std::env::var(EVERY_LEVEL_VAR).is_ok_and(|v| v == "1") {
         checkpoint.every_level();
     }
-    checkpoint.on_commit(|stage| {
+    let dir_shown = dir.display().to_string();
+    checkpoint.on_commit(move |stage| {
+        if let Some((stop, json)) = &stop_after {
+            if stop.reached_by(stage) {
+                stop_after_commit(stage, &dir_shown, *json);
+            }
+        }
         let fault = std::env::var(FAULT_VAR).unwrap_or_default();
         let matches = match fault.strip_prefix("kill-after-stage:") {
             Some(name) => match name.strip_suffix('*') {
@@ -123,6 +176,22 @@ pub fn prepare(
         }
     });
     Ok(Some(Prepared { checkpoint, lock }))
+}
+
+/// Ends the process after stage `stage` is committed (`--stop-after`): the checkpoint at
+/// `dir` holds everything a `--resume` needs; said on stderr, and with `--json` as one object
+/// on stdout. The unnamed temporary files go with the process, the checkpoint's lock too.
+fn stop_after_commit(stage: &str, dir: &str, json: bool) -> ! {
+    use std::io::Write;
+    if json {
+        println!(
+            "{}",
+            serde_json::json!({"stopped_after": stage, "checkpoint": dir})
+        );
+        let _ = std::io::stdout().flush();
+    }
+    eprintln!("stopped after stage {stage} (--stop-after): --resume continues from {dir}");
+    std::process::exit(0)
 }
 
 /// Standard input's fingerprint: read to its end when `resume` finds a stage to resume in the

@@ -74,6 +74,14 @@ pub struct BuildArgs {
     /// removed and the build starts over.
     #[arg(long)]
     pub resume: bool,
+    /// End the process once stage STAGE is committed to the checkpoint (`staged`,
+    /// `hierarchy`, `leaves`, or `level-N`: the first level checkpoint with at least N levels
+    /// merged), exit 0 with no output written; `--resume` continues from there. A build then
+    /// runs as several processes, a stage or more each (with `--json`: `{"stopped_after",
+    /// "checkpoint"}`). A stage the build never reaches lets it finish.
+    #[arg(long, value_name = "STAGE", requires = "memory",
+          value_parser = crate::build_checkpoint::StopAfter::parse)]
+    pub stop_after: Option<crate::build_checkpoint::StopAfter>,
     /// Print one JSON object on stdout.
     #[arg(long)]
     pub json: bool,
@@ -127,6 +135,7 @@ pub fn run(args: BuildArgs) -> anyhow::Result<Outcome> {
         &mesh_config,
         staged_mesh,
         args.resume,
+        args.stop_after.clone().map(|s| (s, args.json)),
     )?;
     // (The lock is held until the build ends.)
     let (mut checkpoint, _lock) = match prepared {

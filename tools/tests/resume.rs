@@ -232,6 +232,67 @@ fn a_checkpoint_of_another_build_or_a_damaged_one_is_refused() {
     assert!(!checkpoint_of(&output).exists());
 }
 
+/// The name of the last stage the checkpoint of `output` committed.
+fn last_stage(output: &Path) -> String {
+    let text = std::fs::read_to_string(checkpoint_of(output).join("manifest.json")).unwrap();
+    let manifest: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let stages = manifest["stages"].as_array().unwrap();
+    stages.last().unwrap()["name"].as_str().unwrap().to_string()
+}
+
+#[test]
+fn a_build_run_as_several_processes_with_stop_after_gives_the_same_bytes() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = generate(dir.path(), 150_000);
+    let expected = reference(&input, dir.path());
+    let output = dir.path().join("out.tsr");
+    let every_level = [("TESSERA_CHECKPOINT_EVERY_LEVEL", "1")];
+    // One process a stage or more: each ends once its stage is committed, exit 0, nothing at
+    // the output, the checkpoint's last stage the one asked for.
+    for (i, stage) in ["staged", "hierarchy", "level-3"].into_iter().enumerate() {
+        let resume: &[&str] = if i == 0 { &[] } else { &["--resume"] };
+        let out = build(
+            &input,
+            &output,
+            &[resume, &["--stop-after", stage, "--json"]].concat(),
+            &every_level,
+        );
+        assert!(out.status.success(), "{stage}: {}", stderr(&out));
+        let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        assert_eq!(json["stopped_after"], stage, "{json}");
+        assert!(
+            !output.exists(),
+            "a stopped build wrote {}",
+            output.display()
+        );
+        assert_eq!(last_stage(&output), stage);
+    }
+    // A stage the build has passed or never reaches lets it finish.
+    resume_to(&input, &output, "2", &expected, "level-3");
+    let out = build(&input, &output, &["--stop-after", "level-99"], &[]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert!(std::fs::read(&output).unwrap() == expected);
+    // A stage that does not exist, or a build with no checkpoint: refused, exit 2.
+    for (args, needle) in [
+        (
+            &["--stop-after", "level-0"][..],
+            "a stage is staged, hierarchy",
+        ),
+        (
+            &["--stop-after", "tables"][..],
+            "a stage is staged, hierarchy",
+        ),
+    ] {
+        let out = build(&input, &output, args, &[]);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {}", stderr(&out));
+        assert!(stderr(&out).contains(needle), "{args:?}: {}", stderr(&out));
+    }
+    let (i, o) = (input.to_str().unwrap(), output.to_str().unwrap());
+    let out = run(&["build", i, "-o", o, "--stop-after", "leaves"], &[]);
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+    assert!(stderr(&out).contains("--memory"), "{}", stderr(&out));
+}
+
 /// `build - -o OUTPUT --memory 64M` and `extra`, `input` piped into its standard input.
 fn build_from_stdin(input: &Path, output: &Path, extra: &[&str], env: &[(&str, &str)]) -> Output {
     Command::new(TESSERA)
