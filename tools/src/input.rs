@@ -50,7 +50,7 @@ pub struct LoadedInput {
     pub mesh: InputMesh,
     pub domain: Domain,
     /// The grid, for a DEM.
-    pub grid: Option<HeightGrid>,
+    pub grid: Option<GridFacts>,
     /// One line about what was read.
     pub description: String,
 }
@@ -105,25 +105,11 @@ pub fn load_input_staged(
     if DemFormat::from_path(path).is_some() {
         let grid = args.load_grid(path)?;
         let mesh = grid.to_mesh(&options);
-        if mesh.triangles.is_empty() {
-            bail!(
-                "{}: no cell of the {} × {} grid has three samples with heights",
-                path.display(),
-                grid.columns,
-                grid.rows
-            );
-        }
-        let description = format!(
-            "height field {} × {} ({} samples with heights, {} triangles)",
-            grid.columns,
-            grid.rows,
-            grid.valid_samples(),
-            mesh.triangles.len()
-        );
+        let description = height_field_description(path, &grid, mesh.triangles.len())?;
         return Ok(LoadedInput {
             mesh,
             domain: Domain::HeightField,
-            grid: Some(grid),
+            grid: Some(GridFacts::of(&grid)),
             description,
         });
     }
@@ -165,6 +151,8 @@ pub enum BuildInput {
     Staged {
         staged: tessera_preprocess::external::StagedMesh,
         domain: Domain,
+        /// A height field's grid.
+        grid: Option<GridFacts>,
         description: String,
     },
     /// Nothing read: the build continues from its checkpoint's simplification state.
@@ -182,10 +170,11 @@ impl BuildInput {
         }
     }
 
-    pub fn grid(&self) -> Option<&HeightGrid> {
+    pub fn grid(&self) -> Option<&GridFacts> {
         match self {
             BuildInput::Loaded(input) => input.grid.as_ref(),
-            BuildInput::Staged { .. } | BuildInput::Resumed { .. } => None,
+            BuildInput::Staged { grid, .. } => grid.as_ref(),
+            BuildInput::Resumed { .. } => None,
         }
     }
 
@@ -208,6 +197,20 @@ pub fn load_build_input(
     args: &HeightFieldArgs,
     staging: Option<(&Path, u64)>,
 ) -> anyhow::Result<(BuildInput, Option<Fingerprint>)> {
+    // A height field under a budget: its grid read whole (4 bytes a sample), its mesh staged
+    // row by row as it is made (48 bytes a sample in memory otherwise).
+    if let (Some((dir, _)), true) = (staging, DemFormat::from_path(path).is_some()) {
+        let grid = args.load_grid(path)?;
+        let staged = grid.stage(&args.terrain_options()?, dir)?;
+        let description = height_field_description(path, &grid, staged.triangles.len() as usize)?;
+        let input = BuildInput::Staged {
+            staged,
+            domain: Domain::HeightField,
+            grid: Some(GridFacts::of(&grid)),
+            description,
+        };
+        return Ok((input, None));
+    }
     let plain_mesh = is_plain_mesh(path, args)?;
     let Some((dir, budget)) = staging.filter(|_| plain_mesh) else {
         return Ok((
@@ -263,6 +266,7 @@ pub fn staged_input(
     BuildInput::Staged {
         staged,
         domain,
+        grid: None,
         description,
     }
 }
@@ -318,12 +322,54 @@ fn read_mesh(path: &Path, staging: Option<(&Path, u64)>) -> Result<ImportReport,
 }
 
 /// The grid part of `build --json` (null for a mesh).
-pub fn grid_json(grid: Option<&HeightGrid>) -> serde_json::Value {
+/// What `build` reports of a height field's grid (its heights are not kept).
+#[derive(Clone, Copy, Debug)]
+pub struct GridFacts {
+    pub columns: usize,
+    pub rows: usize,
+    pub valid_samples: usize,
+    pub geographic: bool,
+}
+
+impl GridFacts {
+    pub fn of(grid: &HeightGrid) -> GridFacts {
+        GridFacts {
+            columns: grid.columns,
+            rows: grid.rows,
+            valid_samples: grid.valid_samples(),
+            geographic: grid.geographic,
+        }
+    }
+}
+
+/// "height field C × R (…)", or the error of a grid with no triangle.
+fn height_field_description(
+    path: &Path,
+    grid: &HeightGrid,
+    triangles: usize,
+) -> anyhow::Result<String> {
+    if triangles == 0 {
+        bail!(
+            "{}: no cell of the {} × {} grid has three samples with heights",
+            path.display(),
+            grid.columns,
+            grid.rows
+        );
+    }
+    Ok(format!(
+        "height field {} × {} ({} samples with heights, {triangles} triangles)",
+        grid.columns,
+        grid.rows,
+        grid.valid_samples(),
+    ))
+}
+
+pub fn grid_json(grid: Option<&GridFacts>) -> serde_json::Value {
     match grid {
         Some(g) => json!({
             "columns": g.columns,
             "rows": g.rows,
-            "valid_samples": g.valid_samples(),
+            "valid_samples": g.valid_samples,
             "geographic": g.geographic,
         }),
         None => serde_json::Value::Null,

@@ -17,6 +17,7 @@
 mod error;
 mod geotiff;
 mod image_grid;
+mod mesh;
 mod netcdf;
 mod npy;
 mod raw;
@@ -25,8 +26,6 @@ pub mod write;
 use std::path::Path;
 
 pub use error::{DemError, DemErrorKind};
-
-use crate::mesh::InputMesh;
 
 /// Metres per degree on the equator: geographic grids are drawn as plate carrée in metres, so
 /// heights in metres and horizontal positions share a unit.
@@ -251,71 +250,12 @@ impl HeightGrid {
             ),
         }
     }
-
-    /// The triangle mesh of the grid: one vertex per sample with a height, two triangles per
-    /// cell whose four corners have heights, one per cell with exactly three (missing samples
-    /// are holes). Triangles are counter-clockwise seen from above (+z). Geographic grids are
-    /// drawn as plate carrée in metres (`METRES_PER_DEGREE`).
-    pub fn to_mesh(&self, options: &TerrainOptions) -> InputMesh {
-        let (columns, rows) = (self.columns, self.rows);
-        let (origin, spacing) = self.placement(options);
-        // Vertex ids in sample order, skipping missing samples.
-        let mut id = vec![u32::MAX; columns * rows];
-        let mut positions = Vec::with_capacity(self.valid_samples());
-        for (i, &h) in self.heights.iter().enumerate() {
-            if !h.is_nan() {
-                id[i] = positions.len() as u32;
-                let (r, c) = (i / columns, i % columns);
-                positions.push([
-                    origin[0] + c as f64 * spacing[0],
-                    origin[1] + r as f64 * spacing[1],
-                    h as f64 * options.vertical_exaggeration,
-                ]);
-            }
-        }
-        // Counter-clockwise from above when x grows with the column and y with the row;
-        // mirrored otherwise.
-        let flip = (spacing[0] < 0.0) != (spacing[1] < 0.0);
-        let mut triangles = Vec::with_capacity(2 * (columns - 1) * (rows - 1));
-        let mut push = |t: [u32; 3]| {
-            if t.iter().all(|&v| v != u32::MAX) {
-                triangles.push(if flip { [t[0], t[2], t[1]] } else { t });
-            }
-        };
-        for r in 0..rows - 1 {
-            for c in 0..columns - 1 {
-                let a = id[r * columns + c];
-                let b = id[r * columns + c + 1];
-                let d = id[(r + 1) * columns + c];
-                let e = id[(r + 1) * columns + c + 1];
-                let corners = [a, b, d, e].iter().filter(|&&v| v != u32::MAX).count();
-                if corners == 4 {
-                    push([a, b, e]);
-                    push([a, e, d]);
-                } else if corners == 3 {
-                    // The one triangle of the three present corners, same orientation.
-                    match [a, b, d, e].iter().position(|&v| v == u32::MAX) {
-                        Some(0) => push([b, e, d]),
-                        Some(1) => push([a, e, d]),
-                        Some(2) => push([a, b, e]),
-                        _ => push([a, b, d]),
-                    }
-                }
-            }
-        }
-        InputMesh {
-            positions,
-            triangles,
-            normals: None,
-            colors: None,
-            uvs: None,
-        }
-    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::mesh::InputMesh;
 
     fn signed_area(mesh: &InputMesh, t: [u32; 3]) -> f64 {
         let [a, b, c] = t.map(|v| mesh.positions[v as usize]);
