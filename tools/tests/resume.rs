@@ -291,6 +291,22 @@ fn a_build_run_as_several_processes_with_stop_after_gives_the_same_bytes() {
     let out = run(&["build", i, "-o", o, "--stop-after", "leaves"], &[]);
     assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
     assert!(stderr(&out).contains("--memory"), "{}", stderr(&out));
+    // A height field keeps no checkpoint: refused, nothing written.
+    let grid = dir.path().join("grid.json");
+    std::fs::write(
+        &grid,
+        r#"{"width": 3, "height": 3, "values": [0,1,2,1,2,3,2,3,4]}"#,
+    )
+    .unwrap();
+    let _ = std::fs::remove_file(&output);
+    let out = build(&grid, &output, &["--stop-after", "hierarchy"], &[]);
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("--stop-after needs a build that keeps a checkpoint"),
+        "{}",
+        stderr(&out)
+    );
+    assert!(!output.exists());
 }
 
 /// `build - -o OUTPUT --memory 64M` and `extra`, `input` piped into its standard input.
