@@ -76,7 +76,8 @@ impl StopAfter {
 }
 
 /// Opens or creates the build's checkpoint, or removes a stale one. `checkpointable`: the
-/// build stages a mesh file under a memory budget.
+/// build stages a mesh (a file or standard input) under a memory budget. `stop_after`:
+/// `--stop-after` and whether `--json` was given.
 pub fn prepare(
     input: &Path,
     output: &Path,
