@@ -22,6 +22,12 @@ fn stderr(out: &Output) -> String {
     String::from_utf8_lossy(&out.stderr).into_owned()
 }
 
+/// The run was refused: exit 2, its message naming `needle`.
+fn assert_refused(out: &Output, needle: &str) {
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(out));
+    assert!(stderr(out).contains(needle), "{}", stderr(out));
+}
+
 /// A generated mesh of `triangles` triangles in `dir`, its vertices shuffled.
 fn generate(dir: &Path, triangles: u32) -> PathBuf {
     let path = dir.join("mesh.ply");
@@ -283,9 +289,7 @@ fn a_build_run_as_several_processes_with_stop_after_gives_the_same_bytes() {
             "a stage is staged, hierarchy",
         ),
     ] {
-        let out = build(&input, &output, args, &[]);
-        assert_eq!(out.status.code(), Some(2), "{args:?}: {}", stderr(&out));
-        assert!(stderr(&out).contains(needle), "{args:?}: {}", stderr(&out));
+        assert_refused(&build(&input, &output, args, &[]), needle);
     }
     let (i, o) = (input.to_str().unwrap(), output.to_str().unwrap());
     let out = run(&["build", i, "-o", o, "--stop-after", "leaves"], &[]);
@@ -300,12 +304,7 @@ fn a_build_run_as_several_processes_with_stop_after_gives_the_same_bytes() {
     .unwrap();
     let _ = std::fs::remove_file(&output);
     let out = build(&grid, &output, &["--stop-after", "hierarchy"], &[]);
-    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
-    assert!(
-        stderr(&out).contains("--stop-after needs a build that keeps a checkpoint"),
-        "{}",
-        stderr(&out)
-    );
+    assert_refused(&out, "--stop-after needs a build that keeps a checkpoint");
     assert!(!output.exists());
 }
 
@@ -382,12 +381,7 @@ fn a_build_from_standard_input_resumes_when_the_same_stream_is_piped_again() {
     changed[last] ^= 1; // the same size, one bit of the last face's index differs
     std::fs::write(&other, changed).unwrap();
     let out = build_from_stdin(&other, &output, &["--resume"], &[]);
-    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
-    assert!(
-        stderr(&out).contains("input contents (CRC-32 of every byte)"),
-        "{}",
-        stderr(&out)
-    );
+    assert_refused(&out, "input contents (CRC-32 of every byte)");
     assert!(!output.exists());
     assert!(checkpoint_of(&output).join("manifest.json").exists());
     let out = build_from_stdin(&input, &output, &["--resume"], &[]);
