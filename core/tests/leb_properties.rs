@@ -270,7 +270,7 @@ proptest! {
         let mut mesh = ConformingMesh::new(dim, BITS);
         for pick in picks {
             // Split the diamond of a pseudo-randomly chosen leaf (forced splits included).
-            let mut leaves: Vec<Simplex> = mesh.leaves().copied().collect();
+            let mut leaves: Vec<Simplex> = mesh.leaves().collect();
             leaves.sort_by_key(|s| s.key);
             let leaf = leaves[(pick % leaves.len() as u64) as usize];
             if leaf.can_split() {
@@ -279,8 +279,27 @@ proptest! {
             }
         }
         check_conforming(&mesh);
-        let mut leaves: Vec<Simplex> = mesh.leaves().copied().collect();
+        let mut leaves: Vec<Simplex> = mesh.leaves().collect();
         leaves.sort_by_key(|s| s.key);
+        // The leaves are what the split diamonds make: each split simplex becomes two.
+        prop_assert_eq!(leaves.len(), mesh.leaf_count());
+        leaves.windows(2).for_each(|w| assert_ne!(w[0].key, w[1].key));
+        for leaf in &leaves {
+            prop_assert!(mesh.is_leaf(leaf.key) && mesh.contains_leaf(leaf));
+            prop_assert_eq!(mesh.simplex(leaf.key), Some(*leaf));
+            if leaf.can_split() {
+                // Its children are not in the mesh; its parent is, and is not a leaf.
+                for c in leaf.children() {
+                    prop_assert!(!mesh.is_leaf(c.key) && !mesh.contains_leaf(&c));
+                    prop_assert_eq!(mesh.simplex(c.key), None);
+                }
+            }
+            if leaf.level() > 0 {
+                let parent = leaf.key.ancestor(leaf.level() - 1);
+                let split = mesh.simplex(parent);
+                prop_assert!(split.is_some_and(|p| !mesh.contains_leaf(&p)) && !mesh.is_leaf(parent));
+            }
+        }
         let side = (1u64 << BITS) as f64;
         for (x, y, z, kind) in queries {
             // Leaf vertices, half-lattice points (on edges and facets), centroids, random reals.

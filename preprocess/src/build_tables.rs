@@ -94,7 +94,7 @@ pub(crate) fn assemble(
     let diamonds: Vec<DiamondRecord> = diamond_order
         .iter()
         .map(|&i| {
-            let d = &hierarchy.diamonds[i];
+            let d = hierarchy.diamond(i);
             let (center, radius) = saturated.sphere[i].to_f32();
             let mut parents = [NO_INDEX; 4];
             for (slot, p) in parents.iter_mut().zip(&d.parents) {

@@ -76,7 +76,7 @@ pub fn saturate(
     // first.
     let margin = RADIUS_MARGIN * model_size;
     for i in (0..n).rev() {
-        let d = &hierarchy.diamonds[i];
+        let d = hierarchy.diamond(i);
         let below = d
             .children
             .iter()
@@ -205,8 +205,9 @@ mod tests {
         }
         // Own errors add up along chains: a diamond k levels above the deepest split ones
         // has err = k + 1 (own 1 each).
-        for (i, d) in hierarchy.diamonds.iter().enumerate() {
-            let children: Vec<usize> = d
+        for i in 0..n {
+            let children: Vec<usize> = hierarchy
+                .diamond(i)
                 .children
                 .iter()
                 .filter_map(|c| hierarchy.diamonds.iter().position(|x| x.id == *c))

@@ -72,7 +72,7 @@ fn assert_same(expected: &Hierarchy, got: &Hierarchy, what: &str) {
         "{what}: mesh split set"
     );
     let leaves = |h: &Hierarchy| {
-        let mut l: Vec<_> = h.mesh.leaves().copied().collect();
+        let mut l: Vec<_> = h.mesh.leaves().collect();
         l.sort_by_key(|s| s.key);
         l
     };

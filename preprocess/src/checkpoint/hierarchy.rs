@@ -11,7 +11,7 @@ use tessera_core::leb::{ConformingMesh, Diamond};
 
 use super::{Checkpoint, Dec, Enc, FileRecord, StageRecord};
 use crate::frame::LatticeFrame;
-use crate::hierarchy::{Hierarchy, LeafListSpool};
+use crate::hierarchy::{Hierarchy, LeafListSpool, SplitDiamond};
 use crate::simplify::CurrentMesh;
 
 pub(super) const HIERARCHY: &str = "hierarchy.bin";
@@ -271,9 +271,9 @@ pub(super) fn decode_hierarchy(bytes: &[u8]) -> io::Result<Hierarchy> {
         return Err(invalid("hierarchy: bad frame"));
     }
     let mut mesh = ConformingMesh::new(dim, bits);
-    let mut diamonds: Vec<Diamond> = Vec::with_capacity(ids.len());
+    let mut diamonds: Vec<SplitDiamond> = Vec::with_capacity(ids.len());
     for &id in &ids {
-        if !mesh.split(id, &mut |d: &Diamond| diamonds.push(d.clone())) {
+        if !mesh.split(id, &mut |d: &Diamond| diamonds.push(SplitDiamond::of(d))) {
             return Err(invalid("hierarchy: a diamond below the lattice"));
         }
     }

@@ -50,7 +50,7 @@ use super::bucket_store::BucketStore;
 use super::coarse_passes::coarse_refine;
 use super::leaf_lists::{LeafListSpool, LeafListWriter};
 use super::locator::Locator;
-use super::{partition, Construction, Hierarchy, Located};
+use super::{partition, Construction, Hierarchy, Located, SplitDiamond};
 use crate::frame::LatticeFrame;
 
 /// How much of the input the bucketed construction may hold at once, and where its
@@ -153,7 +153,7 @@ pub fn build_hierarchy_bucketed_spooled(
     let criterion = Criterion(construction);
     let mut stats = BucketStats::default();
     let mut mesh = ConformingMesh::new(frame.dim, frame.bits);
-    let mut diamonds: Vec<Diamond> = Vec::new();
+    let mut diamonds: Vec<SplitDiamond> = Vec::new();
 
     // 1. Coarse passes.
     let triangles: Option<u64> = coarse_refine(
@@ -167,7 +167,7 @@ pub fn build_hierarchy_bucketed_spooled(
     )?;
 
     // 2. Distribution.
-    let mut buckets: Vec<Simplex> = mesh.leaves().copied().collect();
+    let mut buckets: Vec<Simplex> = mesh.leaves().collect();
     buckets.sort_unstable_by_key(|s| s.key);
     stats.buckets = buckets.len();
     let mut store = BucketStore::new(budget, buckets.len())?;
@@ -278,16 +278,16 @@ pub fn build_hierarchy_bucketed_spooled(
     let lists = spool.finish(mesh.leaves().map(|s| s.key))?;
 
     // The criterion holds everywhere (a bug otherwise, not an input problem).
-    let mut leaves: Vec<&Simplex> = mesh.leaves().collect();
+    let mut leaves: Vec<Simplex> = mesh.leaves().collect();
     leaves.sort_unstable_by_key(|s| s.key);
     for (leaf, (key, n)) in leaves.into_iter().zip(lists.leaves()) {
         debug_assert_eq!(leaf.key, key);
         assert!(
-            !(leaf.can_split() && criterion.needs_split(leaf, n)),
+            !(leaf.can_split() && criterion.needs_split(&leaf, n)),
             "bucketed hierarchy: leaf {key:?} with {n} triangles was left unsplit"
         );
     }
-    diamonds.sort_unstable_by_key(|d: &Diamond| (d.level, d.id));
+    diamonds.sort_unstable_by_key(|d| (d.level, d.id));
     Ok((
         Hierarchy {
             frame,
@@ -331,7 +331,7 @@ fn split_bucket(
     cell: &Simplex,
     records: Vec<(u32, [f64; 3])>,
     criterion: &Criterion,
-    diamonds: &mut Vec<Diamond>,
+    diamonds: &mut Vec<SplitDiamond>,
     touched: &mut dyn FnMut(SimplexKey),
 ) -> LeafLists {
     // Earlier buckets' forced splits may have split the cell already.
@@ -352,7 +352,7 @@ fn split_bucket(
         leaf_triangles.insert(leaf.key, list);
     }
     while let Some(s) = queue.pop() {
-        if !mesh.is_leaf(s.key) || !s.can_split() {
+        if !mesh.contains_leaf(&s) || !s.can_split() {
             continue;
         }
         mesh.split(s.split_point(), &mut |d: &Diamond| {
@@ -370,7 +370,7 @@ fn split_bucket(
                     leaf_triangles.insert(c.key, part);
                 }
             }
-            diamonds.push(d.clone());
+            diamonds.push(SplitDiamond::of(d));
         });
     }
     leaf_triangles

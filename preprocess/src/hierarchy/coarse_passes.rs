@@ -11,6 +11,7 @@ use tessera_core::leb::{Bisector, ConformingMesh, Diamond, Simplex, SimplexKey};
 use super::barycentres::{BarycentreSource, InOrder};
 use super::bucketed::{BucketStats, Criterion};
 use super::locator::Locator;
+use super::SplitDiamond;
 use crate::frame::LatticeFrame;
 
 /// Deepest histogram below a counted leaf.
@@ -24,7 +25,7 @@ pub(super) fn coarse_refine(
     criterion: &Criterion,
     cap: u64,
     mesh: &mut ConformingMesh,
-    diamonds: &mut Vec<Diamond>,
+    diamonds: &mut Vec<SplitDiamond>,
     stats: &mut BucketStats,
 ) -> io::Result<Option<u64>> {
     // An upper bound on every leaf's triangle count (exact once counted).
@@ -37,7 +38,6 @@ pub(super) fn coarse_refine(
         let mut active: Vec<Simplex> = mesh
             .leaves()
             .filter(|s| criterion.coarse_split(s, bounds[&s.key], cap))
-            .copied()
             .collect();
         if active.is_empty() {
             break;
@@ -116,7 +116,7 @@ pub(super) fn coarse_refine(
                             bounds.insert(c.key, exact.get(&c.key).copied().unwrap_or(bound));
                         }
                     }
-                    diamonds.push(d.clone());
+                    diamonds.push(SplitDiamond::of(d));
                 });
                 assert!(split, "a splittable simplex's diamond splits");
                 if node.bisector.is_some() {

@@ -35,7 +35,7 @@ impl Locator {
     }
 
     fn add(&mut self, mesh: &ConformingMesh, s: Simplex) -> u32 {
-        if mesh.is_leaf(s.key) {
+        if mesh.contains_leaf(&s) {
             self.leaves.push(s);
             return (self.leaves.len() - 1) as u32 | LEAF;
         }

@@ -212,7 +212,7 @@ pub fn simplify_levels(
                     result: simplify_diamond(
                         &ctx,
                         d,
-                        &hierarchy.diamonds[d],
+                        &hierarchy.diamond(d),
                         &state.patches,
                         &state.current,
                         &no_extra,
@@ -271,7 +271,7 @@ pub fn simplify_levels(
                 for (r, made) in merged {
                     state.own_error[r.diamond] = r.error;
                     state.locked_vertices += r.locked;
-                    for s in &hierarchy.diamonds[r.diamond].simplices {
+                    for s in &hierarchy.diamond(r.diamond).simplices {
                         for c in s.children() {
                             state.live.remove(&c.key);
                             state.patches.remove(&c.key)?;
@@ -289,13 +289,14 @@ pub fn simplify_levels(
                 .into_par_iter()
                 .map(|(mut p, blocked)| {
                     let d = p.result.diamond;
+                    let diamond = hierarchy.diamond(d);
                     // Its children are still live: what it gathered is theirs.
-                    let (gathered, ..) = gather_patches(&hierarchy.diamonds[d], &state.patches)?;
+                    let (gathered, ..) = gather_patches(&diamond, &state.patches)?;
                     p.lock_more(&blocked, &gathered);
                     let again = simplify_diamond(
                         &ctx,
                         d,
-                        &hierarchy.diamonds[d],
+                        &diamond,
                         &state.patches,
                         &state.current,
                         &p.extra_locks,
