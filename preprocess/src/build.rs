@@ -497,7 +497,7 @@ fn build_in_pool(
         SimplifyError::Finished(e) => temporary(e),
     })?;
     let mut finished = finished.into_inner();
-    finished.seal();
+    finished.seal().map_err(temporary)?;
     stage("simplify", t);
 
     let stages = std::mem::take(&mut stages);
@@ -511,7 +511,7 @@ fn build_in_pool(
         model_size,
         stages,
     };
-    Ok(assemble(parts, config, on_stage))
+    assemble(parts, config, on_stage).map_err(temporary)
 }
 
 /// The hierarchy and the use counts, from the mesh in memory or staged on disk; a staged

@@ -6,7 +6,7 @@ use rustc_hash::FxHashMap as HashMap;
 use std::time::Instant;
 
 use tessera_core::bounds::round_up_f32;
-use tessera_core::leb::{DiamondId, Simplex, SimplexKey};
+use tessera_core::leb::{DiamondId, Simplex};
 use tessera_core::repository::format::{DiamondRecord, Header, TetRecord, NO_INDEX};
 use tessera_core::repository::RepositoryDirectory;
 
@@ -18,11 +18,11 @@ use crate::hierarchy::Hierarchy;
 use crate::saturate::{nest_simplex_spheres, saturate, OwnErrors, RADIUS_MARGIN};
 use crate::simplify::Simplified;
 
-/// A built repository before it is written: its directory, its tet table's simplices in
-/// order, and their encoded patches.
+/// A built repository before it is written: its directory, its tet table's rows in the
+/// finished patches' records, in order, and their encoded patches.
 pub(crate) struct Built {
     pub directory: RepositoryDirectory,
-    pub order: Vec<SimplexKey>,
+    pub order: Vec<u32>,
     pub finished: FinishedPatches,
     pub summary: BuildSummary,
 }
@@ -44,7 +44,7 @@ pub(crate) fn assemble(
     parts: Parts,
     config: &BuildConfig,
     on_stage: &(dyn Fn(&str) + Sync),
-) -> Built {
+) -> std::io::Result<Built> {
     let Parts {
         hierarchy,
         simplified,
@@ -72,8 +72,8 @@ pub(crate) fn assemble(
         .enumerate()
         .map(|(row, &i)| (hierarchy.diamonds[i].id, row as u32))
         .collect();
-    let simplices = breadth_first(&hierarchy, &table_index);
-    let patch_sphere = |key| finished.get(key).sphere;
+    let simplices = breadth_first(&hierarchy, &table_index, &finished);
+    let patch_sphere = |key| finished.get(key).map(|p| p.sphere);
     let error_floor = step.iter().copied().fold(model_size * 1e-9, f64::max);
     // Patches are stored on the position lattice: each vertex within half a step per axis of
     // its input position, while the simplifier measured its error on the input's positions.
@@ -90,7 +90,7 @@ pub(crate) fn assemble(
         &patch_sphere,
         error_floor,
         model_size,
-    );
+    )?;
     let diamonds: Vec<DiamondRecord> = diamond_order
         .iter()
         .map(|&i| {
@@ -123,7 +123,7 @@ pub(crate) fn assemble(
     let mut spheres = Vec::with_capacity(simplices.len());
     let (mut patch_offset, mut id_offset) = (0u64, 0u64);
     for entry in &simplices {
-        let p = finished.get(entry.key);
+        let p = finished.record(entry.row)?;
         let (center, radius) = p.sphere.to_f32();
         tets.push(TetRecord {
             center,
@@ -133,7 +133,7 @@ pub(crate) fn assemble(
             diamond: entry.diamond,
             parent_diamond: entry.parent_diamond,
             first_child: entry.first_child,
-            level: entry.key.level as u32,
+            level: entry.level as u32,
             patch_offset,
             patch_bytes: p.patch_bytes,
             vertex_count: p.vertex_count,
@@ -148,7 +148,7 @@ pub(crate) fn assemble(
         id_offset += p.id_bytes as u64;
     }
     nest_simplex_spheres(&mut tets, &mut spheres, RADIUS_MARGIN * model_size);
-    let order: Vec<SimplexKey> = simplices.iter().map(|e| e.key).collect();
+    let order: Vec<u32> = simplices.iter().map(|e| e.row).collect();
     drop(simplices);
     stage("tables", t);
 
@@ -184,7 +184,7 @@ pub(crate) fn assemble(
         seconds: 0.0,
         stages,
     };
-    Built {
+    Ok(Built {
         directory: RepositoryDirectory {
             header,
             diamonds,
@@ -194,14 +194,16 @@ pub(crate) fn assemble(
         order,
         finished,
         summary,
-    }
+    })
 }
 
-/// One row of the simplex table: its simplex, the table rows of the diamond its split makes
-/// (`NO_INDEX` for a leaf) and of the diamond whose split made it (`NO_INDEX` for a root),
-/// and its first child's row. (No `Simplex` here: at 100 M triangles the table has 1.6 M rows.)
+/// One row of the simplex table: its simplex (the row of its finished patch's record, and its
+/// level), the table rows of the diamond its split makes (`NO_INDEX` for a leaf) and of the
+/// diamond whose split made it (`NO_INDEX` for a root), and its first child's row. (20 bytes:
+/// at 100 M triangles the table has 1.6 M rows.)
 struct TableEntry {
-    key: SimplexKey,
+    row: u32,
+    level: u16,
     diamond: u32,
     parent_diamond: u32,
     first_child: u32,
@@ -209,7 +211,11 @@ struct TableEntry {
 
 /// The simplex table, breadth-first from the roots: a level at a time, each level's simplices
 /// in the order of their parents (so siblings are adjacent), exactly sized.
-fn breadth_first(hierarchy: &Hierarchy, table_index: &HashMap<DiamondId, u32>) -> Vec<TableEntry> {
+fn breadth_first(
+    hierarchy: &Hierarchy,
+    table_index: &HashMap<DiamondId, u32>,
+    finished: &FinishedPatches,
+) -> Vec<TableEntry> {
     let mesh = &hierarchy.mesh;
     // Each split turns one leaf into two: the table holds every root and two per split.
     let rows = 2 * mesh.leaf_count() - mesh.roots().len();
@@ -231,7 +237,8 @@ fn breadth_first(hierarchy: &Hierarchy, table_index: &HashMap<DiamondId, u32>) -
                 (NO_INDEX, NO_INDEX)
             };
             table.push(TableEntry {
-                key: s.key,
+                row: finished.row(s.key),
+                level: s.level(),
                 diamond,
                 parent_diamond,
                 first_child,

@@ -6,6 +6,8 @@
 //!
 //! The bytes are kept in memory, or under a memory budget in two unnamed temporary files
 //! (counted in `temp_bytes_peak`), read back one patch at a time when the file is written.
+//! Under a budget the records the tables need (sphere, cone, counts, where the bytes are) go
+//! to a third file, and memory keeps 20 bytes a simplex: its key and its record's row.
 //! Either way the repository is the same bytes: a patch's encoding depends only on its
 //! triangles (in the simplifier's order) and the input's positions and attributes.
 
@@ -27,6 +29,9 @@ use crate::strips::build_patch;
 use crate::vertex_table::LivePatch;
 
 mod checkpoint;
+mod records;
+
+use records::Records;
 
 /// What the tet table needs of one encoded patch.
 #[derive(Clone, Copy, Debug)]
@@ -61,18 +66,20 @@ pub struct PatchEncoding {
 
 /// Every finished patch by simplex, and its encoded bytes.
 pub struct FinishedPatches {
-    /// Appended as patches finish, sorted by key before the first lookup ([`Self::seal`]):
-    /// 104 B a simplex where a hash map took 2^⌈log2⌉ slots of 121 B (at 100 M input
-    /// triangles, 1.6 M simplices: 166 MB against 254 MB).
-    index: Vec<(IndexKey, FinishedPatch)>,
+    /// Each simplex's key and its row in `records`, appended as patches finish and sorted by
+    /// key before the first lookup ([`Self::seal`]): 20 bytes a simplex (at 100 M input
+    /// triangles, 1.6 M simplices: 32 MB; the records beside the keys took 166 MB).
+    index: Vec<(IndexKey, u32)>,
     sorted: bool,
+    records: Records,
     store: Store,
 }
 
-/// A [`SimplexKey`] in 16 bytes (8-aligned): the root above bit 125, a marker bit at the
-/// simplex's level and the path below it, ordered as the keys are (root, level, path).
+/// A [`SimplexKey`] in 16 bytes (4-aligned, most significant word first): the root above
+/// bit 125, a marker bit at the simplex's level and the path below it, ordered as the keys
+/// are (root, level, path).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
-struct IndexKey([u64; 2]);
+struct IndexKey([u32; 4]);
 
 impl IndexKey {
     /// The packed key, or `None` for a key no hierarchy makes (a root past 7, a level past
@@ -80,11 +87,19 @@ impl IndexKey {
     fn of(key: SimplexKey) -> Option<IndexKey> {
         let fits = key.root < 8 && key.level <= 124 && key.path >> key.level == 0;
         let packed = (key.root as u128) << 125 | 1u128 << key.level | key.path;
-        fits.then_some(IndexKey([(packed >> 64) as u64, packed as u64]))
+        fits.then_some(IndexKey(
+            [96, 64, 32, 0].map(|shift| (packed >> shift) as u32),
+        ))
+    }
+
+    /// The packed key these words are, if they are one (they hold a level's marker bit).
+    fn from_words(words: [u32; 4]) -> Option<IndexKey> {
+        let packed = words.iter().fold(0u128, |acc, &w| acc << 32 | w as u128);
+        (packed & ((1u128 << 125) - 1) != 0).then_some(IndexKey(words))
     }
 
     fn key(self) -> SimplexKey {
-        let packed = (self.0[0] as u128) << 64 | self.0[1] as u128;
+        let packed = self.0.iter().fold(0u128, |acc, &w| acc << 32 | w as u128);
         let root = (packed >> 125) as u8;
         let below = packed & ((1u128 << 125) - 1);
         let level = 127 - below.leading_zeros() as u16;
@@ -161,9 +176,14 @@ impl FinishedPatches {
                 ids: Spill::new(dir)?,
             },
         };
+        let records = match spill_dir {
+            None => Records::Memory(Vec::new()),
+            Some(dir) => Records::Disk(Spill::new(dir)?),
+        };
         Ok(FinishedPatches {
             index: Vec::new(),
             sorted: true,
+            records,
             store,
         })
     }
@@ -173,13 +193,16 @@ impl FinishedPatches {
     pub fn reserve(&mut self, simplices: usize) {
         self.index
             .reserve_exact(simplices.saturating_sub(self.index.len()));
+        self.records.reserve(simplices);
     }
 
-    /// Sorts the index for lookups; panics if a simplex was finished twice.
-    pub fn seal(&mut self) {
+    /// Sorts the index for lookups and makes every record readable; panics if a simplex was
+    /// finished twice.
+    pub fn seal(&mut self) -> io::Result<()> {
         if let Some(key) = self.sort_index() {
             panic!("simplex {key:?} finished twice");
         }
+        self.records.flush()
     }
 
     /// Sorts the index; returns a simplex it holds twice, if any.
@@ -219,43 +242,71 @@ impl FinishedPatches {
                 };
                 let packed = IndexKey::of(key)
                     .unwrap_or_else(|| panic!("simplex {key:?} is outside every hierarchy"));
-                self.index.push((packed, patch));
+                let row = self.records.push(packed, &patch)?;
+                self.index.push((packed, row));
                 self.sorted = false;
             }
         }
         Ok(())
     }
 
-    /// The finished patch of `key`. Panics when it has none (every simplex of the hierarchy
+    /// The row of `key`'s record. Panics when it has none (every simplex of the hierarchy
     /// gets one) or when the index is not [sealed](Self::seal).
-    pub fn get(&self, key: SimplexKey) -> &FinishedPatch {
+    pub fn row(&self, key: SimplexKey) -> u32 {
         assert!(
             self.sorted,
             "finished patches looked up before they were sealed"
         );
         IndexKey::of(key)
             .and_then(|k| self.index.binary_search_by_key(&k, |(k, _)| *k).ok())
-            .map(|i| &self.index[i].1)
+            .map(|i| self.index[i].1)
             .unwrap_or_else(|| panic!("simplex {key:?} has no finished patch"))
     }
 
-    /// Feeds the writer the patches of `order` (the tet table's simplices, in table order).
-    pub fn feed<'a>(&'a mut self, order: &'a [SimplexKey]) -> impl BlobFeed + 'a {
+    /// The record of `row` ([`Self::row`]).
+    pub fn record(&self, row: u32) -> io::Result<FinishedPatch> {
+        self.records.get(row)
+    }
+
+    /// The finished patch of `key` (see [`Self::row`]).
+    pub fn get(&self, key: SimplexKey) -> io::Result<FinishedPatch> {
+        self.record(self.row(key))
+    }
+
+    /// Feeds the writer the patches of `order` (the tet table's rows in the records, in
+    /// table order).
+    pub fn feed<'a>(&'a mut self, order: &'a [u32]) -> impl BlobFeed + 'a {
         Feed {
             patches: self,
             order,
+            last: None,
         }
     }
 }
 
 struct Feed<'a> {
     patches: &'a mut FinishedPatches,
-    order: &'a [SimplexKey],
+    order: &'a [u32],
+    /// The last tet's record: its patch and then its ids are asked for.
+    last: Option<(usize, FinishedPatch)>,
+}
+
+impl Feed<'_> {
+    fn record(&mut self, tet: usize) -> io::Result<FinishedPatch> {
+        match self.last {
+            Some((t, p)) if t == tet => Ok(p),
+            _ => {
+                let p = self.patches.record(self.order[tet])?;
+                self.last = Some((tet, p));
+                Ok(p)
+            }
+        }
+    }
 }
 
 impl BlobFeed for Feed<'_> {
     fn patch(&mut self, tet: usize, out: &mut Vec<u8>) -> io::Result<()> {
-        let p = *self.patches.get(self.order[tet]);
+        let p = self.record(tet)?;
         match &mut self.patches.store {
             Store::Memory { patches, .. } => {
                 let at = p.patch_at as usize;
@@ -267,7 +318,7 @@ impl BlobFeed for Feed<'_> {
     }
 
     fn ids(&mut self, tet: usize, out: &mut Vec<u8>) -> io::Result<()> {
-        let p = *self.patches.get(self.order[tet]);
+        let p = self.record(tet)?;
         match &mut self.patches.store {
             Store::Memory { ids, .. } => {
                 let at = p.id_at as usize;
@@ -365,6 +416,7 @@ mod tests {
             let (pa, pb) = (IndexKey::of(a).unwrap(), IndexKey::of(b).unwrap());
             prop_assert_eq!(pa.key(), a);
             prop_assert_eq!(pa.cmp(&pb), a.cmp(&b));
+            prop_assert_eq!(IndexKey::from_words(pa.0), Some(pa));
         }
     }
 
@@ -379,5 +431,8 @@ mod tests {
         })
         .is_none());
         assert!(IndexKey::of(key(7, 124, u128::MAX)).is_some());
+        // Words without a marker bit (any other pattern is a key: a root, a level ≤ 124).
+        assert!(IndexKey::from_words([0xe000_0000, 0, 0, 0]).is_none());
+        assert!(IndexKey::from_words([0xf000_0000, 0, 0, 0]).is_some());
     }
 }

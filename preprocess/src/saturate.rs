@@ -58,10 +58,10 @@ pub fn saturate(
     origin: [f64; 3],
     own: OwnErrors,
     quantisation_error: f64,
-    patch_sphere: &impl Fn(SimplexKey) -> Sphere,
+    patch_sphere: &impl Fn(SimplexKey) -> std::io::Result<Sphere>,
     error_floor: f64,
     model_size: f64,
-) -> Saturated {
+) -> std::io::Result<Saturated> {
     let index: HashMap<DiamondId, usize> = hierarchy
         .diamonds
         .iter()
@@ -89,10 +89,10 @@ pub fn saturate(
             false => own_error.max(below),
         };
         let mut e = (chain[i] + quantisation_error).max(error_floor);
-        let mut s = d
-            .simplices
-            .iter()
-            .fold(Sphere::EMPTY, |acc, t| acc.merge(&patch_sphere(t.key)));
+        let mut s = Sphere::EMPTY;
+        for t in &d.simplices {
+            s = s.merge(&patch_sphere(t.key)?);
+        }
         for c in d.children.iter().filter_map(|c| index.get(c)) {
             debug_assert!(*c > i, "child diamond split before its parent");
             e = e.max(error[*c] * (1.0 + ERROR_MARGIN));
@@ -111,7 +111,7 @@ pub fn saturate(
         error[i] = e;
         sphere[i] = s;
     }
-    Saturated { error, sphere }
+    Ok(Saturated { error, sphere })
 }
 
 /// Makes every simplex's sphere contain its patch and, grown by `margin` (so containment
@@ -180,16 +180,19 @@ mod tests {
         let n = hierarchy.diamonds.len();
         assert!(n > 4);
         let own = vec![1.0f32; n];
-        let sphere = |_| Sphere {
-            center: [0.5; 3],
-            radius: 0.5,
+        let sphere = |_: SimplexKey| -> std::io::Result<Sphere> {
+            Ok(Sphere {
+                center: [0.5; 3],
+                radius: 0.5,
+            })
         };
         let floor = 0.1;
         let bounds = |errors| OwnErrors {
             errors,
             are_bounds: true,
         };
-        let without = saturate(&hierarchy, [0.0; 3], bounds(&own), 0.0, &sphere, floor, 1.0);
+        let without =
+            saturate(&hierarchy, [0.0; 3], bounds(&own), 0.0, &sphere, floor, 1.0).unwrap();
         let with = saturate(
             &hierarchy,
             [0.0; 3],
@@ -198,7 +201,8 @@ mod tests {
             &sphere,
             floor,
             1.0,
-        );
+        )
+        .unwrap();
         for (a, b) in without.error.iter().zip(&with.error) {
             // err = the own errors summed down the deepest chain, + q once: at least own + q.
             assert!(*b >= 1.25 && (*b - (a + 0.25)).abs() < 1e-9, "{a} {b}");
@@ -223,7 +227,8 @@ mod tests {
             );
         }
         // A floor above own + q still wins: it is a floor, not a term.
-        let floored = saturate(&hierarchy, [0.0; 3], bounds(&own), 0.25, &sphere, 5.0, 1.0);
+        let floored =
+            saturate(&hierarchy, [0.0; 3], bounds(&own), 0.25, &sphere, 5.0, 1.0).unwrap();
         assert!(floored.error.iter().all(|&e| e >= 5.0));
     }
 }
