@@ -25,6 +25,7 @@ use tessera_core::repository::patch::{encode_patch, patch_bytes};
 use tessera_core::repository::BlobFeed;
 
 use crate::external::temp_usage::Charge;
+use crate::packed_key::PackedKey;
 use crate::strips::build_patch;
 use crate::vertex_table::LivePatch;
 
@@ -69,46 +70,10 @@ pub struct FinishedPatches {
     /// Each simplex's key and its row in `records`, appended as patches finish and sorted by
     /// key before the first lookup ([`Self::seal`]): 20 bytes a simplex (at 100 M input
     /// triangles, 1.6 M simplices: 32 MB; the records beside the keys took 166 MB).
-    index: Vec<(IndexKey, u32)>,
+    index: Vec<(PackedKey, u32)>,
     sorted: bool,
     records: Records,
     store: Store,
-}
-
-/// A [`SimplexKey`] in 16 bytes (4-aligned, most significant word first): the root above
-/// bit 125, a marker bit at the simplex's level and the path below it, ordered as the keys
-/// are (root, level, path).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
-struct IndexKey([u32; 4]);
-
-impl IndexKey {
-    /// The packed key, or `None` for a key no hierarchy makes (a root past 7, a level past
-    /// 124 — the lattice's 30 bits an axis allow 90 — or path bits past the level).
-    fn of(key: SimplexKey) -> Option<IndexKey> {
-        let fits = key.root < 8 && key.level <= 124 && key.path >> key.level == 0;
-        let packed = (key.root as u128) << 125 | 1u128 << key.level | key.path;
-        fits.then_some(IndexKey(
-            [96, 64, 32, 0].map(|shift| (packed >> shift) as u32),
-        ))
-    }
-
-    /// The packed key these words are, if they are one (they hold a level's marker bit).
-    fn from_words(words: [u32; 4]) -> Option<IndexKey> {
-        let packed = words.iter().fold(0u128, |acc, &w| acc << 32 | w as u128);
-        (packed & ((1u128 << 125) - 1) != 0).then_some(IndexKey(words))
-    }
-
-    fn key(self) -> SimplexKey {
-        let packed = self.0.iter().fold(0u128, |acc, &w| acc << 32 | w as u128);
-        let root = (packed >> 125) as u8;
-        let below = packed & ((1u128 << 125) - 1);
-        let level = 127 - below.leading_zeros() as u16;
-        SimplexKey {
-            root,
-            level,
-            path: below ^ (1u128 << level),
-        }
-    }
 }
 
 enum Store {
@@ -240,7 +205,7 @@ impl FinishedPatches {
                         (patches.append(&bytes)?, all.append(&ids)?)
                     }
                 };
-                let packed = IndexKey::of(key)
+                let packed = PackedKey::of(key)
                     .unwrap_or_else(|| panic!("simplex {key:?} is outside every hierarchy"));
                 let row = self.records.push(packed, &patch)?;
                 self.index.push((packed, row));
@@ -257,7 +222,7 @@ impl FinishedPatches {
             self.sorted,
             "finished patches looked up before they were sealed"
         );
-        IndexKey::of(key)
+        PackedKey::of(key)
             .and_then(|k| self.index.binary_search_by_key(&k, |(k, _)| *k).ok())
             .map(|i| self.index[i].1)
             .unwrap_or_else(|| panic!("simplex {key:?} has no finished patch"))
@@ -390,49 +355,4 @@ fn triangle_normal([a, b, c]: [[f64; 3]; 3]) -> [f64; 3] {
         u[2] * v[0] - u[0] * v[2],
         u[0] * v[1] - u[1] * v[0],
     ]
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use proptest::prelude::*;
-
-    fn key(root: u8, level: u16, path: u128) -> SimplexKey {
-        let path = if level == 0 {
-            0
-        } else {
-            path & (u128::MAX >> (128 - level))
-        };
-        SimplexKey { root, level, path }
-    }
-
-    proptest! {
-        #[test]
-        fn packed_keys_round_trip_and_sort_as_keys_do(
-            a in (0u8..8, 0u16..=124, any::<u128>()),
-            b in (0u8..8, 0u16..=124, any::<u128>()),
-        ) {
-            let (a, b) = (key(a.0, a.1, a.2), key(b.0, b.1, b.2));
-            let (pa, pb) = (IndexKey::of(a).unwrap(), IndexKey::of(b).unwrap());
-            prop_assert_eq!(pa.key(), a);
-            prop_assert_eq!(pa.cmp(&pb), a.cmp(&b));
-            prop_assert_eq!(IndexKey::from_words(pa.0), Some(pa));
-        }
-    }
-
-    #[test]
-    fn keys_no_hierarchy_makes_are_refused() {
-        assert!(IndexKey::of(key(8, 3, 1)).is_none());
-        assert!(IndexKey::of(key(0, 125, 1)).is_none());
-        assert!(IndexKey::of(SimplexKey {
-            root: 0,
-            level: 2,
-            path: 4
-        })
-        .is_none());
-        assert!(IndexKey::of(key(7, 124, u128::MAX)).is_some());
-        // Words without a marker bit (any other pattern is a key: a root, a level ≤ 124).
-        assert!(IndexKey::from_words([0xe000_0000, 0, 0, 0]).is_none());
-        assert!(IndexKey::from_words([0xf000_0000, 0, 0, 0]).is_some());
-    }
 }

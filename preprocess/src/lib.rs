@@ -20,6 +20,7 @@ pub mod hierarchy;
 pub mod import;
 mod local_mesh;
 pub mod mesh;
+mod packed_key;
 pub mod procedural;
 pub mod saturate;
 pub mod simplify;

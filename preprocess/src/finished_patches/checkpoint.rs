@@ -7,8 +7,9 @@ use std::io::{self, Read, Seek, SeekFrom, Write};
 use std::path::Path;
 
 use super::records::{self, Records, RECORD_BYTES};
-use super::{FinishedPatches, IndexKey, Spill, Store};
+use super::{FinishedPatches, Spill, Store};
 use crate::checkpoint::{Dec, Enc, FileRecord};
+use crate::packed_key::PackedKey;
 
 const PATCHES: &str = "finished-patches.bin";
 const IDS: &str = "finished-ids.bin";
@@ -95,7 +96,7 @@ impl FinishedPatches {
             if beyond {
                 return Err(invalid("a finished patch beyond its file"));
             }
-            let key = IndexKey::from_words(words)
+            let key = PackedKey::from_words(words)
                 .ok_or_else(|| invalid("a simplex key no hierarchy makes"))?;
             index.push((key, row));
         }
@@ -149,7 +150,7 @@ mod tests {
     fn store(dir: &Path, n: u32) -> FinishedPatches {
         let mut f = FinishedPatches::new_named(dir).unwrap();
         for i in 0..n {
-            let key = IndexKey::of(key((i % 6) as u8, 20, (n - i) as u128)).unwrap();
+            let key = PackedKey::of(key((i % 6) as u8, 20, (n - i) as u128)).unwrap();
             let row = f.records.push(key, &record(i)).unwrap();
             f.index.push((key, row));
             f.sorted = false;
@@ -171,7 +172,7 @@ mod tests {
         let state = e.into_bytes();
         // Appended after the checkpoint: cut off when it is read back.
         f.records
-            .push(IndexKey::of(key(7, 1, 1)).unwrap(), &record(99))
+            .push(PackedKey::of(key(7, 1, 1)).unwrap(), &record(99))
             .unwrap();
         f.seal().unwrap();
         let expected: Vec<(SimplexKey, FinishedPatch)> = f

@@ -8,7 +8,8 @@ use std::os::unix::fs::FileExt;
 
 use tessera_core::bounds::{NormalCone, Sphere};
 
-use super::{FinishedPatch, IndexKey, Spill};
+use super::{FinishedPatch, Spill};
+use crate::packed_key::PackedKey;
 
 /// A record on disk: the key's four words, the sphere (four f64), the cone (four f32), six
 /// u32 counts and two u64 offsets, little-endian.
@@ -34,7 +35,7 @@ impl Records {
     }
 
     /// Appends `patch`'s record; returns its row.
-    pub(super) fn push(&mut self, key: IndexKey, patch: &FinishedPatch) -> io::Result<u32> {
+    pub(super) fn push(&mut self, key: PackedKey, patch: &FinishedPatch) -> io::Result<u32> {
         let row = u32::try_from(self.len()).expect("under 2^32 simplices");
         match self {
             Records::Memory(records) => records.push(*patch),
@@ -70,7 +71,7 @@ impl Records {
     }
 }
 
-pub(super) fn encode(key: IndexKey, p: &FinishedPatch) -> [u8; RECORD_BYTES] {
+pub(super) fn encode(key: PackedKey, p: &FinishedPatch) -> [u8; RECORD_BYTES] {
     let mut out = [0u8; RECORD_BYTES];
     let mut at = 0;
     let mut put = |bytes: &[u8]| {

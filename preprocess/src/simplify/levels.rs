@@ -20,7 +20,22 @@ use super::{
 use crate::checkpoint::{Dec, Enc};
 use crate::frame::LatticeFrame;
 use crate::hierarchy::Hierarchy;
+use crate::packed_key::PackedKey;
 use crate::vertex_table::LivePatch;
+
+/// `key` packed: every key of a hierarchy is one.
+fn packed(key: SimplexKey) -> PackedKey {
+    PackedKey::of(key).expect("a simplex key of a hierarchy")
+}
+
+fn invalid(what: &str) -> std::io::Error {
+    std::io::Error::new(std::io::ErrorKind::InvalidData, what.to_string())
+}
+
+/// A key read from a checkpoint, packed, or damage.
+fn packed_or_invalid(key: SimplexKey) -> std::io::Result<PackedKey> {
+    PackedKey::of(key).ok_or_else(|| invalid("a simplex key no hierarchy makes"))
+}
 
 /// The simplification between two levels.
 pub struct LevelState {
@@ -28,7 +43,7 @@ pub struct LevelState {
     /// their children.
     patches: LiveStore,
     /// The simplices of the current mesh (some have no patch: no triangle).
-    live: HashSet<SimplexKey>,
+    live: HashSet<PackedKey>,
     current: CurrentMesh,
     own_error: Vec<f32>,
     locked_vertices: usize,
@@ -48,12 +63,12 @@ impl LevelState {
         mut patches: LiveStore,
         finished: &mut FinishedPatchSink,
     ) -> Result<LevelState, SimplifyError> {
-        let mut live: HashSet<SimplexKey> = HashSet::default();
+        let mut live: HashSet<PackedKey> = HashSet::default();
         while let Some(group) = leaves()? {
             let list: Vec<(SimplexKey, &LivePatch)> = group.iter().map(|(k, p)| (*k, p)).collect();
             finished(&list)?;
             drop(list);
-            live.extend(group.iter().map(|(key, _)| *key));
+            live.extend(group.iter().map(|(key, _)| packed(*key)));
             patches.insert_all(group)?;
         }
         crate::external::allocator::release_freed_memory();
@@ -107,16 +122,16 @@ impl LevelState {
         e.u64(self.locked_vertices as u64);
         e.u64(self.resimplified as u64);
         e.list(&self.own_error, |e, &x| e.f32(x));
-        let mut live: Vec<SimplexKey> = self.live.iter().copied().collect();
+        let mut live: Vec<PackedKey> = self.live.iter().copied().collect();
         live.sort_unstable();
-        e.list(&live, |e, &k| e.key(k));
+        e.list(&live, |e, &k| e.key(k.key()));
         e.u32(store.generation);
         e.u64(store.end);
         e.u32(store.crc32);
         e.list(&store.records, |e, &(k, at, bytes, triangles)| {
-            e.key(k);
+            e.key(k.key());
             e.u64(at);
-            e.u64(bytes);
+            e.u64(bytes as u64);
             e.u32(triangles);
         });
         self.current.encode(e);
@@ -134,14 +149,20 @@ impl LevelState {
         let locked_vertices = d.u64()? as usize;
         let resimplified = d.u64()? as usize;
         let own_error = d.list(4, |d| d.f32())?;
-        let live = d.list(21, |d| d.key())?.into_iter().collect();
+        let live = d.list(21, |d| d.key().and_then(packed_or_invalid))?;
+        let live = live.into_iter().collect();
         let generation = d.u32()?;
         let end = d.u64()?;
         let crc32 = d.u32()?;
-        let records = d.list(41, |d| Ok((d.key()?, d.u64()?, d.u64()?, d.u32()?)))?;
+        let records = d.list(41, |d| {
+            let key = packed_or_invalid(d.key()?)?;
+            let (at, bytes, triangles) = (d.u64()?, d.u64()?, d.u32()?);
+            let bytes = u32::try_from(bytes).map_err(|_| invalid("a live record too long"))?;
+            Ok((key, at, bytes, triangles))
+        })?;
         if records
             .iter()
-            .any(|&(_, at, bytes, _)| at.saturating_add(bytes) > end)
+            .any(|&(_, at, bytes, _)| at.saturating_add(bytes as u64) > end)
         {
             return Err(std::io::Error::new(
                 std::io::ErrorKind::InvalidData,
@@ -225,7 +246,7 @@ pub fn simplify_levels(
             .collect::<std::io::Result<_>>()?;
         while !pending.is_empty() {
             // The rest of the mesh's counts of the edges the pending diamonds share with it.
-            let live_list: Vec<SimplexKey> = state.live.iter().copied().collect();
+            let live_list: Vec<SimplexKey> = state.live.iter().map(|k| k.key()).collect();
             let counts = count_edges(&query_edges(&pending), &live_list, &|k| {
                 state.patches.triangles(k)
             })?;
@@ -273,10 +294,10 @@ pub fn simplify_levels(
                     state.locked_vertices += r.locked;
                     for s in &hierarchy.diamond(r.diamond).simplices {
                         for c in s.children() {
-                            state.live.remove(&c.key);
+                            state.live.remove(&packed(c.key));
                             state.patches.remove(&c.key)?;
                         }
-                        state.live.insert(s.key);
+                        state.live.insert(packed(s.key));
                     }
                     all_made.extend(made);
                 }

@@ -17,6 +17,7 @@ use tessera_core::leb::SimplexKey;
 use super::live_record::{decode_patch, decode_triangles, encode_patch, triangle_bytes, HEAD};
 use super::positions::SimplifierScale;
 use crate::external::temp_usage::Charge;
+use crate::packed_key::PackedKey;
 use crate::vertex_table::LivePatch;
 
 pub(super) enum LiveStore {
@@ -27,8 +28,9 @@ pub(super) enum LiveStore {
 pub(super) struct DiskStore {
     file: File,
     dir: std::path::PathBuf,
-    /// Where each live patch's record is, its size and its triangle count.
-    index: HashMap<SimplexKey, Record>,
+    /// Where each live patch's record is, its size and its triangle count: 32 bytes an
+    /// entry (a `SimplexKey` and u64 sizes took 64).
+    index: HashMap<PackedKey, Record>,
     end: u64,
     live_bytes: u64,
     charge: Charge,
@@ -56,7 +58,7 @@ pub(super) struct StoreCheckpoint {
     pub generation: u32,
     pub end: u64,
     pub crc32: u32,
-    pub records: Vec<(SimplexKey, u64, u64, u32)>,
+    pub records: Vec<(PackedKey, u64, u32, u32)>,
 }
 
 /// The name of a checkpointed store's file of `generation`.
@@ -67,8 +69,13 @@ pub(super) fn live_file_name(generation: u32) -> String {
 #[derive(Clone, Copy)]
 struct Record {
     at: u64,
-    bytes: u64,
+    bytes: u32,
     triangles: u32,
+}
+
+/// `key` packed: every key of a hierarchy is one.
+fn packed(key: &SimplexKey) -> PackedKey {
+    PackedKey::of(*key).expect("a simplex key of a hierarchy")
 }
 
 /// Records `insert_all` encodes in parallel and writes at once.
@@ -116,7 +123,7 @@ impl LiveStore {
         file.set_len(at.end)?;
         let charge = Charge::new();
         charge.grow(at.end);
-        let index: HashMap<SimplexKey, Record> = at
+        let index: HashMap<PackedKey, Record> = at
             .records
             .iter()
             .map(|&(key, at, bytes, triangles)| {
@@ -133,7 +140,7 @@ impl LiveStore {
         Ok(LiveStore::Disk(DiskStore {
             file,
             dir: dir.to_path_buf(),
-            live_bytes: index.values().map(|r| r.bytes).sum(),
+            live_bytes: index.values().map(|r| r.bytes as u64).sum(),
             index,
             end: at.end,
             charge,
@@ -154,7 +161,7 @@ impl LiveStore {
             return None;
         };
         let (_, generation) = store.named.as_ref()?;
-        let mut records: Vec<(SimplexKey, u64, u64, u32)> = store
+        let mut records: Vec<(PackedKey, u64, u32, u32)> = store
             .index
             .iter()
             .map(|(k, r)| (*k, r.at, r.bytes, r.triangles))
@@ -177,7 +184,7 @@ impl LiveStore {
     pub(super) fn get(&self, key: &SimplexKey) -> io::Result<Option<Cow<'_, LivePatch>>> {
         match self {
             LiveStore::Memory(map) => Ok(map.get(key).map(Cow::Borrowed)),
-            LiveStore::Disk(store) => match store.index.get(key) {
+            LiveStore::Disk(store) => match store.index.get(&packed(key)) {
                 None => Ok(None),
                 Some(record) => store.read(record).map(|p| Some(Cow::Owned(p))),
             },
@@ -188,7 +195,7 @@ impl LiveStore {
     pub(super) fn triangles(&self, key: &SimplexKey) -> io::Result<Option<Cow<'_, [[u32; 3]]>>> {
         match self {
             LiveStore::Memory(map) => Ok(map.get(key).map(|p| Cow::Borrowed(&p.triangles[..]))),
-            LiveStore::Disk(store) => match store.index.get(key) {
+            LiveStore::Disk(store) => match store.index.get(&packed(key)) {
                 None => Ok(None),
                 Some(record) => {
                     let mut head = [0u8; HEAD];
@@ -219,10 +226,10 @@ impl LiveStore {
                     let mut bytes = Vec::with_capacity(records.iter().map(Vec::len).sum());
                     for ((key, patch), record) in chunk.iter().zip(&records) {
                         store.index.insert(
-                            *key,
+                            packed(key),
                             Record {
                                 at: store.end + bytes.len() as u64,
-                                bytes: record.len() as u64,
+                                bytes: u32::try_from(record.len()).expect("a live record < 4 GiB"),
                                 triangles: patch.triangles.len() as u32,
                             },
                         );
@@ -242,8 +249,8 @@ impl LiveStore {
                 Ok(())
             }
             LiveStore::Disk(store) => {
-                if let Some(record) = store.index.remove(key) {
-                    store.live_bytes -= record.bytes;
+                if let Some(record) = store.index.remove(&packed(key)) {
+                    store.live_bytes -= record.bytes as u64;
                 }
                 Ok(())
             }
@@ -281,7 +288,7 @@ impl DiskStore {
                 scale: store.scale,
             },
         };
-        let mut records: Vec<(SimplexKey, Record)> =
+        let mut records: Vec<(PackedKey, Record)> =
             store.index.iter().map(|(k, r)| (*k, *r)).collect();
         records.sort_unstable_by_key(|(_, r)| r.at);
         // What the old file must keep: the prefix a checkpoint's last commit names (a resumed
@@ -298,12 +305,12 @@ impl DiskStore {
         let mut buffer = Vec::new();
         let mut rest = &records[..];
         while let Some(&(_, first)) = rest.first() {
-            let mut end = first.at + first.bytes;
+            let mut end = first.at + first.bytes as u64;
             let n = 1 + rest[1..]
                 .iter()
                 .take_while(|(_, r)| {
                     let adjacent = r.at == end && end - first.at < COPY_BYTES;
-                    end += r.bytes * adjacent as u64;
+                    end += r.bytes as u64 * adjacent as u64;
                     adjacent
                 })
                 .count();
