@@ -97,6 +97,19 @@ impl DemFormat {
 /// Reads the height field at `path`, its format chosen by the extension.
 pub fn load_dem(path: &Path, options: &DemOptions) -> Result<HeightGrid, DemError> {
     let format = dem_format(path)?;
+    if format == DemFormat::Npy {
+        // Read a chunk at a time: the file's bytes and the grid are never held together.
+        let error = |kind| DemError::new(path, kind);
+        let file = std::fs::File::open(path).map_err(|e| error(DemErrorKind::Io(e)))?;
+        let len = file
+            .metadata()
+            .map_err(|e| error(DemErrorKind::Io(e)))?
+            .len();
+        let mut input = std::io::BufReader::with_capacity(1 << 16, file);
+        let grid = npy::read_npy_from(&mut input, len).map_err(error)?;
+        grid.validate().map_err(error)?;
+        return Ok(grid);
+    }
     let bytes = std::fs::read(path).map_err(|e| DemError::new(path, DemErrorKind::Io(e)))?;
     read_dem(format, &bytes, options).map_err(|kind| DemError::new(path, kind))
 }
@@ -328,6 +341,45 @@ mod tests {
             e.to_string().contains("not a height-field extension"),
             "{e}"
         );
+    }
+
+    #[test]
+    fn a_npy_file_streamed_reads_like_its_bytes() {
+        let dir = tempfile::tempdir().unwrap();
+        let options = DemOptions::default();
+        // More values than a chunk, in a type that rounds (i32 to f32), both orders.
+        let (rows, columns) = (300usize, 257usize);
+        let values: Vec<i32> = (0..rows * columns)
+            .map(|i| (i as i32).wrapping_mul(2_654_435_761u32 as i32) >> 3)
+            .collect();
+        let data: Vec<u8> = values.iter().flat_map(|v| v.to_le_bytes()).collect();
+        let shape = format!("({rows}, {columns})");
+        let c_order = npy::tests::npy("<i4", &shape, &data);
+        let mut fortran = npy::tests::npy("<i4", &format!("({columns}, {rows})"), &data);
+        let at = fortran.windows(5).position(|w| w == b"False").unwrap();
+        fortran[at..at + 5].copy_from_slice(b"True ");
+        for (name, bytes) in [("c.npy", &c_order), ("f.npy", &fortran)] {
+            let path = dir.path().join(name);
+            std::fs::write(&path, bytes).unwrap();
+            let from_bytes = load_dem_bytes(Path::new(name), bytes, &options).unwrap();
+            assert_eq!(load_dem(&path, &options).unwrap(), from_bytes, "{name}");
+            assert_eq!(from_bytes.heights.len(), rows * columns);
+            // Cut short: the same error both ways, naming the file.
+            let short = &bytes[..bytes.len() - 3];
+            std::fs::write(&path, short).unwrap();
+            let e = load_dem(&path, &options).unwrap_err().to_string();
+            let b = load_dem_bytes(&path, short, &options)
+                .unwrap_err()
+                .to_string();
+            assert_eq!(e, b);
+            assert!(e.contains(name) && e.contains("too large"), "{e}");
+        }
+        let c = load_dem_bytes(Path::new("c.npy"), &c_order, &options).unwrap();
+        assert_eq!(c.heights[1], values[1] as f32);
+        let f = load_dem_bytes(Path::new("f.npy"), &fortran, &options).unwrap();
+        // Column-major, shape (columns, rows): row 0, column 1 is value 1 × columns.
+        assert_eq!((f.rows, f.columns), (columns, rows));
+        assert_eq!(f.heights[1], values[columns] as f32);
     }
 
     #[test]

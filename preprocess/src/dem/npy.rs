@@ -12,12 +12,33 @@ use std::io::Read;
 use super::error::{bad, check_fits, DemErrorKind};
 use super::{DemOptions, HeightGrid};
 
-/// An array read from `.npy` bytes, values widened to f64.
+/// An array read from `.npy` data.
 #[derive(Clone, Debug, PartialEq)]
 struct Array {
     shape: Vec<usize>,
-    values: Vec<f64>,
+    values: Values,
 }
+
+/// A 2-D array of more than one value (a grid) is read straight into the f32 heights a grid
+/// keeps (the same values as through f64: every source type rounds to f32 alike either way),
+/// so a large grid is never held twice; the rest (an `.npz`'s placing scalars) widened to f64.
+#[derive(Clone, Debug, PartialEq)]
+enum Values {
+    Narrow(Vec<f32>),
+    Wide(Vec<f64>),
+}
+
+impl Values {
+    fn len(&self) -> usize {
+        match self {
+            Values::Narrow(v) => v.len(),
+            Values::Wide(v) => v.len(),
+        }
+    }
+}
+
+/// Values decoded a chunk at a time (bounds the bytes held besides the values).
+const CHUNK_VALUES: usize = 1 << 16;
 
 /// The value of `key` in the header dict (the text up to the next top-level comma or brace).
 fn dict_value<'a>(header: &'a str, key: &str) -> Option<&'a str> {
@@ -44,23 +65,42 @@ fn dict_value<'a>(header: &'a str, key: &str) -> Option<&'a str> {
 }
 
 fn parse_npy(bytes: &[u8]) -> Result<Array, DemErrorKind> {
-    if bytes.len() < 10 || &bytes[..6] != b"\x93NUMPY" {
+    parse_npy_from(&mut &bytes[..], bytes.len() as u64)
+}
+
+fn read_exact(input: &mut impl Read, out: &mut [u8]) -> Result<(), DemErrorKind> {
+    input.read_exact(out).map_err(DemErrorKind::Io)
+}
+
+/// `.npy` data from `input`, which holds `len` bytes: the header, then the values a chunk at
+/// a time, so that a file is read without holding its bytes.
+fn parse_npy_from(input: &mut impl Read, len: u64) -> Result<Array, DemErrorKind> {
+    let mut head = [0u8; 12];
+    if len < 10 {
         return Err(bad("not a .npy array (no \\x93NUMPY magic)"));
     }
-    let (header_len, header_start): (usize, usize) = match bytes[6] {
-        1 => (u16::from_le_bytes([bytes[8], bytes[9]]) as usize, 10),
-        2 | 3 if bytes.len() >= 12 => (
-            u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]) as usize,
-            12,
-        ),
+    read_exact(input, &mut head[..10])?;
+    if &head[..6] != b"\x93NUMPY" {
+        return Err(bad("not a .npy array (no \\x93NUMPY magic)"));
+    }
+    let (header_len, header_start): (usize, usize) = match head[6] {
+        1 => (u16::from_le_bytes([head[8], head[9]]) as usize, 10),
+        2 | 3 if len >= 12 => {
+            read_exact(input, &mut head[10..12])?;
+            (
+                u32::from_le_bytes([head[8], head[9], head[10], head[11]]) as usize,
+                12,
+            )
+        }
         v => return Err(bad(format!("unsupported .npy version {v}"))),
     };
     let data_start = header_start
         .checked_add(header_len)
-        .filter(|&e| e <= bytes.len())
+        .filter(|&e| e as u64 <= len)
         .ok_or_else(|| bad("the .npy header runs past the end of the file"))?;
-    let header = std::str::from_utf8(&bytes[header_start..data_start])
-        .map_err(|_| bad("the .npy header is not text"))?;
+    let mut header = vec![0u8; header_len];
+    read_exact(input, &mut header)?;
+    let header = std::str::from_utf8(&header).map_err(|_| bad("the .npy header is not text"))?;
     let descr = dict_value(header, "descr")
         .map(|d| d.trim_matches(|c| c == '\'' || c == '"'))
         .ok_or_else(|| bad(format!("no 'descr' in the .npy header {header:?}")))?;
@@ -144,22 +184,33 @@ fn parse_npy(bytes: &[u8]) -> Result<Array, DemErrorKind> {
         .iter()
         .try_fold(1u64, |n, &d| n.checked_mul(d as u64))
         .ok_or_else(|| DemErrorKind::TooLarge(format!("shape {shape:?}")))?;
-    let count = check_fits(
-        "array",
-        count,
-        size as u64,
-        (bytes.len() - data_start) as u64,
-    )?;
-    let mut values: Vec<f64> = bytes[data_start..data_start + count * size]
-        .chunks_exact(size)
-        .map(|c| decode(c, little))
-        .collect();
+    let count = check_fits("array", count, size as u64, len - data_start as u64)?;
+    let narrow = shape.len() == 2 && count > 1;
+    let mut values = match narrow {
+        true => Values::Narrow(Vec::with_capacity(count)),
+        false => Values::Wide(Vec::with_capacity(count)),
+    };
+    let mut chunk = vec![0u8; CHUNK_VALUES.min(count) * size];
+    let mut left = count;
+    while left > 0 {
+        let n = left.min(CHUNK_VALUES);
+        let bytes = &mut chunk[..n * size];
+        read_exact(input, bytes)?;
+        let decoded = bytes.chunks_exact(size).map(|c| decode(c, little));
+        match &mut values {
+            Values::Narrow(v) => v.extend(decoded.map(|x| x as f32)),
+            Values::Wide(v) => v.extend(decoded),
+        }
+        left -= n;
+    }
     if fortran && shape.len() == 2 {
         // Column-major on disk: transpose into rows.
         let (rows, columns) = (shape[0], shape[1]);
-        values = (0..rows * columns)
-            .map(|i| values[(i % columns) * rows + i / columns])
-            .collect();
+        let at = |i: usize| (i % columns) * rows + i / columns;
+        values = match values {
+            Values::Narrow(v) => Values::Narrow((0..count).map(|i| v[at(i)]).collect()),
+            Values::Wide(v) => Values::Wide((0..count).map(|i| v[at(i)]).collect()),
+        };
     }
     Ok(Array { shape, values })
 }
@@ -171,16 +222,21 @@ fn to_grid(array: Array) -> Result<HeightGrid, DemErrorKind> {
             array.shape
         )));
     }
-    Ok(HeightGrid::unit(
-        array.shape[1],
-        array.shape[0],
-        array.values.iter().map(|&v| v as f32).collect(),
-    ))
+    let heights = match array.values {
+        Values::Narrow(v) => v,
+        Values::Wide(v) => v.iter().map(|&x| x as f32).collect(),
+    };
+    Ok(HeightGrid::unit(array.shape[1], array.shape[0], heights))
 }
 
 /// A `.npy` holding one 2-D array (unit spacing).
 pub fn read_npy(bytes: &[u8]) -> Result<HeightGrid, DemErrorKind> {
     to_grid(parse_npy(bytes)?)
+}
+
+/// [`read_npy`] from a reader holding `len` bytes (a file, read a chunk at a time).
+pub fn read_npy_from(input: &mut impl Read, len: u64) -> Result<HeightGrid, DemErrorKind> {
+    to_grid(parse_npy_from(input, len)?)
 }
 
 /// An `.npz`: the asked-for array, or the largest 2-D one, placed by `xmin`, `ymin`, `ymax`,
@@ -211,8 +267,11 @@ pub fn read_npz(bytes: &[u8], options: &DemOptions) -> Result<HeightGrid, DemErr
     let scalar = |key: &str| {
         arrays
             .iter()
-            .find(|(n, a)| n == key && a.values.len() == 1)
-            .map(|(_, a)| a.values[0])
+            .find(|(n, _)| n == key)
+            .and_then(|(_, a)| match &a.values {
+                Values::Wide(v) if v.len() == 1 => Some(v[0]),
+                _ => None,
+            })
     };
     let chosen = match &options.variable {
         Some(name) => arrays.iter().position(|(n, _)| n == name).ok_or_else(|| {
@@ -252,7 +311,7 @@ pub fn read_npz(bytes: &[u8], options: &DemOptions) -> Result<HeightGrid, DemErr
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
 
     pub fn npy(descr: &str, shape: &str, data: &[u8]) -> Vec<u8> {
