@@ -205,8 +205,7 @@ impl FinishedPatches {
                         (patches.append(&bytes)?, all.append(&ids)?)
                     }
                 };
-                let packed = PackedKey::of(key)
-                    .unwrap_or_else(|| panic!("simplex {key:?} is outside every hierarchy"));
+                let packed = PackedKey::of_hierarchy(key);
                 let row = self.records.push(packed, &patch)?;
                 self.index.push((packed, row));
                 self.sorted = false;

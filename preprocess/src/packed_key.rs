@@ -27,6 +27,11 @@ impl PackedKey {
         (packed & ((1u128 << 125) - 1) != 0).then_some(PackedKey(words))
     }
 
+    /// `key` packed, for a key of a hierarchy (every one is: a bug otherwise).
+    pub(crate) fn of_hierarchy(key: SimplexKey) -> PackedKey {
+        PackedKey::of(key).unwrap_or_else(|| panic!("simplex {key:?} is outside every hierarchy"))
+    }
+
     pub(crate) fn key(self) -> SimplexKey {
         let packed = self.0.iter().fold(0u128, |acc, &w| acc << 32 | w as u128);
         let root = (packed >> 125) as u8;

@@ -23,11 +23,6 @@ use crate::hierarchy::Hierarchy;
 use crate::packed_key::PackedKey;
 use crate::vertex_table::LivePatch;
 
-/// `key` packed: every key of a hierarchy is one.
-fn packed(key: SimplexKey) -> PackedKey {
-    PackedKey::of(key).expect("a simplex key of a hierarchy")
-}
-
 fn invalid(what: &str) -> std::io::Error {
     std::io::Error::new(std::io::ErrorKind::InvalidData, what.to_string())
 }
@@ -68,7 +63,7 @@ impl LevelState {
             let list: Vec<(SimplexKey, &LivePatch)> = group.iter().map(|(k, p)| (*k, p)).collect();
             finished(&list)?;
             drop(list);
-            live.extend(group.iter().map(|(key, _)| packed(*key)));
+            live.extend(group.iter().map(|(key, _)| PackedKey::of_hierarchy(*key)));
             patches.insert_all(group)?;
         }
         crate::external::allocator::release_freed_memory();
@@ -164,10 +159,7 @@ impl LevelState {
             .iter()
             .any(|&(_, at, bytes, _)| at.saturating_add(bytes as u64) > end)
         {
-            return Err(std::io::Error::new(
-                std::io::ErrorKind::InvalidData,
-                "a live patch beyond its file",
-            ));
+            return Err(invalid("a live patch beyond its file"));
         }
         let current = CurrentMesh::decode(d, vertex_count)?;
         let patches = LiveStore::reopen(
@@ -294,10 +286,10 @@ pub fn simplify_levels(
                     state.locked_vertices += r.locked;
                     for s in &hierarchy.diamond(r.diamond).simplices {
                         for c in s.children() {
-                            state.live.remove(&packed(c.key));
+                            state.live.remove(&PackedKey::of_hierarchy(c.key));
                             state.patches.remove(&c.key)?;
                         }
-                        state.live.insert(packed(s.key));
+                        state.live.insert(PackedKey::of_hierarchy(s.key));
                     }
                     all_made.extend(made);
                 }

@@ -73,11 +73,6 @@ struct Record {
     triangles: u32,
 }
 
-/// `key` packed: every key of a hierarchy is one.
-fn packed(key: &SimplexKey) -> PackedKey {
-    PackedKey::of(*key).expect("a simplex key of a hierarchy")
-}
-
 /// Records `insert_all` encodes in parallel and writes at once.
 const INSERT_CHUNK: usize = 64;
 /// Bytes of adjacent records a rewrite copies at once.
@@ -184,7 +179,7 @@ impl LiveStore {
     pub(super) fn get(&self, key: &SimplexKey) -> io::Result<Option<Cow<'_, LivePatch>>> {
         match self {
             LiveStore::Memory(map) => Ok(map.get(key).map(Cow::Borrowed)),
-            LiveStore::Disk(store) => match store.index.get(&packed(key)) {
+            LiveStore::Disk(store) => match store.index.get(&PackedKey::of_hierarchy(*key)) {
                 None => Ok(None),
                 Some(record) => store.read(record).map(|p| Some(Cow::Owned(p))),
             },
@@ -195,7 +190,7 @@ impl LiveStore {
     pub(super) fn triangles(&self, key: &SimplexKey) -> io::Result<Option<Cow<'_, [[u32; 3]]>>> {
         match self {
             LiveStore::Memory(map) => Ok(map.get(key).map(|p| Cow::Borrowed(&p.triangles[..]))),
-            LiveStore::Disk(store) => match store.index.get(&packed(key)) {
+            LiveStore::Disk(store) => match store.index.get(&PackedKey::of_hierarchy(*key)) {
                 None => Ok(None),
                 Some(record) => {
                     let mut head = [0u8; HEAD];
@@ -226,7 +221,7 @@ impl LiveStore {
                     let mut bytes = Vec::with_capacity(records.iter().map(Vec::len).sum());
                     for ((key, patch), record) in chunk.iter().zip(&records) {
                         store.index.insert(
-                            packed(key),
+                            PackedKey::of_hierarchy(*key),
                             Record {
                                 at: store.end + bytes.len() as u64,
                                 bytes: u32::try_from(record.len()).expect("a live record < 4 GiB"),
@@ -249,7 +244,7 @@ impl LiveStore {
                 Ok(())
             }
             LiveStore::Disk(store) => {
-                if let Some(record) = store.index.remove(&packed(key)) {
+                if let Some(record) = store.index.remove(&PackedKey::of_hierarchy(*key)) {
                     store.live_bytes -= record.bytes as u64;
                 }
                 Ok(())
