@@ -66,6 +66,56 @@ const fn symbols() -> [u32; 4096] {
     table
 }
 
+/// For every three nibbles (the first lowest), the symbols of at most three nibbles in all
+/// that they hold (up to three), decoded together relative to `next` before them: bits 0–1
+/// how many nibbles they take (0 when the first symbol is a longer varint), bits 2–4 which
+/// are restarts, bits 8–15 the smallest offset (0 or below, as i8), bits 16–23 how much
+/// `next` grows, bits 24 + 8i.. the ith symbol's offset as i8 (index = next + offset; 0 for
+/// a restart or past the last symbol), bits 48–49 how many symbols. The one-nibble symbols (new vertices, restarts, backs
+/// 0–11) are most of a strip in first-use order, backs 12–27 most of the rest.
+static RUNS: [u64; 4096] = runs();
+
+const fn runs() -> [u64; 4096] {
+    let mut table = [0u64; 4096];
+    let mut w = 0;
+    while w < 4096 {
+        let (mut taken, mut count) = (0u32, 0u32);
+        // `next` relative to its value before the run, and the smallest index so relative.
+        let (mut next, mut smallest) = (0i64, 0i64);
+        let (mut restarts, mut offsets) = (0u64, 0u64);
+        while count < 3 {
+            let entry = SYMBOLS[w >> (4 * taken)];
+            let width = entry & 3;
+            // A longer varint, or a symbol reaching past the three nibbles.
+            if width == 0 || taken + width > 3 {
+                break;
+            }
+            if entry & RESTART_BIT != 0 {
+                restarts |= 1 << count;
+            } else {
+                let index = next - (entry as i32 >> 16) as i64;
+                if index < smallest {
+                    smallest = index;
+                }
+                if index + 1 > next {
+                    next = index + 1;
+                }
+                offsets |= (index as i8 as u8 as u64) << (24 + 8 * count);
+            }
+            taken += width;
+            count += 1;
+        }
+        table[w] = taken as u64
+            | restarts << 2
+            | (smallest as i8 as u8 as u64) << 8
+            | (next as u64) << 16
+            | offsets
+            | (count as u64) << 48;
+        w += 1;
+    }
+    table
+}
+
 /// Largest varint (in nibbles) a back or forward distance below 2^32 needs: 33 bits / 3.
 const MAX_VARINT_NIBBLES: usize = 11;
 
@@ -149,11 +199,13 @@ pub fn decode_strip(
     }
 }
 
-/// `decode_strip` for `W`-byte indices. Every symbol of at most three nibbles (all but the
-/// varints of three nibbles or more: 3.8 % of the dragon's indices) is read from one table
-/// entry for the next three nibbles: how many it takes and its distance d, index = next − d
-/// (d < 0 for a forward jump), next = max(next, index + 1); the reader's 64-bit buffer holds
-/// at least three nibbles between refills of 7 bytes.
+/// `decode_strip` for `W`-byte indices. The next three nibbles pick one `RUNS` entry: the
+/// symbols they hold (up to three), checked and written together, so the loop's chain of
+/// dependent loads is walked once for several indices. What a run cannot take (a varint of four nibbles or more, the stream's last
+/// bytes, the last two slots, a run that fails its check) goes one symbol at a time: its
+/// `SYMBOLS` entry, how many nibbles and the distance d, index = next − d (d < 0 for a
+/// forward jump), next = max(next, index + 1), or the general path. The reader's 64-bit
+/// buffer holds at least three nibbles between refills of 7 bytes.
 fn decode<const W: usize>(stream: &[u8], n: u64, target: &mut [u8]) -> Result<(), String> {
     let restart: u64 = if W == 2 {
         u16::MAX as u64
@@ -178,6 +230,32 @@ fn decode<const W: usize>(stream: &[u8], n: u64, target: &mut [u8]) -> Result<()
                 }
                 // The stream's last bytes.
                 None => general = true,
+            }
+        }
+        // Up to three symbols at once (three nibbles' worth), where three slots are left:
+        // the slots past them are written too and overwritten by what follows. They are
+        // checked together (the largest index below n, the smallest at or after the first
+        // vertex); ones that fail are decoded one by one for the error.
+        if !general && count - k >= 3 {
+            let run = RUNS[(buffer & 0xFFF) as usize];
+            let taken = (run & 3) as u32;
+            let smallest = (run >> 8) as u8 as i8 as i64 as u64;
+            let grown = (run >> 16) & 0xFF;
+            if taken != 0 && next + grown <= n && next.wrapping_add(smallest) < n {
+                let slots = &mut target[k * W..(k + 3) * W];
+                for (i, slot) in slots.chunks_exact_mut(W).enumerate() {
+                    let value = if run & (4 << i) != 0 {
+                        restart
+                    } else {
+                        next.wrapping_add((run >> (24 + 8 * i)) as u8 as i8 as i64 as u64)
+                    };
+                    write::<W>(slot, value);
+                }
+                next += grown;
+                buffer >>= 4 * taken;
+                available -= taken;
+                k += (run >> 48) as usize & 3;
+                continue;
             }
         }
         let entry = SYMBOLS[(buffer & 0xFFF) as usize];
@@ -375,98 +453,5 @@ impl Reader<'_> {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    const R: u32 = u32::MAX;
-
-    /// Codes `indices` (u32 restarts) and decodes them as u32 and, where they fit, as u16.
-    fn round_trip(indices: &[u32], vertex_count: usize) -> Vec<u8> {
-        let mut stream = Vec::new();
-        let written = encode_strip(indices, R, &mut stream);
-        assert_eq!(written, stream.len());
-        let mut wide = vec![0u8; 4 * indices.len()];
-        decode_strip(&stream, vertex_count, 4, &mut wide)
-            .unwrap_or_else(|e| panic!("{indices:?}: {e}"));
-        let expected: Vec<u8> = indices.iter().flat_map(|i| i.to_le_bytes()).collect();
-        assert_eq!(wide, expected);
-        if vertex_count < u16::MAX as usize {
-            let narrow: Vec<u32> = indices
-                .iter()
-                .map(|&i| if i == R { u16::MAX as u32 } else { i })
-                .collect();
-            let mut stream16 = Vec::new();
-            encode_strip(&narrow, u16::MAX as u32, &mut stream16);
-            assert_eq!(stream16, stream, "the coding does not depend on the width");
-            let mut short = vec![0u8; 2 * indices.len()];
-            decode_strip(&stream, vertex_count, 2, &mut short).unwrap();
-            let expected: Vec<u8> = narrow
-                .iter()
-                .flat_map(|&i| (i as u16).to_le_bytes())
-                .collect();
-            assert_eq!(short, expected);
-        }
-        stream
-    }
-
-    #[test]
-    fn every_symbol_round_trips() {
-        // New vertices, short and long backs, restarts, far backs through the varint.
-        let mut strip: Vec<u32> = (0..40).collect();
-        strip.extend([39, 38, 27, 28, 12, 11, 0, R, R, 5, 39, 1]);
-        round_trip(&strip, 40);
-        // Forward jumps: a strip not in first-use order.
-        round_trip(&[5, 2, 7, R, 0, 1, 9, 8, 3], 10);
-        // Large distances (u32 patches).
-        let far = [0, 1, 2, 3_000_000, 3_000_001, 1, 0, 2_999_999];
-        round_trip(&far, 3_000_002);
-        round_trip(&[], 0);
-        round_trip(&[R, R], 0);
-    }
-
-    #[test]
-    fn first_use_order_costs_a_nibble_for_new_vertices_and_short_backs() {
-        // A strip of 2 rows: 0 1 2 3 … 9, then backs of 1 (a zigzag along a row).
-        let strip: Vec<u32> = (0..10).chain([8, 9, 7]).collect();
-        let stream = round_trip(&strip, 10);
-        assert_eq!(stream.len(), 13usize.div_ceil(2));
-    }
-
-    #[test]
-    fn crafted_streams_fail_cleanly() {
-        let stream = round_trip(&[0, 1, 2, 1, 0], 3);
-        let decode =
-            |s: &[u8], count: usize, n: usize| decode_strip(s, n, 4, &mut vec![0; 4 * count]);
-        assert!(decode(&stream, 5, 3).is_ok());
-        // Truncated: fewer indices in the stream than asked for (an even count of nibbles,
-        // so no padding half byte reads as a new vertex; with one, that index is past the
-        // vertices).
-        let even = round_trip(&[0, 1, 2, 1], 3);
-        assert!(decode(&even, 5, 3).unwrap_err().contains("ends before"));
-        assert!(decode(&stream, 6, 3).unwrap_err().contains("past the 3"));
-        // Bytes left over.
-        let mut long = stream.clone();
-        long.push(0);
-        assert!(decode(&long, 5, 3).unwrap_err().contains("after the strip"));
-        // Too few vertices for the indices.
-        assert!(decode(&stream, 5, 2)
-            .unwrap_err()
-            .contains("past the 2 vertices"));
-        // A back reference before the first vertex: nibble 2 (back 0) first.
-        assert!(decode(&[0x02], 1, 3)
-            .unwrap_err()
-            .contains("before the first"));
-        // A non-zero half byte after an odd count.
-        assert!(decode(&[0x10], 1, 3).unwrap_err().contains("half byte"));
-        // An endless varint.
-        assert!(decode(&[0xFF; 16], 1, 3).unwrap_err().contains("varint"));
-        // Any byte string decodes or fails, never panics.
-        for a in 0..=255u8 {
-            for b in [0u8, 0x0F, 0xF0, 0x8F, 0xFF] {
-                for count in 0..4 {
-                    let _ = decode(&[a, b], count, 4);
-                }
-            }
-        }
-    }
-}
+#[path = "strip_codec_tests.rs"]
+mod tests;
