@@ -104,7 +104,7 @@ fn vs_main(@builtin(vertex_index) vertex: u32) -> VertexOut {
     var out: VertexOut;
     out.simplex = simplex;
     out.normal = vec3<f32>(0.0);
-    out.colour = vec3<f32>(0.82, 0.80, 0.76);
+    out.colour = PLAIN_COLOUR;
     if a == NO_INDEX || b == NO_INDEX || c == NO_INDEX || a == b || b == c || a == c {
         // Nothing to draw: all three corners at one point, a zero-area triangle. The point is
         // inside the clip volume (on the far plane): a vertex outside it would send the whole
@@ -127,7 +127,7 @@ fn pull_vertex(out: ptr<function, VertexOut>, base_vertex: u32, n: u32, local_in
     (*out).clip = clip_position(eye_relative);
     (*out).eye_relative = eye_relative;
     (*out).normal = vec3<f32>(0.0);
-    (*out).colour = vec3<f32>(0.82, 0.80, 0.76);
+    (*out).colour = PLAIN_COLOUR;
     // The attribute arrays follow the positions, one u32 per vertex each (patch.rs).
     var word = 2u * (base_vertex + n) + local_index;
     let attributes = page_draw.attributes; // not frame.counts.w: see `page_draw`
@@ -172,23 +172,57 @@ fn palette(k: u32) -> vec3<f32> {
     return vec3<f32>(f32(h & 0xffu), f32((h >> 8u) & 0xffu), f32((h >> 16u) & 0xffu)) / 255.0 * 0.7 + 0.3;
 }
 
-// Diffuse shading factor: stored normals if the model has them, else the face normal from
-// screen derivatives (`face` = cross(dpdx, dpdy), taken in uniform control flow by the caller).
-fn shade(in: VertexOut, face: vec3<f32>) -> f32 {
+// What the fragment entry points read of `VertexOut`. Each reads only what it uses: every
+// input a fragment stage reads is set up per triangle by the rasteriser, and a software one
+// keeps that for every triangle of a binned scene (llvmpipe: 48 bytes an input and triangle,
+// on the host), so the lit fill of a model without attributes reads the eye-relative position
+// alone.
+struct EyeIn {
+    @location(0) eye_relative: vec3<f32>,
+}
+
+struct NormalIn {
+    @location(0) eye_relative: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+}
+
+struct ColourIn {
+    @location(0) eye_relative: vec3<f32>,
+    @location(2) colour: vec3<f32>,
+}
+
+struct NormalColourIn {
+    @location(0) eye_relative: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+    @location(2) colour: vec3<f32>,
+}
+
+// The fill's base colour where the model has no colours (as `VertexOut.colour` then is).
+const PLAIN_COLOUR: vec3<f32> = vec3<f32>(0.82, 0.80, 0.76);
+
+// Diffuse shading factor: the stored normal if the model has normals and this one is not
+// zero, else the face normal from screen derivatives (`face` = cross(dpdx, dpdy), taken in
+// uniform control flow by the caller).
+fn shade(eye_relative: vec3<f32>, normal: vec3<f32>, face: vec3<f32>) -> f32 {
     var n = face;
-    if (frame.counts.w & ATTR_NORMALS) != 0u && dot(in.normal, in.normal) > 0.0 {
-        n = in.normal;
+    if (frame.counts.w & ATTR_NORMALS) != 0u && dot(normal, normal) > 0.0 {
+        n = normal;
     }
     n = normalize(n);
-    if dot(n, -in.eye_relative) < 0.0 {
+    if dot(n, -eye_relative) < 0.0 {
         n = -n;
     }
     return 0.25 + 0.75 * max(dot(n, frame.light.xyz), 0.0);
 }
 
+fn face_of(eye_relative: vec3<f32>) -> vec3<f32> {
+    return cross(dpdx(eye_relative), dpdy(eye_relative));
+}
+
+// Every mode (the patch and level colours read the simplex).
 @fragment
 fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
-    let face = cross(dpdx(in.eye_relative), dpdy(in.eye_relative));
+    let face = face_of(in.eye_relative);
     let mode = frame.counts.z;
     var base = in.colour;
     if mode == MODE_PATCHES {
@@ -196,7 +230,32 @@ fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
     } else if mode == MODE_LEVELS {
         base = palette(tets[in.simplex].level * 7919u + 1u);
     }
-    return vec4<f32>(base * shade(in, face), 1.0);
+    return vec4<f32>(base * shade(in.eye_relative, in.normal, face), 1.0);
+}
+
+// The lit mode, by the model's attributes: what `fs_main` draws in it.
+@fragment
+fn fs_lit(in: EyeIn) -> @location(0) vec4<f32> {
+    let face = face_of(in.eye_relative);
+    return vec4<f32>(PLAIN_COLOUR * shade(in.eye_relative, vec3<f32>(0.0), face), 1.0);
+}
+
+@fragment
+fn fs_lit_normals(in: NormalIn) -> @location(0) vec4<f32> {
+    let face = face_of(in.eye_relative);
+    return vec4<f32>(PLAIN_COLOUR * shade(in.eye_relative, in.normal, face), 1.0);
+}
+
+@fragment
+fn fs_lit_colours(in: ColourIn) -> @location(0) vec4<f32> {
+    let face = face_of(in.eye_relative);
+    return vec4<f32>(in.colour * shade(in.eye_relative, vec3<f32>(0.0), face), 1.0);
+}
+
+@fragment
+fn fs_lit_normals_colours(in: NormalColourIn) -> @location(0) vec4<f32> {
+    let face = face_of(in.eye_relative);
+    return vec4<f32>(in.colour * shade(in.eye_relative, in.normal, face), 1.0);
 }
 
 // The pixel crack check draws twice. First the front faces alone (back faces culled), grey,
@@ -207,9 +266,15 @@ fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
 // self-intersection of a coarse patch, an error within tau) covers a front pixel and is not
 // counted.
 @fragment
-fn fs_check_front(in: VertexOut) -> @location(0) vec4<f32> {
-    let face = cross(dpdx(in.eye_relative), dpdy(in.eye_relative));
-    return vec4<f32>(vec3<f32>(0.75) * shade(in, face), 1.0);
+fn fs_check_front(in: EyeIn) -> @location(0) vec4<f32> {
+    let face = face_of(in.eye_relative);
+    return vec4<f32>(vec3<f32>(0.75) * shade(in.eye_relative, vec3<f32>(0.0), face), 1.0);
+}
+
+@fragment
+fn fs_check_front_normals(in: NormalIn) -> @location(0) vec4<f32> {
+    let face = face_of(in.eye_relative);
+    return vec4<f32>(vec3<f32>(0.75) * shade(in.eye_relative, in.normal, face), 1.0);
 }
 
 // Below this |cos| between a face and the view ray a face is edge-on (about 1.7 degrees): its
@@ -225,8 +290,8 @@ struct CheckOut {
 }
 
 @fragment
-fn fs_check_back(in: VertexOut) -> CheckOut {
-    let face = cross(dpdx(in.eye_relative), dpdy(in.eye_relative));
+fn fs_check_back(in: EyeIn) -> CheckOut {
+    let face = face_of(in.eye_relative);
     if abs(dot(normalize(face), normalize(in.eye_relative))) < GRAZING_COS {
         return CheckOut(GRAZING_COLOUR, 0.0);
     }
@@ -246,13 +311,13 @@ fn vs_skirt(@location(0) q: vec3<i32>) -> VertexOut {
     out.clip = clip_position(eye_relative);
     out.eye_relative = eye_relative;
     out.normal = vec3<f32>(0.0);
-    out.colour = vec3<f32>(0.82, 0.80, 0.76);
+    out.colour = PLAIN_COLOUR;
     out.simplex = 0u;
     return out;
 }
 
 // The wireframe overlay (line polygon mode, where the adapter has it).
 @fragment
-fn fs_wire(in: VertexOut) -> @location(0) vec4<f32> {
+fn fs_wire() -> @location(0) vec4<f32> {
     return vec4<f32>(0.05, 0.05, 0.08, 1.0);
 }

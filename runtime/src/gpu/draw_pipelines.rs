@@ -1,19 +1,31 @@
 //! The draw pipelines of `draw.wgsl`: the lit/shaded fill, the pixel check's two passes (and
 //! their underside variants) and the wireframe overlay, as triangle lists: one set for the
-//! indexed draw, one for the vertex-pulling draw.
+//! indexed draw, one for the vertex-pulling draw. The lit fill and the check's front pass read
+//! only the attributes the model has (see `draw.wgsl`'s fragment inputs).
+
+use tessera_core::repository::format::{ATTR_COLORS, ATTR_NORMALS};
+
+use std::sync::OnceLock;
 
 use super::target::{COLOR_FORMAT, DEPTH_FORMAT};
 
-/// The draw pipelines.
+/// The draw pipelines, each made when first used: a frame uses two or three of them, and
+/// every pipeline a software adapter compiles costs host memory (llvmpipe GL: about 3 MB).
 pub struct DrawPipelines {
-    fill: wgpu::RenderPipeline,
-    fill_front: wgpu::RenderPipeline,
-    check_front: wgpu::RenderPipeline,
-    check_back: wgpu::RenderPipeline,
-    check_front_under: wgpu::RenderPipeline,
-    check_back_under: wgpu::RenderPipeline,
-    wire: Option<wgpu::RenderPipeline>,
+    device: wgpu::Device,
+    layout: wgpu::PipelineLayout,
+    module: wgpu::ShaderModule,
+    /// The vertex entry point.
+    vertex: &'static str,
+    /// The lit fill's and the check's front pass's fragment entry points for the model's
+    /// attributes.
+    lit: &'static str,
+    check_front: &'static str,
+    wireframe: bool,
+    made: [OnceLock<wgpu::RenderPipeline>; PASSES],
 }
+
+const PASSES: usize = Pass::Wire as usize + 1;
 
 /// Which draw pipeline.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -26,6 +38,9 @@ pub enum Pass {
     /// patches the cones dropped (back faces of kept patches would show where culled
     /// patches' front faces are missing).
     FillFront,
+    /// `Fill` and `FillFront` in the lit mode, reading only the model's attributes.
+    FillLit,
+    FillFrontLit,
     /// The check's first pass: front faces only, grey.
     CheckFront,
     /// The check's second pass: back faces only, flag colour where no front face is.
@@ -33,127 +48,149 @@ pub enum Pass {
     /// `CheckFront` and `CheckBack` with clockwise faces counting as front (underside check).
     CheckFrontUnder,
     CheckBackUnder,
-    /// Triangle edges over the fill.
+    /// Triangle edges over the fill (the last: `PASSES` counts up to it).
     Wire,
 }
 
 impl DrawPipelines {
-    /// The pipeline of `pass`; `None` for the wireframe where the adapter has no line mode.
+    /// The pipeline of `pass` (made now if it is the first use); `None` for the wireframe
+    /// where the adapter has no line mode.
     pub fn get(&self, pass: Pass) -> Option<&wgpu::RenderPipeline> {
-        match pass {
-            Pass::Fill => Some(&self.fill),
-            Pass::FillFront => Some(&self.fill_front),
-            Pass::CheckFront => Some(&self.check_front),
-            Pass::CheckBack => Some(&self.check_back),
-            Pass::CheckFrontUnder => Some(&self.check_front_under),
-            Pass::CheckBackUnder => Some(&self.check_back_under),
-            Pass::Wire => self.wire.as_ref(),
+        if pass == Pass::Wire && !self.wireframe {
+            return None;
         }
+        Some(self.made[pass as usize].get_or_init(|| self.make(pass)))
     }
 }
 
 impl DrawPipelines {
     /// `layouts`: group 0 (frame, tables, selection lists) and group 1 (page); `module`:
     /// draw.wgsl; `vertex`: its vertex entry point (`vs_indexed` for the indexed draw,
-    /// `vs_main` for vertex pulling); `wireframe`: the adapter has line polygon mode.
+    /// `vs_main` for vertex pulling); `attributes`: the model's (`ATTR_*`); `wireframe`: the
+    /// adapter has line polygon mode.
     pub fn new(
         device: &wgpu::Device,
         layouts: &[&wgpu::BindGroupLayout; 2],
         module: &wgpu::ShaderModule,
-        vertex: &str,
+        vertex: &'static str,
+        attributes: u32,
         wireframe: bool,
     ) -> DrawPipelines {
+        let normals = attributes & ATTR_NORMALS != 0;
+        let lit = match (normals, attributes & ATTR_COLORS != 0) {
+            (false, false) => "fs_lit",
+            (true, false) => "fs_lit_normals",
+            (false, true) => "fs_lit_colours",
+            (true, true) => "fs_lit_normals_colours",
+        };
+        let check_front = if normals {
+            "fs_check_front_normals"
+        } else {
+            "fs_check_front"
+        };
         let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("draw"),
             bind_group_layouts: &[Some(layouts[0]), Some(layouts[1])],
             immediate_size: 0,
         });
-        let pipeline = |pass: Pass| {
-            let (entry_point, cull_mode, depth_write, depth_compare) = match pass {
-                // Back faces are drawn: the lit mode shades them too.
-                Pass::Fill => ("fs_main", None, true, wgpu::CompareFunction::GreaterEqual),
-                Pass::FillFront => (
-                    "fs_main",
-                    Some(wgpu::Face::Back),
-                    true,
-                    wgpu::CompareFunction::GreaterEqual,
-                ),
-                Pass::CheckFront | Pass::CheckFrontUnder => (
-                    "fs_check_front",
-                    Some(wgpu::Face::Back),
-                    true,
-                    wgpu::CompareFunction::GreaterEqual,
-                ),
-                // Depth 0 "equal" the cleared depth: only where no front face was drawn.
-                Pass::CheckBack | Pass::CheckBackUnder => (
-                    "fs_check_back",
-                    Some(wgpu::Face::Front),
-                    false,
-                    wgpu::CompareFunction::Equal,
-                ),
-                Pass::Wire => ("fs_wire", None, false, wgpu::CompareFunction::GreaterEqual),
-            };
-            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some(entry_point),
-                layout: Some(&layout),
-                vertex: wgpu::VertexState {
-                    module,
-                    entry_point: Some(vertex),
-                    compilation_options: Default::default(),
-                    buffers: &[],
-                },
-                primitive: wgpu::PrimitiveState {
-                    topology: wgpu::PrimitiveTopology::TriangleList,
-                    strip_index_format: None,
-                    front_face: if matches!(pass, Pass::CheckFrontUnder | Pass::CheckBackUnder) {
-                        wgpu::FrontFace::Cw
-                    } else {
-                        wgpu::FrontFace::Ccw
-                    },
-                    cull_mode,
-                    unclipped_depth: false,
-                    polygon_mode: if pass == Pass::Wire {
-                        wgpu::PolygonMode::Line
-                    } else {
-                        wgpu::PolygonMode::Fill
-                    },
-                    conservative: false,
-                },
-                depth_stencil: Some(wgpu::DepthStencilState {
-                    format: DEPTH_FORMAT,
-                    depth_write_enabled: Some(depth_write),
-                    depth_compare: Some(depth_compare),
-                    stencil: Default::default(),
-                    // Reverse Z: a positive bias pulls the lines towards the eye.
-                    bias: if pass == Pass::Wire {
-                        wgpu::DepthBiasState {
-                            constant: 2,
-                            slope_scale: 1.0,
-                            clamp: 0.0,
-                        }
-                    } else {
-                        Default::default()
-                    },
-                }),
-                multisample: Default::default(),
-                fragment: Some(wgpu::FragmentState {
-                    module,
-                    entry_point: Some(entry_point),
-                    compilation_options: Default::default(),
-                    targets: &[Some(COLOR_FORMAT.into())],
-                }),
-                multiview_mask: None,
-                cache: None,
-            })
-        };
         DrawPipelines {
-            fill: pipeline(Pass::Fill),
-            fill_front: pipeline(Pass::FillFront),
-            check_front: pipeline(Pass::CheckFront),
-            check_back: pipeline(Pass::CheckBack),
-            check_front_under: pipeline(Pass::CheckFrontUnder),
-            check_back_under: pipeline(Pass::CheckBackUnder),
-            wire: wireframe.then(|| pipeline(Pass::Wire)),
+            device: device.clone(),
+            layout,
+            module: module.clone(),
+            vertex,
+            lit,
+            check_front,
+            wireframe,
+            made: Default::default(),
         }
+    }
+
+    fn make(&self, pass: Pass) -> wgpu::RenderPipeline {
+        let (lit, check_front) = (self.lit, self.check_front);
+        let (device, layout, module, vertex) =
+            (&self.device, &self.layout, &self.module, self.vertex);
+        let (entry_point, cull_mode, depth_write, depth_compare) = match pass {
+            // Back faces are drawn: the lit mode shades them too.
+            Pass::Fill => ("fs_main", None, true, wgpu::CompareFunction::GreaterEqual),
+            Pass::FillFront => (
+                "fs_main",
+                Some(wgpu::Face::Back),
+                true,
+                wgpu::CompareFunction::GreaterEqual,
+            ),
+            Pass::FillLit => (lit, None, true, wgpu::CompareFunction::GreaterEqual),
+            Pass::FillFrontLit => (
+                lit,
+                Some(wgpu::Face::Back),
+                true,
+                wgpu::CompareFunction::GreaterEqual,
+            ),
+            Pass::CheckFront | Pass::CheckFrontUnder => (
+                check_front,
+                Some(wgpu::Face::Back),
+                true,
+                wgpu::CompareFunction::GreaterEqual,
+            ),
+            // Depth 0 "equal" the cleared depth: only where no front face was drawn.
+            Pass::CheckBack | Pass::CheckBackUnder => (
+                "fs_check_back",
+                Some(wgpu::Face::Front),
+                false,
+                wgpu::CompareFunction::Equal,
+            ),
+            Pass::Wire => ("fs_wire", None, false, wgpu::CompareFunction::GreaterEqual),
+        };
+        device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some(entry_point),
+            layout: Some(layout),
+            vertex: wgpu::VertexState {
+                module,
+                entry_point: Some(vertex),
+                compilation_options: Default::default(),
+                buffers: &[],
+            },
+            primitive: wgpu::PrimitiveState {
+                topology: wgpu::PrimitiveTopology::TriangleList,
+                strip_index_format: None,
+                front_face: if matches!(pass, Pass::CheckFrontUnder | Pass::CheckBackUnder) {
+                    wgpu::FrontFace::Cw
+                } else {
+                    wgpu::FrontFace::Ccw
+                },
+                cull_mode,
+                unclipped_depth: false,
+                polygon_mode: if pass == Pass::Wire {
+                    wgpu::PolygonMode::Line
+                } else {
+                    wgpu::PolygonMode::Fill
+                },
+                conservative: false,
+            },
+            depth_stencil: Some(wgpu::DepthStencilState {
+                format: DEPTH_FORMAT,
+                depth_write_enabled: Some(depth_write),
+                depth_compare: Some(depth_compare),
+                stencil: Default::default(),
+                // Reverse Z: a positive bias pulls the lines towards the eye.
+                bias: if pass == Pass::Wire {
+                    wgpu::DepthBiasState {
+                        constant: 2,
+                        slope_scale: 1.0,
+                        clamp: 0.0,
+                    }
+                } else {
+                    Default::default()
+                },
+            }),
+            multisample: Default::default(),
+            fragment: Some(wgpu::FragmentState {
+                module,
+                entry_point: Some(entry_point),
+                compilation_options: Default::default(),
+                targets: &[Some(COLOR_FORMAT.into())],
+            }),
+            multiview_mask: None,
+            cache: None,
+        })
     }
 }

@@ -145,8 +145,10 @@ impl Renderer {
         });
         let layouts = [&draw_layout, &page_layout];
         let wireframe = ctx.capabilities.wireframe;
-        let indexed = DrawPipelines::new(device, &layouts, &module, "vs_indexed", wireframe);
-        let pulled = DrawPipelines::new(device, &layouts, &module, "vs_main", wireframe);
+        let attributes = repo.header().attributes;
+        let pipelines =
+            |vertex| DrawPipelines::new(device, &layouts, &module, vertex, attributes, wireframe);
+        let (indexed, pulled) = (pipelines("vs_indexed"), pipelines("vs_main"));
         let skirts = super::skirts::CheckSkirts::new(device, &draw_layout, &module);
 
         let directory = match streamed {
@@ -312,10 +314,11 @@ impl Renderer {
             );
             pass.set_bind_group(0, &self.draw_group, &[]);
             // One face rule (see `FrameRequest::two_sided`).
-            let fill = if request.two_sided {
-                Pass::Fill
-            } else {
-                Pass::FillFront
+            let fill = match (request.two_sided, request.mode == ShadingMode::Lit) {
+                (true, false) => Pass::Fill,
+                (false, false) => Pass::FillFront,
+                (true, true) => Pass::FillLit,
+                (false, true) => Pass::FillFrontLit,
             };
             let fill_and_wire = [fill, Pass::Wire];
             let passes: &[Pass] = match (request.mode, request.wireframe) {
@@ -360,7 +363,11 @@ impl Renderer {
                         self.skirts
                             .draw(&mut pass, true, which == Pass::CheckFrontUnder)
                     }
-                    Pass::Fill | Pass::FillFront | Pass::Wire => {}
+                    Pass::Fill
+                    | Pass::FillFront
+                    | Pass::FillLit
+                    | Pass::FillFrontLit
+                    | Pass::Wire => {}
                 }
             }
         }
