@@ -71,8 +71,9 @@ const fn symbols() -> [u32; 4096] {
 /// how many nibbles they take (0 when the first symbol is a longer varint), bits 2–4 which
 /// are restarts, bits 8–15 the smallest offset (0 or below, as i8), bits 16–23 how much
 /// `next` grows, bits 24 + 8i.. the ith symbol's offset as i8 (index = next + offset; 0 for
-/// a restart or past the last symbol), bits 48–49 how many symbols. The one-nibble symbols (new vertices, restarts, backs
-/// 0–11) are most of a strip in first-use order, backs 12–27 most of the rest.
+/// a restart or past the last symbol), bits 48–49 how many symbols. The one-nibble symbols
+/// (new vertices, restarts, backs 0–11) are most of a strip in first-use order, backs 12–27
+/// most of the rest.
 static RUNS: [u64; 4096] = runs();
 
 const fn runs() -> [u64; 4096] {
@@ -201,8 +202,9 @@ pub fn decode_strip(
 
 /// `decode_strip` for `W`-byte indices. The next three nibbles pick one `RUNS` entry: the
 /// symbols they hold (up to three), checked and written together, so the loop's chain of
-/// dependent loads is walked once for several indices. What a run cannot take (a varint of four nibbles or more, the stream's last
-/// bytes, the last two slots, a run that fails its check) goes one symbol at a time: its
+/// dependent loads is walked once for several indices. What a run cannot take (a varint of
+/// four nibbles or more, the stream's last bytes, the last two slots, a run that fails its
+/// check) goes one symbol at a time: its
 /// `SYMBOLS` entry, how many nibbles and the distance d, index = next − d (d < 0 for a
 /// forward jump), next = max(next, index + 1), or the general path. The reader's 64-bit
 /// buffer holds at least three nibbles between refills of 7 bytes.
@@ -241,7 +243,7 @@ fn decode<const W: usize>(stream: &[u8], n: u64, target: &mut [u8]) -> Result<()
             let taken = (run & 3) as u32;
             let smallest = (run >> 8) as u8 as i8 as i64 as u64;
             let grown = (run >> 16) & 0xFF;
-            if taken != 0 && next + grown <= n && next.wrapping_add(smallest) < n {
+            if taken != 0 && next + grown <= n && next.wrapping_add(smallest) <= n {
                 let slots = &mut target[k * W..(k + 3) * W];
                 for (i, slot) in slots.chunks_exact_mut(W).enumerate() {
                     let value = if run & (4 << i) != 0 {

@@ -172,3 +172,83 @@ fn crafted_streams_fail_cleanly() {
         }
     }
 }
+
+/// Strips `encode_strip` writes (new vertices, short and far backs, restarts, forward jumps),
+/// whole and with one bit flipped: the hot loop's runs give what the general path gives, one
+/// symbol at a time, and the whole ones give back their indices.
+#[test]
+fn valid_strips_decode_as_single_symbols_do() {
+    let mut state = 0x2545_F491_4F6C_DD1Du64;
+    let mut random = move |below: u64| {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        state % below.max(1)
+    };
+    let mut runs = 0;
+    for _ in 0..3000 {
+        let n = 1 + random(300);
+        let len = random(400) as usize;
+        let mut next = 0u64;
+        let mut indices = Vec::with_capacity(len);
+        for _ in 0..len {
+            let kind = random(100);
+            let index = if kind < 5 {
+                R as u64
+            } else if (kind < 55 || next == 0) && next < n {
+                next
+            } else if kind < 58 && next + 1 < n {
+                next + 1 + random(n - next - 1)
+            } else if next > 0 {
+                // Mostly short backs (one nibble), some of two nibbles and some far.
+                let reach = [12, 28, 200][random(3) as usize].min(next);
+                next - 1 - random(reach)
+            } else {
+                R as u64
+            };
+            if index != R as u64 {
+                next = next.max(index + 1);
+            }
+            indices.push(index as u32);
+        }
+        let mut stream = Vec::new();
+        encode_strip(&indices, R, &mut stream);
+        let count = indices.len();
+        let mut wide = vec![0u8; 4 * count];
+        decode::<4>(&stream, n, &mut wide).unwrap();
+        let decoded: Vec<u32> = wide
+            .chunks_exact(4)
+            .map(|c| u32::from_le_bytes(c.try_into().unwrap()))
+            .collect();
+        assert_eq!(decoded, indices);
+        assert_eq!(
+            decode_symbol_by_symbol(&stream, n, count),
+            Ok(indices.clone())
+        );
+        runs += (count >= 3) as usize;
+        if stream.is_empty() {
+            continue;
+        }
+        let bit = random(8 * stream.len() as u64);
+        stream[(bit / 8) as usize] ^= 1 << (bit % 8);
+        let expected = decode_symbol_by_symbol(&stream, n, count);
+        let fast = decode::<4>(&stream, n, &mut wide).map(|()| {
+            wide.chunks_exact(4)
+                .map(|c| u32::from_le_bytes(c.try_into().unwrap()))
+                .collect::<Vec<_>>()
+        });
+        assert_eq!(fast, expected, "{indices:?} with bit {bit} flipped");
+        let mut narrow = vec![0u8; 2 * count];
+        let fast = decode::<2>(&stream, n, &mut narrow).map(|()| {
+            narrow
+                .chunks_exact(2)
+                .map(|c| match u16::from_le_bytes([c[0], c[1]]) {
+                    u16::MAX => R,
+                    i => i as u32,
+                })
+                .collect::<Vec<_>>()
+        });
+        assert_eq!(fast, expected, "u16: {indices:?} with bit {bit} flipped");
+    }
+    assert!(runs > 2000, "{runs} strips long enough for runs");
+}
