@@ -1,16 +1,18 @@
-//! The draw pipelines of `draw.wgsl`: the lit/shaded fill, the pixel check's two passes (and
-//! their underside variants) and the wireframe overlay, as triangle lists: one set for the
-//! indexed draw, one for the vertex-pulling draw. The lit fill and the check's front pass read
-//! only the attributes the model has (see `draw.wgsl`'s fragment inputs).
-
-use tessera_core::repository::format::{ATTR_COLORS, ATTR_NORMALS};
+//! The draw pipelines of `draw.wgsl`: the fill (lit, or coloured by patch or level), the pixel
+//! check's two passes (and their underside variants) and the wireframe overlay, as triangle
+//! lists: one set for the indexed draw, one for the vertex-pulling draw. The lit fill and the
+//! check's front pass read only the attributes the model has (`draw.wgsl`'s fragment inputs).
 
 use std::sync::OnceLock;
 
+use tessera_core::repository::format::{ATTR_COLORS, ATTR_NORMALS};
+
 use super::target::{COLOR_FORMAT, DEPTH_FORMAT};
 
-/// The draw pipelines, each made when first used: a frame uses two or three of them, and
-/// every pipeline a software adapter compiles costs host memory (llvmpipe GL: about 3 MB).
+/// The draw pipelines, each made when first used: a frame makes at most four of the eighteen
+/// (a fill and the wireframe, indexed and pulled), and every pipeline a software adapter
+/// compiles costs host memory (llvmpipe GL: about 3 MB). A pipeline that fails to build is
+/// reported as a device error by the frame that first asks for it.
 pub struct DrawPipelines {
     device: wgpu::Device,
     layout: wgpu::PipelineLayout,
@@ -30,10 +32,10 @@ const PASSES: usize = Pass::Wire as usize + 1;
 /// Which draw pipeline.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Pass {
-    /// Every face, shaded by the frame's mode (two-sided: the frame culls no patch by its
-    /// normal cone either).
+    /// Every face, coloured by patch or level (`fs_main`; two-sided: the frame culls no patch
+    /// by its normal cone either).
     Fill,
-    /// Front faces only, shaded by the frame's mode: the default, one face rule for the
+    /// Front faces only, coloured by patch or level: the default, one face rule for the
     /// rasteriser and the patch cones, so a picture does not depend on τ through which
     /// patches the cones dropped (back faces of kept patches would show where culled
     /// patches' front faces are missing).

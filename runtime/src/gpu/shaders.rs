@@ -32,7 +32,8 @@ pub fn expand_source() -> String {
     )
 }
 
-/// The draw pass (`vs_main`, `fs_main`, `fs_wire`).
+/// The draw pass (`vs_indexed`, `vs_main`; `fs_main`, the `fs_lit*` and `fs_check*` entries,
+/// `fs_wire`).
 pub fn draw_source() -> String {
     format!(
         "{RECORDS}\n{POSITION}\n{}",
