@@ -41,6 +41,24 @@ pub fn gpu() -> tessera_runtime::gpu::GpuContext {
     })
 }
 
+/// The GPU device on `backend` (Vulkan: lavapipe, GL: llvmpipe through EGL in CI); panics
+/// with what to install when the machine lacks it, so a missing backend never passes silently.
+pub fn gpu_on(backend: tessera_runtime::gpu::Backend) -> tessera_runtime::gpu::GpuContext {
+    let ctx = tessera_runtime::gpu::GpuContext::open(&tessera_runtime::gpu::DeviceOptions {
+        adapter: None,
+        backend: Some(backend),
+        limits: None,
+    })
+    .unwrap_or_else(|e| {
+        panic!(
+            "{e}\n(the backend tests need both Vulkan and GL adapters: on Debian/Ubuntu \
+             `apt-get install mesa-vulkan-drivers libegl1 libegl-mesa0`)"
+        )
+    });
+    assert_eq!(ctx.backend, backend, "{}", ctx.adapter_description());
+    ctx
+}
+
 /// The pixel check of `repo` from `views` views at 480 × 270 (the default tolerances).
 pub fn check_pixels_small(
     ctx: &tessera_runtime::gpu::GpuContext,

@@ -13,30 +13,13 @@ use tessera_preprocess::import::load_mesh;
 use tessera_preprocess::{BuildConfig, Domain};
 use tessera_runtime::camera::{Camera, Y_UP, Z_UP};
 use tessera_runtime::gpu::{
-    Backend, DeviceOptions, FrameRequest, GpuContext, Renderer, RendererOptions, ShadingMode,
+    Backend, FrameRequest, GpuContext, Renderer, RendererOptions, ShadingMode,
 };
 use tessera_runtime::pixel_check::{check_pixels, PixelCheckConfig};
-use tessera_tests::{build, testdata, Built};
+use tessera_tests::{build, gpu_on, testdata, Built};
 
 const WIDTH: u32 = 640;
 const HEIGHT: u32 = 360;
-
-/// The device on `backend`; panics with the fix when the machine lacks it.
-fn device(backend: Backend) -> GpuContext {
-    let ctx = GpuContext::open(&DeviceOptions {
-        adapter: None,
-        backend: Some(backend),
-        limits: None,
-    })
-    .unwrap_or_else(|e| {
-        panic!(
-            "{e}\n(the backend tests need both Vulkan and GL adapters: on Debian/Ubuntu \
-             `apt-get install mesa-vulkan-drivers libegl1 libegl-mesa0`)"
-        )
-    });
-    assert_eq!(ctx.backend, backend, "{}", ctx.adapter_description());
-    ctx
-}
 
 /// One lit frame of `repo` at τ = 1 px from `camera`: the image and the selection.
 fn frame(ctx: &GpuContext, repo: &Repository, camera: Camera) -> (image::RgbaImage, Vec<u32>) {
@@ -103,8 +86,8 @@ fn same_picture_on_both_backends(name: &str, built: &Built, camera: Camera, min_
         height: HEIGHT,
         ..camera
     };
-    let (vulkan, vulkan_selection) = frame(&device(Backend::Vulkan), &built.repo, camera);
-    let (gl, gl_selection) = frame(&device(Backend::Gl), &built.repo, camera);
+    let (vulkan, vulkan_selection) = frame(&gpu_on(Backend::Vulkan), &built.repo, camera);
+    let (gl, gl_selection) = frame(&gpu_on(Backend::Gl), &built.repo, camera);
     assert_eq!(
         vulkan_selection, gl_selection,
         "{name}: the traversals differ"
@@ -154,7 +137,7 @@ fn the_pixel_check_is_clean_on_gl() {
         .expect("import")
         .mesh;
     let built = build(&mesh, &BuildConfig::default());
-    let ctx = device(Backend::Gl);
+    let ctx = gpu_on(Backend::Gl);
     let options = RendererOptions {
         width: WIDTH,
         height: HEIGHT,
@@ -192,7 +175,7 @@ fn the_vertex_pulling_fallback_draws_the_indexed_picture() {
         ..Camera::orbit(h.bbox_min, h.bbox_max, Y_UP, 120.0, 10.0, 2.0)
     };
     for backend in [Backend::Vulkan, Backend::Gl] {
-        let ctx = device(backend);
+        let ctx = gpu_on(backend);
         let (indexed, indexed_selection) = frame_with(&ctx, &built.repo, camera, None);
         let (pulled, pulled_selection) = frame_with(&ctx, &built.repo, camera, Some(16));
         assert_eq!(indexed_selection, pulled_selection, "{backend}");

@@ -8,10 +8,9 @@
 use tessera_preprocess::{BuildConfig, Construction};
 use tessera_runtime::camera::{Camera, Y_UP};
 use tessera_runtime::gpu::{
-    Backend, DeviceOptions, FrameRequest, GpuContext, Readback, Renderer, RendererOptions,
-    ShadingMode,
+    Backend, FrameRequest, Readback, Renderer, RendererOptions, ShadingMode,
 };
-use tessera_tests::build;
+use tessera_tests::{build, gpu_on};
 
 const SIZE: u32 = 192;
 
@@ -31,17 +30,7 @@ fn model_and_red_pixels(image: &image::RgbaImage) -> (usize, usize) {
 #[test]
 fn every_mode_draws_for_every_attribute_set_on_both_backends() {
     for backend in [Backend::Vulkan, Backend::Gl] {
-        let ctx = GpuContext::open(&DeviceOptions {
-            adapter: None,
-            backend: Some(backend),
-            limits: None,
-        })
-        .unwrap_or_else(|e| {
-            panic!(
-                "{e}\n(needs Vulkan and GL adapters: `apt-get install mesa-vulkan-drivers \
-                 libegl1 libegl-mesa0`)"
-            )
-        });
+        let ctx = gpu_on(backend);
         for (normals, colours) in [(false, false), (true, false), (false, true), (true, true)] {
             let mut mesh = tessera_tests::attributed_demo_mesh(3);
             if !normals {

@@ -296,19 +296,7 @@ fn decode<const W: usize>(stream: &[u8], n: u64, target: &mut [u8]) -> Result<()
         buffer,
         available,
     };
-    let consumed = reader.consumed(stream);
-    let used = consumed.div_ceil(2);
-    if used != stream.len() {
-        return Err(format!(
-            "{} bytes after the strip's {} indices",
-            stream.len() - used,
-            target.len() / W
-        ));
-    }
-    if consumed % 2 == 1 && stream[used - 1] >> 4 != 0 {
-        return Err("a non-zero half byte after the strip".into());
-    }
-    Ok(())
+    reader.check_end(stream, count)
 }
 
 #[inline(always)]
@@ -434,6 +422,23 @@ impl Reader<'_> {
         self.buffer >>= 4;
         self.available -= 1;
         Some(nibble)
+    }
+
+    /// After the last of `count` indices: the stream used exactly (bytes left over, or a
+    /// non-zero half byte after an odd count of nibbles, are errors).
+    fn check_end(&self, stream: &[u8], count: usize) -> Result<(), String> {
+        let consumed = self.consumed(stream);
+        let used = consumed.div_ceil(2);
+        if used != stream.len() {
+            return Err(format!(
+                "{} bytes after the strip's {count} indices",
+                stream.len() - used
+            ));
+        }
+        if consumed % 2 == 1 && stream[used - 1] >> 4 != 0 {
+            return Err("a non-zero half byte after the strip".into());
+        }
+        Ok(())
     }
 
     /// Nibbles taken so far from `stream` (which this reader started on).

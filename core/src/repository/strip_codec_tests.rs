@@ -71,18 +71,40 @@ fn decode_symbol_by_symbol(stream: &[u8], n: u64, count: usize) -> Result<Vec<u3
         (next, reader) = (after_next, after);
         out.push(value as u32);
     }
-    let consumed = reader.consumed(stream);
-    let used = consumed.div_ceil(2);
-    if used != stream.len() {
-        return Err(format!(
-            "{} bytes after the strip's {count} indices",
-            stream.len() - used
-        ));
-    }
-    if consumed % 2 == 1 && stream[used - 1] >> 4 != 0 {
-        return Err("a non-zero half byte after the strip".into());
-    }
+    reader.check_end(stream, count)?;
     Ok(out)
+}
+
+/// `decode` agrees with `decode_symbol_by_symbol` on `stream`, in both widths (values or error).
+fn decodes_as_symbol_by_symbol(stream: &[u8], n: u64, count: usize, what: &str) {
+    let expected = decode_symbol_by_symbol(stream, n, count);
+    assert_eq!(
+        decode_as_u32::<4>(stream, n, count),
+        expected,
+        "{what}, {count} indices"
+    );
+    assert_eq!(
+        decode_as_u32::<2>(stream, n, count),
+        expected,
+        "u16: {what}, {count} indices"
+    );
+}
+
+/// `decode` of `count` indices as u32 (`W` 4) or u16 (`W` 2), read back as u32 with the
+/// restart marker as `R`.
+fn decode_as_u32<const W: usize>(stream: &[u8], n: u64, count: usize) -> Result<Vec<u32>, String> {
+    let mut target = vec![0u8; W * count];
+    decode::<W>(stream, n, &mut target)?;
+    Ok(target
+        .chunks_exact(W)
+        .map(|c| match W {
+            2 => match u16::from_le_bytes([c[0], c[1]]) {
+                u16::MAX => R,
+                i => i as u32,
+            },
+            _ => u32::from_le_bytes(c.try_into().unwrap()),
+        })
+        .collect())
 }
 
 #[test]
@@ -111,28 +133,7 @@ fn runs_decode_as_single_symbols_do() {
             .collect();
         let n = random() % 80;
         let count = (random() % (2 * len as u64 + 4)) as usize;
-        let expected = decode_symbol_by_symbol(&stream, n, count);
-        let mut wide = vec![0u8; 4 * count];
-        let fast = decode::<4>(&stream, n, &mut wide).map(|()| {
-            wide.chunks_exact(4)
-                .map(|c| u32::from_le_bytes(c.try_into().unwrap()))
-                .collect::<Vec<_>>()
-        });
-        assert_eq!(fast, expected, "{stream:x?}, {n} vertices, {count} indices");
-        let mut narrow = vec![0u8; 2 * count];
-        let fast = decode::<2>(&stream, n, &mut narrow).map(|()| {
-            narrow
-                .chunks_exact(2)
-                .map(|c| match u16::from_le_bytes([c[0], c[1]]) {
-                    u16::MAX => u32::MAX,
-                    i => i as u32,
-                })
-                .collect::<Vec<_>>()
-        });
-        assert_eq!(
-            fast, expected,
-            "u16: {stream:x?}, {n} vertices, {count} indices"
-        );
+        decodes_as_symbol_by_symbol(&stream, n, count, &format!("{stream:x?}, {n} vertices"));
     }
 }
 
@@ -214,13 +215,8 @@ fn valid_strips_decode_as_single_symbols_do() {
         let mut stream = Vec::new();
         encode_strip(&indices, R, &mut stream);
         let count = indices.len();
-        let mut wide = vec![0u8; 4 * count];
-        decode::<4>(&stream, n, &mut wide).unwrap();
-        let decoded: Vec<u32> = wide
-            .chunks_exact(4)
-            .map(|c| u32::from_le_bytes(c.try_into().unwrap()))
-            .collect();
-        assert_eq!(decoded, indices);
+        assert_eq!(decode_as_u32::<4>(&stream, n, count), Ok(indices.clone()));
+        assert_eq!(decode_as_u32::<2>(&stream, n, count), Ok(indices.clone()));
         assert_eq!(
             decode_symbol_by_symbol(&stream, n, count),
             Ok(indices.clone())
@@ -231,24 +227,12 @@ fn valid_strips_decode_as_single_symbols_do() {
         }
         let bit = random(8 * stream.len() as u64);
         stream[(bit / 8) as usize] ^= 1 << (bit % 8);
-        let expected = decode_symbol_by_symbol(&stream, n, count);
-        let fast = decode::<4>(&stream, n, &mut wide).map(|()| {
-            wide.chunks_exact(4)
-                .map(|c| u32::from_le_bytes(c.try_into().unwrap()))
-                .collect::<Vec<_>>()
-        });
-        assert_eq!(fast, expected, "{indices:?} with bit {bit} flipped");
-        let mut narrow = vec![0u8; 2 * count];
-        let fast = decode::<2>(&stream, n, &mut narrow).map(|()| {
-            narrow
-                .chunks_exact(2)
-                .map(|c| match u16::from_le_bytes([c[0], c[1]]) {
-                    u16::MAX => R,
-                    i => i as u32,
-                })
-                .collect::<Vec<_>>()
-        });
-        assert_eq!(fast, expected, "u16: {indices:?} with bit {bit} flipped");
+        decodes_as_symbol_by_symbol(
+            &stream,
+            n,
+            count,
+            &format!("{indices:?}, bit {bit} flipped"),
+        );
     }
     assert!(runs > 2000, "{runs} strips long enough for runs");
 }
