@@ -24,7 +24,7 @@ use tessera_core::repository::packed::{pack_patch, StripCoding};
 use tessera_core::repository::patch::{encode_patch, patch_bytes};
 use tessera_core::repository::BlobFeed;
 
-use crate::external::temp_usage::Charge;
+use crate::external::temp_usage::{Charge, TempKind};
 use crate::packed_key::PackedKey;
 use crate::strips::build_patch;
 use crate::vertex_table::LivePatch;
@@ -97,7 +97,7 @@ impl Spill {
 
     /// Appending to `file`, which holds `bytes` bytes of CRC-32 `crc` (positioned at its end).
     fn at_end(file: File, bytes: u64, crc: u32) -> Spill {
-        let charge = Charge::new();
+        let charge = Charge::new(TempKind::FinishedPatches);
         charge.grow(bytes);
         Spill {
             writer: BufWriter::with_capacity(1 << 20, file),

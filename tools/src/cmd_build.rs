@@ -201,6 +201,10 @@ pub fn run(args: BuildArgs) -> anyhow::Result<Outcome> {
         value["position_bits"] = json!(args.position_bits);
         // The most the out-of-core stages' temporary files held at once (0 without --memory).
         value["temp_bytes_peak"] = json!(tessera_preprocess::external::temp_usage::peak());
+        // Which files made that peak (approximately: taken as the peak was reached).
+        value["temp_bytes_at_peak"] =
+            temp_parts_json(tessera_preprocess::external::temp_usage::by_kind_at_peak());
+        let temp_stage_peaks = crate::peak_rss::temp_stage_peaks();
         if let Some(stages) = value["stages"].as_array_mut() {
             stages.insert(0, json!({"stage": "import", "seconds": import_seconds}));
             // Each stage's peak resident memory: its own with `--stage-peaks`, else the peak so far
@@ -209,6 +213,10 @@ pub fn run(args: BuildArgs) -> anyhow::Result<Outcome> {
                 let name = stage["stage"].as_str().unwrap_or_default().to_string();
                 if let Some((_, peak)) = stage_peaks.iter().find(|(s, _)| *s == name) {
                     stage["peak_rss_bytes"] = json!(peak);
+                }
+                if let Some((_, peak, parts)) = temp_stage_peaks.iter().find(|(s, ..)| *s == name) {
+                    stage["temp_bytes_peak"] = json!(peak);
+                    stage["temp_bytes_at_peak"] = temp_parts_json(parts.clone());
                 }
             }
         }
@@ -375,6 +383,18 @@ pub fn parse_size(text: &str) -> Result<u64, String> {
         return Err(format!("'{text}': give at least 1M"));
     }
     Ok(bytes)
+}
+
+/// What each kind of temporary file held, as a JSON object (kinds holding nothing left out).
+fn temp_parts_json(
+    parts: Vec<(tessera_preprocess::external::temp_usage::TempKind, u64)>,
+) -> serde_json::Value {
+    parts
+        .into_iter()
+        .filter(|&(_, bytes)| bytes > 0)
+        .map(|(kind, bytes)| (kind.name().to_string(), json!(bytes)))
+        .collect::<serde_json::Map<_, _>>()
+        .into()
 }
 
 #[cfg(test)]

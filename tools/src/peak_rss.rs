@@ -5,6 +5,8 @@
 //! which the kernel can drop and re-read). The kernel keeps no peak of RssAnon: `AnonPeak`
 //! samples it, so its maximum is a lower bound of the true peak.
 
+use tessera_preprocess::external::temp_usage::{self, TempKind};
+
 /// Peak resident set size in bytes, where the system says.
 pub fn peak_rss_bytes() -> Option<u64> {
     let status = std::fs::read_to_string("/proc/self/status").ok()?;
@@ -26,6 +28,32 @@ pub struct StagePeaks {
 /// The stage running (if any) and the (stage, peak bytes) of those ended.
 type PeakState = (Option<String>, Vec<(String, u64)>);
 
+/// A stage's most temporary bytes (`temp_usage::stage_peak`) and what each kind of file held
+/// then.
+pub type TempStagePeak = (String, u64, Vec<(TempKind, u64)>);
+
+/// Each ended stage's [`TempStagePeak`], in order.
+static TEMP_STAGE_PEAKS: std::sync::Mutex<Vec<TempStagePeak>> = std::sync::Mutex::new(Vec::new());
+
+/// The most the build's temporary files held during each stage that ended (every stage's own,
+/// whatever `--stage-peaks`: the temporary totals cost nothing to reset).
+pub fn temp_stage_peaks() -> Vec<TempStagePeak> {
+    TEMP_STAGE_PEAKS
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .clone()
+}
+
+fn end_temp_stage(stage: String) {
+    let peak = temp_usage::stage_peak();
+    let parts = temp_usage::by_kind_at_stage_peak();
+    TEMP_STAGE_PEAKS
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .push((stage, peak, parts));
+    temp_usage::start_stage();
+}
+
 impl StagePeaks {
     pub fn new(per_stage: bool) -> Self {
         StagePeaks {
@@ -39,7 +67,10 @@ impl StagePeaks {
         let mut state = self.state.lock().unwrap_or_else(|e| e.into_inner());
         if let Some(previous) = state.0.take() {
             let peak = peak_rss_bytes().unwrap_or(0);
+            end_temp_stage(previous.clone());
             state.1.push((previous, peak));
+        } else {
+            temp_usage::start_stage();
         }
         if self.reset {
             reset_peak();
@@ -52,6 +83,7 @@ impl StagePeaks {
         let mut state = self.state.lock().unwrap_or_else(|e| e.into_inner());
         if let Some(previous) = state.0.take() {
             let peak = peak_rss_bytes().unwrap_or(0);
+            end_temp_stage(previous.clone());
             state.1.push((previous, peak));
         }
         state.1.clone()

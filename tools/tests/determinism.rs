@@ -280,6 +280,28 @@ fn a_2m_triangle_build_stays_within_64_mib() {
         "temporary files peaked at {temp} bytes, {:.2}× the {input}-byte input: {json}",
         temp as f64 / input as f64
     );
+    // Where the peak is: the largest stage peak is the run's, and the kinds of file held at
+    // each peak add up to it (up to what other threads wrote while it was taken).
+    let stage_temp: Vec<u64> = json["stages"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| s["temp_bytes_peak"].as_u64().unwrap())
+        .collect();
+    assert_eq!(stage_temp.iter().max(), Some(&temp), "{json}");
+    let parts = |v: &serde_json::Value| -> u64 {
+        v.as_object()
+            .unwrap()
+            .values()
+            .map(|b| b.as_u64().unwrap())
+            .sum()
+    };
+    let near = |sum: u64, peak: u64| sum.abs_diff(peak) <= 8 << 20;
+    assert!(near(parts(&json["temp_bytes_at_peak"]), temp), "{json}");
+    for stage in json["stages"].as_array().unwrap() {
+        let peak = stage["temp_bytes_peak"].as_u64().unwrap();
+        assert!(near(parts(&stage["temp_bytes_at_peak"]), peak), "{json}");
+    }
 }
 
 /// `build --stage-peaks` resets the kernel's peak at each stage where the system allows it

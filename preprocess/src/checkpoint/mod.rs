@@ -37,7 +37,7 @@ use std::io;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-use crate::external::temp_usage::Charge;
+use crate::external::temp_usage::{Charge, TempKind};
 use crate::BuildConfig;
 
 /// The checkpoint directory of a build of `output` whose temporary files go to `temp_dir`.
@@ -167,7 +167,7 @@ impl Checkpoint {
             on_commit: None,
             last_level: None,
             pacing: (LEVEL_INTERVAL, LEVEL_COST_FACTOR),
-            held: Charge::new(),
+            held: Charge::new(TempKind::Checkpoint),
         };
         checkpoint.write_manifest().map_err(io_at)?;
         Ok(checkpoint)
@@ -224,7 +224,7 @@ impl Checkpoint {
             on_commit: None,
             last_level: None,
             pacing: (LEVEL_INTERVAL, LEVEL_COST_FACTOR),
-            held: Charge::new(),
+            held: Charge::new(TempKind::Checkpoint),
         };
         checkpoint
             .remove_unlisted()

@@ -23,7 +23,7 @@ use std::path::Path;
 use bytemuck::Pod;
 use rayon::prelude::*;
 
-use super::temp_usage::Charge;
+use super::temp_usage::{Charge, TempKind};
 
 /// Bytes of read buffer given to each run while merging (a smaller budget merges in more
 /// passes).
@@ -264,7 +264,7 @@ impl<'c, T: Pod> RunWriter<'c, T> {
             payload: Vec::new(),
             records: 0,
             bytes: 0,
-            charge: Charge::new(),
+            charge: Charge::new(TempKind::SortRuns),
         })
     }
 

@@ -18,7 +18,7 @@ use bytemuck::Pod;
 
 use super::file_io::{link_unnamed, ReadAt};
 use super::position_file::{PositionFile, PositionWriter};
-use super::temp_usage::Charge;
+use super::temp_usage::{Charge, TempKind};
 use crate::mesh::InputMesh;
 
 /// Buffer size of the record readers and writers.
@@ -43,7 +43,7 @@ impl<T: Pod> RecordFile<T> {
         Ok(RecordWriter {
             writer: BufWriter::with_capacity(IO_BUFFER, file),
             records: 0,
-            charge: Charge::new(),
+            charge: Charge::new(TempKind::StagedMesh),
             _record: PhantomData,
         })
     }
@@ -174,7 +174,7 @@ impl<T: Pod> RecordFile<T> {
         Ok(RecordFile {
             file: std::sync::Mutex::new(Some(File::open(path)?)),
             records: bytes / size,
-            charge: Charge::new(),
+            charge: Charge::new(TempKind::StagedMesh),
             kept: true,
             _record: PhantomData,
         })

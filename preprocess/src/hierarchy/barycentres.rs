@@ -97,7 +97,9 @@ impl SpooledBarycentres {
         // Charged as it is written (a block of records at a time), not once written: other
         // temporary files grow beside it.
         const CHARGE_EVERY: u64 = 1 << 15;
-        let charge = crate::external::temp_usage::Charge::new();
+        let charge = crate::external::temp_usage::Charge::new(
+            crate::external::temp_usage::TempKind::Barycentres,
+        );
         {
             let mut out = io::BufWriter::with_capacity(1 << 20, &mut file);
             let mut written = 0u64;

@@ -29,7 +29,9 @@ impl BucketStore {
         Ok(BucketStore {
             file,
             end: 0,
-            charge: Default::default(),
+            charge: crate::external::temp_usage::Charge::new(
+                crate::external::temp_usage::TempKind::Buckets,
+            ),
             runs: vec![Vec::new(); buckets],
             counts: vec![0; buckets],
             buffers: vec![Vec::new(); buckets],

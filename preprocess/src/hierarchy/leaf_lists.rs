@@ -13,7 +13,7 @@ use rustc_hash::FxHashMap as HashMap;
 
 use tessera_core::leb::SimplexKey;
 
-use crate::external::temp_usage::Charge;
+use crate::external::temp_usage::{Charge, TempKind};
 
 /// Each leaf's triangle indices (ascending, as both constructions keep the input's order), in
 /// a file, with an index by leaf key.
@@ -90,7 +90,7 @@ impl LeafListSpool {
         Ok(LeafListSpool {
             file,
             index,
-            _charge: Charge::default(),
+            _charge: Charge::new(TempKind::LeafLists),
         })
     }
 }
@@ -112,7 +112,7 @@ impl LeafListWriter {
             file: BufWriter::with_capacity(1 << 20, tempfile::tempfile_in(dir)?),
             end: 0,
             spans: HashMap::default(),
-            charge: Charge::default(),
+            charge: Charge::new(TempKind::LeafLists),
         })
     }
 

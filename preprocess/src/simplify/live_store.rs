@@ -16,7 +16,7 @@ use tessera_core::leb::SimplexKey;
 
 use super::live_record::{decode_patch, decode_triangles, encode_patch, triangle_bytes, HEAD};
 use super::positions::SimplifierScale;
-use crate::external::temp_usage::Charge;
+use crate::external::temp_usage::{Charge, TempKind};
 use crate::packed_key::PackedKey;
 use crate::vertex_table::LivePatch;
 
@@ -46,10 +46,18 @@ pub(super) struct DiskStore {
 /// What the checkpoint's last commit holds of a named store: its generation and length, and
 /// the bytes of that generation's file kept while a newer one is current (a resumed build
 /// reads it; the next commit removes it).
-#[derive(Default)]
 struct Committed {
     at: std::sync::Mutex<Option<(u32, u64)>>,
     retained: Charge,
+}
+
+impl Default for Committed {
+    fn default() -> Self {
+        Committed {
+            at: Default::default(),
+            retained: Charge::new(TempKind::Checkpoint),
+        }
+    }
 }
 
 /// Where a checkpointed store's records are: its file's name, valid length and CRC-32, and
@@ -91,7 +99,7 @@ impl LiveStore {
             index: HashMap::default(),
             end: 0,
             live_bytes: 0,
-            charge: Charge::new(),
+            charge: Charge::new(TempKind::LiveStore),
             named: None,
             crc: crc32fast::Hasher::new(),
             committed: Committed::default(),
@@ -116,7 +124,7 @@ impl LiveStore {
             .write(true)
             .open(path)?;
         file.set_len(at.end)?;
-        let charge = Charge::new();
+        let charge = Charge::new(TempKind::LiveStore);
         charge.grow(at.end);
         let index: HashMap<PackedKey, Record> = at
             .records
@@ -143,7 +151,7 @@ impl LiveStore {
             crc: crc32fast::Hasher::new_with_initial_len(at.crc32, at.end),
             committed: Committed {
                 at: std::sync::Mutex::new(Some((at.generation, at.end))),
-                retained: Charge::new(),
+                retained: Charge::new(TempKind::Checkpoint),
             },
             scale,
         }))
@@ -276,7 +284,7 @@ impl DiskStore {
                 index: HashMap::default(),
                 end: 0,
                 live_bytes: 0,
-                charge: Charge::new(),
+                charge: Charge::new(TempKind::LiveStore),
                 named: None,
                 crc: crc32fast::Hasher::new(),
                 committed: Committed::default(),
@@ -354,7 +362,7 @@ impl DiskStore {
             index: HashMap::default(),
             end: 0,
             live_bytes: 0,
-            charge: Charge::new(),
+            charge: Charge::new(TempKind::LiveStore),
             named: Some((dir.to_path_buf(), generation)),
             crc: crc32fast::Hasher::new(),
             committed: Committed::default(),

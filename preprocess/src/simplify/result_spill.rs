@@ -17,7 +17,7 @@ use tessera_core::leb::SimplexKey;
 
 use super::live_record::{decode_patch, encode_patch};
 use super::positions::SimplifierScale;
-use crate::external::temp_usage::Charge;
+use crate::external::temp_usage::{Charge, TempKind};
 use crate::vertex_table::LivePatch;
 
 /// A diamond's new patches and vertex count changes (sorted by shard).
@@ -48,7 +48,7 @@ impl ResultSpill {
         Ok(ResultSpill {
             file: dir.map(tempfile::tempfile_in).transpose()?,
             end: AtomicU64::new(0),
-            charge: Charge::new(),
+            charge: Charge::new(TempKind::ResultSpill),
             scale,
         })
     }
