@@ -542,7 +542,7 @@ fn hierarchy_and_counts(
             let barycenters: Vec<[f64; 3]> = mesh
                 .triangles
                 .par_iter()
-                .map(|tri| frame.barycentre(tri.map(|v| mesh.positions[v as usize])))
+                .map(|tri| frame.location(tri.map(|v| mesh.positions[v as usize])))
                 .collect();
             // The simplifier's sharing counts are independent of the hierarchy: both at once.
             let (hierarchy, current) = rayon::join(

@@ -27,6 +27,12 @@ pub struct LatticeFrame {
     pub bits: u32,
 }
 
+/// Steps per lattice unit of a triangle's location ([`LatticeFrame::location`]): a power of
+/// two, so that a location is exact in f64 and its steps are integers. A height field's
+/// triangles have corners on lattice points: their barycentres, at thirds of a unit, stay
+/// strictly inside them when rounded to sixteenths.
+pub const LOCATION_STEPS: f64 = 16.0;
+
 /// Relative margin between the bounding box and the cube.
 const CUBE_MARGIN: f64 = 0.01;
 
@@ -77,6 +83,18 @@ impl LatticeFrame {
     pub fn barycentre(&self, corners: [[f64; 3]; 3]) -> [f64; 3] {
         let [a, b, c] = corners.map(|p| self.relative(p));
         self.to_lattice([0, 1, 2].map(|i| (a[i] + b[i] + c[i]) / 3.0))
+    }
+
+    /// Where the hierarchy locates a triangle: its [`barycentre`](Self::barycentre) rounded to
+    /// the nearest multiple of 1/[`LOCATION_STEPS`] of a lattice unit. Leaves are thousands of
+    /// lattice units wide, so this moves few triangles to another leaf; what it buys is that a
+    /// location is a small integer per axis in steps, which the out-of-core hierarchy's files
+    /// delta-code in a byte or two where an f64 took eight (`hierarchy/location_codec.rs`).
+    /// Every build locates through this, in memory or not, so both give the same leaves.
+    #[inline]
+    pub fn location(&self, corners: [[f64; 3]; 3]) -> [f64; 3] {
+        self.barycentre(corners)
+            .map(|x| (x * LOCATION_STEPS).round() / LOCATION_STEPS)
     }
 
     /// Side of the cube in model units.

@@ -46,7 +46,7 @@ fn frame_of(mesh: &InputMesh, dim: u8) -> LatticeFrame {
 fn barycentres(frame: &LatticeFrame, mesh: &InputMesh) -> Vec<[f64; 3]> {
     mesh.triangles
         .iter()
-        .map(|t| frame.barycentre(t.map(|v| mesh.positions[v as usize])))
+        .map(|t| frame.location(t.map(|v| mesh.positions[v as usize])))
         .collect()
 }
 

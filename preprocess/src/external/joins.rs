@@ -20,7 +20,7 @@ use crate::frame::LatticeFrame;
 use crate::hierarchy::{BarycentreSource, LeafListSpool};
 use crate::vertex_table::{LivePatch, VertexTable};
 
-/// The barycentres of a staged mesh's triangles, as `frame.barycentre` of their corners (the
+/// The locations of a staged mesh's triangles, as `frame.location` of their corners (the
 /// in-memory build's `MeshBarycentres`), a chunk of triangles at a time: the chunk's corners
 /// sorted by vertex pick their positions in one pass over the positions file (up to the
 /// chunk's largest id). No temporary file; the positions file is read once a chunk (from the
@@ -57,7 +57,7 @@ impl BarycentreSource for JoinedBarycentres<'_> {
                 let barycentres: Vec<Option<[f64; 3]>> = part
                     .par_iter()
                     .map(|t| match t.map(at) {
-                        [Some(a), Some(b), Some(c)] => Some(self.frame.barycentre([a, b, c])),
+                        [Some(a), Some(b), Some(c)] => Some(self.frame.location([a, b, c])),
                         _ => None,
                     })
                     .collect();
@@ -107,7 +107,7 @@ impl BarycentreSource for JoinedBarycentres<'_> {
             positions.finish(&mut blocks)?;
             let barycentres: Vec<[f64; 3]> = at
                 .chunks_exact(3)
-                .map(|c| self.frame.barycentre([c[0], c[1], c[2]]))
+                .map(|c| self.frame.location([c[0], c[1], c[2]]))
                 .collect();
             Ok(Some(barycentres))
         };

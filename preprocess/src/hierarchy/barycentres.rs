@@ -1,10 +1,11 @@
 //! Where the bucketed construction reads its triangles from: every triangle's barycentre
 //! (index, lattice coordinates), streamed as often as asked — from memory, computed from an
-//! in-memory mesh, or spooled once to an unnamed file — and the 28-byte record the buckets
-//! and the spool store them as.
+//! in-memory mesh, or spooled once to an unnamed file, delta-coded (`location_codec.rs`).
 
 use std::fs::File;
-use std::io::{self, Read, Seek, SeekFrom, Write};
+use std::io::{self, Write};
+
+use super::location_codec::{Delta, MAX_RECORD_BYTES};
 
 use crate::frame::LatticeFrame;
 use crate::mesh::InputMesh;
@@ -34,7 +35,7 @@ impl BarycentreSource for [[f64; 3]] {
 }
 
 /// The barycentres of an in-memory mesh's triangles, computed on the fly as the build computes
-/// them (`frame.barycentre` of the three corners), so nothing per triangle is kept.
+/// them (`frame.location` of the three corners), so nothing per triangle is kept.
 pub struct MeshBarycentres<'a> {
     pub frame: &'a LatticeFrame,
     pub mesh: &'a InputMesh,
@@ -46,7 +47,7 @@ impl BarycentreSource for MeshBarycentres<'_> {
         for (t, tri) in self.mesh.triangles.iter().enumerate() {
             f(
                 t as u32,
-                self.frame.barycentre(tri.map(|v| positions[v as usize])),
+                self.frame.location(tri.map(|v| positions[v as usize])),
             );
         }
         Ok(())
@@ -54,36 +55,23 @@ impl BarycentreSource for MeshBarycentres<'_> {
 }
 
 /// A source's barycentres written once, in order, to an unnamed temporary file and streamed
-/// back from it sequentially as often as asked (24 bytes a triangle, the barycentre alone: the
-/// index is the record's place; the file is gone when
-/// this is dropped, or if the process dies). For sources that are costly to stream again, such
-/// as a mesh whose vertices are not in memory or not in triangle order: the bucketed
-/// construction then reads the source once.
+/// back from it sequentially as often as asked (each delta-coded against the one before:
+/// `location_codec.rs`, a few bytes a triangle where neighbours follow each other; the file
+/// is gone when this is dropped, or if the process dies). For sources that are costly to
+/// stream again, such as a mesh whose vertices are not in memory or not in triangle order:
+/// the bucketed construction then reads the source once.
 pub struct SpooledBarycentres {
     file: File,
     triangles: u64,
+    /// The file's length.
+    bytes: u64,
     charge: crate::external::temp_usage::Charge,
     /// Set by the last pass, which frees the file.
     consumed: std::sync::atomic::AtomicBool,
 }
 
-/// Bytes the last pass reads between two holes it punches behind itself.
+/// Bytes a pass reads at once; the last pass punches a hole behind each.
 const CONSUME_BLOCK: usize = 1 << 20;
-
-/// Bytes of a spooled barycentre (3 × f64, little-endian).
-const SPOOL_RECORD: usize = 24;
-
-fn write_spooled(out: &mut impl Write, q: [f64; 3]) -> io::Result<()> {
-    let mut record = [0u8; SPOOL_RECORD];
-    for (i, x) in q.iter().enumerate() {
-        record[8 * i..8 * i + 8].copy_from_slice(&x.to_le_bytes());
-    }
-    out.write_all(&record)
-}
-
-fn read_spooled(r: &[u8]) -> [f64; 3] {
-    [0, 1, 2].map(|i| f64::from_le_bytes(r[8 * i..8 * i + 8].try_into().unwrap()))
-}
 
 impl SpooledBarycentres {
     /// Streams `source` once into a temporary file in `temp_dir`.
@@ -94,37 +82,43 @@ impl SpooledBarycentres {
         let mut file = tempfile::tempfile_in(temp_dir)?;
         let mut order = InOrder::default();
         let mut io_error = None;
-        // Charged as it is written (a block of records at a time), not once written: other
-        // temporary files grow beside it.
-        const CHARGE_EVERY: u64 = 1 << 15;
+        // Charged as it is written (a block at a time), not once written: other temporary
+        // files grow beside it.
         let charge = crate::external::temp_usage::Charge::new(
             crate::external::temp_usage::TempKind::Barycentres,
         );
+        let mut bytes = 0u64;
         {
             let mut out = io::BufWriter::with_capacity(1 << 20, &mut file);
-            let mut written = 0u64;
+            let mut block = Vec::with_capacity(CONSUME_BLOCK + MAX_RECORD_BYTES);
+            let mut delta = Delta::default();
             source.for_each_barycentre(&mut |t, q| {
                 if io_error.is_some() || !order.accept(t) {
                     return;
                 }
-                if let Err(e) = write_spooled(&mut out, q) {
-                    io_error = Some(e);
-                }
-                written += 1;
-                if written.is_multiple_of(CHARGE_EVERY) {
-                    charge.grow(CHARGE_EVERY * SPOOL_RECORD as u64);
+                delta.encode(&mut block, t, q, false);
+                if block.len() >= CONSUME_BLOCK {
+                    if let Err(e) = out.write_all(&block) {
+                        io_error = Some(e);
+                    }
+                    bytes += block.len() as u64;
+                    charge.grow(block.len() as u64);
+                    block.clear();
                 }
             })?;
             if let Some(e) = io_error {
                 return Err(e);
             }
+            out.write_all(&block)?;
+            bytes += block.len() as u64;
+            charge.grow(block.len() as u64);
             out.flush()?;
         }
         let triangles = order.finish(None)?;
-        charge.grow(triangles * SPOOL_RECORD as u64 - charge.bytes());
         Ok(SpooledBarycentres {
             file,
             triangles,
+            bytes,
             charge,
             consumed: Default::default(),
         })
@@ -138,9 +132,7 @@ impl SpooledBarycentres {
     pub fn is_empty(&self) -> bool {
         self.triangles == 0
     }
-}
 
-impl SpooledBarycentres {
     fn check_not_consumed(&self) -> io::Result<()> {
         if self.consumed.load(std::sync::atomic::Ordering::Relaxed) {
             return Err(io::Error::other(
@@ -149,46 +141,54 @@ impl SpooledBarycentres {
         }
         Ok(())
     }
+
+    /// Decodes every record in order, calling `behind(offset)` after each block with the
+    /// offset below which the file has been read.
+    fn stream(
+        &self,
+        f: &mut dyn FnMut(u32, [f64; 3]),
+        behind: &mut dyn FnMut(u64),
+    ) -> io::Result<()> {
+        use std::os::unix::fs::FileExt;
+        let mut buffer: Vec<u8> = Vec::with_capacity(CONSUME_BLOCK + MAX_RECORD_BYTES);
+        let (mut at, mut offset) = (0usize, 0u64);
+        let mut delta = Delta::default();
+        for t in 0..self.triangles {
+            if buffer.len() - at < MAX_RECORD_BYTES && offset < self.bytes {
+                buffer.drain(..at);
+                at = 0;
+                behind(offset - buffer.len() as u64);
+                let more = (CONSUME_BLOCK as u64).min(self.bytes - offset) as usize;
+                let old = buffer.len();
+                buffer.resize(old + more, 0);
+                self.file.read_exact_at(&mut buffer[old..], offset)?;
+                offset += more as u64;
+            }
+            let (_, q) = delta.decode(&buffer, &mut at, false)?;
+            f(t as u32, q);
+        }
+        Ok(())
+    }
 }
 
 impl BarycentreSource for SpooledBarycentres {
     fn for_each_barycentre(&self, f: &mut dyn FnMut(u32, [f64; 3])) -> io::Result<()> {
         self.check_not_consumed()?;
-        let mut file = &self.file;
-        file.seek(SeekFrom::Start(0))?;
-        let mut input = io::BufReader::with_capacity(1 << 20, file);
-        let mut record = [0u8; SPOOL_RECORD];
-        for t in 0..self.triangles {
-            input.read_exact(&mut record)?;
-            f(t as u32, read_spooled(&record));
-        }
-        Ok(())
+        self.stream(f, &mut |_| {})
     }
 
-    /// Reads a block at a time and punches a hole behind each block read, so that the
-    /// spool's disk shrinks as whatever this pass writes grows; the file is emptied at the end.
+    /// Punches a hole behind each block read, so that the spool's disk shrinks as whatever
+    /// this pass writes grows; the file is emptied at the end.
     fn for_each_barycentre_last(&self, f: &mut dyn FnMut(u32, [f64; 3])) -> io::Result<()> {
         use crate::external::holes::punch;
         self.check_not_consumed()?;
         self.consumed
             .store(true, std::sync::atomic::Ordering::Relaxed);
-        let mut file = &self.file;
-        file.seek(SeekFrom::Start(0))?;
-        let block_records = CONSUME_BLOCK / SPOOL_RECORD;
-        let mut block = vec![0u8; block_records * SPOOL_RECORD];
-        let (mut read, mut freed_to) = (0u64, 0u64);
-        while read < self.triangles {
-            let records = (self.triangles - read).min(block_records as u64) as usize;
-            let bytes = &mut block[..records * SPOOL_RECORD];
-            file.read_exact(bytes)?;
-            for (i, record) in bytes.chunks_exact(SPOOL_RECORD).enumerate() {
-                f((read + i as u64) as u32, read_spooled(record));
-            }
-            read += records as u64;
-            let end = read * SPOOL_RECORD as u64;
-            self.charge.shrink(punch(&self.file, freed_to, end));
-            freed_to = end / 4096 * 4096;
-        }
+        let mut freed_to = 0u64;
+        self.stream(f, &mut |read_to| {
+            self.charge.shrink(punch(&self.file, freed_to, read_to));
+            freed_to = freed_to.max(read_to / 4096 * 4096);
+        })?;
         self.file.set_len(0)?;
         self.charge.release();
         Ok(())
@@ -224,23 +224,9 @@ impl InOrder {
     }
 }
 
-/// Bytes of one record: index (u32) and barycentre (3 × f64), little-endian.
+/// Budget bytes a bucket's triangle is given in the distribution buffers (a record's size
+/// before they were delta-coded: an index and three f64; a coded one takes less).
 pub(super) const RECORD_BYTES: usize = 4 + 3 * 8;
-
-pub(super) fn write_record(out: &mut impl Write, t: u32, q: [f64; 3]) -> io::Result<()> {
-    let mut record = [0u8; RECORD_BYTES];
-    record[0..4].copy_from_slice(&t.to_le_bytes());
-    for (i, x) in q.iter().enumerate() {
-        record[4 + 8 * i..12 + 8 * i].copy_from_slice(&x.to_le_bytes());
-    }
-    out.write_all(&record)
-}
-
-pub(super) fn read_record(r: &[u8]) -> (u32, [f64; 3]) {
-    let t = u32::from_le_bytes(r[0..4].try_into().unwrap());
-    let q = [0, 1, 2].map(|i| f64::from_le_bytes(r[4 + 8 * i..12 + 8 * i].try_into().unwrap()));
-    (t, q)
-}
 
 #[cfg(test)]
 mod tests {

@@ -1,11 +1,14 @@
 //! The buckets' records on disk (the bucketed construction's step 2): buffers per bucket,
 //! spilled fullest first as runs into one unnamed temporary file, read back bucket by bucket.
+//! Records are delta-coded (`location_codec.rs`), each run from a zero state, so a run
+//! decodes on its own.
 
 use std::fs::File;
 use std::io::{self, Read, Seek, SeekFrom, Write};
 
-use super::barycentres::{read_record, write_record, RECORD_BYTES};
+use super::barycentres::RECORD_BYTES;
 use super::bucketed::BucketBudget;
+use super::location_codec::Delta;
 
 /// The buckets' records on disk: one unnamed temporary file of runs, each run a piece of one
 /// bucket's records in input order; a bucket's runs in the order they were written.
@@ -18,6 +21,8 @@ pub(super) struct BucketStore {
     pub(super) runs: Vec<Vec<(u64, u64)>>,
     pub(super) counts: Vec<u64>,
     pub(super) buffers: Vec<Vec<u8>>,
+    /// Each buffer's coding state (reset when it is written as a run).
+    pub(super) deltas: Vec<Delta>,
     pub(super) buffered: usize,
     /// Spill buffers when together they pass this.
     pub(super) limit: usize,
@@ -35,15 +40,18 @@ impl BucketStore {
             runs: vec![Vec::new(); buckets],
             counts: vec![0; buckets],
             buffers: vec![Vec::new(); buckets],
+            deltas: vec![Delta::default(); buckets],
             buffered: 0,
             limit: budget.buffer_bytes.max(RECORD_BYTES),
         })
     }
 
     pub(super) fn push(&mut self, bucket: usize, t: u32, q: [f64; 3]) -> io::Result<()> {
-        write_record(&mut self.buffers[bucket], t, q)?;
+        let buffer = &mut self.buffers[bucket];
+        let before = buffer.len();
+        self.deltas[bucket].encode(buffer, t, q, true);
         self.counts[bucket] += 1;
-        self.buffered += RECORD_BYTES;
+        self.buffered += buffer.len() - before;
         if self.buffered >= self.limit {
             self.spill(self.limit / 2)?;
         }
@@ -72,6 +80,7 @@ impl BucketStore {
             self.charge.grow(buffer.len() as u64);
             self.buffered -= buffer.len();
             buffer.clear();
+            self.deltas[b] = Delta::default();
             if buffer.capacity() > keep {
                 *buffer = Vec::new();
             }
@@ -96,8 +105,9 @@ impl BucketStore {
             bytes.resize(len as usize, 0);
             self.file.seek(SeekFrom::Start(offset))?;
             self.file.read_exact(&mut bytes)?;
-            for r in bytes.chunks_exact(RECORD_BYTES) {
-                let (t, q) = read_record(r);
+            let (mut at, mut delta) = (0, Delta::default());
+            while at < bytes.len() {
+                let (t, q) = delta.decode(&bytes, &mut at, true)?;
                 f(t, q);
             }
         }

@@ -1,5 +1,6 @@
 //! Hierarchy construction (seed 001, section 4): a conforming LEB tetrahedral mesh whose leaves
-//! hold the input triangles, each triangle in the leaf that contains its barycentre.
+//! hold the input triangles, each triangle in the leaf that contains its barycentre (rounded to
+//! a sixteenth of a lattice unit: `LatticeFrame::location`).
 //!
 //! - by leaf size (Algorithms 3/4): split any leaf holding more than `max_triangles`; the
 //!   conforming mesh forces the parent splits that this needs;
@@ -12,6 +13,7 @@ mod bucket_store;
 mod bucketed;
 mod coarse_passes;
 mod leaf_lists;
+mod location_codec;
 mod locator;
 
 pub use barycentres::{BarycentreSource, MeshBarycentres, SpooledBarycentres};
