@@ -29,7 +29,8 @@ pub(super) struct Delta {
 /// The steps of `x` if it is a whole number of them that converts back bit for bit.
 fn steps_of(x: f64) -> Option<i64> {
     let s = x * LOCATION_STEPS;
-    if !(s.abs() < (1u64 << 52) as f64) || s.fract() != 0.0 {
+    // NaN and infinities fail the first test.
+    if s.is_nan() || s.abs() >= (1u64 << 52) as f64 || s.fract() != 0.0 {
         return None;
     }
     let steps = s as i64;
@@ -188,7 +189,7 @@ mod tests {
         let records: Vec<(u32, [f64; 3])> = (0..10_000u32)
             .map(|i| {
                 let x = 500_000.0 + (i as f64 * 3.0).round() + 1.0 / 16.0;
-                (2 * i, [x, 700_000.5 - i as f64, 12_345.0625])
+                (2 * i, [x, 700_000.5 - i as f64, 12_345.062_5])
             })
             .collect();
         let bytes = round_trip(&records, true);
