@@ -11,7 +11,7 @@ use tessera_core::leb::{ConformingMesh, Diamond};
 
 use super::{Checkpoint, Dec, Enc, FileRecord, StageRecord};
 use crate::frame::LatticeFrame;
-use crate::hierarchy::{Hierarchy, LeafListSpool, SplitDiamond};
+use crate::hierarchy::{decode_list, Hierarchy, LeafListSpool, SplitDiamond};
 use crate::simplify::CurrentMesh;
 
 pub(super) const HIERARCHY: &str = "hierarchy.bin";
@@ -127,12 +127,16 @@ pub(crate) fn load_hierarchy(checkpoint: &Checkpoint) -> io::Result<Option<Hiera
     }))
 }
 
-/// Every leaf's key and list, in key order.
+/// Every leaf's key and list, in key order: the key, the triangle count, the coded list's
+/// bytes and the coded list (`leaf_lists::encode_list`).
 fn encode_leaf_lists(e: &mut Enc, lists: &LeafListSpool) -> io::Result<()> {
     e.u64(lists.leaves().len() as u64);
     for (i, (key, _)) in lists.leaves().enumerate() {
+        let (n, coded) = lists.coded(i)?;
         e.key(key);
-        e.list(&lists.list(i)?, |e, &t| e.u32(t));
+        e.u64(n as u64);
+        e.u64(coded.len() as u64);
+        e.bytes(&coded);
     }
     Ok(())
 }
@@ -152,8 +156,8 @@ fn open_leaf_lists(
     };
     let not_ours = || invalid("the leaves' triangles are not the hierarchy's");
     let count = input.u64()?;
-    // Each leaf takes at least its key and count (29 bytes).
-    if count.saturating_mul(29) > len || count != hierarchy.mesh.leaf_count() as u64 {
+    // Each leaf takes at least its key, count and length (37 bytes).
+    if count.saturating_mul(37) > len || count != hierarchy.mesh.leaf_count() as u64 {
         return Err(not_ours());
     }
     let mut index = Vec::with_capacity(count as usize);
@@ -161,27 +165,21 @@ fn open_leaf_lists(
     for _ in 0..count {
         let key = Dec::new(&input.read(21)?).key()?;
         let n = input.u64()?;
+        let bytes = input.u64()?;
+        // A coded index takes 1 to 10 bytes.
         if !hierarchy.mesh.is_leaf(key)
             || !seen.insert(key)
-            || n.saturating_mul(4) > len - input.at.min(len)
+            || n > triangles as u64
+            || bytes < n
+            || bytes > n.saturating_mul(10)
+            || bytes > len - input.at.min(len)
         {
             return Err(not_ours());
         }
         let start = input.at;
-        // A chunk at a time: the lists of a leaf are small, but a damaged count is not.
-        let mut left = n as usize;
-        while left > 0 {
-            let take = left.min(1 << 16);
-            let bytes = input.read(take * 4)?;
-            if bytes
-                .chunks_exact(4)
-                .any(|b| u32::from_le_bytes(b.try_into().expect("4 bytes")) as usize >= triangles)
-            {
-                return Err(not_ours());
-            }
-            left -= take;
-        }
-        index.push((key, start, n as u32));
+        let coded = input.read(bytes as usize)?;
+        decode_list(&coded, n as usize, triangles as u64).map_err(|_| not_ours())?;
+        index.push((key, (start, n as u32, bytes)));
     }
     if input.at != len {
         return Err(invalid("the leaves' triangles: trailing bytes"));

@@ -14,6 +14,7 @@ pub mod prefetch;
 pub mod sort;
 pub mod staged;
 pub mod temp_usage;
+pub mod varint;
 pub mod weld;
 
 pub use joins::{coincident_nudges, JoinedBarycentres, LeafGroups};

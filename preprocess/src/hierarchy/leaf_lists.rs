@@ -1,8 +1,12 @@
 //! Each leaf's input triangles, on disk (issue 12): at 100 M triangles the lists are 400 MB
-//! and more, which an out-of-core build may not hold. The bucketed construction writes each
-//! leaf's list to one unnamed temporary file as soon as it is final and keeps only where it
-//! is (a few dozen bytes per leaf, some 125 triangles); the leaves' patches are then made
+//! and more as u32s, which an out-of-core build may not hold. The bucketed construction writes
+//! each leaf's list to one unnamed temporary file as soon as it is final and keeps only where
+//! it is (a few dozen bytes per leaf, some 125 triangles); the leaves' patches are then made
 //! from it a group at a time (`external::LeafGroups`), in key order.
+//!
+//! A list is stored as varints: its first index, then each index's difference from the one
+//! before (zigzagged; a list is ascending, so about a byte a triangle where the input's
+//! neighbours follow each other).
 
 use std::fs::File;
 use std::io::{self, BufWriter, Write};
@@ -14,14 +18,52 @@ use rustc_hash::FxHashMap as HashMap;
 use tessera_core::leb::SimplexKey;
 
 use crate::external::temp_usage::{Charge, TempKind};
+use crate::external::varint;
+
+/// Where a leaf's list is in its file: offset, triangles, bytes.
+pub(crate) type ListSpan = (u64, u32, u64);
+
+/// Appends `list` coded (see the module's doc).
+pub(crate) fn encode_list(out: &mut Vec<u8>, list: &[u32]) {
+    let mut previous = 0i64;
+    for &t in list {
+        varint::put(out, varint::zigzag(t as i64 - previous));
+        previous = t as i64;
+    }
+}
+
+/// The `n` indices coded in `bytes`, which must hold exactly them, each below `below`.
+pub(crate) fn decode_list(bytes: &[u8], n: usize, below: u64) -> io::Result<Vec<u32>> {
+    let corrupt = || {
+        io::Error::new(
+            io::ErrorKind::InvalidData,
+            "a leaf's triangle list is corrupt",
+        )
+    };
+    let mut list = Vec::with_capacity(n.min(bytes.len()));
+    let (mut at, mut previous) = (0usize, 0i64);
+    for _ in 0..n {
+        let d = varint::get(bytes, &mut at).ok_or_else(corrupt)?;
+        let t = previous.wrapping_add(varint::unzigzag(d));
+        if !(0..below.min(1 << 32) as i64).contains(&t) {
+            return Err(corrupt());
+        }
+        list.push(t as u32);
+        previous = t;
+    }
+    if at != bytes.len() {
+        return Err(corrupt());
+    }
+    Ok(list)
+}
 
 /// Each leaf's triangle indices (ascending, as both constructions keep the input's order), in
 /// a file, with an index by leaf key.
 #[derive(Debug)]
 pub struct LeafListSpool {
     file: File,
-    /// Every leaf (empty ones too), by key: where its list starts in the file and its length.
-    index: Vec<(SimplexKey, u64, u32)>,
+    /// Every leaf (empty ones too), by key, with where its list is.
+    index: Vec<(SimplexKey, ListSpan)>,
     /// The file's bytes, in the build's temporary totals (none for a checkpoint's own file).
     _charge: Charge,
 }
@@ -29,29 +71,32 @@ pub struct LeafListSpool {
 impl LeafListSpool {
     /// The leaves, in key order, with their triangle counts.
     pub fn leaves(&self) -> impl ExactSizeIterator<Item = (SimplexKey, usize)> + '_ {
-        self.index.iter().map(|&(k, _, n)| (k, n as usize))
+        self.index.iter().map(|&(k, (_, n, _))| (k, n as usize))
     }
 
     /// The `i`th leaf in key order, with its triangle count.
     pub fn leaf(&self, i: usize) -> (SimplexKey, usize) {
-        let (k, _, n) = self.index[i];
+        let (k, (_, n, _)) = self.index[i];
         (k, n as usize)
     }
 
     /// The leaves' triangles in all.
     pub fn triangles(&self) -> u64 {
-        self.index.iter().map(|&(_, _, n)| n as u64).sum()
+        self.index.iter().map(|&(_, (_, n, _))| n as u64).sum()
     }
 
     /// The list of the `i`th leaf in key order.
     pub fn list(&self, i: usize) -> io::Result<Vec<u32>> {
-        let (_, at, n) = self.index[i];
-        let mut bytes = vec![0u8; n as usize * 4];
-        self.file.read_exact_at(&mut bytes, at)?;
-        Ok(bytes
-            .chunks_exact(4)
-            .map(|b| u32::from_le_bytes(b.try_into().expect("4 bytes")))
-            .collect())
+        let (n, coded) = self.coded(i)?;
+        decode_list(&coded, n as usize, u64::MAX)
+    }
+
+    /// The `i`th leaf's list as stored (`encode_list`), with its triangle count.
+    pub(crate) fn coded(&self, i: usize) -> io::Result<(u32, Vec<u8>)> {
+        let (_, (at, n, bytes)) = self.index[i];
+        let mut coded = vec![0u8; bytes as usize];
+        self.file.read_exact_at(&mut coded, at)?;
+        Ok((n, coded))
     }
 
     /// Every list, in memory (for `Hierarchy::leaf_triangles` and the tests).
@@ -74,19 +119,19 @@ impl LeafListSpool {
     /// key here, and every list must lie inside the file.
     pub(crate) fn in_file(
         file: File,
-        mut index: Vec<(SimplexKey, u64, u32)>,
+        mut index: Vec<(SimplexKey, ListSpan)>,
     ) -> io::Result<LeafListSpool> {
         let len = file.metadata()?.len();
         if index
             .iter()
-            .any(|&(_, at, n)| at.checked_add(n as u64 * 4).is_none_or(|end| end > len))
+            .any(|&(_, (at, _, bytes))| at.checked_add(bytes).is_none_or(|end| end > len))
         {
             return Err(io::Error::new(
                 io::ErrorKind::InvalidData,
                 "a leaf's triangle list lies outside its file",
             ));
         }
-        index.sort_unstable_by_key(|&(k, _, _)| k);
+        index.sort_unstable_by_key(|&(k, _)| k);
         Ok(LeafListSpool {
             file,
             index,
@@ -101,8 +146,9 @@ impl LeafListSpool {
 pub struct LeafListWriter {
     file: BufWriter<File>,
     end: u64,
-    spans: HashMap<SimplexKey, (u64, u32)>,
+    spans: HashMap<SimplexKey, ListSpan>,
     charge: Charge,
+    coded: Vec<u8>,
 }
 
 impl LeafListWriter {
@@ -113,15 +159,16 @@ impl LeafListWriter {
             end: 0,
             spans: HashMap::default(),
             charge: Charge::new(TempKind::LeafLists),
+            coded: Vec::new(),
         })
     }
 
     pub fn write(&mut self, key: SimplexKey, list: &[u32]) -> io::Result<()> {
-        for &t in list {
-            self.file.write_all(&t.to_le_bytes())?;
-        }
-        let bytes = list.len() as u64 * 4;
-        self.spans.insert(key, (self.end, list.len() as u32));
+        self.coded.clear();
+        encode_list(&mut self.coded, list);
+        self.file.write_all(&self.coded)?;
+        let bytes = self.coded.len() as u64;
+        self.spans.insert(key, (self.end, list.len() as u32, bytes));
         self.end += bytes;
         self.charge.grow(bytes);
         Ok(())
@@ -136,18 +183,15 @@ impl LeafListWriter {
     /// written for a key not among `leaves` is an error: a leaf the hierarchy no longer has.
     pub fn finish(mut self, leaves: impl Iterator<Item = SimplexKey>) -> io::Result<LeafListSpool> {
         self.file.flush()?;
-        let mut index: Vec<(SimplexKey, u64, u32)> = leaves
-            .map(|k| {
-                let (at, n) = self.spans.remove(&k).unwrap_or((0, 0));
-                (k, at, n)
-            })
+        let mut index: Vec<(SimplexKey, ListSpan)> = leaves
+            .map(|k| (k, self.spans.remove(&k).unwrap_or((0, 0, 0))))
             .collect();
         if let Some(key) = self.spans.keys().next() {
             return Err(io::Error::other(format!(
                 "leaf lists: {key:?} has a list but is not a leaf"
             )));
         }
-        index.sort_unstable_by_key(|&(k, _, _)| k);
+        index.sort_unstable_by_key(|&(k, _)| k);
         let file = self.file.into_inner().map_err(|e| e.into_error())?;
         Ok(LeafListSpool {
             file,
@@ -204,8 +248,38 @@ mod tests {
         let path = dir.path().join("lists.bin");
         std::fs::write(&path, [0u8; 12]).unwrap();
         let open = || File::open(&path).unwrap();
-        assert!(LeafListSpool::in_file(open(), vec![(key(1), 4, 2)]).is_ok());
-        assert!(LeafListSpool::in_file(open(), vec![(key(1), 4, 3)]).is_err());
-        assert!(LeafListSpool::in_file(open(), vec![(key(1), u64::MAX, 1)]).is_err());
+        assert!(LeafListSpool::in_file(open(), vec![(key(1), (4, 8, 8))]).is_ok());
+        assert!(LeafListSpool::in_file(open(), vec![(key(1), (4, 9, 9))]).is_err());
+        assert!(LeafListSpool::in_file(open(), vec![(key(1), (u64::MAX, 1, 1))]).is_err());
+    }
+
+    #[test]
+    fn lists_are_coded_in_about_a_byte_a_neighbour_and_come_back() {
+        let lists: [Vec<u32>; 5] = [
+            vec![],
+            vec![0],
+            vec![u32::MAX],
+            (1_000_000..1_001_000).collect(),
+            vec![5, 3, u32::MAX, 0, 7],
+        ];
+        for list in &lists {
+            let mut coded = Vec::new();
+            encode_list(&mut coded, list);
+            assert_eq!(decode_list(&coded, list.len(), u64::MAX).unwrap(), *list);
+            // One fewer, one more, a byte too many: refused.
+            if !list.is_empty() {
+                assert!(decode_list(&coded, list.len() - 1, u64::MAX).is_err());
+            }
+            assert!(decode_list(&coded, list.len() + 1, u64::MAX).is_err());
+            let mut longer = coded.clone();
+            longer.push(0);
+            assert!(decode_list(&longer, list.len(), u64::MAX).is_err());
+        }
+        let mut coded = Vec::new();
+        encode_list(&mut coded, &lists[3]);
+        assert!(coded.len() <= 3 + 999, "{} bytes", coded.len());
+        // An index at or over the bound is refused.
+        assert!(decode_list(&coded, 1000, 1_000_999).is_err());
+        assert!(decode_list(&coded, 1000, 1_001_000).is_ok());
     }
 }

@@ -14,6 +14,7 @@
 
 use std::io;
 
+use crate::external::varint::{self, put as put_varint, unzigzag, zigzag};
 use crate::frame::LOCATION_STEPS;
 
 /// The most bytes one record takes: an index (10) and three axes (1 + 8 each).
@@ -37,22 +38,6 @@ fn steps_of(x: f64) -> Option<i64> {
     ((steps as f64 / LOCATION_STEPS).to_bits() == x.to_bits()).then_some(steps)
 }
 
-fn zigzag(d: i64) -> u64 {
-    ((d << 1) ^ (d >> 63)) as u64
-}
-
-fn unzigzag(z: u64) -> i64 {
-    ((z >> 1) as i64) ^ -((z & 1) as i64)
-}
-
-fn put_varint(out: &mut Vec<u8>, mut v: u64) {
-    while v >= 0x80 {
-        out.push(v as u8 | 0x80);
-        v >>= 7;
-    }
-    out.push(v as u8);
-}
-
 fn corrupt() -> io::Error {
     io::Error::new(
         io::ErrorKind::InvalidData,
@@ -60,18 +45,8 @@ fn corrupt() -> io::Error {
     )
 }
 
-/// Reads a varint from `bytes` at `*at`.
 fn get_varint(bytes: &[u8], at: &mut usize) -> io::Result<u64> {
-    let mut v = 0u64;
-    for shift in (0..64).step_by(7) {
-        let &b = bytes.get(*at).ok_or_else(corrupt)?;
-        *at += 1;
-        v |= ((b & 0x7f) as u64) << shift;
-        if b < 0x80 {
-            return Ok(v);
-        }
-    }
-    Err(corrupt())
+    varint::get(bytes, at).ok_or_else(corrupt)
 }
 
 impl Delta {
