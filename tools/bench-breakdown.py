@@ -10,8 +10,9 @@ measured two-sided over visible samples; no GPU). Prints, per model, each τ's c
 run-time sphere projection and under a box projection of each diamond's own patches, the
 box's triangles against the sphere's at equal measured p99 and max error (each rule's Pareto
 front, log-log interpolated, as `tools/bench-leaf-size.py` reads fronts), and per level the
-share of gathered triangles kept, the share of kept triangles on the locked border and the
-diamonds whose stored error saturation took from a child. With --write FILE the tables
+share of gathered triangles kept, the share of kept triangles on the locked border, the
+diamonds whose stored error saturation took from a child, and the counterfactuals (each
+diamond simplified again with its border locked and free; stored against own error). With --write FILE the tables
 replace the block between `<!-- bench-breakdown:begin -->` and `<!-- bench-breakdown:end -->`.
 --reuse makes the tables from the JSON a previous run left in --work.
 """
@@ -82,6 +83,28 @@ def tables(name, source, b):
             f"{l['kept'] / max(l['gathered'], 1):.3f} | "
             f"{l['kept_on_border'] / max(l['kept'], 1):.3f} | {l['saturated']:,} |"
         )
+    out.append("")
+    f2 = lambda x: "—" if x is None else f"{x:.2f}"
+    out += [
+        "Each diamond simplified again from its gathered patches (meshoptimizer as the build "
+        "calls it): with its border locked down to the triangles it kept, and free; the "
+        "stored error against the locked arm's (the own error recomputed):",
+        "",
+        "| level | diamonds | kept, locked | kept free at the locked error | free ÷ locked | "
+        "locked ÷ free error at equal count (median) | stored ÷ own error: median | p90 |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for l in b.get("locks", []):
+        out.append(
+            f"| {l['level']} | {l['diamonds']:,} | {l['kept_locked']:,} | "
+            f"{l['kept_free_at_equal_error']:,} | "
+            f"{l['kept_free_at_equal_error'] / max(l['kept_locked'], 1):.3f} | "
+            f"{f2(l['error_ratio_median'])} | {f2(l['raise_median'])} | {f2(l['raise_p90'])} |"
+        )
+    kept = sum(l["kept_locked"] for l in b.get("locks", []))
+    free = sum(l["kept_free_at_equal_error"] for l in b.get("locks", []))
+    if kept:
+        out += ["", f"All levels: free ÷ locked triangles at equal error {free / kept:.3f}."]
     out.append("")
     return out
 

@@ -17,6 +17,10 @@
 //!   more than half of what it gathered is where the hierarchy stays fine, and the border
 //!   share says whether the lock is why. Also per level: the diamonds whose stored error is
 //!   one of their children's (saturation raised it above their own).
+//! - **The counterfactuals per level** (`bench_breakdown_locks.rs`): each diamond simplified
+//!   again with its border locked and free (the triangles the free one keeps at the locked
+//!   one's error: what the lock costs), and its stored error against its own recomputed (how
+//!   far saturation raised it).
 
 use std::collections::HashMap;
 use std::path::PathBuf;
@@ -94,6 +98,7 @@ pub fn run(args: BreakdownBenchArgs) -> anyhow::Result<Outcome> {
         rows.push((tau, sphere, boxed));
     }
     let levels = level_reduction(&repo)?;
+    let locks = crate::bench_breakdown_locks::lock_counterfactuals(&repo)?;
 
     let row_json = |r: &MeasuredCut| {
         json!({
@@ -116,6 +121,13 @@ pub fn run(args: BreakdownBenchArgs) -> anyhow::Result<Outcome> {
             "levels": levels.iter().map(|l| json!({
                 "level": l.level, "diamonds": l.diamonds, "gathered": l.gathered,
                 "kept": l.kept, "kept_on_border": l.kept_on_border, "saturated": l.raised,
+            })).collect::<Vec<_>>(),
+            "locks": locks.iter().map(|l| json!({
+                "level": l.level, "diamonds": l.diamonds, "gathered": l.gathered,
+                "kept_locked": l.kept_locked,
+                "kept_free_at_equal_error": l.kept_free_at_equal_error,
+                "error_ratio_median": l.error_ratio_median,
+                "raise_median": l.raise_median, "raise_p90": l.raise_p90,
             })).collect::<Vec<_>>(),
         });
         println!("{value}");
@@ -151,6 +163,24 @@ pub fn run(args: BreakdownBenchArgs) -> anyhow::Result<Outcome> {
             l.kept as f64 / l.gathered.max(1) as f64,
             l.kept_on_border as f64 / l.kept.max(1) as f64,
             l.raised
+        );
+    }
+    println!(
+        "  level  diamonds  gathered  kept locked  kept free at equal error  error locked/free  \
+         stored/own median  p90"
+    );
+    let or_nan = |x: Option<f64>| x.unwrap_or(f64::NAN);
+    for l in &locks {
+        println!(
+            "  {:>5}  {:>8}  {:>8}  {:>11}  {:>24}  {:>17.2}  {:>17.2}  {:>4.2}",
+            l.level,
+            l.diamonds,
+            l.gathered,
+            l.kept_locked,
+            l.kept_free_at_equal_error,
+            or_nan(l.error_ratio_median),
+            or_nan(l.raise_median),
+            or_nan(l.raise_p90)
         );
     }
     Ok(Outcome::Ok)

@@ -6,6 +6,7 @@
 //! read-back that could not be mapped: a clear message on stderr, never a panic).
 
 mod bench;
+mod bench_breakdown_locks;
 mod bench_render_stream;
 mod bench_stream_loops;
 mod bench_stream_plot;

@@ -1,7 +1,8 @@
 //! `bench breakdown` from the command line (issue 13, item 7): on a real scan, every level's
 //! diamonds keep about the share of their gathered triangles the simplifier aims at, the
-//! per-level figures add up to the repository's, and both projections select non-empty cuts
-//! whose measured two-sided errors come with their sample counts.
+//! per-level figures add up to the repository's, both projections select non-empty cuts
+//! whose measured two-sided errors come with their sample counts, and the counterfactuals
+//! (each diamond simplified again, locked and free) see what the build gathered and kept.
 
 use std::path::Path;
 use std::process::Command;
@@ -79,4 +80,28 @@ fn breakdown_measures_both_projections_and_every_level() {
         }
         assert!(l["saturated"].as_u64().unwrap() <= l["diamonds"].as_u64().unwrap());
     }
+
+    // The counterfactuals: the same diamonds and gathered triangles per level; the locked arm
+    // reproduces the build's own simplification (about its kept count, its own error: the
+    // stored one is at least that at the median), the free arm is never worse at equal
+    // error by more than meshoptimizer's greed allows.
+    let locks = b["locks"].as_array().unwrap();
+    let with = |l: &serde_json::Value, key: &str| l[key].as_u64().unwrap();
+    for (lock, level) in locks.iter().zip(levels) {
+        assert_eq!(lock["level"], level["level"], "{b}");
+        assert_eq!(with(lock, "gathered"), with(level, "gathered"), "{b}");
+        let (kept, locked) = (with(level, "kept"), with(lock, "kept_locked"));
+        assert!(
+            locked.abs_diff(kept) as f64 <= 0.02 * kept as f64 + 2.0,
+            "level {}: the build kept {kept}, the locked arm {locked}",
+            level["level"]
+        );
+        let free = with(lock, "kept_free_at_equal_error");
+        assert!(free as f64 <= 1.1 * locked as f64 + 2.0, "{lock}");
+        if let Some(raise) = lock["raise_median"].as_f64() {
+            assert!(raise >= 0.9, "{lock}");
+            assert!(lock["raise_p90"].as_f64().unwrap() >= raise, "{lock}");
+        }
+    }
+    assert_eq!(locks.len(), levels.len(), "{b}");
 }
