@@ -10,12 +10,12 @@
 //!    down, with the forced splits the conforming mesh makes; so one pass advances several
 //!    levels. A leaf created by a forced split inherits its parent's count as a bound and is
 //!    counted in the next pass if that bound is over the cap.
-//! 2. **One distribution pass** appends each triangle's record (index, barycentre) to its
-//!    bucket: a buffer per bucket; when together they pass the budget, the fullest are written
-//!    as runs into one unnamed temporary file until half the budget is left (memory stays
-//!    bounded whatever the number of buckets; the file has no name, so it vanishes when closed,
-//!    also when the process is killed). Only buckets that need splitting are ever loaded whole, and those
-//!    hold at most the cap.
+//! 2. **One distribution pass** appends each triangle's record (index, location, delta-coded
+//!    against the bucket's previous record) to its bucket: a buffer per bucket; when together
+//!    they pass the budget, the fullest are written as runs into one unnamed temporary file
+//!    until half the budget is left (memory stays bounded whatever the number of buckets; the
+//!    file has no name, so it vanishes when closed, also when the process is killed). Only
+//!    buckets that need splitting are ever loaded whole, and those hold at most the cap.
 //! 3. **Per bucket** that needs a split, in key order: load its records (at most the cap) and run the in-core
 //!    splitting on the leaves inside its cell against the shared mesh. A split inside may force
 //!    splits in other buckets' cells: a bucket not yet processed sees them when it is; a
@@ -64,7 +64,7 @@ pub struct BucketBudget {
     pub max_bucket_triangles: usize,
     /// Bytes the distribution buffers may hold together.
     pub buffer_bytes: usize,
-    /// Directory of the temporary file (28 bytes per triangle; gone on return).
+    /// Directory of the temporary file (a few bytes a triangle, delta-coded; gone on return).
     pub temp_dir: PathBuf,
 }
 
@@ -112,9 +112,9 @@ pub struct BucketStats {
 ///
 /// `source` is streamed `coarse_passes + 1` times ([`BucketStats`]): the coarse counting
 /// passes, then the distribution into buckets on disk; buckets are read back from one
-/// temporary file in `budget.temp_dir` (28 bytes per triangle), which has no name (created
-/// with `O_TMPFILE` where the file system allows it, else unlinked as soon as created), so it
-/// is gone on return, on error, and when the process dies. To read a costly source once, wrap
+/// temporary file in `budget.temp_dir` (delta-coded records: `location_codec.rs`), which has
+/// no name (created with `O_TMPFILE` where the file system allows it, else unlinked as soon as
+/// created), so it is gone on return, on error, and when the process dies. To read a costly source once, wrap
 /// it in [`SpooledBarycentres`]. Errors: the source's, the temporary file's, and
 /// `InvalidData` when the source does not stream indices 0, 1, 2, … in order, the same count
 /// on every pass.
