@@ -31,6 +31,7 @@ sys.dont_write_bytecode = True  # no __pycache__ in tools/
 sys.path.insert(0, str(ROOT / "tools"))
 from benchmarks_block import replace_block  # noqa: E402
 MESH = ROOT / "testdata" / "mesh"
+DEM = ROOT / "testdata" / "dem"
 
 # name: (source, build flags)
 MODELS = {
@@ -40,6 +41,10 @@ MODELS = {
     "lion-head": (MESH / "lion-head.off", []),
     "bear": (MESH / "bear.off", []),
     "chinese-dragon": (MESH / "ChineseDragon-10kv.off", []),
+    # A terrain: the height field meshed as `build` meshes it; the mesh peers run on that mesh
+    # (the terrain baselines, ROAM and RUSTiC, are `bench terrain`'s).
+    "jacksboro": (DEM / "jacksboro_fault_dem.npz", []),
+    "jacksboro-bounded": (DEM / "jacksboro_fault_dem.npz", ["--bounded-errors"]),
 }
 
 SUBJECTS = [("ours", "ours"), ("cluster_dag", "cluster DAG"), ("discrete_lod", "discrete LODs")]

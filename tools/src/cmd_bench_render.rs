@@ -378,7 +378,14 @@ fn load_source(path: &Path, repo: &Repository) -> anyhow::Result<Source> {
 /// bounding radius).
 pub(crate) fn load_source_mesh(path: &Path, repo: &Repository) -> anyhow::Result<InputMesh> {
     let h = repo.header();
-    let mesh = load_mesh(path)?.mesh;
+    // A height field is meshed as `build` meshes it with its default options (a build with
+    // --spacing or --exaggeration does not match, and is refused below).
+    let mesh = if tessera_preprocess::dem::DemFormat::from_path(path).is_some() {
+        use tessera_preprocess::dem::{load_dem, DemOptions, TerrainOptions};
+        load_dem(path, &DemOptions::default())?.to_mesh(&TerrainOptions::default())
+    } else {
+        load_mesh(path)?.mesh
+    };
     if mesh.triangles.len() as u64 != h.input_triangle_count {
         anyhow::bail!(
             "--source {} has {} triangles after welding, but the repository was built from {}: \
