@@ -79,7 +79,7 @@ fn main() {
             let barycentres: Vec<[f64; 3]> = mesh
                 .triangles
                 .iter()
-                .map(|tri| frame.barycentre(tri.map(|v| mesh.positions[v as usize])))
+                .map(|tri| frame.location(tri.map(|v| mesh.positions[v as usize])))
                 .collect();
             build_hierarchy(frame, &barycentres, construction)
         }
@@ -114,7 +114,7 @@ fn main() {
             let barycentres: Vec<[f64; 3]> = mesh
                 .triangles
                 .iter()
-                .map(|tri| frame.barycentre(tri.map(|v| mesh.positions[v as usize])))
+                .map(|tri| frame.location(tri.map(|v| mesh.positions[v as usize])))
                 .collect();
             let expected = build_hierarchy(frame, &barycentres, construction);
             drop(barycentres);

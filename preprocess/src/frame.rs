@@ -28,9 +28,9 @@ pub struct LatticeFrame {
 }
 
 /// Steps per lattice unit of a triangle's location ([`LatticeFrame::location`]): a power of
-/// two, so that a location is exact in f64 and its steps are integers. A height field's
-/// triangles have corners on lattice points: their barycentres, at thirds of a unit, stay
-/// strictly inside them when rounded to sixteenths.
+/// two, so that a location is exact in f64 and its steps are integers. A triangle with its
+/// corners on lattice points has its barycentre at thirds of a unit, which rounding to
+/// sixteenths keeps strictly inside it.
 pub const LOCATION_STEPS: f64 = 16.0;
 
 /// Relative margin between the bounding box and the cube.

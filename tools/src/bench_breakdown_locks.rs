@@ -16,12 +16,17 @@
 //!   measurement, not a build.
 //!
 //! Saturation: the stored error against the recomputed own error (model units), per diamond.
+//! That is the raise only where the build's own error is meshoptimizer's geometric estimate:
+//! the default build of a model without normals (with normals, the build's error includes
+//! them, and none is reported; a `--bounded-errors` build stores a Hausdorff bound instead,
+//! which the repository does not record, so its ratios are not raises). The build also locks
+//! non-manifold edges' vertices, which the locked arm does not.
 
 use rayon::prelude::*;
 use std::collections::HashMap;
 
 use meshopt::{SimplifyOptions, VertexDataAdapter};
-use tessera_core::repository::format::dequantize_position;
+use tessera_core::repository::format::{dequantize_position, ATTR_NORMALS};
 use tessera_core::repository::{Repository, NO_INDEX};
 
 /// One level's counterfactuals.
@@ -39,7 +44,7 @@ pub struct LockRow {
     /// same count (diamonds where both are positive).
     pub error_ratio_median: Option<f64>,
     /// Median and 90th percentile of stored error ÷ recomputed own error (diamonds whose own
-    /// error is positive).
+    /// error is positive; none for a model with normals).
     pub raise_median: Option<f64>,
     pub raise_p90: Option<f64>,
 }
@@ -62,6 +67,9 @@ pub fn lock_counterfactuals(repo: &Repository) -> anyhow::Result<Vec<LockRow>> {
         .map(|k| h.bbox_max[k] - h.bbox_min[k])
         .fold(0.0f64, f64::max)
         .max(f64::MIN_POSITIVE);
+    // With normals the build's own error is meshoptimizer's with attributes: not the one
+    // recomputed here, so no raise is reported.
+    let comparable = h.attributes & ATTR_NORMALS == 0;
     let diamonds = repo.diamonds();
     let mut own: Vec<u64> = vec![0; diamonds.len()];
     let mut created: Vec<Vec<usize>> = vec![Vec::new(); diamonds.len()];
@@ -84,7 +92,8 @@ pub fn lock_counterfactuals(repo: &Repository) -> anyhow::Result<Vec<LockRow>> {
             let target = own[d] as usize * 3;
             let (kept, error_locked) = simplify(&indices, &positions, &lock, target, f32::MAX);
             let free = vec![false; positions.len()];
-            let (_, error_free) = simplify(&indices, &positions, &free, target, f32::MAX);
+            // At the count the locked arm reached (it may stop above the target).
+            let (_, error_free) = simplify(&indices, &positions, &free, kept, f32::MAX);
             let (free_at_error, _) = simplify(&indices, &positions, &free, 0, error_locked);
             Ok(Some(Arms {
                 level: diamonds[d].level,
@@ -118,7 +127,7 @@ pub fn lock_counterfactuals(repo: &Repository) -> anyhow::Result<Vec<LockRow>> {
         if a.error_locked > 0.0 && a.error_free > 0.0 {
             ratios[level].push(a.error_locked as f64 / a.error_free as f64);
         }
-        if a.error_locked > 0.0 {
+        if a.error_locked > 0.0 && comparable {
             raises[level].push(a.stored as f64 / a.error_locked as f64);
         }
     }

@@ -17,6 +17,10 @@ pub fn get(bytes: &[u8], at: &mut usize) -> Option<u64> {
     for shift in (0..64).step_by(7) {
         let &b = bytes.get(*at)?;
         *at += 1;
+        // The tenth byte holds bit 63 alone.
+        if shift == 63 && b > 1 {
+            return None;
+        }
         v |= ((b & 0x7f) as u64) << shift;
         if b < 0x80 {
             return Some(v);
@@ -51,8 +55,13 @@ mod tests {
         }
         assert_eq!(at, bytes.len());
         assert_eq!(get(&bytes, &mut at), None);
-        // Eleven continuation bytes: over 64 bits.
+        // Eleven continuation bytes, or a tenth byte over 1: over 64 bits.
         assert_eq!(get(&[0xff; 11], &mut 0), None);
+        let mut over = vec![0xff; 9];
+        over.push(0x7f);
+        assert_eq!(get(&over, &mut 0), None);
+        over[9] = 1;
+        assert_eq!(get(&over, &mut 0), Some(u64::MAX));
         for d in [0, 1, -1, 63, -64, i64::MAX, i64::MIN] {
             assert_eq!(unzigzag(zigzag(d)), d);
         }

@@ -79,7 +79,9 @@ impl Delta {
     ) -> io::Result<(u32, [f64; 3])> {
         let mut index = 0;
         if with_index {
-            let i = self.index as i64 + unzigzag(get_varint(bytes, at)?);
+            let i = (self.index as i64)
+                .checked_add(unzigzag(get_varint(bytes, at)?))
+                .ok_or_else(corrupt)?;
             index = u32::try_from(i).map_err(|_| corrupt())?;
             self.index = index as u64;
         }
@@ -192,5 +194,12 @@ mod tests {
         assert!(Delta::default()
             .decode(&[1, 0, 0, 0], &mut at, true)
             .is_err());
+        // An index difference that overflows i64 (after index 1): an error, not a panic.
+        let mut bytes = vec![2, 0, 0, 0];
+        varint::put(&mut bytes, u64::MAX - 1);
+        bytes.extend([0, 0, 0]);
+        let (mut decoder, mut at) = (Delta::default(), 0);
+        assert_eq!(decoder.decode(&bytes, &mut at, true).unwrap().0, 1);
+        assert!(decoder.decode(&bytes, &mut at, true).is_err());
     }
 }
