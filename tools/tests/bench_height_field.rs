@@ -1,18 +1,9 @@
 //! `tessera bench` with a height field as its source, from the command line.
 
+mod cli_support;
+use cli_support::{json, tessera};
+
 use std::path::Path;
-use std::process::{Command, Output};
-
-fn tessera(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_tessera"))
-        .args(args)
-        .output()
-        .expect("run tessera")
-}
-
-fn json(out: &Output) -> serde_json::Value {
-    serde_json::from_slice(&out.stdout).expect("one JSON object on stdout")
-}
 
 /// The trade bench on a height field (issue 13: "and on a terrain"): the source is meshed as
 /// `build` meshes it, ours and the mesh peers measured on it; a height field built with other

@@ -1,14 +1,9 @@
 //! `tessera bench stream`: the JSON contract, both runs, a stream that goes quiet, refusals.
 
-use std::path::Path;
-use std::process::{Command, Output};
+mod cli_support;
+use cli_support::tessera;
 
-fn tessera(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_tessera"))
-        .args(args)
-        .output()
-        .expect("run tessera")
-}
+use std::path::Path;
 
 fn bunny() -> std::path::PathBuf {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../testdata/mesh/bunny00.off");

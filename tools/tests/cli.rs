@@ -1,24 +1,10 @@
 //! The CLI contract pipeline scripts rely on: JSON keys, exit codes, no partial outputs.
 
+mod cli_support;
+use cli_support::{json, tessera};
+
 use std::path::Path;
-use std::process::{Command, Output};
-
-fn tessera(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_tessera"))
-        .args(args)
-        .output()
-        .expect("run tessera")
-}
-
-fn json(out: &Output) -> serde_json::Value {
-    serde_json::from_slice(&out.stdout).unwrap_or_else(|e| {
-        panic!(
-            "stdout is not one JSON object ({e}): {}\nstderr: {}",
-            String::from_utf8_lossy(&out.stdout),
-            String::from_utf8_lossy(&out.stderr)
-        )
-    })
-}
+use std::process::Command;
 
 /// A closed octahedron, subdivided a few times so the hierarchy has levels.
 fn write_octahedron_off(path: &Path) {

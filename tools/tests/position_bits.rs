@@ -2,15 +2,11 @@
 //! errors count the larger quantisation error, still crack-free; bits outside 1..=21 are
 //! refused with exit 2 and nothing written.
 
-use std::path::Path;
-use std::process::{Command, Output};
+mod cli_support;
+use cli_support::tessera;
 
-fn tessera(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_tessera"))
-        .args(args)
-        .output()
-        .expect("run tessera")
-}
+use std::path::Path;
+use std::process::Output;
 
 fn json(out: &Output) -> serde_json::Value {
     assert!(

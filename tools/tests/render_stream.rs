@@ -3,15 +3,11 @@
 //! unlimited budget; a budget below the fixed allocations is refused with both numbers
 //! (exit 2); `check --gpu --gpu-budget` runs the pixel check under partial residency.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod cli_support;
+use cli_support::tessera;
 
-fn tessera(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_tessera"))
-        .args(args)
-        .output()
-        .expect("run tessera")
-}
+use std::path::{Path, PathBuf};
+use std::process::Output;
 
 fn json(out: &Output) -> serde_json::Value {
     assert!(

@@ -1,15 +1,10 @@
 //! `render --two-sided`: both sides of an open scan are drawn (and the default draws only
 //! front faces, as its normal cones cull).
 
-use std::path::Path;
-use std::process::Command;
+mod cli_support;
+use cli_support::tessera;
 
-fn tessera(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_tessera"))
-        .args(args)
-        .output()
-        .expect("run tessera")
-}
+use std::path::Path;
 
 #[test]
 fn two_sided_draws_the_back_of_an_open_scan() {

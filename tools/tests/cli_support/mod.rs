@@ -1,0 +1,23 @@
+//! What the command-line tests share: running the binary and reading its JSON.
+#![allow(dead_code)] // each test file uses its own part
+
+use std::process::{Command, Output};
+
+/// Runs `tessera` with `args` to completion.
+pub fn tessera(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_tessera"))
+        .args(args)
+        .output()
+        .expect("run tessera")
+}
+
+/// The one JSON object `out` printed on stdout (with both streams in the panic otherwise).
+pub fn json(out: &Output) -> serde_json::Value {
+    serde_json::from_slice(&out.stdout).unwrap_or_else(|e| {
+        panic!(
+            "stdout is not one JSON object ({e}): {}\nstderr: {}",
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr)
+        )
+    })
+}
