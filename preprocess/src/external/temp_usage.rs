@@ -70,6 +70,13 @@ static BY_KIND: [AtomicU64; KINDS] = [const { AtomicU64::new(0) }; KINDS];
 static AT_PEAK: Mutex<[u64; KINDS]> = Mutex::new([0; KINDS]);
 /// `BY_KIND` when `STAGE_PEAK` was last raised.
 static AT_STAGE_PEAK: Mutex<[u64; KINDS]> = Mutex::new([0; KINDS]);
+/// The totals at which `AT_PEAK` and `AT_STAGE_PEAK` were last taken.
+static PEAK_TAKEN: AtomicU64 = AtomicU64::new(0);
+static STAGE_PEAK_TAKEN: AtomicU64 = AtomicU64::new(0);
+/// A snapshot is taken when a peak passes the last one by this much: files that grow a record
+/// at a time (the staged mesh's 12-byte records) would otherwise take the lock on every
+/// record. So the parts at a peak may lag it by less than this.
+const SNAPSHOT_GRAIN: u64 = 1 << 20;
 
 /// Bytes the temporary files alive hold.
 pub fn current() -> u64 {
@@ -89,6 +96,7 @@ pub fn stage_peak() -> u64 {
 /// Starts a new peak from what is held now.
 pub fn reset_peak() {
     PEAK.store(current(), Ordering::Relaxed);
+    PEAK_TAKEN.store(current(), Ordering::Relaxed);
     *lock(&AT_PEAK) = snapshot();
     start_stage();
 }
@@ -96,12 +104,14 @@ pub fn reset_peak() {
 /// Starts a new stage's peak from what is held now (the overall peak goes on).
 pub fn start_stage() {
     STAGE_PEAK.store(current(), Ordering::Relaxed);
+    STAGE_PEAK_TAKEN.store(current(), Ordering::Relaxed);
     *lock(&AT_STAGE_PEAK) = snapshot();
 }
 
 /// What each kind held when the total last reached its peak, in [`TempKind::ALL`]'s order.
-/// Taken as the peak is raised, while other threads may be writing: the parts can be off
-/// from the peak by what those threads wrote meanwhile (a buffer or two).
+/// Taken as the peak is raised (every `SNAPSHOT_GRAIN`), while other threads may be writing:
+/// the parts can be off from the peak by less than the grain and what those threads wrote
+/// meanwhile (a buffer or two).
 pub fn by_kind_at_peak() -> Vec<(TempKind, u64)> {
     by_kind(&AT_PEAK)
 }
@@ -118,6 +128,14 @@ fn by_kind(at: &'static Mutex<[u64; KINDS]>) -> Vec<(TempKind, u64)> {
 
 fn lock(at: &'static Mutex<[u64; KINDS]>) -> std::sync::MutexGuard<'static, [u64; KINDS]> {
     at.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// `at` := the parts now, if the new peak `now` passed the last one taken by the grain.
+fn take(taken: &AtomicU64, at: &'static Mutex<[u64; KINDS]>, now: u64) {
+    if now >= taken.load(Ordering::Relaxed).saturating_add(SNAPSHOT_GRAIN) {
+        taken.store(now, Ordering::Relaxed);
+        *lock(at) = snapshot();
+    }
 }
 
 fn snapshot() -> [u64; KINDS] {
@@ -145,10 +163,10 @@ impl Charge {
         BY_KIND[self.kind as usize].fetch_add(bytes, Ordering::Relaxed);
         let now = CURRENT.fetch_add(bytes, Ordering::Relaxed) + bytes;
         if STAGE_PEAK.fetch_max(now, Ordering::Relaxed) < now {
-            *lock(&AT_STAGE_PEAK) = snapshot();
+            take(&STAGE_PEAK_TAKEN, &AT_STAGE_PEAK, now);
         }
         if PEAK.fetch_max(now, Ordering::Relaxed) < now {
-            *lock(&AT_PEAK) = snapshot();
+            take(&PEAK_TAKEN, &AT_PEAK, now);
         }
     }
 
