@@ -87,33 +87,32 @@ impl SpooledBarycentres {
         let charge = crate::external::temp_usage::Charge::new(
             crate::external::temp_usage::TempKind::Barycentres,
         );
+        // Coded a block at a time and written whole (the block is the write buffer).
+        let mut block = Vec::with_capacity(CONSUME_BLOCK + MAX_RECORD_BYTES);
         let mut bytes = 0u64;
-        {
-            let mut out = io::BufWriter::with_capacity(1 << 20, &mut file);
-            let mut block = Vec::with_capacity(CONSUME_BLOCK + MAX_RECORD_BYTES);
-            let mut delta = Delta::default();
-            source.for_each_barycentre(&mut |t, q| {
-                if io_error.is_some() || !order.accept(t) {
-                    return;
-                }
-                delta.encode(&mut block, t, q, false);
-                if block.len() >= CONSUME_BLOCK {
-                    if let Err(e) = out.write_all(&block) {
-                        io_error = Some(e);
-                    }
-                    bytes += block.len() as u64;
-                    charge.grow(block.len() as u64);
-                    block.clear();
-                }
-            })?;
-            if let Some(e) = io_error {
-                return Err(e);
-            }
-            out.write_all(&block)?;
+        let mut write = |block: &mut Vec<u8>| -> io::Result<()> {
+            file.write_all(block)?;
             bytes += block.len() as u64;
             charge.grow(block.len() as u64);
-            out.flush()?;
+            block.clear();
+            Ok(())
+        };
+        let mut delta = Delta::default();
+        source.for_each_barycentre(&mut |t, q| {
+            if io_error.is_some() || !order.accept(t) {
+                return;
+            }
+            delta.encode(&mut block, t, q, false);
+            if block.len() >= CONSUME_BLOCK {
+                if let Err(e) = write(&mut block) {
+                    io_error = Some(e);
+                }
+            }
+        })?;
+        if let Some(e) = io_error {
+            return Err(e);
         }
+        write(&mut block)?;
         let triangles = order.finish(None)?;
         Ok(SpooledBarycentres {
             file,
