@@ -262,32 +262,26 @@ fn a_2m_triangle_build_stays_within_64_mib() {
         peak as f64 / (1 << 20) as f64
     );
     assert_eq!(json["stage_peaks_are_per_stage"], false, "{json}");
-    let stages: Vec<u64> = json["stages"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|s| s["peak_rss_bytes"].as_u64().unwrap())
-        .collect();
+    let per_stage = |key: &str| -> Vec<u64> {
+        let stages = json["stages"].as_array().unwrap();
+        stages.iter().map(|s| s[key].as_u64().unwrap()).collect()
+    };
+    let stages = per_stage("peak_rss_bytes");
     assert!(stages.windows(2).all(|w| w[0] <= w[1]), "{json}");
     assert!(stages.last().is_some_and(|&last| last <= peak), "{json}");
     // Temporary disk: issue 12 asks for 1.5× the input; this pins what the build reaches
-    // (3.31× here in the fifteenth session, 6.1× before), so that a change that puts more on
-    // disk fails here.
+    // (2.46× here in the nineteenth session, 2.68× in the sixteenth, 3.31× in the fifteenth,
+    // 6.1× before), so that a change that puts more on disk fails here.
     let input = std::fs::metadata(&generated).unwrap().len();
     let temp = json["temp_bytes_peak"].as_u64().unwrap();
     assert!(
-        temp as f64 <= 3.6 * input as f64,
+        temp as f64 <= 2.6 * input as f64,
         "temporary files peaked at {temp} bytes, {:.2}× the {input}-byte input: {json}",
         temp as f64 / input as f64
     );
     // Where the peak is: the largest stage peak is the run's, and the kinds of file held at
     // each peak add up to it (up to what other threads wrote while it was taken).
-    let stage_temp: Vec<u64> = json["stages"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|s| s["temp_bytes_peak"].as_u64().unwrap())
-        .collect();
+    let stage_temp = per_stage("temp_bytes_peak");
     assert_eq!(stage_temp.iter().max(), Some(&temp), "{json}");
     let parts = |v: &serde_json::Value| -> u64 {
         v.as_object()
