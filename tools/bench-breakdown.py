@@ -156,7 +156,9 @@ def main():
         f"{meta['load']:.1f} at the start; each model: `tessera build SOURCE -o REPO`, then "
         "`tessera bench breakdown REPO --source SOURCE --json` (8 views, 1920×1080, 20,000 "
         "samples a view and direction; CPU cuts with frustum and normal-cone culling; errors "
-        "two-sided over visible samples, max a sampled lower bound). Deterministic: no times.",
+        "two-sided over visible samples, max a sampled lower bound). Deterministic: no times. "
+        "No peer runs here: the cluster DAG's ratios quoted above are the leaf-size sweep's "
+        "and the trade script's, each in its own run.",
         "",
     ]
     text = "\n".join(header + lines)
