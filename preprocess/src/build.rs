@@ -467,7 +467,6 @@ fn build_in_pool(
                     input_vertices,
                     current,
                     (&dir, &hierarchy.frame),
-                    &mut sink,
                 )
                 .and_then(|state| {
                     after_level(&state)?;

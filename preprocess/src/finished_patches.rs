@@ -1,5 +1,5 @@
 //! Finished patches: each simplex's patch encoded (strips, quantised positions, attributes,
-//! global ids) as soon as it is final — a leaf's when the hierarchy is built, a diamond's
+//! global ids) as soon as it is final — the leaves' when the levels start, a diamond's
 //! simplices' when the diamond is merged — with its bounding sphere, normal cone and checksum.
 //! The simplifier then keeps only the live patches' triangles, and the writer streams the
 //! encoded bytes into the repository in table order (`write_repository_streamed`).

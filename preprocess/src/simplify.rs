@@ -265,7 +265,7 @@ pub fn simplify_from_leaves(
     finished: &mut FinishedPatchSink,
 ) -> Result<Simplified, SimplifyError> {
     let store = LiveStore::new(spill_dir, positions::SimplifierScale::of(&hierarchy.frame))?;
-    let state = LevelState::from_leaves(leaves, vertex_count, current, store, finished)?;
+    let state = LevelState::from_leaves(leaves, vertex_count, current, store)?;
     simplify_levels(state, hierarchy, settings, spill_dir, finished, &mut |_| {
         Ok(())
     })

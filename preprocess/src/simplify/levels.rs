@@ -45,24 +45,24 @@ pub struct LevelState {
     resimplified: usize,
     /// Levels merged so far.
     levels_done: usize,
+    /// Whether the leaves' patches went to `finished` (`finish_leaves`).
+    leaves_finished: bool,
     vertex_count: usize,
 }
 
 impl LevelState {
     /// The state before the first level: every leaf's patch (from `leaves`, a group at a time)
-    /// handed to `finished` and kept in `patches`.
+    /// kept in `patches`. They go to `finished` when the levels start (`finish_leaves`), not
+    /// here: under a budget the staged mesh is still on disk while the leaves are made, and
+    /// their encoded bytes beside it and the live store made the build's temporary peak.
     pub(super) fn from_leaves(
         leaves: &mut LeafSource,
         vertex_count: usize,
         current: CurrentMesh,
         mut patches: LiveStore,
-        finished: &mut FinishedPatchSink,
     ) -> Result<LevelState, SimplifyError> {
         let mut live: HashSet<PackedKey> = HashSet::default();
         while let Some(group) = leaves()? {
-            let list: Vec<(SimplexKey, &LivePatch)> = group.iter().map(|(k, p)| (*k, p)).collect();
-            finished(&list)?;
-            drop(list);
             live.extend(group.iter().map(|(key, _)| PackedKey::of_hierarchy(*key)));
             patches.insert_all(group)?;
         }
@@ -75,6 +75,7 @@ impl LevelState {
             locked_vertices: 0,
             resimplified: 0,
             levels_done: 0,
+            leaves_finished: false,
             vertex_count,
         })
     }
@@ -86,10 +87,9 @@ impl LevelState {
         vertex_count: usize,
         current: CurrentMesh,
         (dir, frame): (&std::path::Path, &LatticeFrame),
-        finished: &mut FinishedPatchSink,
     ) -> Result<LevelState, SimplifyError> {
         let store = LiveStore::new_named(dir, SimplifierScale::of(frame))?;
-        Self::from_leaves(leaves, vertex_count, current, store, finished)
+        Self::from_leaves(leaves, vertex_count, current, store)
     }
 
     /// Levels merged so far.
@@ -114,6 +114,7 @@ impl LevelState {
         })?;
         e.u64(self.vertex_count as u64);
         e.u64(self.levels_done as u64);
+        e.u8(self.leaves_finished as u8);
         e.u64(self.locked_vertices as u64);
         e.u64(self.resimplified as u64);
         e.list(&self.own_error, |e, &x| e.f32(x));
@@ -141,6 +142,11 @@ impl LevelState {
     ) -> std::io::Result<LevelState> {
         let vertex_count = d.u64()? as usize;
         let levels_done = d.u64()? as usize;
+        let leaves_finished = match d.u8()? {
+            0 => false,
+            1 => true,
+            _ => return Err(invalid("a flag neither 0 nor 1")),
+        };
         let locked_vertices = d.u64()? as usize;
         let resimplified = d.u64()? as usize;
         let own_error = d.list(4, |d| d.f32())?;
@@ -180,9 +186,37 @@ impl LevelState {
             locked_vertices,
             resimplified,
             levels_done,
+            leaves_finished,
             vertex_count,
         })
     }
+}
+
+/// Live patches `finish_leaves` reads and hands on at once.
+const FINISH_CHUNK: usize = 64;
+
+/// Hands every live patch to `finished`: before the first level, the leaves' (a resumed build
+/// whose checkpoint has not recorded them does it again; the finished patches it recorded are
+/// then none).
+fn finish_leaves(state: &LevelState, finished: &mut FinishedPatchSink) -> std::io::Result<()> {
+    let mut keys: Vec<PackedKey> = state.live.iter().copied().collect();
+    keys.sort_unstable();
+    for chunk in keys.chunks(FINISH_CHUNK) {
+        let patches: Vec<(SimplexKey, std::borrow::Cow<'_, LivePatch>)> = chunk
+            .par_iter()
+            .map(|k| {
+                let patch = state.patches.get(&k.key())?;
+                Ok(patch.map(|p| (k.key(), p)))
+            })
+            .collect::<std::io::Result<Vec<_>>>()?
+            .into_iter()
+            .flatten()
+            .collect();
+        let list: Vec<(SimplexKey, &LivePatch)> =
+            patches.iter().map(|(k, p)| (*k, p.as_ref())).collect();
+        finished(&list)?;
+    }
+    Ok(())
 }
 
 /// Merges the levels `state` has not merged yet, finest first, calling `after_level` after
@@ -201,6 +235,10 @@ pub fn simplify_levels(
         numbering_table: numbering_table(state.vertex_count, spill_dir.is_some()),
         settings: *settings,
     };
+    if !state.leaves_finished {
+        finish_leaves(&state, finished)?;
+        state.leaves_finished = true;
+    }
     if state.own_error.is_empty() {
         state.own_error = vec![0.0f32; hierarchy.diamonds.len()];
     }
