@@ -36,6 +36,7 @@ mod current_mesh;
 mod distribute;
 mod edge_census;
 mod levels;
+mod live_packed;
 mod live_record;
 mod live_store;
 mod local_edges;

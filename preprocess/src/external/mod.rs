@@ -4,6 +4,7 @@
 //! repository bytes.
 
 pub mod allocator;
+pub mod bits;
 mod cursor;
 mod fallible;
 mod file_io;

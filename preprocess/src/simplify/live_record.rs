@@ -2,8 +2,11 @@
 //! count, vertex count, attribute bits (u32 each), then the triangles (u16 rows of the vertex
 //! table, or u32 global ids), ids, positions (f32 where lossless, or f64), simplifier
 //! positions (left out where `SimplifierScale` gives them back) and the attributes present,
-//! little-endian.
+//! little-endian. A patch whose table holds every corner and whose positions are f32 (a
+//! leaf's always, most others) is packed instead: rows, ids and positions bit-packed
+//! (`live_packed.rs`), the rest as above.
 
+use super::live_packed;
 use super::positions::SimplifierScale;
 use crate::vertex_table::{LivePatch, VertexTable};
 
@@ -19,6 +22,10 @@ const POSITIONS_F32: u32 = 16;
 /// No simplifier positions: each is its position's `SimplifierScale::position` (every vertex
 /// but the few `separate_coincident` moved; a patch holding one of those stores them all).
 const SIMPLIFIER_DERIVED: u32 = 32;
+/// Rows, ids and positions packed (`live_packed.rs`); the ids section's bytes are the bits
+/// above `PACKED_IDS_SHIFT`.
+const PACKED: u32 = 64;
+const PACKED_IDS_SHIFT: u32 = 8;
 
 fn head_fields(head: &[u8]) -> (usize, usize, u32) {
     let word = |i: usize| u32::from_le_bytes(head[4 * i..4 * i + 4].try_into().expect("4 bytes"));
@@ -42,26 +49,67 @@ fn layout(bits: u32) -> (usize, usize, usize) {
     (triangle, position, per_vertex)
 }
 
+/// Bytes of an unpacked record.
 fn record_bytes(head: &[u8]) -> u64 {
     let (t, v, bits) = head_fields(head);
     let (triangle, _, per_vertex) = layout(bits);
     (HEAD + triangle * t + per_vertex * v) as u64
 }
 
-/// A patch's triangles as indices into its vertex table, if every corner is in the table
-/// and the table has at most 65,536 rows, its ids ascending (as `VertexTable` keeps them:
-/// a corner's row is found by binary search).
-fn local_u16(patch: &LivePatch) -> Option<Vec<[u16; 3]>> {
+/// A patch's triangles as indices into its vertex table, if every corner is in the table,
+/// its ids ascending (as `VertexTable` keeps them: a corner's row is found by binary search).
+fn local_rows(patch: &LivePatch) -> Option<Vec<[u32; 3]>> {
     let ids = &patch.vertices.ids;
-    if ids.len() > 1 << 16 || !ids.windows(2).all(|w| w[0] < w[1]) {
+    if !ids.windows(2).all(|w| w[0] < w[1]) {
         return None;
     }
-    let row = |g: u32| ids.binary_search(&g).ok().map(|r| r as u16);
+    let row = |g: u32| ids.binary_search(&g).ok().map(|r| r as u32);
     patch
         .triangles
         .iter()
         .map(|t| Some([row(t[0])?, row(t[1])?, row(t[2])?]))
         .collect()
+}
+
+/// The columns after the positions: simplifier positions unless derived, attributes present.
+fn put_rest(patch: &LivePatch, derived: bool, out: &mut Vec<u8>) {
+    let v = &patch.vertices;
+    if !derived {
+        out.extend_from_slice(bytemuck::cast_slice(&v.simplifier));
+    }
+    if let Some(n) = &v.normals {
+        out.extend_from_slice(bytemuck::cast_slice(n));
+    }
+    if let Some(c) = &v.colors {
+        out.extend_from_slice(bytemuck::cast_slice(c));
+    }
+    if let Some(u) = &v.uvs {
+        out.extend_from_slice(bytemuck::cast_slice(u));
+    }
+}
+
+/// The packed record of a patch whose table holds every corner (`rows`) and whose positions
+/// are f32; `None` where its ids section would not fit the head.
+fn encode_packed(patch: &LivePatch, rows: &[[u32; 3]], attribute_bits: u32) -> Option<Vec<u8>> {
+    let v = &patch.vertices;
+    let mut out = vec![0u8; HEAD];
+    live_packed::put_rows(rows, v.ids.len(), &mut out);
+    let ids_at = out.len();
+    live_packed::put_ids(&v.ids, &mut out);
+    let ids_bytes = u32::try_from(out.len() - ids_at).ok()?;
+    if ids_bytes >= 1 << (32 - PACKED_IDS_SHIFT) {
+        return None;
+    }
+    let narrow: Vec<[f32; 3]> = v.positions.iter().map(|p| p.map(|x| x as f32)).collect();
+    live_packed::put_positions(&narrow, &mut out);
+    let bits = attribute_bits | PACKED | (ids_bytes << PACKED_IDS_SHIFT);
+    for (i, word) in [patch.triangles.len() as u32, v.ids.len() as u32, bits]
+        .into_iter()
+        .enumerate()
+    {
+        out[4 * i..4 * i + 4].copy_from_slice(&word.to_le_bytes());
+    }
+    Some(out)
 }
 
 /// A patch's record (also `result_spill.rs`'s). Lossless: triangles are written as u16 rows
@@ -70,7 +118,7 @@ fn local_u16(patch: &LivePatch) -> Option<Vec<[u16; 3]>> {
 /// them again, which makes a leaf's record about half the size of a plain one.
 pub(super) fn encode_patch(patch: &LivePatch, scale: &SimplifierScale) -> Vec<u8> {
     let v = &patch.vertices;
-    let local = local_u16(patch);
+    let rows = local_rows(patch);
     let positions_f32 = v
         .positions
         .iter()
@@ -81,12 +129,22 @@ pub(super) fn encode_patch(patch: &LivePatch, scale: &SimplifierScale) -> Vec<u8
         .iter()
         .zip(&v.simplifier)
         .all(|(&p, s)| scale.position(p).map(f32::to_bits) == s.map(f32::to_bits));
-    let bits = (v.normals.is_some() as u32 * NORMALS)
+    let attribute_bits = (v.normals.is_some() as u32 * NORMALS)
         | (v.colors.is_some() as u32 * COLORS)
         | (v.uvs.is_some() as u32 * UVS)
-        | (local.is_some() as u32 * LOCAL_U16)
-        | (positions_f32 as u32 * POSITIONS_F32)
         | (derived as u32 * SIMPLIFIER_DERIVED);
+    if let (Some(rows), true, false) = (&rows, positions_f32, v.ids.is_empty()) {
+        if let Some(mut out) = encode_packed(patch, rows, attribute_bits) {
+            put_rest(patch, derived, &mut out);
+            return out;
+        }
+    }
+    let local: Option<Vec<[u16; 3]>> = rows
+        .filter(|_| v.ids.len() <= 1 << 16)
+        .map(|rows| rows.iter().map(|r| r.map(|i| i as u16)).collect());
+    let bits = attribute_bits
+        | (local.is_some() as u32 * LOCAL_U16)
+        | (positions_f32 as u32 * POSITIONS_F32);
     let (triangle, _, per_vertex) = layout(bits);
     let mut out =
         Vec::with_capacity(HEAD + triangle * patch.triangles.len() + per_vertex * v.ids.len());
@@ -107,18 +165,7 @@ pub(super) fn encode_patch(patch: &LivePatch, scale: &SimplifierScale) -> Vec<u8
     } else {
         out.extend_from_slice(bytemuck::cast_slice(&v.positions));
     }
-    if !derived {
-        out.extend_from_slice(bytemuck::cast_slice(&v.simplifier));
-    }
-    if let Some(n) = &v.normals {
-        out.extend_from_slice(bytemuck::cast_slice(n));
-    }
-    if let Some(c) = &v.colors {
-        out.extend_from_slice(bytemuck::cast_slice(c));
-    }
-    if let Some(u) = &v.uvs {
-        out.extend_from_slice(bytemuck::cast_slice(u));
-    }
+    put_rest(patch, derived, &mut out);
     debug_assert_eq!(out.len() as u64, record_bytes(&out[..HEAD]));
     out
 }
@@ -128,44 +175,78 @@ fn column<T: bytemuck::Pod>(bytes: &[u8]) -> Vec<T> {
     bytemuck::pod_collect_to_vec(bytes)
 }
 
+/// A packed record's rows and ids, and where its positions start.
+fn packed_rows_and_ids(bytes: &[u8]) -> std::io::Result<(Vec<[u32; 3]>, Vec<u32>, usize)> {
+    let (t, v, bits) = head_fields(bytes);
+    let ids_at = HEAD + live_packed::rows_bytes(t, v);
+    let positions_at = ids_at + (bits >> PACKED_IDS_SHIFT) as usize;
+    if bytes.len() < positions_at {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            "a live record shorter than its head says",
+        ));
+    }
+    let rows = live_packed::get_rows(&bytes[HEAD..ids_at], t, v)?;
+    let ids = live_packed::get_ids(&bytes[ids_at..positions_at], v)?;
+    Ok((rows, ids, positions_at))
+}
+
 /// The triangles (global ids) of a record's first bytes: the head, the triangles and, for
 /// rows, the ids.
-pub(super) fn decode_triangles(bytes: &[u8]) -> Vec<[u32; 3]> {
+pub(super) fn decode_triangles(bytes: &[u8]) -> std::io::Result<Vec<[u32; 3]>> {
     let (t, v, bits) = head_fields(bytes);
+    if bits & PACKED != 0 {
+        let (rows, ids, _) = packed_rows_and_ids(bytes)?;
+        return Ok(rows.iter().map(|r| r.map(|i| ids[i as usize])).collect());
+    }
     let (triangle, ..) = layout(bits);
     let triangles = &bytes[HEAD..HEAD + triangle * t];
     if bits & LOCAL_U16 == 0 {
-        return column(triangles);
+        return Ok(column(triangles));
     }
     let ids: Vec<u32> = column(&bytes[HEAD + triangle * t..HEAD + triangle * t + 4 * v]);
     let rows: Vec<[u16; 3]> = column(triangles);
-    rows.iter().map(|r| r.map(|i| ids[i as usize])).collect()
+    Ok(rows.iter().map(|r| r.map(|i| ids[i as usize])).collect())
 }
 
 /// Bytes `decode_triangles` needs of a record with this head.
 pub(super) fn triangle_bytes(head: &[u8]) -> usize {
     let (t, v, bits) = head_fields(head);
+    if bits & PACKED != 0 {
+        return HEAD + live_packed::rows_bytes(t, v) + (bits >> PACKED_IDS_SHIFT) as usize;
+    }
     let (triangle, ..) = layout(bits);
     HEAD + triangle * t + if bits & LOCAL_U16 != 0 { 4 * v } else { 0 }
 }
 
 /// The patch of a record written by `encode_patch` with the same `scale`.
-pub(super) fn decode_patch(bytes: &[u8], scale: &SimplifierScale) -> LivePatch {
+pub(super) fn decode_patch(bytes: &[u8], scale: &SimplifierScale) -> std::io::Result<LivePatch> {
     let (t, v, bits) = head_fields(bytes);
     let (triangle, position, _) = layout(bits);
-    let triangles = decode_triangles(bytes);
-    let mut at = HEAD + triangle * t;
+    let (triangles, ids, positions, rest_at) = if bits & PACKED != 0 {
+        let (rows, ids, positions_at) = packed_rows_and_ids(bytes)?;
+        let (narrow, length) = live_packed::get_positions(&bytes[positions_at..], v)?;
+        let triangles = rows.iter().map(|r| r.map(|i| ids[i as usize])).collect();
+        let positions = narrow.iter().map(|p| p.map(f64::from)).collect();
+        (triangles, ids, positions, positions_at + length)
+    } else {
+        let triangles = decode_triangles(bytes)?;
+        let at = HEAD + triangle * t;
+        let ids: Vec<u32> = column(&bytes[at..at + 4 * v]);
+        let at = at + 4 * v;
+        let positions: Vec<[f64; 3]> = if position == 12 {
+            let narrow: Vec<[f32; 3]> = column(&bytes[at..at + 12 * v]);
+            narrow.iter().map(|p| p.map(f64::from)).collect()
+        } else {
+            column(&bytes[at..at + 24 * v])
+        };
+        (triangles, ids, positions, at + position * v)
+    };
+    let mut at = rest_at;
     let mut take = |n: usize| {
         let part = &bytes[at..at + n];
         at += n;
         part
-    };
-    let ids: Vec<u32> = column(take(4 * v));
-    let positions: Vec<[f64; 3]> = if position == 12 {
-        let narrow: Vec<[f32; 3]> = column(take(12 * v));
-        narrow.iter().map(|p| p.map(f64::from)).collect()
-    } else {
-        column(take(24 * v))
     };
     let simplifier: Vec<[f32; 3]> = if bits & SIMPLIFIER_DERIVED != 0 {
         positions.iter().map(|&p| scale.position(p)).collect()
@@ -175,7 +256,7 @@ pub(super) fn decode_patch(bytes: &[u8], scale: &SimplifierScale) -> LivePatch {
     let normals = (bits & NORMALS != 0).then(|| column(take(12 * v)));
     let colors = (bits & COLORS != 0).then(|| column(take(4 * v)));
     let uvs = (bits & UVS != 0).then(|| column(take(8 * v)));
-    LivePatch {
+    Ok(LivePatch {
         triangles,
         vertices: VertexTable {
             ids,
@@ -185,7 +266,7 @@ pub(super) fn decode_patch(bytes: &[u8], scale: &SimplifierScale) -> LivePatch {
             colors,
             uvs,
         },
-    }
+    })
 }
 
 #[cfg(test)]
@@ -230,25 +311,46 @@ pub(super) mod tests {
         let mut nudged = patch(3, true);
         nudged.vertices.simplifier[2][1] =
             f32::from_bits(nudged.vertices.simplifier[2][1].to_bits() + 1);
-        for (p, triangle, position, derived) in [
-            (&compact, 6, 12, true),
-            (&wide, 6, 24, true),
-            (&foreign, 12, 12, true),
-            (&twice, 12, 12, true),
-            (&nudged, 6, 12, false),
+        let mut large = patch(3, false);
+        large.vertices.positions[0][0] = 0.1; // not an f32: unpacked
+        large.vertices.ids = (0..70_000).map(|i| 10 * i + 3).collect();
+        large.vertices.positions = (0..70_000).map(|i| [i as f64, 0.1, 2.0]).collect();
+        large.vertices.simplifier = large
+            .vertices
+            .positions
+            .iter()
+            .map(|&p| scale().position(p))
+            .collect();
+        large.triangles = vec![[3, 13, 699_993]];
+        // (patch, packed, triangle bytes and position bytes if not, derived)
+        for (p, packed, triangle, position, derived) in [
+            (&compact, true, 0, 0, true),
+            (&wide, false, 6, 24, true),
+            (&foreign, false, 12, 12, true),
+            (&twice, false, 12, 12, true),
+            (&nudged, true, 0, 0, false),
+            (&large, false, 12, 24, true),
         ] {
             let record = encode_patch(p, &scale());
             let (_, v, bits) = head_fields(&record);
-            assert_eq!(layout(bits).0, triangle);
-            assert_eq!(layout(bits).1, position);
+            assert_eq!(bits & PACKED != 0, packed);
+            if !packed {
+                assert_eq!(layout(bits).0, triangle);
+                assert_eq!(layout(bits).1, position);
+                assert_eq!(record.len() as u64, record_bytes(&record[..HEAD]));
+            }
             assert_eq!(bits & SIMPLIFIER_DERIVED != 0, derived);
-            assert_eq!(record.len() as u64, record_bytes(&record[..HEAD]));
-            assert_eq!(&decode_patch(&record, &scale()), p);
+            assert_eq!(&decode_patch(&record, &scale()).unwrap(), p);
             assert_eq!(
-                decode_triangles(&record[..triangle_bytes(&record)]),
+                decode_triangles(&record[..triangle_bytes(&record)]).unwrap(),
                 p.triangles
             );
             assert_eq!(v, p.vertices.ids.len());
+            // Damage within the packed sections is an error, not a panic.
+            if packed {
+                let cut = &record[..triangle_bytes(&record) - 1];
+                assert!(decode_triangles(cut).is_err());
+            }
         }
         let size = |p: &LivePatch| encode_patch(p, &scale()).len();
         assert!(size(&compact) < size(&wide));

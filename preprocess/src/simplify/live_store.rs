@@ -205,7 +205,7 @@ impl LiveStore {
                     store.file.read_exact_at(&mut head, record.at)?;
                     let mut bytes = vec![0u8; triangle_bytes(&head)];
                     store.file.read_exact_at(&mut bytes, record.at)?;
-                    Ok(Some(Cow::Owned(decode_triangles(&bytes))))
+                    Ok(Some(Cow::Owned(decode_triangles(&bytes)?)))
                 }
             },
         }
@@ -384,7 +384,7 @@ impl DiskStore {
     fn read(&self, record: &Record) -> io::Result<LivePatch> {
         let mut bytes = vec![0u8; record.bytes as usize];
         self.file.read_exact_at(&mut bytes, record.at)?;
-        Ok(decode_patch(&bytes, &self.scale))
+        decode_patch(&bytes, &self.scale)
     }
 }
 

@@ -77,7 +77,7 @@ impl ResultSpill {
                 let mut buffer = vec![0u8; bytes as usize];
                 file.read_exact_at(&mut buffer, at)?;
                 self.release(&held);
-                Ok(decode(&buffer, &self.scale))
+                decode(&buffer, &self.scale)
             }
         }
     }
@@ -112,7 +112,7 @@ fn encode(payload: &Payload, scale: &SimplifierScale) -> Vec<u8> {
     out
 }
 
-fn decode(bytes: &[u8], scale: &SimplifierScale) -> Payload {
+fn decode(bytes: &[u8], scale: &SimplifierScale) -> std::io::Result<Payload> {
     let mut at = 0;
     let mut take = |n: usize| {
         let part = &bytes[at..at + n];
@@ -130,7 +130,7 @@ fn decode(bytes: &[u8], scale: &SimplifierScale) -> Payload {
         let n = u64_of(take(8)) as usize;
         patches.push((
             SimplexKey { root, level, path },
-            decode_patch(take(n), scale),
+            decode_patch(take(n), scale)?,
         ));
     }
     let n = u64_of(take(8)) as usize;
@@ -141,7 +141,7 @@ fn decode(bytes: &[u8], scale: &SimplifierScale) -> Payload {
             (v, d)
         })
         .collect();
-    Payload { patches, vertices }
+    Ok(Payload { patches, vertices })
 }
 
 #[cfg(test)]
