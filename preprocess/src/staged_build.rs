@@ -78,6 +78,11 @@ pub(crate) fn hierarchy_and_counts(
     let io = temporary(memory);
     let dir = memory.temp_dir.as_path();
     let sort_budget = memory.bytes as usize / 4;
+    // The use counts first, then the barycentres' spool and the buckets: the counts' sort of
+    // every edge (about 7 bytes a triangle on disk) and the spool and buckets (about 7 more)
+    // beside the staged mesh made the stage's temporary peak 1.7x the input when they ran
+    // side by side.
+    let current = CurrentMesh::from_staged(staged, sort_budget, dir).map_err(&io)?;
     let barycentres = SpooledBarycentres::new(
         &JoinedBarycentres {
             staged,
@@ -88,15 +93,11 @@ pub(crate) fn hierarchy_and_counts(
     )
     .map_err(&io)?;
     let budget = BucketBudget::new(memory.bucket_triangles(leaf_triangles), dir);
-    // The bucketed hierarchy runs on one thread: the use counts (a quarter of the budget, as
-    // its buckets) are counted beside it, as the in-memory build does.
-    let (hierarchy, current) = rayon::join(
-        || build_hierarchy_bucketed_spooled(frame, &barycentres, construction, &budget),
-        || CurrentMesh::from_staged(staged, sort_budget, dir),
-    );
+    let (hierarchy, lists, _) =
+        build_hierarchy_bucketed_spooled(frame, &barycentres, construction, &budget)
+            .map_err(&io)?;
     drop(barycentres);
-    let (hierarchy, lists, _) = hierarchy.map_err(&io)?;
-    Ok((hierarchy, lists, current.map_err(&io)?))
+    Ok((hierarchy, lists, current))
 }
 
 /// The simplifier's position of each vertex as `simplify_hierarchy` computes it in memory

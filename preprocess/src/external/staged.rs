@@ -117,6 +117,16 @@ impl<T: Pod> RecordFile<T> {
         })
     }
 
+    /// `read_chunks` for a pass that replaces the file: the disk space of what was read is
+    /// given back as it goes (`holes::punch`; a checkpoint's file is only read).
+    pub fn consume_chunks(self, records: usize) -> io::Result<ConsumingChunks<T>> {
+        Ok(ConsumingChunks {
+            reader: self.read_chunks(records)?,
+            file: self,
+            freed: 0,
+        })
+    }
+
     /// Copies the records to a new file at `path`; returns the copy's CRC-32.
     pub(crate) fn copy_to(&self, path: &Path) -> io::Result<u32> {
         let mut to = File::create(path)?;
@@ -308,6 +318,31 @@ impl<T: Pod> Iterator for ChunkReader<T> {
         self.read_into(&mut records)
             .map(|more| more.then_some(records))
             .transpose()
+    }
+}
+
+/// A `ChunkReader` that frees what it has read (`RecordFile::consume_chunks`).
+pub struct ConsumingChunks<T: Pod> {
+    reader: ChunkReader<T>,
+    file: RecordFile<T>,
+    /// Bytes from the start already given back (a whole number of blocks).
+    freed: u64,
+}
+
+impl<T: Pod> ConsumingChunks<T> {
+    /// `ChunkReader::read_into`, then the records read are freed.
+    pub fn read_into(&mut self, records: &mut Vec<T>) -> io::Result<bool> {
+        let more = self.reader.read_into(records)?;
+        if !self.file.kept {
+            let read_to = self.reader.file.at;
+            let file = self.file.file.lock().unwrap_or_else(|e| e.into_inner());
+            if let Some(file) = file.as_ref() {
+                let freed = super::holes::punch(file, self.freed, read_to);
+                self.file.charge.shrink(freed);
+                self.freed = self.freed.max(read_to / 4096 * 4096);
+            }
+        }
+        Ok(more)
     }
 }
 

@@ -26,7 +26,7 @@ use rayon::prelude::*;
 
 use super::fallible::{check, ok_values};
 use super::position_file::PositionFile;
-use super::sort::sort_external;
+use super::sort::{sort_external, Sorted};
 use super::staged::{RawStaged, RecordFile, StagedMesh, VertexAttributes};
 use crate::import::weld::canonical_bits;
 
@@ -94,30 +94,21 @@ pub fn weld_external(raw: RawStaged, budget: usize, dir: &Path) -> io::Result<St
     }
 
     // 1. Representatives: sort by position bits, then pair each index with its run's first,
-    //    sorted back into index order.
-    let by_index = {
-        let mut error = None;
-        let keys = ok_values(raw_positions.read()?, &mut error)
-            .enumerate()
-            .map(|(i, p)| PositionKey {
+    //    sorted back into index order. Positions that are all f32 are sorted by their f32
+    //    bits (16-byte keys, half the runs of f64 bits): the same groups, the same firsts.
+    let by_index = match &raw_positions {
+        PositionFile::Narrow(_) => {
+            representatives(&raw_positions, half, dir, |p, index| NarrowPositionKey {
+                bits: p.map(canonical_f32_bits),
+                index: index as u32,
+            })?
+        }
+        PositionFile::Wide(_) => {
+            representatives(&raw_positions, half, dir, |p, index| PositionKey {
                 bits: p.map(canonical_bits),
-                index: i as u64,
-            });
-        let sorted = sort_external(keys, half, dir)?;
-        check(error)?;
-        let mut run: Option<([u64; 3], u64)> = None;
-        let mut error = None;
-        let pairs = ok_values(sorted, &mut error).map(move |key: PositionKey| {
-            let rep = match run {
-                Some((bits, rep)) if bits == key.bits => rep,
-                _ => key.index,
-            };
-            run = Some((key.bits, rep));
-            (key.index << 32) | rep
-        });
-        let by_index = sort_external(pairs, half, dir)?;
-        check(error)?;
-        by_index
+                index,
+            })?
+        }
     };
     let mut representative = RecordFile::<u32>::create(dir)?;
     let mut groups = 0u64;
@@ -141,7 +132,7 @@ pub fn weld_external(raw: RawStaged, budget: usize, dir: &Path) -> io::Result<St
         let part = reps.next().transpose()?.unwrap_or_default();
         let end = start + part.len() as u64;
         let last = pass + 1 == windows;
-        triangles = map_triangles(&triangles, dir, |chunk| {
+        triangles = map_triangles(triangles, dir, |chunk| {
             chunk.par_iter_mut().for_each(|t| {
                 for v in t.iter_mut() {
                     if (start..end).contains(&(*v as u64)) {
@@ -186,22 +177,27 @@ pub fn weld_external(raw: RawStaged, budget: usize, dir: &Path) -> io::Result<St
     check(error)?;
     let mut kept = RecordFile::<[u32; 3]>::create(dir)?;
     let mut duplicate = 0u64;
-    for (i, t) in proper.read()?.enumerate() {
-        let t = t?;
-        if let Some(Ok(d)) = dropped.peek() {
-            if *d as usize == i {
-                dropped.next();
-                duplicate += 1;
-                continue;
+    let (mut chunks, mut chunk) = (proper.consume_chunks(PASS_TRIANGLES)?, Vec::new());
+    let mut i = 0usize;
+    while chunks.read_into(&mut chunk)? {
+        for t in &chunk {
+            let at = i;
+            i += 1;
+            if let Some(Ok(d)) = dropped.peek() {
+                if *d as usize == at {
+                    dropped.next();
+                    duplicate += 1;
+                    continue;
+                }
             }
+            kept.push(t)?;
         }
-        kept.push(&t)?;
     }
     if let Some(Err(e)) = dropped.next() {
         return Err(e);
     }
     let kept = kept.finish()?;
-    drop(proper);
+    drop(chunks);
 
     // 4. Referenced representatives, numbered in order: marked in a bitmap of the raw ids
     //    where it fits half the budget (a bit a vertex), else by a sort of the corners.
@@ -254,7 +250,7 @@ pub fn weld_external(raw: RawStaged, budget: usize, dir: &Path) -> io::Result<St
             number += 1;
         }
         let dense = &dense;
-        triangles = map_triangles(&triangles, dir, |chunk| {
+        triangles = map_triangles(triangles, dir, |chunk| {
             chunk
                 .par_iter_mut()
                 .try_for_each(|t| {
@@ -314,6 +310,77 @@ struct PositionKey {
     index: u64,
 }
 
+/// `PositionKey` of a position that is exactly an f32 (`-0.0` as `0.0`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Pod, Zeroable)]
+#[repr(C)]
+struct NarrowPositionKey {
+    bits: [u32; 3],
+    index: u32,
+}
+
+fn canonical_f32_bits(x: f64) -> u32 {
+    let x = x as f32;
+    if x == 0.0 {
+        0
+    } else {
+        x.to_bits()
+    }
+}
+
+/// What step 1 needs of a key: whether two keys hold the same position, and the index.
+trait GroupKey: Pod + Ord + Send {
+    fn same_position(&self, other: &Self) -> bool;
+    fn index(&self) -> u64;
+}
+
+impl GroupKey for PositionKey {
+    fn same_position(&self, other: &Self) -> bool {
+        self.bits == other.bits
+    }
+    fn index(&self) -> u64 {
+        self.index
+    }
+}
+
+impl GroupKey for NarrowPositionKey {
+    fn same_position(&self, other: &Self) -> bool {
+        self.bits == other.bits
+    }
+    fn index(&self) -> u64 {
+        self.index as u64
+    }
+}
+
+/// Step 1: `(index << 32) | representative` for every vertex, in index order.
+fn representatives<K: GroupKey>(
+    positions: &PositionFile,
+    half: usize,
+    dir: &Path,
+    key_of: impl Fn([f64; 3], u64) -> K,
+) -> io::Result<Sorted<u64>> {
+    let mut error = None;
+    let keys = ok_values(positions.read()?, &mut error)
+        .enumerate()
+        .map(|(i, p)| key_of(p, i as u64));
+    let sorted = sort_external(keys, half, dir)?;
+    check(error)?;
+    let mut run: Option<(K, u64)> = None;
+    let mut error = None;
+    let pairs = ok_values(sorted, &mut error).map(move |key: K| {
+        let rep = match run {
+            Some((first, rep)) if first.same_position(&key) => rep,
+            _ => key.index(),
+        };
+        run = Some((key, rep));
+        (key.index() << 32) | rep
+    });
+    // Ascending: each delta is about 2^32, five bytes instead of eight.
+    let codec = super::sort::RunCodec::delta_u64();
+    let by_index = super::sort::sort_external_with(pairs, half, dir, codec)?;
+    check(error)?;
+    Ok(by_index)
+}
+
 /// A triangle by its sorted corners, then its position in the triangle list.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Pod, Zeroable)]
 #[repr(C)]
@@ -326,14 +393,15 @@ struct DuplicateKey {
 const PASS_TRIANGLES: usize = 1 << 16;
 
 /// A new file of `from`'s triangles, each chunk changed by `map` (in place, in parallel
-/// where it likes; it may drop triangles).
+/// where it likes; it may drop triangles). `from`'s disk space is given back as it is read,
+/// so the two files together stay about one file's size.
 fn map_triangles(
-    from: &RecordFile<[u32; 3]>,
+    from: RecordFile<[u32; 3]>,
     dir: &Path,
     map: impl Fn(&mut Vec<[u32; 3]>) -> io::Result<()>,
 ) -> io::Result<RecordFile<[u32; 3]>> {
     let mut out = RecordFile::<[u32; 3]>::create(dir)?;
-    let (mut chunks, mut chunk) = (from.read_chunks(PASS_TRIANGLES)?, Vec::new());
+    let (mut chunks, mut chunk) = (from.consume_chunks(PASS_TRIANGLES)?, Vec::new());
     while chunks.read_into(&mut chunk)? {
         map(&mut chunk)?;
         out.push_all(&chunk)?;
