@@ -225,6 +225,7 @@ pub(super) fn write_file(
         name: name.into(),
         bytes: bytes.len() as u64,
         crc32: crc32fast::hash(bytes),
+        sparse: false,
     })
 }
 
@@ -239,6 +240,7 @@ pub(super) fn write_streamed(
         name: name.into(),
         bytes,
         crc32,
+        sparse: false,
     })
 }
 

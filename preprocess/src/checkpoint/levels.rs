@@ -2,8 +2,9 @@
 //! each. Files: `hierarchy.bin` (the frame and the split diamonds, written once: the hierarchy
 //! is rebuilt by splitting them again in (level, id) order), `state-N.bin` (the use counts,
 //! the live simplices and the indexes of the live and finished patches, `LevelState::encode`),
-//! and the append-only files those indexes point into (`live-G.bin`, `finished-*.bin`),
-//! recorded at their length and CRC-32 when the stage was committed. What the build knew of its
+//! and the append-only files those indexes point into (`live-patches.bin`, `finished-*.bin`),
+//! recorded at their length and CRC-32 when the stage was committed (the live patches' file
+//! has holes where removed patches were: its records are checked by their own CRC-32s). What the build knew of its
 //! input (bounding box, counts, attributes) is in the stage's values.
 
 use std::io;
@@ -57,10 +58,15 @@ pub(crate) fn save_levels(
         Ok(())
     })?;
     files.extend(finished_files);
-    let (name, bytes, crc32) = state
+    let (name, bytes) = state
         .store_file()
         .ok_or_else(|| io::Error::other("the live patches are not in the checkpoint"))?;
-    files.push(FileRecord { name, bytes, crc32 });
+    files.push(FileRecord {
+        name,
+        bytes,
+        crc32: 0,
+        sparse: true,
+    });
     files.push(state_file);
     let mut values = facts.values();
     values.insert("levels_done".into(), done as u64);

@@ -40,6 +40,10 @@ pub struct FileRecord {
     pub name: String,
     pub bytes: u64,
     pub crc32: u32,
+    /// A file with holes where its dead records were (the live patches'): `crc32` is not
+    /// its checksum; its reader checks each record it names against the record's own.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub sparse: bool,
 }
 
 /// What identifies an input file without reading all of it: its path, size, modification

@@ -36,6 +36,7 @@ pub fn save_staged(checkpoint: &mut Checkpoint, staged: &mut StagedMesh) -> io::
                 name,
                 bytes: file.bytes(),
                 crc32,
+                sparse: false,
             });
         }
         Ok(())
@@ -47,6 +48,7 @@ pub fn save_staged(checkpoint: &mut Checkpoint, staged: &mut StagedMesh) -> io::
         name: name.into(),
         bytes: staged.positions.bytes(),
         crc32,
+        sparse: false,
     });
     keep(
         checkpoint,

@@ -55,6 +55,7 @@ impl FinishedPatches {
                 name: name.into(),
                 bytes: spill.bytes,
                 crc32: spill.crc.clone().finalize(),
+                sparse: false,
             });
         }
         e.u64(self.index.len() as u64);

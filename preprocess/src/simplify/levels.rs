@@ -97,14 +97,11 @@ impl LevelState {
         self.levels_done
     }
 
-    /// The live store's file (name, valid bytes, CRC-32), `None` unless it is named.
-    pub fn store_file(&self) -> Option<(String, u64, u32)> {
+    /// The live store's file (name, valid bytes), `None` unless it is named. Its records are
+    /// checked one by one against the CRC-32s in the state (`encode`), not as a whole file.
+    pub fn store_file(&self) -> Option<(String, u64)> {
         let c = self.patches.checkpoint()?;
-        Some((
-            super::live_store::live_file_name(c.generation),
-            c.end,
-            c.crc32,
-        ))
+        Some((super::live_store::LIVE_FILE.to_string(), c.end))
     }
 
     /// Everything but the live store's records' bytes (which stay in its named file).
@@ -121,14 +118,13 @@ impl LevelState {
         let mut live: Vec<PackedKey> = self.live.iter().copied().collect();
         live.sort_unstable();
         e.list(&live, |e, &k| e.key(k.key()));
-        e.u32(store.generation);
         e.u64(store.end);
-        e.u32(store.crc32);
-        e.list(&store.records, |e, &(k, at, bytes, triangles)| {
+        e.list(&store.records, |e, &(k, at, bytes, triangles, crc)| {
             e.key(k.key());
             e.u64(at);
             e.u64(bytes as u64);
             e.u32(triangles);
+            e.u32(crc);
         });
         self.current.encode(e);
         Ok(())
@@ -152,30 +148,23 @@ impl LevelState {
         let own_error = d.list(4, |d| d.f32())?;
         let live = d.list(21, |d| d.key().and_then(packed_or_invalid))?;
         let live = live.into_iter().collect();
-        let generation = d.u32()?;
         let end = d.u64()?;
-        let crc32 = d.u32()?;
-        let records = d.list(41, |d| {
+        let records = d.list(45, |d| {
             let key = packed_or_invalid(d.key()?)?;
-            let (at, bytes, triangles) = (d.u64()?, d.u64()?, d.u32()?);
+            let (at, bytes, triangles, crc) = (d.u64()?, d.u64()?, d.u32()?, d.u32()?);
             let bytes = u32::try_from(bytes).map_err(|_| invalid("a live record too long"))?;
-            Ok((key, at, bytes, triangles))
+            Ok((key, at, bytes, triangles, crc))
         })?;
         if records
             .iter()
-            .any(|&(_, at, bytes, _)| at.saturating_add(bytes as u64) > end)
+            .any(|&(_, at, bytes, _, _)| at.saturating_add(bytes as u64) > end)
         {
             return Err(invalid("a live patch beyond its file"));
         }
         let current = CurrentMesh::decode(d, vertex_count)?;
         let patches = LiveStore::reopen(
             dir,
-            StoreCheckpoint {
-                generation,
-                end,
-                crc32,
-                records,
-            },
+            StoreCheckpoint { end, records },
             SimplifierScale::of(frame),
         )?;
         Ok(LevelState {
@@ -358,10 +347,11 @@ pub fn simplify_levels(
                 })
                 .collect::<std::io::Result<_>>()?;
         }
-        state.patches.compact()?;
         crate::external::allocator::release_freed_memory();
         state.levels_done += 1;
         after_level(&state)?;
+        // Removed patches' bytes go once no commit names them (the one just made, if one was).
+        state.patches.release_dead()?;
     }
     Ok(Simplified {
         own_error: state.own_error,

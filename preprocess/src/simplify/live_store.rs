@@ -1,13 +1,18 @@
 //! The live patches (the current mesh's), by simplex: in memory, or under a memory budget in
-//! an unnamed temporary file with only an index in memory (issue 12). Workers read patches in
+//! a temporary file with only an index in memory (issue 12). Workers read patches in
 //! parallel (`pread`); the simplification's main thread adds and removes them. The file is
-//! append-only and rewritten with only the live patches when the dead ones outweigh them.
-//! Its records are `live_record.rs`'s.
+//! append-only; a removed patch's bytes are given back to the file system once nothing needs
+//! them (`holes::punch`): at the end of each level for an unnamed file, and for a build's
+//! checkpoint only after a later commit no longer names them, so a resumed build always finds
+//! the records its checkpoint names. The file is never rewritten: rewriting it held a copy of
+//! the live patches beside the old file the checkpoint still named. Its records are
+//! `live_record.rs`'s, each with its CRC-32 in the index (a file with holes has no whole-file
+//! checksum that stays true).
 
 use std::borrow::Cow;
 use std::fs::File;
 use std::io;
-use std::os::unix::fs::FileExt;
+use std::os::unix::fs::{FileExt, MetadataExt};
 use std::path::Path;
 
 use rayon::prelude::*;
@@ -27,64 +32,48 @@ pub(super) enum LiveStore {
 
 pub(super) struct DiskStore {
     file: File,
-    dir: std::path::PathBuf,
-    /// Where each live patch's record is, its size and its triangle count: 32 bytes an
-    /// entry (a `SimplexKey` and u64 sizes took 64).
+    /// Where each live patch's record is, its size, triangle count and CRC-32.
     index: HashMap<PackedKey, Record>,
     end: u64,
-    live_bytes: u64,
     charge: Charge,
-    /// In a build's checkpoint: the directory and the file's generation (`live-G.bin`, a new
-    /// one at each rewrite), and the CRC-32 of the bytes written so far.
-    named: Option<(std::path::PathBuf, u32)>,
-    crc: crc32fast::Hasher,
-    committed: Committed,
+    /// Whether the file is a build's checkpoint's (`LIVE_FILE`).
+    named: bool,
+    /// The records the checkpoint's last commit names, (offset, bytes) by offset: their bytes
+    /// stay until a later commit names others.
+    committed: Vec<(u64, u32)>,
+    /// Records removed whose bytes may still be on disk.
+    dead: Vec<(u64, u32)>,
+    /// The records the last `checkpoint` gave a commit, by offset: the commit's once it is
+    /// done (`release_dead` is called only then).
+    asked: std::sync::Mutex<Option<Vec<(u64, u32)>>>,
     /// The simplifier's positions its records leave out are computed with this.
     scale: SimplifierScale,
 }
 
-/// What the checkpoint's last commit holds of a named store: its generation and length, and
-/// the bytes of that generation's file kept while a newer one is current (a resumed build
-/// reads it; the next commit removes it).
-struct Committed {
-    at: std::sync::Mutex<Option<(u32, u64)>>,
-    retained: Charge,
-}
-
-impl Default for Committed {
-    fn default() -> Self {
-        Committed {
-            at: Default::default(),
-            retained: Charge::new(TempKind::Checkpoint),
-        }
-    }
-}
-
-/// Where a checkpointed store's records are: its file's name, valid length and CRC-32, and
-/// each live patch's record (key, offset, bytes, triangles).
+/// Where a checkpointed store's records are: the file's valid length, and each live patch's
+/// record (key, offset, bytes, triangles, CRC-32).
 pub(super) struct StoreCheckpoint {
-    pub generation: u32,
     pub end: u64,
-    pub crc32: u32,
-    pub records: Vec<(PackedKey, u64, u32, u32)>,
+    pub records: Vec<(PackedKey, u64, u32, u32, u32)>,
 }
 
-/// The name of a checkpointed store's file of `generation`.
-pub(super) fn live_file_name(generation: u32) -> String {
-    format!("live-{generation}.bin")
-}
+/// The name of a checkpointed store's file in its checkpoint directory.
+pub(super) const LIVE_FILE: &str = "live-patches.bin";
 
 #[derive(Clone, Copy)]
 struct Record {
     at: u64,
     bytes: u32,
     triangles: u32,
+    crc: u32,
 }
 
 /// Records `insert_all` encodes in parallel and writes at once.
 const INSERT_CHUNK: usize = 64;
-/// Bytes of adjacent records a rewrite copies at once.
-const COPY_BYTES: u64 = 1 << 20;
+
+fn damaged(what: String) -> io::Error {
+    io::Error::new(io::ErrorKind::InvalidData, what)
+}
 
 impl LiveStore {
     /// An empty store in memory, or in an unnamed file in `spill_dir` (its records' simplifier
@@ -93,92 +82,88 @@ impl LiveStore {
         let Some(dir) = spill_dir else {
             return Ok(LiveStore::Memory(HashMap::default()));
         };
-        Ok(LiveStore::Disk(DiskStore {
-            file: tempfile::tempfile_in(dir)?,
-            dir: dir.to_path_buf(),
-            index: HashMap::default(),
-            end: 0,
-            live_bytes: 0,
-            charge: Charge::new(TempKind::LiveStore),
-            named: None,
-            crc: crc32fast::Hasher::new(),
-            committed: Committed::default(),
+        Ok(LiveStore::Disk(DiskStore::on(
+            tempfile::tempfile_in(dir)?,
+            false,
             scale,
-        }))
+        )))
     }
 
-    /// An empty store in a named file of a build's checkpoint directory.
+    /// An empty store in the file `LIVE_FILE` of a build's checkpoint directory.
     pub(super) fn new_named(dir: &Path, scale: SimplifierScale) -> io::Result<LiveStore> {
-        Ok(LiveStore::Disk(DiskStore::named(dir, 0, scale)?))
+        let file = std::fs::OpenOptions::new()
+            .read(true)
+            .write(true)
+            .create(true)
+            .truncate(true)
+            .open(dir.join(LIVE_FILE))?;
+        Ok(LiveStore::Disk(DiskStore::on(file, true, scale)))
     }
 
-    /// A checkpointed store again (its file cut back to the checkpoint's length).
+    /// A checkpointed store again: its file cut back to the checkpoint's length, every record
+    /// it names checked against its CRC-32, and the space of any other record given back.
     pub(super) fn reopen(
         dir: &Path,
         at: StoreCheckpoint,
         scale: SimplifierScale,
     ) -> io::Result<LiveStore> {
-        let path = dir.join(live_file_name(at.generation));
         let file = std::fs::OpenOptions::new()
             .read(true)
             .write(true)
-            .open(path)?;
+            .open(dir.join(LIVE_FILE))?;
         file.set_len(at.end)?;
-        let charge = Charge::new(TempKind::LiveStore);
-        charge.grow(at.end);
-        let index: HashMap<PackedKey, Record> = at
-            .records
-            .iter()
-            .map(|&(key, at, bytes, triangles)| {
-                (
-                    key,
-                    Record {
-                        at,
-                        bytes,
-                        triangles,
-                    },
-                )
-            })
-            .collect();
-        Ok(LiveStore::Disk(DiskStore {
-            file,
-            dir: dir.to_path_buf(),
-            live_bytes: index.values().map(|r| r.bytes as u64).sum(),
-            index,
-            end: at.end,
-            charge,
-            named: Some((dir.to_path_buf(), at.generation)),
-            crc: crc32fast::Hasher::new_with_initial_len(at.crc32, at.end),
-            committed: Committed {
-                at: std::sync::Mutex::new(Some((at.generation, at.end))),
-                retained: Charge::new(TempKind::Checkpoint),
-            },
-            scale,
-        }))
+        let mut store = DiskStore::on(file, true, scale);
+        store.end = at.end;
+        let mut bytes = Vec::new();
+        for &(key, at, size, triangles, crc) in &at.records {
+            bytes.resize(size as usize, 0);
+            store.file.read_exact_at(&mut bytes, at)?;
+            if crc32fast::hash(&bytes) != crc {
+                return Err(damaged(format!(
+                    "{LIVE_FILE}: the record at {at} does not match its CRC-32"
+                )));
+            }
+            let record = Record {
+                at,
+                bytes: size,
+                triangles,
+                crc,
+            };
+            store.index.insert(key, record);
+        }
+        store.committed = store.records_by_offset();
+        // Whatever lies between the named records is dead (merged before the commit, or
+        // after it by the build that was killed).
+        let mut from = 0;
+        for &(at, bytes) in &store.committed {
+            crate::external::holes::punch(&store.file, from, at);
+            from = at + bytes as u64;
+        }
+        crate::external::holes::punch(&store.file, from, store.end);
+        store.charge_allocated()?;
+        Ok(LiveStore::Disk(store))
     }
 
-    /// Where a checkpointed store's records are (its file written so far is synced by the
-    /// checkpoint); `None` for a store that is not in a checkpoint.
+    /// Where a checkpointed store's records are (its file is synced by the checkpoint);
+    /// `None` for a store that is not in a checkpoint. Asked for by a commit: from then on
+    /// the records named here are kept, and those the previous commit named may go
+    /// (`release_dead`, once the commit is done).
     pub(super) fn checkpoint(&self) -> Option<StoreCheckpoint> {
         let LiveStore::Disk(store) = self else {
             return None;
         };
-        let (_, generation) = store.named.as_ref()?;
-        let mut records: Vec<(PackedKey, u64, u32, u32)> = store
+        if !store.named {
+            return None;
+        }
+        let mut records: Vec<(PackedKey, u64, u32, u32, u32)> = store
             .index
             .iter()
-            .map(|(k, r)| (*k, r.at, r.bytes, r.triangles))
+            .map(|(k, r)| (*k, r.at, r.bytes, r.triangles, r.crc))
             .collect();
         records.sort_unstable_by_key(|r| r.0);
-        // Asked for by a commit: from then on the checkpoint names this file and length, and
-        // no longer an older generation's.
-        *store.committed.at.lock().unwrap_or_else(|e| e.into_inner()) =
-            Some((*generation, store.end));
-        store.committed.retained.release();
+        *store.asked.lock().unwrap_or_else(|e| e.into_inner()) = Some(store.records_by_offset());
         Some(StoreCheckpoint {
-            generation: *generation,
             end: store.end,
-            crc32: store.crc.clone().finalize(),
             records,
         })
     }
@@ -228,14 +213,18 @@ impl LiveStore {
                         .collect();
                     let mut bytes = Vec::with_capacity(records.iter().map(Vec::len).sum());
                     for ((key, patch), record) in chunk.iter().zip(&records) {
-                        store.index.insert(
+                        let old = store.index.insert(
                             PackedKey::of_hierarchy(*key),
                             Record {
                                 at: store.end + bytes.len() as u64,
                                 bytes: u32::try_from(record.len()).expect("a live record < 4 GiB"),
                                 triangles: patch.triangles.len() as u32,
+                                crc: crc32fast::hash(record),
                             },
                         );
+                        if let Some(old) = old {
+                            store.dead.push((old.at, old.bytes));
+                        }
                         bytes.extend_from_slice(record);
                     }
                     store.write_at_end(&bytes)?;
@@ -253,129 +242,103 @@ impl LiveStore {
             }
             LiveStore::Disk(store) => {
                 if let Some(record) = store.index.remove(&PackedKey::of_hierarchy(*key)) {
-                    store.live_bytes -= record.bytes as u64;
+                    store.dead.push((record.at, record.bytes));
                 }
                 Ok(())
             }
         }
     }
 
-    /// Rewrites the file with only the live patches when the dead ones take more room.
-    pub(super) fn compact(&mut self) -> io::Result<()> {
-        let LiveStore::Disk(store) = self else {
-            return Ok(());
-        };
-        if store.end > 2 * store.live_bytes.max(1 << 20) {
-            store.rewrite()?;
+    /// Gives back the space of the removed records that neither the live patches nor the
+    /// checkpoint's last commit name. Call it only when the commit a `checkpoint` was asked
+    /// for is done (or none was asked for since the last call).
+    pub(super) fn release_dead(&mut self) -> io::Result<()> {
+        match self {
+            LiveStore::Memory(_) => Ok(()),
+            LiveStore::Disk(store) => {
+                let asked = store.asked.get_mut().unwrap_or_else(|e| e.into_inner());
+                if let Some(records) = asked.take() {
+                    store.committed = records;
+                }
+                store.release_all_dead_ranges()
+            }
         }
-        Ok(())
     }
 }
 
 impl DiskStore {
-    /// A new file with only the live records, in their order.
-    fn rewrite(&mut self) -> io::Result<()> {
-        let store = self;
-        let mut fresh = match &store.named {
-            Some((dir, generation)) => DiskStore::named(dir, generation + 1, store.scale)?,
-            None => DiskStore {
-                file: tempfile::tempfile_in(&store.dir)?,
-                dir: store.dir.clone(),
-                index: HashMap::default(),
-                end: 0,
-                live_bytes: 0,
-                charge: Charge::new(TempKind::LiveStore),
-                named: None,
-                crc: crc32fast::Hasher::new(),
-                committed: Committed::default(),
-                scale: store.scale,
-            },
-        };
-        let mut records: Vec<(PackedKey, Record)> =
-            store.index.iter().map(|(k, r)| (*k, *r)).collect();
-        records.sort_unstable_by_key(|(_, r)| r.at);
-        // What the old file must keep: the prefix a checkpoint's last commit names (a resumed
-        // build reads it until the next commit names the new file); the rest is freed behind
-        // the copy (`holes::punch`), so the two files together hold about that prefix and the
-        // live records, not the whole old file besides.
-        let committed = *store.committed.at.lock().unwrap_or_else(|e| e.into_inner());
-        let kept = match (&store.named, committed) {
-            (Some((_, generation)), Some((g, end))) if g == *generation => Some(end),
-            _ => None,
-        };
-        let mut freed_to = kept.unwrap_or(0);
-        // Records are copied as they are, a run of adjacent ones (up to `COPY_BYTES`) a read.
-        let mut buffer = Vec::new();
-        let mut rest = &records[..];
-        while let Some(&(_, first)) = rest.first() {
-            let mut end = first.at + first.bytes as u64;
-            let n = 1 + rest[1..]
-                .iter()
-                .take_while(|(_, r)| {
-                    let adjacent = r.at == end && end - first.at < COPY_BYTES;
-                    end += r.bytes as u64 * adjacent as u64;
-                    adjacent
-                })
-                .count();
-            buffer.resize((end - first.at) as usize, 0);
-            store.file.read_exact_at(&mut buffer, first.at)?;
-            for &(key, record) in &rest[..n] {
-                let at = fresh.end + (record.at - first.at);
-                fresh.index.insert(key, Record { at, ..record });
-            }
-            fresh.write_at_end(&buffer)?;
-            rest = &rest[n..];
-            if end > freed_to {
-                let freed = crate::external::holes::punch(&store.file, freed_to, end);
-                store.charge.shrink(freed);
-                freed_to = end / 4096 * 4096;
-            }
-        }
-        // The old file: cut back to the prefix a commit names, or removed if none does.
-        store.charge.release();
-        if let Some((dir, generation)) = &store.named {
-            match kept {
-                Some(kept) => {
-                    store.file.set_len(kept)?;
-                    store.committed.retained.grow(kept);
-                }
-                None => std::fs::remove_file(dir.join(live_file_name(*generation)))?,
-            }
-        }
-        fresh.committed = std::mem::take(&mut store.committed);
-        *store = fresh;
-        Ok(())
-    }
-
-    /// An empty store in the checkpoint's file of `generation` (the older file stays until
-    /// the checkpoint no longer names it).
-    fn named(dir: &Path, generation: u32, scale: SimplifierScale) -> io::Result<DiskStore> {
-        let path = dir.join(live_file_name(generation));
-        Ok(DiskStore {
-            file: std::fs::OpenOptions::new()
-                .read(true)
-                .write(true)
-                .create(true)
-                .truncate(true)
-                .open(path)?,
-            dir: dir.to_path_buf(),
+    fn on(file: File, named: bool, scale: SimplifierScale) -> DiskStore {
+        DiskStore {
+            file,
             index: HashMap::default(),
             end: 0,
-            live_bytes: 0,
             charge: Charge::new(TempKind::LiveStore),
-            named: Some((dir.to_path_buf(), generation)),
-            crc: crc32fast::Hasher::new(),
-            committed: Committed::default(),
+            named,
+            committed: Vec::new(),
+            dead: Vec::new(),
+            asked: Default::default(),
             scale,
-        })
+        }
+    }
+
+    /// The live records' (offset, bytes), by offset.
+    fn records_by_offset(&self) -> Vec<(u64, u32)> {
+        let mut records: Vec<(u64, u32)> = self.index.values().map(|r| (r.at, r.bytes)).collect();
+        records.sort_unstable();
+        records
+    }
+
+    /// Punches out every gap between kept records (the live ones and those the last commit
+    /// names) that holds a dead record; a dead record the commit still names waits. The
+    /// charge is then the file's allocated bytes.
+    fn release_all_dead_ranges(&mut self) -> io::Result<()> {
+        if self.dead.is_empty() {
+            return Ok(());
+        }
+        let mut kept = self.records_by_offset();
+        kept.extend_from_slice(&self.committed);
+        kept.sort_unstable();
+        kept.dedup();
+        let named_by_commit = |d: &(u64, u32)| self.committed.binary_search(d).is_ok();
+        let (waiting, dead): (Vec<_>, Vec<_>) =
+            self.dead.iter().copied().partition(named_by_commit);
+        let mut gaps: Vec<(u64, u64)> = dead
+            .iter()
+            .map(|&(at, _)| {
+                // The kept records before and after `at` bound its gap.
+                let next = kept.partition_point(|&(k, _)| k < at);
+                let start = next
+                    .checked_sub(1)
+                    .map_or(0, |i| kept[i].0 + kept[i].1 as u64);
+                let end = kept.get(next).map_or(self.end, |&(k, _)| k);
+                (start.min(at), end)
+            })
+            .collect();
+        gaps.sort_unstable();
+        gaps.dedup();
+        for (start, end) in gaps {
+            crate::external::holes::punch(&self.file, start, end);
+        }
+        self.dead = waiting;
+        self.charge_allocated()
+    }
+
+    /// Sets the charge to the file's allocated bytes.
+    fn charge_allocated(&mut self) -> io::Result<()> {
+        let allocated = self.file.metadata()?.blocks() * 512;
+        let charged = self.charge.bytes();
+        if allocated < charged {
+            self.charge.shrink(charged - allocated);
+        } else {
+            self.charge.grow(allocated - charged);
+        }
+        Ok(())
     }
 
     /// Appends records (already in the index) to the file.
     fn write_at_end(&mut self, bytes: &[u8]) -> io::Result<()> {
         self.file.write_all_at(bytes, self.end)?;
-        self.crc.update(bytes);
         self.end += bytes.len() as u64;
-        self.live_bytes += bytes.len() as u64;
         self.charge.grow(bytes.len() as u64);
         Ok(())
     }
@@ -394,91 +357,146 @@ mod tests {
     use crate::simplify::live_record::tests::{patch, scale};
     use tessera_core::leb::Simplex;
 
-    #[test]
-    fn a_disk_store_gives_back_what_it_was_given_through_removals_and_compaction() {
-        let dir = tempfile::tempdir().unwrap();
-        let roots = Simplex::roots(3, 10);
-        // Enough simplices for several of `insert_all`'s chunks.
-        let mut simplices: Vec<Simplex> = roots.clone();
+    /// `n` keys of simplices (roots and their descendants).
+    fn keys(n: usize) -> Vec<SimplexKey> {
+        let mut simplices: Vec<Simplex> = Simplex::roots(3, 10);
         let mut next = 0;
-        while simplices.len() < 3 * INSERT_CHUNK {
+        while simplices.len() < n {
             let [a, b] = simplices[next].children();
             simplices.extend([a, b]);
             next += 1;
         }
-        let keys: Vec<SimplexKey> = simplices.iter().map(|s| s.key).collect();
+        simplices.iter().take(n).map(|s| s.key).collect()
+    }
+
+    fn disk(store: &LiveStore) -> &DiskStore {
+        let LiveStore::Disk(disk) = store else {
+            unreachable!()
+        };
+        disk
+    }
+
+    fn allocated(store: &LiveStore) -> u64 {
+        disk(store).file.metadata().unwrap().blocks() * 512
+    }
+
+    fn content(store: &LiveStore, keys: &[SimplexKey]) -> Vec<Option<LivePatch>> {
+        keys.iter()
+            .map(|k| store.get(k).unwrap().map(Cow::into_owned))
+            .collect()
+    }
+
+    #[test]
+    fn a_disk_store_gives_back_what_it_was_given_and_the_space_of_what_was_removed() {
+        let dir = tempfile::tempdir().unwrap();
+        // Enough records for many of `insert_all`'s chunks and many blocks.
+        let keys = keys(64 * INSERT_CHUNK);
         for attributes in [false, true] {
             let mut store = LiveStore::new(Some(dir.path()), scale()).unwrap();
-            // One call, then another: records from two calls sit side by side.
             let all: Vec<(SimplexKey, LivePatch)> = keys
                 .iter()
                 .enumerate()
                 .map(|(i, k)| (*k, patch(i as u32, attributes)))
                 .collect();
+            // Two calls: records from both sit side by side.
             let (first, second) = all.split_at(5);
             store.insert_all(first.to_vec()).unwrap();
             store.insert_all(second.to_vec()).unwrap();
-            for k in keys.iter().step_by(2) {
+            // The first half goes (one long run of dead records), then every third.
+            let half = keys.len() / 2;
+            for k in keys[..half].iter().chain(keys[half..].iter().step_by(3)) {
                 store.remove(k).unwrap();
             }
-            let LiveStore::Disk(disk) = &mut store else {
-                unreachable!()
-            };
-            let before = disk.end;
-            disk.rewrite().unwrap();
-            assert!(disk.end < before, "{} → {}", before, disk.end);
-            for (i, k) in keys.iter().enumerate() {
-                let got = store.get(k).unwrap().map(Cow::into_owned);
-                let triangles = store.triangles(k).unwrap().map(Cow::into_owned);
-                if i % 2 == 0 {
-                    assert_eq!(got, None);
-                    assert_eq!(triangles, None);
-                } else {
-                    let expected = patch(i as u32, attributes);
-                    assert_eq!(triangles.as_deref(), Some(&expected.triangles[..]));
-                    assert_eq!(got, Some(expected));
-                }
+            let before = allocated(&store);
+            store.release_dead().unwrap();
+            let after = allocated(&store);
+            // Where the file system punches holes, the first half's blocks are gone.
+            let punches = after < before;
+            if punches {
+                assert!(after <= before / 2 + 4096, "{before} → {after}");
+            }
+            assert_eq!(disk(&store).charge.bytes(), after);
+            for (i, got) in content(&store, &keys).into_iter().enumerate() {
+                let gone = i < half || (i - half).is_multiple_of(3);
+                assert_eq!(got, (!gone).then(|| patch(i as u32, attributes)), "{i}");
+                let triangles = store.triangles(&keys[i]).unwrap().map(Cow::into_owned);
+                assert_eq!(triangles, got_triangles(gone, i as u32, attributes));
             }
         }
     }
 
+    fn got_triangles(gone: bool, seed: u32, attributes: bool) -> Option<Vec<[u32; 3]>> {
+        (!gone).then(|| patch(seed, attributes).triangles)
+    }
+
     #[test]
-    fn a_rewrite_keeps_of_the_old_file_only_what_the_last_commit_names() {
+    fn a_commit_keeps_what_it_names_until_a_later_commit_is_done() {
         let dir = tempfile::tempdir().unwrap();
-        let keys: Vec<SimplexKey> = Simplex::roots(3, 10).iter().map(|s| s.key).collect();
-        let mut store = LiveStore::new_named(dir.path(), scale()).unwrap();
+        let keys = keys(32 * INSERT_CHUNK);
+        let half = keys.len() / 2;
         let all: Vec<(SimplexKey, LivePatch)> = keys
             .iter()
             .enumerate()
             .map(|(i, k)| (*k, patch(i as u32, true)))
             .collect();
-        store.insert_all(all[..3].to_vec()).unwrap();
-        let committed = store.checkpoint().unwrap();
-        store.insert_all(all[3..].to_vec()).unwrap();
-        for k in &keys[..4] {
+        let mut store = LiveStore::new_named(dir.path(), scale()).unwrap();
+        store.insert_all(all[..half].to_vec()).unwrap();
+        // A commit names the first half.
+        let first_commit = store.checkpoint().unwrap();
+        store.release_dead().unwrap();
+        // A level replaces it with the second half; no commit yet: nothing may go.
+        for k in &keys[..half] {
             store.remove(k).unwrap();
         }
-        let LiveStore::Disk(disk) = &mut store else {
-            unreachable!()
-        };
-        disk.rewrite().unwrap();
-        // Generation 0 is what the commit names, cut back to its length; 1 is current.
-        let length =
-            |g: u32| std::fs::metadata(dir.path().join(live_file_name(g))).map(|m| m.len());
-        assert_eq!(length(0).unwrap(), committed.end);
-        disk.rewrite().unwrap();
-        // Generation 1 was never committed: gone.
-        assert!(length(1).is_err());
-        assert_eq!(length(0).unwrap(), committed.end);
-        for (i, k) in keys.iter().enumerate() {
-            let got = store.get(k).unwrap().map(Cow::into_owned);
-            assert_eq!(got, (i >= 4).then(|| patch(i as u32, true)));
+        store.insert_all(all[half..].to_vec()).unwrap();
+        let before = allocated(&store);
+        store.release_dead().unwrap();
+        assert_eq!(allocated(&store), before);
+        // (Reopening would cut the file back: a resumed build's, not this one's.)
+        assert!(intact(dir.path(), &first_commit));
+        // A second commit names the second half: once it is done the first half's space goes.
+        let second_commit = store.checkpoint().unwrap();
+        store.release_dead().unwrap();
+        let after = allocated(&store);
+        drop(store);
+        let reopened = LiveStore::reopen(dir.path(), second_commit, scale()).unwrap();
+        let expected: Vec<Option<LivePatch>> = (0..keys.len())
+            .map(|i| (i >= half).then(|| patch(i as u32, true)))
+            .collect();
+        assert_eq!(content(&reopened, &keys), expected);
+        if after < before {
+            // The first commit's records are holes now.
+            assert!(!intact(dir.path(), &first_commit));
         }
-        // The committed records are still whole in generation 0.
-        let reopened = LiveStore::reopen(dir.path(), committed, scale()).unwrap();
-        for (i, k) in keys[..3].iter().enumerate() {
-            let got = reopened.get(k).unwrap().map(Cow::into_owned);
-            assert_eq!(got, Some(patch(i as u32, true)));
-        }
+    }
+
+    /// Whether every record `commit` names is whole in the checkpoint's file.
+    fn intact(dir: &Path, commit: &StoreCheckpoint) -> bool {
+        let bytes = std::fs::read(dir.join(LIVE_FILE)).unwrap();
+        commit.records.iter().all(|&(_, at, n, _, crc)| {
+            crc32fast::hash(&bytes[at as usize..at as usize + n as usize]) == crc
+        })
+    }
+
+    #[test]
+    fn a_damaged_record_is_refused_when_the_store_is_reopened() {
+        let dir = tempfile::tempdir().unwrap();
+        let keys = keys(8);
+        let mut store = LiveStore::new_named(dir.path(), scale()).unwrap();
+        let all: Vec<(SimplexKey, LivePatch)> = keys
+            .iter()
+            .enumerate()
+            .map(|(i, k)| (*k, patch(i as u32, false)))
+            .collect();
+        store.insert_all(all).unwrap();
+        let commit = store.checkpoint().unwrap();
+        drop(store);
+        let path = dir.path().join(LIVE_FILE);
+        let mut bytes = std::fs::read(&path).unwrap();
+        let at = commit.records[3].1 as usize + HEAD;
+        bytes[at] ^= 1;
+        std::fs::write(&path, bytes).unwrap();
+        let error = LiveStore::reopen(dir.path(), commit, scale()).err();
+        assert_eq!(error.unwrap().kind(), io::ErrorKind::InvalidData);
     }
 }
