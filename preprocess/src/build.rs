@@ -20,8 +20,8 @@ use crate::external::{LeafGroups, StagedMesh};
 use crate::finished_patches::{FinishedPatches, PatchEncoding};
 use crate::frame::LatticeFrame;
 use crate::hierarchy::{
-    build_hierarchy, build_hierarchy_bucketed, BucketBudget, Construction, Hierarchy,
-    LeafListSpool, MeshBarycentres,
+    build_hierarchy, build_hierarchy_bucketed, BucketBudget, Construction, Hierarchy, LeafCorners,
+    MeshBarycentres,
 };
 use crate::mesh::InputMesh;
 use crate::simplify::{
@@ -372,7 +372,7 @@ fn build_in_pool(
             if let (Some(c), Source::Staged(_)) = (checkpoint.as_deref_mut(), source) {
                 let spooled = lists
                     .as_ref()
-                    .expect("a staged build spools its leaves' lists");
+                    .expect("a staged build spools its leaves' triangles");
                 // The checkpoint's copy from then on: the spool's file is closed.
                 let saved =
                     save_hierarchy(c, &facts, &hierarchy, spooled, &current).map_err(|source| {
@@ -436,7 +436,7 @@ fn build_in_pool(
                 crate::staged_build::simplifier_positions(staged, &hierarchy.frame, memory)?;
             let mut groups = LeafGroups::new(
                 staged,
-                lists.expect("a staged build spools its leaves' lists"),
+                lists.expect("a staged build spools its leaves' triangles"),
                 &simplifier_of,
                 crate::staged_build::leaf_group_triangles(memory),
             );
@@ -514,14 +514,15 @@ fn build_in_pool(
 }
 
 /// The hierarchy and the use counts, from the mesh in memory or staged on disk; a staged
-/// mesh's leaves' lists stay on disk (the spool), a loaded one's are in the hierarchy.
+/// mesh's leaves' triangles stay on disk (`LeafCorners`: the staged triangle file is gone
+/// then), a loaded one's lists are in the hierarchy.
 fn hierarchy_and_counts(
     source: Source,
     memory: &Option<MemoryBudget>,
     frame: &LatticeFrame,
     leaf_cap: usize,
     config: &BuildConfig,
-) -> Result<(Hierarchy, CurrentMesh, Option<LeafListSpool>), BuildError> {
+) -> Result<(Hierarchy, CurrentMesh, Option<LeafCorners>), BuildError> {
     let frame = *frame;
     Ok(match (source, memory) {
         (Source::Staged(staged), Some(memory)) => {

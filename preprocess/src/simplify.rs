@@ -36,7 +36,6 @@ mod current_mesh;
 mod distribute;
 mod edge_census;
 mod levels;
-mod live_packed;
 mod live_record;
 mod live_store;
 mod local_edges;

@@ -8,7 +8,7 @@ use crate::build::{BuildError, MemoryBudget, MAX_EXTENT};
 use crate::external::{coincident_nudges, JoinedBarycentres, StagedMesh};
 use crate::frame::LatticeFrame;
 use crate::hierarchy::{
-    build_hierarchy_bucketed_spooled, BucketBudget, Construction, Hierarchy, LeafListSpool,
+    build_hierarchy_bucketed_spooled, BucketBudget, Construction, Hierarchy, LeafCorners,
     SpooledBarycentres,
 };
 use crate::simplify::{simplifier_position, CurrentMesh};
@@ -66,15 +66,16 @@ pub(crate) fn validate_staged(
     Ok((lo, hi))
 }
 
-/// The hierarchy (bucketed, from barycentres joined once into a spool), its leaves' lists
-/// (on disk) and the use counts.
+/// The hierarchy (bucketed, from barycentres joined once into a spool), its leaves' triangles
+/// (on disk, read out of the staged triangle file, which is then discarded) and the use
+/// counts.
 pub(crate) fn hierarchy_and_counts(
     staged: &StagedMesh,
     frame: LatticeFrame,
     construction: Construction,
     leaf_triangles: usize,
     memory: &MemoryBudget,
-) -> Result<(Hierarchy, LeafListSpool, CurrentMesh), BuildError> {
+) -> Result<(Hierarchy, LeafCorners, CurrentMesh), BuildError> {
     let io = temporary(memory);
     let dir = memory.temp_dir.as_path();
     let sort_budget = memory.bytes as usize / 4;
@@ -97,7 +98,13 @@ pub(crate) fn hierarchy_and_counts(
         build_hierarchy_bucketed_spooled(frame, &barycentres, construction, &budget)
             .map_err(&io)?;
     drop(barycentres);
-    Ok((hierarchy, lists, current))
+    let corners =
+        crate::external::leaf_corners(&staged.triangles, lists, leaf_group_triangles(memory), dir)
+            .map_err(&io)?;
+    // Nothing reads the staged triangles again (a checkpoint's copy stays until its
+    // `hierarchy` stage, which holds the leaves' triangles, is committed).
+    staged.triangles.discard().map_err(&io)?;
+    Ok((hierarchy, corners, current))
 }
 
 /// The simplifier's position of each vertex as `simplify_hierarchy` computes it in memory

@@ -1,8 +1,9 @@
 //! Stage `hierarchy`: the hierarchy (`hierarchy.bin`: the frame and the split diamonds, rebuilt
 //! by splitting them again in (level, id) order), each leaf's input triangles
-//! (`leaf-triangles.bin`) and the use counts (`counts.bin`), with what the build knew of its
-//! input (bounding box, counts, attributes) in the stage's values. The staged mesh's files stay
-//! listed: the leaves are made from them.
+//! (`leaf-triangles.bin`, their vertex ids: `LeafCorners`) and the use counts (`counts.bin`),
+//! with what the build knew of its input (bounding box, counts, attributes) in the stage's
+//! values. The staged mesh's vertex files stay listed (the leaves are made from them and
+//! these); its triangle file does not.
 
 use std::collections::BTreeMap;
 use std::io;
@@ -11,7 +12,7 @@ use tessera_core::leb::{ConformingMesh, Diamond};
 
 use super::{Checkpoint, Dec, Enc, FileRecord, StageRecord};
 use crate::frame::LatticeFrame;
-use crate::hierarchy::{decode_list, Hierarchy, LeafListSpool, SplitDiamond};
+use crate::hierarchy::{decode_corners, Hierarchy, LeafCorners, LeafListSpool, SplitDiamond};
 use crate::simplify::CurrentMesh;
 
 pub(super) const HIERARCHY: &str = "hierarchy.bin";
@@ -62,31 +63,33 @@ impl InputFacts {
     }
 }
 
-/// A build's hierarchy, its leaves' lists (read from the checkpoint's file as needed) and use
-/// counts, read back from its checkpoint.
+/// A build's hierarchy, its leaves' triangles (read from the checkpoint's file as needed) and
+/// use counts, read back from its checkpoint.
 pub(crate) struct HierarchyCheckpoint {
     pub facts: InputFacts,
     pub hierarchy: Hierarchy,
-    pub lists: LeafListSpool,
+    pub lists: LeafCorners,
     pub current: CurrentMesh,
 }
 
-/// Saves the hierarchy (with its leaves' triangle lists) and the use counts, and commits stage
-/// `hierarchy` (the staged mesh's files stay: the leaves are made from them). Returns the
-/// lists as saved, read from the checkpoint's file, for the build to use instead of `lists`
-/// (which it can then close: the lists are on disk once, and compact).
+/// Saves the hierarchy (with its leaves' triangles) and the use counts, and commits stage
+/// `hierarchy` (the staged mesh's vertex files stay: the leaves are made from them; its
+/// triangle file goes). Returns the triangles as saved, read from the checkpoint's file, for
+/// the build to use instead of `lists` (which it can then close: they are on disk once).
 pub(crate) fn save_hierarchy(
     checkpoint: &mut Checkpoint,
     facts: &InputFacts,
     hierarchy: &Hierarchy,
-    lists: &LeafListSpool,
+    lists: &LeafCorners,
     current: &CurrentMesh,
-) -> io::Result<LeafListSpool> {
+) -> io::Result<LeafCorners> {
     // Streamed to their files, a leaf's list at a time: at 100 M triangles the lists and
     // counts alone take 600 MB.
     let files = vec![
         write_file(checkpoint, HIERARCHY, &encode_hierarchy(hierarchy))?,
-        write_streamed(checkpoint, LEAF_TRIANGLES, |e| encode_leaf_lists(e, lists))?,
+        write_streamed(checkpoint, LEAF_TRIANGLES, |e| {
+            encode_leaf_lists(e, &lists.spool)
+        })?,
         write_streamed(checkpoint, COUNTS, |e| {
             current.encode(e);
             Ok(())
@@ -98,9 +101,9 @@ pub(crate) fn save_hierarchy(
             files,
             values: facts.values(),
         },
-        true,
+        &|name| name != super::staged::TRIANGLES_FILE,
     )?;
-    open_leaf_lists(&checkpoint.path(LEAF_TRIANGLES), hierarchy, facts.triangles)
+    open_leaf_lists(&checkpoint.path(LEAF_TRIANGLES), hierarchy, facts.vertices)
 }
 
 /// The hierarchy and counts of a checkpoint whose last stage is `hierarchy`.
@@ -110,11 +113,7 @@ pub(crate) fn load_hierarchy(checkpoint: &Checkpoint) -> io::Result<Option<Hiera
     };
     let facts = InputFacts::from_values(&stage.values)?;
     let hierarchy = decode_hierarchy(&std::fs::read(checkpoint.path(HIERARCHY))?)?;
-    let lists = open_leaf_lists(
-        &checkpoint.path(LEAF_TRIANGLES),
-        &hierarchy,
-        facts.triangles,
-    )?;
+    let lists = open_leaf_lists(&checkpoint.path(LEAF_TRIANGLES), &hierarchy, facts.vertices)?;
     let bytes = std::fs::read(checkpoint.path(COUNTS))?;
     let mut d = Dec::new(&bytes);
     let current = CurrentMesh::decode(&mut d, facts.vertices)?;
@@ -127,8 +126,8 @@ pub(crate) fn load_hierarchy(checkpoint: &Checkpoint) -> io::Result<Option<Hiera
     }))
 }
 
-/// Every leaf's key and list, in key order: the key, the triangle count, the coded list's
-/// bytes and the coded list (`leaf_lists::encode_list`).
+/// Every leaf's key and triangles, in key order: the key, the triangle count, the coded
+/// triangles' bytes and the coded triangles (`leaf_lists::encode_corners`).
 fn encode_leaf_lists(e: &mut Enc, lists: &LeafListSpool) -> io::Result<()> {
     e.u64(lists.leaves().len() as u64);
     for (i, (key, _)) in lists.leaves().enumerate() {
@@ -141,13 +140,13 @@ fn encode_leaf_lists(e: &mut Enc, lists: &LeafListSpool) -> io::Result<()> {
     Ok(())
 }
 
-/// The leaves' lists `save_hierarchy` wrote, checked in one pass over the file (every leaf
-/// of `hierarchy` once, nothing else, every triangle below `triangles`) and left in it.
+/// The leaves' triangles `save_hierarchy` wrote, checked in one pass over the file (every
+/// leaf of `hierarchy` once, nothing else, every vertex id below `vertices`) and left in it.
 fn open_leaf_lists(
     path: &std::path::Path,
     hierarchy: &Hierarchy,
-    triangles: usize,
-) -> io::Result<LeafListSpool> {
+    vertices: usize,
+) -> io::Result<LeafCorners> {
     let file = std::fs::File::open(path)?;
     let len = file.metadata()?.len();
     let mut input = Counted {
@@ -166,26 +165,28 @@ fn open_leaf_lists(
         let key = Dec::new(&input.read(21)?).key()?;
         let n = input.u64()?;
         let bytes = input.u64()?;
-        // A coded index takes 1 to 10 bytes.
+        // A coded leaf takes a byte or more, and (rows and ids) at most 25 bytes a triangle
+        // and the ids' 15 bytes of head and count.
         if !hierarchy.mesh.is_leaf(key)
             || !seen.insert(key)
-            || n > triangles as u64
-            || bytes < n
-            || bytes > n.saturating_mul(10)
+            || bytes == 0
+            || bytes > n.saturating_mul(25).saturating_add(15)
             || bytes > len - input.at.min(len)
         {
             return Err(not_ours());
         }
         let start = input.at;
         let coded = input.read(bytes as usize)?;
-        decode_list(&coded, n as usize, triangles as u64).map_err(|_| not_ours())?;
+        decode_corners(&coded, n as usize, vertices as u64).map_err(|_| not_ours())?;
         index.push((key, (start, n as u32, bytes)));
     }
     if input.at != len {
         return Err(invalid("the leaves' triangles: trailing bytes"));
     }
     drop(input);
-    LeafListSpool::in_file(file, index)
+    Ok(LeafCorners {
+        spool: LeafListSpool::in_file(file, index)?,
+    })
 }
 
 /// A buffered reader that knows how far it has read.
@@ -335,17 +336,34 @@ mod tests {
             assert!(decode_hierarchy(&e.into_bytes()).is_err());
             assert!(decode_hierarchy(&bytes[..bytes.len() - 3]).is_err());
 
-            // The leaves' lists: back from their file as written; damage is an error.
+            // The leaves' triangles (triangle t: vertices 3t, 3t + 1, 3t + 2): back from their
+            // file as written; damage is an error.
             let dir = tempfile::tempdir().unwrap();
-            let spool = LeafListSpool::from_map(&h.leaf_triangles, dir.path()).unwrap();
+            let corners = |map: &rustc_hash::FxHashMap<_, Vec<u32>>| {
+                let map = map
+                    .iter()
+                    .map(|(k, list)| (*k, list.iter().map(|&t| [3 * t, 3 * t + 1, 3 * t + 2])))
+                    .map(|(k, t)| (k, t.collect()))
+                    .collect();
+                LeafCorners::from_map(&map, dir.path()).unwrap()
+            };
+            let spool = corners(&h.leaf_triangles);
             let path = dir.path().join(LEAF_TRIANGLES);
-            let file = |e: &mut Enc| encode_leaf_lists(e, &spool);
+            let vertices = 3 * points.len();
+            let file = |e: &mut Enc| encode_leaf_lists(e, &spool.spool);
             super::super::bytes::write_atomic_with(&path, file).unwrap();
-            let back = open_leaf_lists(&path, &h, points.len()).unwrap();
-            assert_eq!(back.into_map().unwrap(), h.leaf_triangles);
+            let back = open_leaf_lists(&path, &h, vertices).unwrap();
+            for (i, (key, n)) in back.leaves().enumerate() {
+                let expected: Vec<[u32; 3]> = h.leaf_triangles[&key]
+                    .iter()
+                    .map(|&t| [3 * t, 3 * t + 1, 3 * t + 2])
+                    .collect();
+                assert_eq!(n, expected.len());
+                assert_eq!(back.triangles_of(i).unwrap(), expected);
+            }
             assert!(
-                open_leaf_lists(&path, &h, points.len() - 1).is_err(),
-                "a triangle out of range"
+                open_leaf_lists(&path, &h, vertices - 1).is_err(),
+                "a vertex out of range"
             );
             let bytes = std::fs::read(&path).unwrap();
             for cut in [7, 8 + 21, bytes.len() - 1] {
@@ -359,18 +377,18 @@ mod tests {
             longer.extend_from_slice(&[0; 4]);
             std::fs::write(&path, &longer).unwrap();
             assert!(
-                open_leaf_lists(&path, &h, points.len()).is_err(),
+                open_leaf_lists(&path, &h, vertices).is_err(),
                 "trailing bytes"
             );
             // One leaf fewer (count and entry gone): not the hierarchy's.
             let mut fewer = h.leaf_triangles.clone();
             let gone = *fewer.keys().next().unwrap();
             fewer.remove(&gone);
-            let spool = LeafListSpool::from_map(&fewer, dir.path()).unwrap();
-            super::super::bytes::write_atomic_with(&path, |e| encode_leaf_lists(e, &spool))
+            let spool = corners(&fewer);
+            super::super::bytes::write_atomic_with(&path, |e| encode_leaf_lists(e, &spool.spool))
                 .unwrap();
             assert!(
-                open_leaf_lists(&path, &h, points.len()).is_err(),
+                open_leaf_lists(&path, &h, vertices).is_err(),
                 "a leaf missing"
             );
         }

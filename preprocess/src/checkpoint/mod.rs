@@ -318,14 +318,14 @@ impl Checkpoint {
     /// stage of the same kind (`level-`) is replaced, the manifest is rewritten atomically and
     /// the files it no longer names are removed.
     pub(crate) fn commit(&mut self, stage: StageRecord) -> io::Result<()> {
-        self.commit_keeping(stage, false)
+        self.commit_keeping(stage, &|_| false)
     }
 
-    /// `commit`, keeping the earlier stages' files when `keep_earlier`.
+    /// `commit`, keeping the earlier stages' files whose names `keep_earlier` keeps.
     pub(crate) fn commit_keeping(
         &mut self,
         stage: StageRecord,
-        keep_earlier: bool,
+        keep_earlier: &dyn Fn(&str) -> bool,
     ) -> io::Result<()> {
         for f in &stage.files {
             std::fs::File::open(self.path(&f.name))?.sync_data()?;
@@ -344,10 +344,8 @@ impl Checkpoint {
         let kind = |name: &str| name.split('-').next().unwrap_or_default().to_string();
         let new_kind = kind(&stage.name);
         self.manifest.stages.retain(|s| kind(&s.name) != new_kind);
-        if !keep_earlier {
-            for s in &mut self.manifest.stages {
-                s.files.clear();
-            }
+        for s in &mut self.manifest.stages {
+            s.files.retain(|f| keep_earlier(&f.name));
         }
         let name = stage.name.clone();
         self.manifest.stages.push(stage);

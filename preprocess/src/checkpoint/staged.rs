@@ -20,6 +20,10 @@ const COUNTS: [&str; 6] = [
     "unreferenced_vertices",
 ];
 
+/// The staged triangle file's name: stage `hierarchy` drops it (the leaves' triangles are
+/// its own then).
+pub(super) const TRIANGLES_FILE: &str = "staged-triangles.bin";
+
 /// Hands `staged`'s files to the checkpoint (`RecordFile::keep_at`: `staged` reads them
 /// there from then on) and commits stage `staged`.
 pub fn save_staged(checkpoint: &mut Checkpoint, staged: &mut StagedMesh) -> io::Result<()> {
@@ -116,7 +120,16 @@ pub fn open_staged(checkpoint: &Checkpoint) -> io::Result<Option<StagedMesh>> {
             })
             .transpose()?
             .ok_or_else(|| missing("positions"))?,
-        triangles: open(checkpoint, stage, "triangles")?.ok_or_else(|| missing("triangles"))?,
+        triangles: match open(checkpoint, stage, "triangles")? {
+            Some(file) => file,
+            // After stage `hierarchy`: read into the leaves' triangles, gone from disk.
+            None if last == Some("hierarchy") => RecordFile::vacant(
+                count(COUNTS[1])?
+                    .checked_sub(count(COUNTS[3])? + count(COUNTS[4])?)
+                    .ok_or_else(|| missing("consistent triangle counts"))?,
+            ),
+            None => return Err(missing("triangles")),
+        },
         attributes: VertexAttributes {
             normals: open(checkpoint, stage, "normals")?,
             colors: open(checkpoint, stage, "colors")?,

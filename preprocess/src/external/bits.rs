@@ -1,6 +1,6 @@
 //! Bit-packed integers, low bit first: fixed widths for values of a known range and Rice
 //! codes for gaps between sorted integers — how the live store packs a patch's rows, ids
-//! and positions (`simplify/live_packed.rs`) in about half the bytes of plain words.
+//! and positions (`packed_columns.rs`) in about half the bytes of plain words.
 
 /// Appends values of any width up to 32 bits to a byte vector.
 pub struct BitWriter<'a> {

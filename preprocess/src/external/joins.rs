@@ -17,7 +17,7 @@ use super::position_file::{PositionBlocks, PositionCursor};
 use super::sort::sort_external;
 use super::staged::StagedMesh;
 use crate::frame::LatticeFrame;
-use crate::hierarchy::{BarycentreSource, LeafListSpool};
+use crate::hierarchy::{BarycentreSource, LeafCorners};
 use crate::vertex_table::{LivePatch, VertexTable};
 
 /// The locations of a staged mesh's triangles, as `frame.location` of their corners (the
@@ -200,17 +200,17 @@ pub fn coincident_nudges(
 }
 
 /// The leaves' patches, a group of leaves at a time (in key order, about `max_triangles`
-/// triangles a group): each leaf's triangles (in the hierarchy's order) and the vertices they
-/// use, with their input positions, simplifier positions (`simplifier_of(id, position)`) and
-/// attributes. A group costs one pass over the triangle file (up to its last triangle) and one
-/// over the vertex files (up to its largest id): its triangles are picked by index, its
-/// (vertex, leaf) pairs sorted in memory and joined with the vertex files, so each leaf's
-/// table comes out sorted by id. Nothing is written to disk.
+/// triangles a group): each leaf's triangles (in the hierarchy's order, from `LeafCorners`)
+/// and the vertices they use, with their input positions, simplifier positions
+/// (`simplifier_of(id, position)`) and attributes. A group costs one pass over the vertex
+/// files (up to its largest id): its (vertex, leaf) pairs are sorted in memory and joined
+/// with the vertex files, so each leaf's table comes out sorted by id. Nothing is written to
+/// disk. The staged mesh's triangle file is not read (it is gone by then).
 pub struct LeafGroups<'a> {
     staged: &'a StagedMesh,
-    /// Each leaf's triangle indices, on disk (read a group at a time); closed after the last
-    /// group, so its file's space goes as soon as nothing else names it.
-    lists: Option<LeafListSpool>,
+    /// Each leaf's triangles, on disk (read a group at a time); closed after the last group,
+    /// so its file's space goes as soon as nothing else names it.
+    lists: Option<LeafCorners>,
     simplifier_of: &'a (dyn Fn(u32, [f64; 3]) -> [f32; 3] + Sync),
     /// The next leaf, in the spool's key order.
     next: usize,
@@ -220,7 +220,7 @@ pub struct LeafGroups<'a> {
 impl<'a> LeafGroups<'a> {
     pub fn new(
         staged: &'a StagedMesh,
-        lists: LeafListSpool,
+        lists: LeafCorners,
         simplifier_of: &'a (dyn Fn(u32, [f64; 3]) -> [f32; 3] + Sync),
         max_triangles: usize,
     ) -> Self {
@@ -252,39 +252,19 @@ impl<'a> LeafGroups<'a> {
             triangles += n;
         }
         self.next = start + keys.len();
-        // (triangle, leaf in the group), by triangle. A leaf lists its triangles in ascending
-        // order (both constructions keep the input's), so taking them in file order keeps it.
-        let mut wanted: Vec<(u32, u32)> = Vec::with_capacity(triangles);
-        let mut sizes = Vec::with_capacity(keys.len());
-        for (leaf, k) in keys.iter().enumerate() {
-            let list = lists.list(start + leaf)?;
-            assert!(
-                list.windows(2).all(|w| w[0] < w[1]),
-                "leaf {k:?} lists its triangles out of order"
-            );
-            sizes.push(list.len());
-            wanted.extend(list.iter().map(|&t| (t, leaf as u32)));
-        }
-        wanted.sort_unstable();
         let attributes = &self.staged.attributes;
-        let mut patches: Vec<LivePatch> = sizes
-            .iter()
-            .map(|&n| LivePatch {
-                triangles: Vec::with_capacity(n),
+        let mut patches: Vec<LivePatch> = Vec::with_capacity(keys.len());
+        for leaf in 0..keys.len() {
+            patches.push(LivePatch {
+                triangles: lists.triangles_of(start + leaf)?,
                 vertices: VertexTable {
                     normals: attributes.normals.is_some().then(Vec::new),
                     colors: attributes.colors.is_some().then(Vec::new),
                     uvs: attributes.uvs.is_some().then(Vec::new),
                     ..VertexTable::default()
                 },
-            })
-            .collect();
-        let mut file = Cursor::new(&self.staged.triangles)?;
-        for &(t, leaf) in &wanted {
-            patches[leaf as usize].triangles.push(file.at(t));
+            });
         }
-        check(file.error.take())?;
-        drop(wanted);
         // (vertex, leaf) once per leaf, by vertex.
         let mut pairs: Vec<u64> = Vec::new();
         for (leaf, patch) in patches.iter().enumerate() {

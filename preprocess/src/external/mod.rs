@@ -10,6 +10,8 @@ mod fallible;
 mod file_io;
 pub mod holes;
 pub mod joins;
+pub mod leaf_corners;
+pub mod packed_columns;
 pub mod position_file;
 pub mod prefetch;
 pub mod sort;
@@ -19,6 +21,7 @@ pub mod varint;
 pub mod weld;
 
 pub use joins::{coincident_nudges, JoinedBarycentres, LeafGroups};
+pub use leaf_corners::leaf_corners;
 pub use position_file::PositionFile;
 pub use sort::{sort_external, SortStats, Sorted};
 pub use staged::{RawStaged, RawStager, RawVertex, RecordFile, StagedMesh};

@@ -172,6 +172,18 @@ impl<T: Pod> RecordFile<T> {
         Ok(crc32)
     }
 
+    /// A file of `records` records that is gone (a checkpoint's, read into another form):
+    /// its length is known, reading it is an error.
+    pub(crate) fn vacant(records: u64) -> RecordFile<T> {
+        RecordFile {
+            file: std::sync::Mutex::new(None),
+            records,
+            charge: Charge::new(TempKind::StagedMesh),
+            kept: true,
+            _record: PhantomData,
+        }
+    }
+
     /// The records of a checkpoint's file (`copy_to`'s) of `bytes` bytes, opened read-only.
     pub(crate) fn open_kept(path: &Path, bytes: u64) -> io::Result<RecordFile<T>> {
         let size = std::mem::size_of::<T>() as u64;

@@ -17,6 +17,7 @@ use rustc_hash::FxHashMap as HashMap;
 
 use tessera_core::leb::SimplexKey;
 
+use crate::external::packed_columns;
 use crate::external::temp_usage::{Charge, TempKind};
 use crate::external::varint;
 
@@ -57,8 +58,57 @@ pub(crate) fn decode_list(bytes: &[u8], n: usize, below: u64) -> io::Result<Vec<
     Ok(list)
 }
 
+/// Appends `triangles` (global vertex ids) coded: the count of distinct ids as a varint, each
+/// corner as a row of the sorted ids, then the ids (`external::packed_columns`): about five
+/// bytes a triangle at any vertex order, where the staged triangle file takes twelve.
+pub(crate) fn encode_corners(out: &mut Vec<u8>, triangles: &[[u32; 3]]) {
+    let mut ids: Vec<u32> = triangles.iter().flatten().copied().collect();
+    ids.sort_unstable();
+    ids.dedup();
+    varint::put(out, ids.len() as u64);
+    if ids.is_empty() {
+        return;
+    }
+    let rows: Vec<[u32; 3]> = triangles
+        .iter()
+        .map(|t| t.map(|v| ids.binary_search(&v).expect("a corner among the ids") as u32))
+        .collect();
+    packed_columns::put_rows(&rows, ids.len(), out);
+    packed_columns::put_ids(&ids, out);
+}
+
+/// The `n` triangles coded in `bytes` (`encode_corners`), every id below `vertices`.
+pub(crate) fn decode_corners(bytes: &[u8], n: usize, vertices: u64) -> io::Result<Vec<[u32; 3]>> {
+    let corrupt = || io::Error::new(io::ErrorKind::InvalidData, "a leaf's triangles are corrupt");
+    let mut at = 0;
+    let v = varint::get(bytes, &mut at).ok_or_else(corrupt)?;
+    if v == 0 {
+        return if n == 0 && at == bytes.len() {
+            Ok(Vec::new())
+        } else {
+            Err(corrupt())
+        };
+    }
+    // Every id is a corner: at most three a triangle.
+    if v > 3 * n as u64 {
+        return Err(corrupt());
+    }
+    let v = v as usize;
+    let ids_at = at + packed_columns::rows_bytes(n, v);
+    if ids_at > bytes.len() {
+        return Err(corrupt());
+    }
+    let rows = packed_columns::get_rows(&bytes[at..ids_at], n, v)?;
+    let ids = packed_columns::get_ids(&bytes[ids_at..], v)?;
+    if ids.last().is_some_and(|&last| last as u64 >= vertices) {
+        return Err(corrupt());
+    }
+    Ok(rows.iter().map(|r| r.map(|i| ids[i as usize])).collect())
+}
+
 /// Each leaf's triangle indices (ascending, as both constructions keep the input's order), in
-/// a file, with an index by leaf key.
+/// a file, with an index by leaf key; or, once the staged triangles are read into it
+/// (`external::leaf_corners`), each leaf's triangles themselves (`LeafCorners`).
 #[derive(Debug)]
 pub struct LeafListSpool {
     file: File,
@@ -140,6 +190,46 @@ impl LeafListSpool {
     }
 }
 
+/// Each leaf's triangles (global vertex ids, in the hierarchy's order), coded
+/// (`encode_corners`) in a `LeafListSpool`'s file: what the leaves' patches are made from
+/// once the staged triangle file is gone (`external::leaf_corners`).
+#[derive(Debug)]
+pub struct LeafCorners {
+    pub(crate) spool: LeafListSpool,
+}
+
+impl LeafCorners {
+    /// The leaves, in key order, with their triangle counts.
+    pub fn leaves(&self) -> impl ExactSizeIterator<Item = (SimplexKey, usize)> + '_ {
+        self.spool.leaves()
+    }
+
+    /// The `i`th leaf in key order, with its triangle count.
+    pub fn leaf(&self, i: usize) -> (SimplexKey, usize) {
+        self.spool.leaf(i)
+    }
+
+    /// The triangles of the `i`th leaf in key order.
+    pub fn triangles_of(&self, i: usize) -> io::Result<Vec<[u32; 3]>> {
+        let (n, coded) = self.spool.coded(i)?;
+        decode_corners(&coded, n as usize, u64::MAX)
+    }
+
+    /// The triangles of `map` spooled to an unnamed file in `dir`.
+    pub fn from_map(map: &HashMap<SimplexKey, Vec<[u32; 3]>>, dir: &Path) -> io::Result<Self> {
+        let mut writer = LeafListWriter::new(dir)?;
+        let mut coded = Vec::new();
+        for (&key, triangles) in map {
+            coded.clear();
+            encode_corners(&mut coded, triangles);
+            writer.write_coded(key, triangles.len(), &coded)?;
+        }
+        Ok(LeafCorners {
+            spool: writer.finish(map.keys().copied())?,
+        })
+    }
+}
+
 /// Writes leaves' lists to an unnamed temporary file as they become final. A leaf written
 /// again (its earlier list made stale by a later split) keeps its latest list; a forgotten
 /// one (split since) has none.
@@ -166,9 +256,22 @@ impl LeafListWriter {
     pub fn write(&mut self, key: SimplexKey, list: &[u32]) -> io::Result<()> {
         self.coded.clear();
         encode_list(&mut self.coded, list);
-        self.file.write_all(&self.coded)?;
-        let bytes = self.coded.len() as u64;
-        self.spans.insert(key, (self.end, list.len() as u32, bytes));
+        let coded = std::mem::take(&mut self.coded);
+        let written = self.write_coded(key, list.len(), &coded);
+        self.coded = coded;
+        written
+    }
+
+    /// Writes a leaf's `n` items already coded.
+    pub(crate) fn write_coded(
+        &mut self,
+        key: SimplexKey,
+        n: usize,
+        coded: &[u8],
+    ) -> io::Result<()> {
+        self.file.write_all(coded)?;
+        let bytes = coded.len() as u64;
+        self.spans.insert(key, (self.end, n as u32, bytes));
         self.end += bytes;
         self.charge.grow(bytes);
         Ok(())
@@ -251,6 +354,40 @@ mod tests {
         assert!(LeafListSpool::in_file(open(), vec![(key(1), (4, 8, 8))]).is_ok());
         assert!(LeafListSpool::in_file(open(), vec![(key(1), (4, 9, 9))]).is_err());
         assert!(LeafListSpool::in_file(open(), vec![(key(1), (u64::MAX, 1, 1))]).is_err());
+    }
+
+    #[test]
+    fn corners_come_back_in_order_and_damage_is_refused() {
+        let sets: [Vec<[u32; 3]>; 3] = [
+            vec![],
+            vec![[7, 3, 9]],
+            // A strip over scattered ids: two triangles a vertex, as in a mesh.
+            (0..500u32)
+                .map(|i| [i, i + 1, i + 2].map(|j| j * 7919 % 100_003))
+                .collect(),
+        ];
+        for triangles in &sets {
+            let mut coded = Vec::new();
+            encode_corners(&mut coded, triangles);
+            let n = triangles.len();
+            assert_eq!(decode_corners(&coded, n, 100_003).unwrap(), *triangles);
+            if !triangles.is_empty() {
+                // A cut, a wrong count: refused.
+                assert!(decode_corners(&coded[..coded.len() - 1], n, 100_003).is_err());
+                assert!(decode_corners(&coded, n + 1, 100_003).is_err());
+            }
+        }
+        let mut coded = Vec::new();
+        encode_corners(&mut coded, &sets[2]);
+        assert!(coded.len() < 6 * 500, "{} bytes", coded.len());
+        // An id at the bound: refused.
+        let last = *sets[2].iter().flatten().max().unwrap() as u64;
+        assert!(decode_corners(&coded, 500, last).is_err());
+        assert!(decode_corners(&coded, 500, last + 1).is_ok());
+        let mut coded = Vec::new();
+        encode_corners(&mut coded, &sets[1]);
+        assert!(decode_corners(&coded, 1, 9).is_err());
+        assert!(decode_corners(&coded, 1, 10).is_ok());
     }
 
     #[test]

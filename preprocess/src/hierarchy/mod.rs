@@ -21,8 +21,8 @@ pub use bucketed::{
     build_hierarchy_bucketed, build_hierarchy_bucketed_spooled,
     build_hierarchy_bucketed_with_stats, BucketBudget, BucketStats,
 };
-pub(crate) use leaf_lists::decode_list;
-pub use leaf_lists::{LeafListSpool, LeafListWriter};
+pub(crate) use leaf_lists::{decode_corners, encode_corners};
+pub use leaf_lists::{LeafCorners, LeafListSpool, LeafListWriter};
 
 use rustc_hash::FxHashMap as HashMap;
 

@@ -4,10 +4,10 @@
 //! positions (left out where `SimplifierScale` gives them back) and the attributes present,
 //! little-endian. A patch whose table holds every corner and whose positions are f32 (a
 //! leaf's always, most others) is packed instead: rows, ids and positions bit-packed
-//! (`live_packed.rs`), the rest as above.
+//! (`external/packed_columns.rs`), the rest as above.
 
-use super::live_packed;
 use super::positions::SimplifierScale;
+use crate::external::packed_columns;
 use crate::vertex_table::{LivePatch, VertexTable};
 
 /// Bytes of a record's head.
@@ -22,7 +22,7 @@ const POSITIONS_F32: u32 = 16;
 /// No simplifier positions: each is its position's `SimplifierScale::position` (every vertex
 /// but the few `separate_coincident` moved; a patch holding one of those stores them all).
 const SIMPLIFIER_DERIVED: u32 = 32;
-/// Rows, ids and positions packed (`live_packed.rs`); the ids section's bytes are the bits
+/// Rows, ids and positions packed (`external/packed_columns.rs`); the ids section's bytes are the bits
 /// above `PACKED_IDS_SHIFT`.
 const PACKED: u32 = 64;
 const PACKED_IDS_SHIFT: u32 = 8;
@@ -93,15 +93,15 @@ fn put_rest(patch: &LivePatch, derived: bool, out: &mut Vec<u8>) {
 fn encode_packed(patch: &LivePatch, rows: &[[u32; 3]], attribute_bits: u32) -> Option<Vec<u8>> {
     let v = &patch.vertices;
     let mut out = vec![0u8; HEAD];
-    live_packed::put_rows(rows, v.ids.len(), &mut out);
+    packed_columns::put_rows(rows, v.ids.len(), &mut out);
     let ids_at = out.len();
-    live_packed::put_ids(&v.ids, &mut out);
+    packed_columns::put_ids(&v.ids, &mut out);
     let ids_bytes = u32::try_from(out.len() - ids_at).ok()?;
     if ids_bytes >= 1 << (32 - PACKED_IDS_SHIFT) {
         return None;
     }
     let narrow: Vec<[f32; 3]> = v.positions.iter().map(|p| p.map(|x| x as f32)).collect();
-    live_packed::put_positions(&narrow, &mut out);
+    packed_columns::put_positions(&narrow, &mut out);
     let bits = attribute_bits | PACKED | (ids_bytes << PACKED_IDS_SHIFT);
     for (i, word) in [patch.triangles.len() as u32, v.ids.len() as u32, bits]
         .into_iter()
@@ -178,7 +178,7 @@ fn column<T: bytemuck::Pod>(bytes: &[u8]) -> Vec<T> {
 /// A packed record's rows and ids, and where its positions start.
 fn packed_rows_and_ids(bytes: &[u8]) -> std::io::Result<(Vec<[u32; 3]>, Vec<u32>, usize)> {
     let (t, v, bits) = head_fields(bytes);
-    let ids_at = HEAD + live_packed::rows_bytes(t, v);
+    let ids_at = HEAD + packed_columns::rows_bytes(t, v);
     let positions_at = ids_at + (bits >> PACKED_IDS_SHIFT) as usize;
     if bytes.len() < positions_at {
         return Err(std::io::Error::new(
@@ -186,8 +186,8 @@ fn packed_rows_and_ids(bytes: &[u8]) -> std::io::Result<(Vec<[u32; 3]>, Vec<u32>
             "a live record shorter than its head says",
         ));
     }
-    let rows = live_packed::get_rows(&bytes[HEAD..ids_at], t, v)?;
-    let ids = live_packed::get_ids(&bytes[ids_at..positions_at], v)?;
+    let rows = packed_columns::get_rows(&bytes[HEAD..ids_at], t, v)?;
+    let ids = packed_columns::get_ids(&bytes[ids_at..positions_at], v)?;
     Ok((rows, ids, positions_at))
 }
 
@@ -213,7 +213,7 @@ pub(super) fn decode_triangles(bytes: &[u8]) -> std::io::Result<Vec<[u32; 3]>> {
 pub(super) fn triangle_bytes(head: &[u8]) -> usize {
     let (t, v, bits) = head_fields(head);
     if bits & PACKED != 0 {
-        return HEAD + live_packed::rows_bytes(t, v) + (bits >> PACKED_IDS_SHIFT) as usize;
+        return HEAD + packed_columns::rows_bytes(t, v) + (bits >> PACKED_IDS_SHIFT) as usize;
     }
     let (triangle, ..) = layout(bits);
     HEAD + triangle * t + if bits & LOCAL_U16 != 0 { 4 * v } else { 0 }
@@ -225,7 +225,7 @@ pub(super) fn decode_patch(bytes: &[u8], scale: &SimplifierScale) -> std::io::Re
     let (triangle, position, _) = layout(bits);
     let (triangles, ids, positions, rest_at) = if bits & PACKED != 0 {
         let (rows, ids, positions_at) = packed_rows_and_ids(bytes)?;
-        let (narrow, length) = live_packed::get_positions(&bytes[positions_at..], v)?;
+        let (narrow, length) = packed_columns::get_positions(&bytes[positions_at..], v)?;
         let triangles = rows.iter().map(|r| r.map(|i| ids[i as usize])).collect();
         let positions = narrow.iter().map(|p| p.map(f64::from)).collect();
         (triangles, ids, positions, positions_at + length)

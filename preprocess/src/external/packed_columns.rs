@@ -1,5 +1,7 @@
-//! The packed body of a live record (`live_record.rs`, issue 12: the live store is the largest
-//! temporary file while the leaves are made, beside the staged mesh). Lossless, bit for bit:
+//! A patch's columns bit-packed, lossless bit for bit (issue 12): the body of a live record
+//! (`simplify/live_record.rs`: the live store was the largest temporary file while the
+//! leaves were made) and, rows and ids alone, each leaf's triangles once the hierarchy is
+//! built (`hierarchy/leaf_corners.rs`: they replace the staged triangle file).
 //!
 //! 1. rows: each triangle's three rows of the vertex table, `width_of(v - 1)` bits each;
 //! 2. ids: ascending, so the first in 32 bits and each gap less one as a Rice code (its
@@ -9,7 +11,7 @@
 //!    their least, in as many bits as the largest difference needs (a patch is small beside
 //!    the model, so most high bits are shared).
 //!
-//! Each section ends on a byte. The ids section's length is in the record's head, so the
+//! Each section ends on a byte. A live record's head holds the ids section's length, so the
 //! triangles (rows and ids) are read without the positions.
 
 use crate::external::bits::{width_of, BitReader, BitWriter};
@@ -37,12 +39,12 @@ fn row_width(vertices: usize) -> u32 {
 }
 
 /// Bytes of the rows section of a record of `triangles` triangles and `vertices` vertices.
-pub(super) fn rows_bytes(triangles: usize, vertices: usize) -> usize {
+pub(crate) fn rows_bytes(triangles: usize, vertices: usize) -> usize {
     (3 * triangles * row_width(vertices) as usize).div_ceil(8)
 }
 
 /// Appends the rows section.
-pub(super) fn put_rows(rows: &[[u32; 3]], vertices: usize, out: &mut Vec<u8>) {
+pub(crate) fn put_rows(rows: &[[u32; 3]], vertices: usize, out: &mut Vec<u8>) {
     let width = row_width(vertices);
     let mut w = BitWriter::new(out);
     for &r in rows.iter().flatten() {
@@ -52,7 +54,7 @@ pub(super) fn put_rows(rows: &[[u32; 3]], vertices: usize, out: &mut Vec<u8>) {
 }
 
 /// Appends the ids section (`ids` strictly ascending, at least one).
-pub(super) fn put_ids(ids: &[u32], out: &mut Vec<u8>) {
+pub(crate) fn put_ids(ids: &[u32], out: &mut Vec<u8>) {
     let span = (ids[ids.len() - 1] - ids[0]) as u64;
     let gaps = (ids.len() - 1).max(1) as u64;
     // The Rice parameter near log2 of the mean gap.
@@ -67,7 +69,7 @@ pub(super) fn put_ids(ids: &[u32], out: &mut Vec<u8>) {
 }
 
 /// Appends the positions section.
-pub(super) fn put_positions(positions: &[[f32; 3]], out: &mut Vec<u8>) {
+pub(crate) fn put_positions(positions: &[[f32; 3]], out: &mut Vec<u8>) {
     let mut low = [u32::MAX; 3];
     let mut high = [0u32; 3];
     for p in positions {
@@ -99,7 +101,7 @@ fn damaged(what: &str) -> std::io::Error {
 }
 
 /// The rows section of `bytes` (which starts with it).
-pub(super) fn get_rows(
+pub(crate) fn get_rows(
     bytes: &[u8],
     triangles: usize,
     vertices: usize,
@@ -115,8 +117,8 @@ pub(super) fn get_rows(
     Ok(rows)
 }
 
-/// The `vertices` ids of an ids section (`bytes` is the section).
-pub(super) fn get_ids(bytes: &[u8], vertices: usize) -> std::io::Result<Vec<u32>> {
+/// The `vertices` ids of an ids section (`bytes` is the section, exactly).
+pub(crate) fn get_ids(bytes: &[u8], vertices: usize) -> std::io::Result<Vec<u32>> {
     if bytes.len() < 5 {
         return Err(damaged("ids"));
     }
@@ -133,7 +135,8 @@ pub(super) fn get_ids(bytes: &[u8], vertices: usize) -> std::io::Result<Vec<u32>
             .ok_or_else(|| damaged("ids"))?;
         ids.push(last);
     }
-    if r.overran() {
+    // The section is exactly its codes.
+    if r.overran() || 5 + r.bytes_read() != bytes.len() {
         return Err(damaged("ids"));
     }
     Ok(ids)
@@ -141,7 +144,7 @@ pub(super) fn get_ids(bytes: &[u8], vertices: usize) -> std::io::Result<Vec<u32>
 
 /// The `vertices` positions of the positions section at the start of `bytes`, and the
 /// section's length.
-pub(super) fn get_positions(
+pub(crate) fn get_positions(
     bytes: &[u8],
     vertices: usize,
 ) -> std::io::Result<(Vec<[f32; 3]>, usize)> {
