@@ -152,29 +152,42 @@ pub fn weld_external(raw: RawStaged, budget: usize, dir: &Path) -> io::Result<St
     let proper = triangles;
     let degenerate = raw_triangles - proper.len();
 
-    // 3. Duplicates: the first of each run of equal corner sets stays.
-    let mut error = None;
-    let keys = ok_values(proper.read()?, &mut error)
-        .enumerate()
-        .map(|(i, t)| {
-            let mut sorted = t;
-            sorted.sort_unstable();
-            DuplicateKey {
-                corners: sorted,
-                position: i as u32,
+    // 3. Duplicates: the first of each run of equal corner sets stays. Equal sets share their
+    //    least corner, so the sort is split into windows of least corners, each window's keys
+    //    within half the budget where the mesh allows (`least_corner_windows`): the keys, as
+    //    large as the triangle file, then never go to disk beside it.
+    let mut dropped_positions = RecordFile::<u32>::create(dir)?;
+    for (low, high) in least_corner_windows(&proper, raw_vertices, half)? {
+        let mut error = None;
+        let keys = ok_values(proper.read()?, &mut error)
+            .enumerate()
+            .filter_map(|(i, t)| {
+                let mut sorted = t;
+                sorted.sort_unstable();
+                (low..high)
+                    .contains(&(sorted[0] as u64))
+                    .then_some(DuplicateKey {
+                        corners: sorted,
+                        position: i as u32,
+                    })
+            });
+        let sorted = sort_external(keys, half, dir)?;
+        check(error)?;
+        let mut previous: Option<[u32; 3]> = None;
+        for key in sorted {
+            let key: DuplicateKey = key?;
+            if previous == Some(key.corners) {
+                dropped_positions.push(&key.position)?;
             }
-        });
-    let sorted = sort_external(keys, half, dir)?;
-    check(error)?;
-    let mut previous: Option<[u32; 3]> = None;
+            previous = Some(key.corners);
+        }
+    }
+    let dropped_positions = dropped_positions.finish()?;
     let mut error = None;
-    let dropped = ok_values(sorted, &mut error).filter_map(move |k: DuplicateKey| {
-        let duplicate = previous == Some(k.corners);
-        previous = Some(k.corners);
-        duplicate.then_some(k.position)
-    });
+    let dropped = ok_values(dropped_positions.read()?, &mut error);
     let mut dropped = sort_external(dropped, half, dir)?.peekable();
     check(error)?;
+    drop(dropped_positions);
     let mut kept = RecordFile::<[u32; 3]>::create(dir)?;
     let mut duplicate = 0u64;
     let (mut chunks, mut chunk) = (proper.consume_chunks(PASS_TRIANGLES)?, Vec::new());
@@ -387,6 +400,41 @@ fn representatives<K: GroupKey>(
 struct DuplicateKey {
     corners: [u32; 3],
     position: u32,
+}
+
+/// Ranges of least corners (of ids below `vertices`) that split `triangles` into windows of
+/// at most `budget / 16` triangles (a `DuplicateKey` each), from a histogram of 4,096 bins
+/// (a bin holding more is a window of its own, sorted with runs on disk).
+fn least_corner_windows(
+    triangles: &RecordFile<[u32; 3]>,
+    vertices: u64,
+    budget: usize,
+) -> io::Result<Vec<(u64, u64)>> {
+    const BINS: u64 = 4096;
+    let capacity = (budget / std::mem::size_of::<DuplicateKey>()).max(1) as u64;
+    if triangles.len() <= capacity {
+        return Ok(vec![(0, u64::MAX)]);
+    }
+    let width = vertices.div_ceil(BINS).max(1);
+    let mut counts = vec![0u64; BINS as usize + 1];
+    let (mut chunks, mut chunk) = (triangles.read_chunks(PASS_TRIANGLES)?, Vec::new());
+    while chunks.read_into(&mut chunk)? {
+        for t in &chunk {
+            let least = t[0].min(t[1]).min(t[2]) as u64;
+            counts[((least / width).min(BINS)) as usize] += 1;
+        }
+    }
+    let mut windows = Vec::new();
+    let (mut start, mut held) = (0u64, 0u64);
+    for (bin, &n) in counts.iter().enumerate() {
+        if held > 0 && held + n > capacity {
+            windows.push((start, bin as u64 * width));
+            (start, held) = (bin as u64 * width, 0);
+        }
+        held += n;
+    }
+    windows.push((start, u64::MAX));
+    Ok(windows)
 }
 
 /// Triangles a pass reads and maps at once (768 KiB).
