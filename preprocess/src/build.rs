@@ -371,9 +371,9 @@ fn build_in_pool(
                 hierarchy_and_counts(source, memory, &frame, leaf_cap, config)?;
             if let (Some(c), Source::Staged(_)) = (checkpoint.as_deref_mut(), source) {
                 let spooled = lists
-                    .as_ref()
+                    .as_mut()
                     .expect("a staged build spools its leaves' triangles");
-                // The checkpoint's copy from then on: the spool's file is closed.
+                // The checkpoint's file from then on (the spool's, linked there).
                 let saved =
                     save_hierarchy(c, &facts, &hierarchy, spooled, &current).map_err(|source| {
                         BuildError::Temporary {

@@ -1,6 +1,7 @@
 //! Stage `hierarchy`: the hierarchy (`hierarchy.bin`: the frame and the split diamonds, rebuilt
 //! by splitting them again in (level, id) order), each leaf's input triangles
-//! (`leaf-triangles.bin`, their vertex ids: `LeafCorners`) and the use counts (`counts.bin`),
+//! (`leaf-triangles.bin`, their vertex ids coded: the spool `LeafCorners` wrote, linked into the
+//! checkpoint; `leaf-index.bin`, where each leaf's are) and the use counts (`counts.bin`),
 //! with what the build knew of its input (bounding box, counts, attributes) in the stage's
 //! values. The staged mesh's vertex files stay listed (the leaves are made from them and
 //! these); its triangle file does not.
@@ -17,6 +18,7 @@ use crate::simplify::CurrentMesh;
 
 pub(super) const HIERARCHY: &str = "hierarchy.bin";
 const LEAF_TRIANGLES: &str = "leaf-triangles.bin";
+const LEAF_INDEX: &str = "leaf-index.bin";
 const COUNTS: &str = "counts.bin";
 
 /// What the build knew of its input when it started simplifying.
@@ -80,15 +82,17 @@ pub(crate) fn save_hierarchy(
     checkpoint: &mut Checkpoint,
     facts: &InputFacts,
     hierarchy: &Hierarchy,
-    lists: &LeafCorners,
+    lists: &mut LeafCorners,
     current: &CurrentMesh,
 ) -> io::Result<LeafCorners> {
     // Streamed to their files, a leaf's list at a time: at 100 M triangles the lists and
     // counts alone take 600 MB.
     let files = vec![
         write_file(checkpoint, HIERARCHY, &encode_hierarchy(hierarchy))?,
-        write_streamed(checkpoint, LEAF_TRIANGLES, |e| {
-            encode_leaf_lists(e, &lists.spool)
+        keep_leaf_triangles(checkpoint, lists)?,
+        write_streamed(checkpoint, LEAF_INDEX, |e| {
+            encode_leaf_index(e, &lists.spool);
+            Ok(())
         })?,
         write_streamed(checkpoint, COUNTS, |e| {
             current.encode(e);
@@ -103,7 +107,23 @@ pub(crate) fn save_hierarchy(
         },
         &|name| name != super::staged::TRIANGLES_FILE,
     )?;
-    open_leaf_lists(&checkpoint.path(LEAF_TRIANGLES), hierarchy, facts.vertices)
+    open_leaf_lists(leaf_paths(checkpoint), hierarchy, facts.vertices)
+}
+
+/// The leaves' triangles' file and index in `checkpoint`.
+fn leaf_paths(checkpoint: &Checkpoint) -> (std::path::PathBuf, std::path::PathBuf) {
+    (checkpoint.path(LEAF_TRIANGLES), checkpoint.path(LEAF_INDEX))
+}
+
+/// The spool's file, named in the checkpoint (linked: on disk once).
+fn keep_leaf_triangles(checkpoint: &Checkpoint, lists: &mut LeafCorners) -> io::Result<FileRecord> {
+    let (bytes, crc32) = lists.spool.keep_at(&checkpoint.path(LEAF_TRIANGLES))?;
+    Ok(FileRecord {
+        name: LEAF_TRIANGLES.into(),
+        bytes,
+        crc32,
+        sparse: false,
+    })
 }
 
 /// The hierarchy and counts of a checkpoint whose last stage is `hierarchy`.
@@ -113,7 +133,7 @@ pub(crate) fn load_hierarchy(checkpoint: &Checkpoint) -> io::Result<Option<Hiera
     };
     let facts = InputFacts::from_values(&stage.values)?;
     let hierarchy = decode_hierarchy(&std::fs::read(checkpoint.path(HIERARCHY))?)?;
-    let lists = open_leaf_lists(&checkpoint.path(LEAF_TRIANGLES), &hierarchy, facts.vertices)?;
+    let lists = open_leaf_lists(leaf_paths(checkpoint), &hierarchy, facts.vertices)?;
     let bytes = std::fs::read(checkpoint.path(COUNTS))?;
     let mut d = Dec::new(&bytes);
     let current = CurrentMesh::decode(&mut d, facts.vertices)?;
@@ -126,90 +146,69 @@ pub(crate) fn load_hierarchy(checkpoint: &Checkpoint) -> io::Result<Option<Hiera
     }))
 }
 
-/// Every leaf's key and triangles, in key order: the key, the triangle count, the coded
-/// triangles' bytes and the coded triangles (`leaf_lists::encode_corners`).
-fn encode_leaf_lists(e: &mut Enc, lists: &LeafListSpool) -> io::Result<()> {
-    e.u64(lists.leaves().len() as u64);
-    for (i, (key, _)) in lists.leaves().enumerate() {
-        let (n, coded) = lists.coded(i)?;
+/// Where every leaf's triangles are in `leaf-triangles.bin`, in key order: the count, then
+/// each leaf's key, offset, triangle count and bytes.
+fn encode_leaf_index(e: &mut Enc, lists: &LeafListSpool) {
+    e.u64(lists.spans().len() as u64);
+    for &(key, (at, n, bytes)) in lists.spans() {
         e.key(key);
+        e.u64(at);
         e.u64(n as u64);
-        e.u64(coded.len() as u64);
-        e.bytes(&coded);
+        e.u64(bytes);
     }
-    Ok(())
 }
 
-/// The leaves' triangles `save_hierarchy` wrote, checked in one pass over the file (every
-/// leaf of `hierarchy` once, nothing else, every vertex id below `vertices`) and left in it.
+/// The leaves' triangles `save_hierarchy` kept, checked in one pass over their file (every
+/// leaf of `hierarchy` once, nothing else, the leaves end to end in key order, each decoding
+/// to its count of triangles with every vertex id below `vertices`) and left in it.
 fn open_leaf_lists(
-    path: &std::path::Path,
+    (data, index): (std::path::PathBuf, std::path::PathBuf),
     hierarchy: &Hierarchy,
     vertices: usize,
 ) -> io::Result<LeafCorners> {
-    let file = std::fs::File::open(path)?;
+    let file = std::fs::File::open(data)?;
     let len = file.metadata()?.len();
-    let mut input = Counted {
-        reader: io::BufReader::with_capacity(1 << 20, &file),
-        at: 0,
-    };
+    let index = std::fs::read(index)?;
     let not_ours = || invalid("the leaves' triangles are not the hierarchy's");
-    let count = input.u64()?;
-    // Each leaf takes at least its key, count and length (37 bytes).
-    if count.saturating_mul(37) > len || count != hierarchy.mesh.leaf_count() as u64 {
+    let mut d = Dec::new(&index);
+    // Each leaf's entry: its key and three u64s (45 bytes).
+    let spans = d.list(45, |d| {
+        let key = d.key()?;
+        Ok((key, (d.u64()?, d.u64()?, d.u64()?)))
+    })?;
+    d.finish()?;
+    if spans.len() != hierarchy.mesh.leaf_count() {
         return Err(not_ours());
     }
-    let mut index = Vec::with_capacity(count as usize);
     let mut seen = rustc_hash::FxHashSet::default();
-    for _ in 0..count {
-        let key = Dec::new(&input.read(21)?).key()?;
-        let n = input.u64()?;
-        let bytes = input.u64()?;
+    let mut index = Vec::with_capacity(spans.len());
+    let mut reader = io::BufReader::with_capacity(1 << 20, &file);
+    let mut next = 0u64;
+    for &(key, (at, n, bytes)) in &spans {
         // A coded leaf takes a byte or more, and (rows and ids) at most 25 bytes a triangle
         // and the ids' 15 bytes of head and count.
         if !hierarchy.mesh.is_leaf(key)
             || !seen.insert(key)
+            || at != next
             || bytes == 0
             || bytes > n.saturating_mul(25).saturating_add(15)
-            || bytes > len - input.at.min(len)
+            || bytes > len - at.min(len)
         {
             return Err(not_ours());
         }
-        let start = input.at;
-        let coded = input.read(bytes as usize)?;
+        let mut coded = vec![0u8; bytes as usize];
+        io::Read::read_exact(&mut reader, &mut coded)?;
         decode_corners(&coded, n as usize, vertices as u64).map_err(|_| not_ours())?;
-        index.push((key, (start, n as u32, bytes)));
+        index.push((key, (at, n as u32, bytes)));
+        next = at + bytes;
     }
-    if input.at != len {
+    if next != len {
         return Err(invalid("the leaves' triangles: trailing bytes"));
     }
-    drop(input);
+    drop(reader);
     Ok(LeafCorners {
         spool: LeafListSpool::in_file(file, index)?,
     })
-}
-
-/// A buffered reader that knows how far it has read.
-struct Counted<R> {
-    reader: R,
-    at: u64,
-}
-
-impl<R: io::Read> Counted<R> {
-    fn read(&mut self, n: usize) -> io::Result<Vec<u8>> {
-        let mut bytes = vec![0; n];
-        self.reader
-            .read_exact(&mut bytes)
-            .map_err(|_| invalid("the leaves' triangles: truncated"))?;
-        self.at += n as u64;
-        Ok(bytes)
-    }
-
-    fn u64(&mut self) -> io::Result<u64> {
-        Ok(u64::from_le_bytes(
-            self.read(8)?.try_into().expect("8 bytes"),
-        ))
-    }
 }
 
 pub(super) fn invalid(what: impl Into<String>) -> io::Error {
@@ -347,12 +346,20 @@ mod tests {
                     .collect();
                 LeafCorners::from_map(&map, dir.path()).unwrap()
             };
-            let spool = corners(&h.leaf_triangles);
-            let path = dir.path().join(LEAF_TRIANGLES);
+            let mut spool = corners(&h.leaf_triangles);
+            let paths = (dir.path().join(LEAF_TRIANGLES), dir.path().join(LEAF_INDEX));
             let vertices = 3 * points.len();
-            let file = |e: &mut Enc| encode_leaf_lists(e, &spool.spool);
-            super::super::bytes::write_atomic_with(&path, file).unwrap();
-            let back = open_leaf_lists(&path, &h, vertices).unwrap();
+            let write_index = |spool: &LeafCorners| {
+                let index = |e: &mut Enc| {
+                    encode_leaf_index(e, &spool.spool);
+                    Ok(())
+                };
+                super::super::bytes::write_atomic_with(&paths.1, index).unwrap();
+            };
+            spool.spool.keep_at(&paths.0).unwrap();
+            write_index(&spool);
+            let open = |vertices: usize| open_leaf_lists(paths.clone(), &h, vertices);
+            let back = open(vertices).unwrap();
             for (i, (key, n)) in back.leaves().enumerate() {
                 let expected: Vec<[u32; 3]> = h.leaf_triangles[&key]
                     .iter()
@@ -361,36 +368,30 @@ mod tests {
                 assert_eq!(n, expected.len());
                 assert_eq!(back.triangles_of(i).unwrap(), expected);
             }
-            assert!(
-                open_leaf_lists(&path, &h, vertices - 1).is_err(),
-                "a vertex out of range"
-            );
-            let bytes = std::fs::read(&path).unwrap();
+            assert!(open(vertices - 1).is_err(), "a vertex out of range");
+            let bytes = std::fs::read(&paths.1).unwrap();
             for cut in [7, 8 + 21, bytes.len() - 1] {
-                std::fs::write(&path, &bytes[..cut]).unwrap();
-                assert!(
-                    open_leaf_lists(&path, &h, points.len()).is_err(),
-                    "cut at {cut}"
-                );
+                std::fs::write(&paths.1, &bytes[..cut]).unwrap();
+                assert!(open(vertices).is_err(), "index cut at {cut}");
             }
-            let mut longer = bytes.clone();
+            std::fs::write(&paths.1, &bytes).unwrap();
+            let data = std::fs::read(&paths.0).unwrap();
+            std::fs::write(&paths.0, &data[..data.len() - 1]).unwrap();
+            assert!(open(vertices).is_err(), "the triangles cut short");
+            let mut longer = data.clone();
             longer.extend_from_slice(&[0; 4]);
-            std::fs::write(&path, &longer).unwrap();
-            assert!(
-                open_leaf_lists(&path, &h, vertices).is_err(),
-                "trailing bytes"
-            );
+            std::fs::write(&paths.0, &longer).unwrap();
+            assert!(open(vertices).is_err(), "trailing bytes");
+            std::fs::write(&paths.0, &data).unwrap();
+            assert!(open(vertices).is_ok());
             // One leaf fewer (count and entry gone): not the hierarchy's.
             let mut fewer = h.leaf_triangles.clone();
             let gone = *fewer.keys().next().unwrap();
             fewer.remove(&gone);
-            let spool = corners(&fewer);
-            super::super::bytes::write_atomic_with(&path, |e| encode_leaf_lists(e, &spool.spool))
-                .unwrap();
-            assert!(
-                open_leaf_lists(&path, &h, vertices).is_err(),
-                "a leaf missing"
-            );
+            let mut spool = corners(&fewer);
+            spool.spool.keep_at(&paths.0).unwrap();
+            write_index(&spool);
+            assert!(open(vertices).is_err(), "a leaf missing");
         }
     }
 }

@@ -7,7 +7,7 @@ use std::path::Path;
 
 /// Gives an `O_TMPFILE` file the name `path` (`linkat` through `/proc/self/fd`); fails for a
 /// file that was created with a name and unlinked, and off Linux.
-pub(super) fn link_unnamed(file: &File, path: &Path) -> io::Result<()> {
+pub(crate) fn link_unnamed(file: &File, path: &Path) -> io::Result<()> {
     #[cfg(target_os = "linux")]
     {
         use std::ffi::CString;

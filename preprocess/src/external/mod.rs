@@ -7,7 +7,7 @@ pub mod allocator;
 pub mod bits;
 mod cursor;
 mod fallible;
-mod file_io;
+pub(crate) mod file_io;
 pub mod holes;
 pub mod joins;
 pub mod leaf_corners;

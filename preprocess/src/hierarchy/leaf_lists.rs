@@ -115,7 +115,7 @@ pub struct LeafListSpool {
     /// Every leaf (empty ones too), by key, with where its list is.
     index: Vec<(SimplexKey, ListSpan)>,
     /// The file's bytes, in the build's temporary totals (none for a checkpoint's own file).
-    _charge: Charge,
+    charge: Charge,
 }
 
 impl LeafListSpool {
@@ -156,6 +156,46 @@ impl LeafListSpool {
             .collect()
     }
 
+    /// Where each leaf's coded items are in the file (key order).
+    pub(crate) fn spans(&self) -> &[(SimplexKey, ListSpan)] {
+        &self.index
+    }
+
+    /// Gives the file the name `path` (a checkpoint's): linked where the file system allows
+    /// it (`O_TMPFILE`), so its bytes are on disk once, else copied; its bytes are then the
+    /// checkpoint's, not this spool's. Returns its length and CRC-32.
+    pub(crate) fn keep_at(&mut self, path: &Path) -> io::Result<(u64, u32)> {
+        match std::fs::remove_file(path) {
+            Err(e) if e.kind() != io::ErrorKind::NotFound => return Err(e),
+            _ => {}
+        }
+        let len = self.file.metadata()?.len();
+        let mut hasher = crc32fast::Hasher::new();
+        let mut buffer = vec![0u8; 1 << 20];
+        let linked = crate::external::file_io::link_unnamed(&self.file, path).is_ok();
+        let mut copy = if linked {
+            None
+        } else {
+            Some(BufWriter::new(File::create(path)?))
+        };
+        let mut at = 0;
+        while at < len {
+            let n = (len - at).min(buffer.len() as u64) as usize;
+            self.file.read_exact_at(&mut buffer[..n], at)?;
+            hasher.update(&buffer[..n]);
+            if let Some(copy) = &mut copy {
+                copy.write_all(&buffer[..n])?;
+            }
+            at += n as u64;
+        }
+        if let Some(copy) = copy {
+            copy.into_inner().map_err(|e| e.into_error())?.sync_all()?;
+            self.file = File::open(path)?;
+        }
+        self.charge.release();
+        Ok((len, hasher.finalize()))
+    }
+
     /// The lists of `map` spooled to an unnamed file in `dir`.
     pub fn from_map(map: &HashMap<SimplexKey, Vec<u32>>, dir: &Path) -> io::Result<Self> {
         let mut writer = LeafListWriter::new(dir)?;
@@ -185,7 +225,7 @@ impl LeafListSpool {
         Ok(LeafListSpool {
             file,
             index,
-            _charge: Charge::new(TempKind::LeafLists),
+            charge: Charge::new(TempKind::LeafLists),
         })
     }
 }
@@ -215,11 +255,15 @@ impl LeafCorners {
         decode_corners(&coded, n as usize, u64::MAX)
     }
 
-    /// The triangles of `map` spooled to an unnamed file in `dir`.
+    /// The triangles of `map` spooled to an unnamed file in `dir`, in key order (as
+    /// `external::leaf_corners` writes them).
     pub fn from_map(map: &HashMap<SimplexKey, Vec<[u32; 3]>>, dir: &Path) -> io::Result<Self> {
         let mut writer = LeafListWriter::new(dir)?;
         let mut coded = Vec::new();
-        for (&key, triangles) in map {
+        let mut keys: Vec<SimplexKey> = map.keys().copied().collect();
+        keys.sort_unstable();
+        for key in keys {
+            let triangles = &map[&key];
             coded.clear();
             encode_corners(&mut coded, triangles);
             writer.write_coded(key, triangles.len(), &coded)?;
@@ -299,7 +343,7 @@ impl LeafListWriter {
         Ok(LeafListSpool {
             file,
             index,
-            _charge: self.charge,
+            charge: self.charge,
         })
     }
 }
