@@ -79,11 +79,19 @@ pub(crate) fn hierarchy_and_counts(
     let io = temporary(memory);
     let dir = memory.temp_dir.as_path();
     let sort_budget = memory.bytes as usize / 4;
-    // The use counts first, then the barycentres' spool and the buckets: the counts' sort of
-    // every edge (about 7 bytes a triangle on disk) and the spool and buckets (about 7 more)
-    // beside the staged mesh made the stage's temporary peak 1.7x the input when they ran
-    // side by side.
-    let current = CurrentMesh::from_staged(staged, sort_budget, dir).map_err(&io)?;
+    // The use counts' sort of every edge (8 bytes an edge, three a triangle) spills runs to
+    // disk (about 7 bytes a triangle) unless it fits its budget. Then the counts go first,
+    // before the barycentres' spool and the buckets (about 7 bytes a triangle more): side by
+    // side with the staged mesh they made the stage's temporary peak 1.7x the input. Where
+    // the sort fits, the counts are counted beside the bucketed hierarchy (which runs on one
+    // thread), as the in-memory build does.
+    let edges_fit = staged.triangles.len().saturating_mul(3 * 8) <= sort_budget as u64;
+    let counts = || CurrentMesh::from_staged(staged, sort_budget, dir);
+    let early = if edges_fit {
+        None
+    } else {
+        Some(counts().map_err(&io)?)
+    };
     let barycentres = SpooledBarycentres::new(
         &JoinedBarycentres {
             staged,
@@ -94,9 +102,15 @@ pub(crate) fn hierarchy_and_counts(
     )
     .map_err(&io)?;
     let budget = BucketBudget::new(memory.bucket_triangles(leaf_triangles), dir);
-    let (hierarchy, lists, _) =
-        build_hierarchy_bucketed_spooled(frame, &barycentres, construction, &budget)
-            .map_err(&io)?;
+    let hierarchy = || build_hierarchy_bucketed_spooled(frame, &barycentres, construction, &budget);
+    let (hierarchy, current) = match early {
+        Some(current) => (hierarchy(), current),
+        None => {
+            let (hierarchy, current) = rayon::join(hierarchy, counts);
+            (hierarchy, current.map_err(&io)?)
+        }
+    };
+    let (hierarchy, lists, _) = hierarchy.map_err(&io)?;
     drop(barycentres);
     let corners =
         crate::external::leaf_corners(&staged.triangles, lists, leaf_group_triangles(memory), dir)
