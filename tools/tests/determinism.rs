@@ -270,12 +270,13 @@ fn a_2m_triangle_build_stays_within_64_mib() {
     assert!(stages.windows(2).all(|w| w[0] <= w[1]), "{json}");
     assert!(stages.last().is_some_and(|&last| last <= peak), "{json}");
     // Temporary disk: issue 12 asks for 1.5× the input; this pins what the build reaches
-    // (2.46× here in the nineteenth session, 2.68× in the sixteenth, 3.31× in the fifteenth,
-    // 6.1× before), so that a change that puts more on disk fails here.
+    // (1.52× here in the twentieth session, the hierarchy's buckets beside the staged mesh;
+    // 2.46× in the nineteenth, 2.68× in the sixteenth, 3.31× in the fifteenth, 6.1× before),
+    // so that a change that puts more on disk fails here.
     let input = std::fs::metadata(&generated).unwrap().len();
     let temp = json["temp_bytes_peak"].as_u64().unwrap();
     assert!(
-        temp as f64 <= 2.6 * input as f64,
+        temp as f64 <= 1.6 * input as f64,
         "temporary files peaked at {temp} bytes, {:.2}× the {input}-byte input: {json}",
         temp as f64 / input as f64
     );

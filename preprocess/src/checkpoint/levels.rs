@@ -26,8 +26,10 @@ pub(crate) struct LevelsCheckpoint {
 }
 
 /// Saves the state after `state.levels_done()` levels and commits stage `leaves` (none yet)
-/// or `level-N` — after a level only when one is due (`Checkpoint::level_due`): levels
-/// merged since the last checkpoint are merged again by a resumed build.
+/// or `level-N` — after a level only when one is due (`Checkpoint::level_due`) or the live
+/// store holds removed patches (`LevelState::checkpoint_wanted`: they stay on disk until a
+/// commit no longer names them), so in practice after every level: levels merged since the
+/// last checkpoint are merged again by a resumed build.
 pub(crate) fn save_levels(
     checkpoint: &mut Checkpoint,
     facts: &InputFacts,
@@ -35,7 +37,7 @@ pub(crate) fn save_levels(
     state: &LevelState,
     finished: &mut FinishedPatches,
 ) -> io::Result<()> {
-    if state.levels_done() > 0 && !checkpoint.level_due() {
+    if state.levels_done() > 0 && !checkpoint.level_due() && !state.checkpoint_wanted() {
         return Ok(());
     }
     let start = std::time::Instant::now();

@@ -97,6 +97,12 @@ impl LevelState {
         self.levels_done
     }
 
+    /// Whether a checkpoint is due whatever its pacing: the live store holds removed patches,
+    /// kept on disk until a commit no longer names them.
+    pub fn checkpoint_wanted(&self) -> bool {
+        self.patches.holds_dead_records()
+    }
+
     /// The live store's file (name, valid bytes), `None` unless it is named. Its records are
     /// checked one by one against the CRC-32s in the state (`encode`), not as a whole file.
     pub fn store_file(&self) -> Option<(String, u64)> {

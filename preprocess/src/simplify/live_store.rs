@@ -249,6 +249,17 @@ impl LiveStore {
         }
     }
 
+    /// Whether removed records wait for a commit (their bytes stay on disk until one no longer
+    /// names them): a level's checkpoint is then due whatever its pacing, else they pile up
+    /// level after level (at 2 M triangles, 1.65x the input against 1.51x; at 100 M the
+    /// commits after every level cost 2.4 s of 155).
+    pub(super) fn holds_dead_records(&self) -> bool {
+        match self {
+            LiveStore::Memory(_) => false,
+            LiveStore::Disk(store) => !store.dead.is_empty(),
+        }
+    }
+
     /// Gives back the space of the removed records that neither the live patches nor the
     /// checkpoint's last commit name. Call it only when the commit a `checkpoint` was asked
     /// for is done (or none was asked for since the last call).
