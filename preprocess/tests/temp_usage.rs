@@ -17,9 +17,11 @@ fn temporary_bytes_are_counted_while_held_and_given_back() {
     let staged = stage_mesh(&path, dir.path(), 256 << 10).unwrap();
     // Only the staged mesh's own files are left, and they are what is counted.
     assert_eq!(temp_usage::current(), staged.bytes());
-    // On the way the raw files, the sort runs and the id maps were held too.
+    // On the way the raw files, the sort runs and the id maps were held too (1.70× the staged
+    // mesh since the weld frees each triangle file behind the pass that replaces it; 2.6×
+    // before).
     assert!(
-        temp_usage::peak() > 2 * staged.bytes(),
+        temp_usage::peak() > 3 * staged.bytes() / 2,
         "peak {} for {} staged",
         temp_usage::peak(),
         staged.bytes()
