@@ -3,7 +3,8 @@
 
 use std::io;
 
-use super::staged::{ChunkReader, RecordFile, IO_BUFFER};
+use super::chunk_reader::ChunkReader;
+use super::staged::{RecordFile, IO_BUFFER};
 
 /// Reads a record file in order, answering `at(i)` for ascending (repeatable) indices: a
 /// block of records at a time, blocks with no index asked skipped without reading.

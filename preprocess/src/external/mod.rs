@@ -5,6 +5,7 @@
 
 pub mod allocator;
 pub mod bits;
+mod chunk_reader;
 mod cursor;
 mod fallible;
 pub(crate) mod file_io;
@@ -19,6 +20,7 @@ pub mod staged;
 pub mod temp_usage;
 pub mod varint;
 pub mod weld;
+mod weld_keys;
 
 pub use joins::{coincident_nudges, JoinedBarycentres, LeafGroups};
 pub use leaf_corners::leaf_corners;

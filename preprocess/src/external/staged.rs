@@ -16,6 +16,7 @@ use std::path::{Path, PathBuf};
 
 use bytemuck::Pod;
 
+use super::chunk_reader::{ChunkReader, ConsumingChunks};
 use super::file_io::{link_unnamed, ReadAt};
 use super::position_file::{PositionFile, PositionWriter};
 use super::temp_usage::{Charge, TempKind};
@@ -125,6 +126,18 @@ impl<T: Pod> RecordFile<T> {
             file: self,
             freed: 0,
         })
+    }
+
+    /// Gives back the disk space of the whole blocks in `start..end` (records already read
+    /// by a pass that replaces the file); a checkpoint's file is left whole.
+    pub(super) fn free_range(&self, start: u64, end: u64) {
+        if self.kept {
+            return;
+        }
+        let file = self.file.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(file) = file.as_ref() {
+            self.charge.shrink(super::holes::punch(file, start, end));
+        }
     }
 
     /// Copies the records to a new file at `path`; returns the copy's CRC-32.
@@ -282,79 +295,6 @@ impl<T: Pod> Iterator for RecordReader<T> {
 
     fn size_hint(&self) -> (usize, Option<usize>) {
         (self.left as usize, Some(self.left as usize))
-    }
-}
-
-/// Streams a `RecordFile`'s records a chunk at a time.
-pub struct ChunkReader<T: Pod> {
-    file: ReadAt,
-    left: u64,
-    chunk: usize,
-    _record: PhantomData<T>,
-}
-
-impl<T: Pod> ChunkReader<T> {
-    /// Records in a full chunk.
-    pub fn chunk_len(&self) -> usize {
-        self.chunk
-    }
-
-    /// Reads the next chunk into `records` (its allocation reused); false at the end.
-    pub fn read_into(&mut self, records: &mut Vec<T>) -> io::Result<bool> {
-        records.clear();
-        if self.left == 0 {
-            return Ok(false);
-        }
-        let n = self.left.min(self.chunk as u64) as usize;
-        self.left -= n as u64;
-        records.resize(n, T::zeroed());
-        self.file.read_exact(bytemuck::cast_slice_mut(records))?;
-        Ok(true)
-    }
-
-    /// Passes over the next `records` records (at most those left) without reading them.
-    pub fn skip_records(&mut self, records: u64) -> io::Result<()> {
-        let records = records.min(self.left);
-        let bytes = records * std::mem::size_of::<T>() as u64;
-        self.file.at += bytes;
-        self.left -= records;
-        Ok(())
-    }
-}
-
-impl<T: Pod> Iterator for ChunkReader<T> {
-    type Item = io::Result<Vec<T>>;
-
-    fn next(&mut self) -> Option<io::Result<Vec<T>>> {
-        let mut records = Vec::new();
-        self.read_into(&mut records)
-            .map(|more| more.then_some(records))
-            .transpose()
-    }
-}
-
-/// A `ChunkReader` that frees what it has read (`RecordFile::consume_chunks`).
-pub struct ConsumingChunks<T: Pod> {
-    reader: ChunkReader<T>,
-    file: RecordFile<T>,
-    /// Bytes from the start already given back (a whole number of blocks).
-    freed: u64,
-}
-
-impl<T: Pod> ConsumingChunks<T> {
-    /// `ChunkReader::read_into`, then the records read are freed.
-    pub fn read_into(&mut self, records: &mut Vec<T>) -> io::Result<bool> {
-        let more = self.reader.read_into(records)?;
-        if !self.file.kept {
-            let read_to = self.reader.file.at;
-            let file = self.file.file.lock().unwrap_or_else(|e| e.into_inner());
-            if let Some(file) = file.as_ref() {
-                let freed = super::holes::punch(file, self.freed, read_to);
-                self.file.charge.shrink(freed);
-                self.freed = self.freed.max(read_to / 4096 * 4096);
-            }
-        }
-        Ok(more)
     }
 }
 

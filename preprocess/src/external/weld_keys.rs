@@ -1,0 +1,137 @@
+//! The weld's sorts (`weld.rs`): the keys that group bit-identical positions (step 1) and
+//! find duplicate triangles (step 3), and the windows that keep step 3's keys within the
+//! budget.
+
+use std::io;
+use std::path::Path;
+
+use bytemuck::{Pod, Zeroable};
+
+use super::fallible::{check, ok_values};
+use super::position_file::PositionFile;
+use super::sort::{sort_external, Sorted};
+use super::staged::RecordFile;
+use super::weld::PASS_TRIANGLES;
+
+/// A vertex by its position's bits, then its index: sorting groups bit-identical positions
+/// with their first vertex first.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Pod, Zeroable)]
+#[repr(C)]
+pub(super) struct PositionKey {
+    pub(super) bits: [u64; 3],
+    pub(super) index: u64,
+}
+
+/// `PositionKey` of a position that is exactly an f32 (`-0.0` as `0.0`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Pod, Zeroable)]
+#[repr(C)]
+pub(super) struct NarrowPositionKey {
+    pub(super) bits: [u32; 3],
+    pub(super) index: u32,
+}
+
+pub(super) fn canonical_f32_bits(x: f64) -> u32 {
+    let x = x as f32;
+    if x == 0.0 {
+        0
+    } else {
+        x.to_bits()
+    }
+}
+
+/// What step 1 needs of a key: whether two keys hold the same position, and the index.
+pub(super) trait GroupKey: Pod + Ord + Send {
+    fn same_position(&self, other: &Self) -> bool;
+    fn index(&self) -> u64;
+}
+
+impl GroupKey for PositionKey {
+    fn same_position(&self, other: &Self) -> bool {
+        self.bits == other.bits
+    }
+    fn index(&self) -> u64 {
+        self.index
+    }
+}
+
+impl GroupKey for NarrowPositionKey {
+    fn same_position(&self, other: &Self) -> bool {
+        self.bits == other.bits
+    }
+    fn index(&self) -> u64 {
+        self.index as u64
+    }
+}
+
+/// Step 1: `(index << 32) | representative` for every vertex, in index order.
+pub(super) fn representatives<K: GroupKey>(
+    positions: &PositionFile,
+    half: usize,
+    dir: &Path,
+    key_of: impl Fn([f64; 3], u64) -> K,
+) -> io::Result<Sorted<u64>> {
+    let mut error = None;
+    let keys = ok_values(positions.read()?, &mut error)
+        .enumerate()
+        .map(|(i, p)| key_of(p, i as u64));
+    let sorted = sort_external(keys, half, dir)?;
+    check(error)?;
+    let mut run: Option<(K, u64)> = None;
+    let mut error = None;
+    let pairs = ok_values(sorted, &mut error).map(move |key: K| {
+        let rep = match run {
+            Some((first, rep)) if first.same_position(&key) => rep,
+            _ => key.index(),
+        };
+        run = Some((key, rep));
+        (key.index() << 32) | rep
+    });
+    // Ascending: each delta is about 2^32, five bytes instead of eight.
+    let codec = super::sort::RunCodec::delta_u64();
+    let by_index = super::sort::sort_external_with(pairs, half, dir, codec)?;
+    check(error)?;
+    Ok(by_index)
+}
+
+/// A triangle by its sorted corners, then its position in the triangle list.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Pod, Zeroable)]
+#[repr(C)]
+pub(super) struct DuplicateKey {
+    pub(super) corners: [u32; 3],
+    pub(super) position: u32,
+}
+
+/// Ranges of least corners (of ids below `vertices`) that split `triangles` into windows of
+/// at most `budget / 16` triangles (a `DuplicateKey` each), from a histogram of 4,096 bins
+/// (a bin holding more is a window of its own, sorted with runs on disk).
+pub(super) fn least_corner_windows(
+    triangles: &RecordFile<[u32; 3]>,
+    vertices: u64,
+    budget: usize,
+) -> io::Result<Vec<(u64, u64)>> {
+    const BINS: u64 = 4096;
+    let capacity = (budget / std::mem::size_of::<DuplicateKey>()).max(1) as u64;
+    if triangles.len() <= capacity {
+        return Ok(vec![(0, u64::MAX)]);
+    }
+    let width = vertices.div_ceil(BINS).max(1);
+    let mut counts = vec![0u64; BINS as usize + 1];
+    let (mut chunks, mut chunk) = (triangles.read_chunks(PASS_TRIANGLES)?, Vec::new());
+    while chunks.read_into(&mut chunk)? {
+        for t in &chunk {
+            let least = t[0].min(t[1]).min(t[2]) as u64;
+            counts[((least / width).min(BINS)) as usize] += 1;
+        }
+    }
+    let mut windows = Vec::new();
+    let (mut start, mut held) = (0u64, 0u64);
+    for (bin, &n) in counts.iter().enumerate() {
+        if held > 0 && held + n > capacity {
+            windows.push((start, bin as u64 * width));
+            (start, held) = (bin as u64 * width, 0);
+        }
+        held += n;
+    }
+    windows.push((start, u64::MAX));
+    Ok(windows)
+}
