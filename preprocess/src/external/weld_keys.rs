@@ -102,15 +102,21 @@ pub(super) struct DuplicateKey {
 }
 
 /// Ranges of least corners (of ids below `vertices`) that split `triangles` into windows of
-/// at most `budget / 16` triangles (a `DuplicateKey` each), from a histogram of 4,096 bins
-/// (a bin holding more is a window of its own, sorted with runs on disk).
+/// at most `budget / 16` triangles (a `DuplicateKey` each; at most about 16 windows), from a
+/// histogram of 4,096 bins (a bin holding more is a window of its own, sorted with runs on
+/// disk).
 pub(super) fn least_corner_windows(
     triangles: &RecordFile<[u32; 3]>,
     vertices: u64,
     budget: usize,
 ) -> io::Result<Vec<(u64, u64)>> {
     const BINS: u64 = 4096;
-    let capacity = (budget / std::mem::size_of::<DuplicateKey>()).max(1) as u64;
+    // Each window costs a pass over the triangles: at most about `MAX_WINDOWS` of them, their
+    // keys spilled in runs where the budget is that small.
+    const MAX_WINDOWS: u64 = 16;
+    let capacity = ((budget / std::mem::size_of::<DuplicateKey>()) as u64)
+        .max(triangles.len().div_ceil(MAX_WINDOWS))
+        .max(1);
     if triangles.len() <= capacity {
         return Ok(vec![(0, u64::MAX)]);
     }
