@@ -366,7 +366,7 @@ mod tests {
                     .map(|&t| [3 * t, 3 * t + 1, 3 * t + 2])
                     .collect();
                 assert_eq!(n, expected.len());
-                assert_eq!(back.triangles_of(i).unwrap(), expected);
+                assert_eq!(back.triangles_of(i).unwrap().0, expected);
             }
             assert!(open(vertices - 1).is_err(), "a vertex out of range");
             let bytes = std::fs::read(&paths.1).unwrap();

@@ -126,7 +126,7 @@ impl<'a> BitReader<'a> {
     }
 }
 
-/// Bits of the largest of `values` (0 for none or all zeros).
+/// Bits `max` needs (0 for 0).
 pub fn width_of(max: u32) -> u32 {
     32 - max.leading_zeros()
 }

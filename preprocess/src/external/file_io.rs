@@ -2,8 +2,48 @@
 //! (`O_TMPFILE`) file a name, and reading one file from several places at once.
 
 use std::fs::File;
-use std::io::{self, Read};
+use std::io::{self, Read, Write};
+use std::os::unix::fs::FileExt;
 use std::path::Path;
+
+/// Gives the first `len` bytes of an unnamed temporary file the name `path` (a checkpoint's):
+/// linked where the file system allows it (`link_unnamed`), so they are on disk once, else
+/// copied there (and synced). Returns their CRC-32 and, where they were copied, the copy
+/// opened for reading (the caller reads that from then on).
+pub(crate) fn keep_unnamed_at(
+    file: &File,
+    len: u64,
+    path: &Path,
+) -> io::Result<(u32, Option<File>)> {
+    match std::fs::remove_file(path) {
+        Err(e) if e.kind() != io::ErrorKind::NotFound => return Err(e),
+        _ => {}
+    }
+    let mut copy = match link_unnamed(file, path) {
+        Ok(()) => None,
+        Err(_) => Some(io::BufWriter::with_capacity(1 << 20, File::create(path)?)),
+    };
+    let mut hasher = crc32fast::Hasher::new();
+    let mut buffer = vec![0u8; 1 << 20];
+    let mut at = 0;
+    while at < len {
+        let n = (len - at).min(buffer.len() as u64) as usize;
+        file.read_exact_at(&mut buffer[..n], at)?;
+        hasher.update(&buffer[..n]);
+        if let Some(copy) = &mut copy {
+            copy.write_all(&buffer[..n])?;
+        }
+        at += n as u64;
+    }
+    let reopened = match copy {
+        Some(copy) => {
+            copy.into_inner().map_err(|e| e.into_error())?.sync_all()?;
+            Some(File::open(path)?)
+        }
+        None => None,
+    };
+    Ok((hasher.finalize(), reopened))
+}
 
 /// Gives an `O_TMPFILE` file the name `path` (`linkat` through `/proc/self/fd`); fails for a
 /// file that was created with a name and unlinked, and off Linux.
@@ -48,7 +88,6 @@ pub struct ReadAt {
 
 impl Read for ReadAt {
     fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
-        use std::os::unix::fs::FileExt;
         let n = self.file.read_at(buf, self.at)?;
         self.at += n as u64;
         Ok(n)

@@ -254,9 +254,13 @@ impl<'a> LeafGroups<'a> {
         self.next = start + keys.len();
         let attributes = &self.staged.attributes;
         let mut patches: Vec<LivePatch> = Vec::with_capacity(keys.len());
+        // (vertex, leaf) once per leaf, by vertex: a leaf's ids come decoded, distinct.
+        let mut pairs: Vec<u64> = Vec::new();
         for leaf in 0..keys.len() {
+            let (triangles, ids) = lists.triangles_of(start + leaf)?;
+            pairs.extend(ids.into_iter().map(|v| ((v as u64) << 32) | leaf as u64));
             patches.push(LivePatch {
-                triangles: lists.triangles_of(start + leaf)?,
+                triangles,
                 vertices: VertexTable {
                     normals: attributes.normals.is_some().then(Vec::new),
                     colors: attributes.colors.is_some().then(Vec::new),
@@ -264,14 +268,6 @@ impl<'a> LeafGroups<'a> {
                     ..VertexTable::default()
                 },
             });
-        }
-        // (vertex, leaf) once per leaf, by vertex.
-        let mut pairs: Vec<u64> = Vec::new();
-        for (leaf, patch) in patches.iter().enumerate() {
-            let mut ids: Vec<u32> = patch.triangles.iter().flatten().copied().collect();
-            ids.sort_unstable();
-            ids.dedup();
-            pairs.extend(ids.into_iter().map(|v| ((v as u64) << 32) | leaf as u64));
         }
         pairs.sort_unstable();
         let mut positions = PositionCursor::new(&self.staged.positions)?;

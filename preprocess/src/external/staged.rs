@@ -17,7 +17,7 @@ use std::path::{Path, PathBuf};
 use bytemuck::Pod;
 
 use super::chunk_reader::{ChunkReader, ConsumingChunks};
-use super::file_io::{link_unnamed, ReadAt};
+use super::file_io::{keep_unnamed_at, ReadAt};
 use super::position_file::{PositionFile, PositionWriter};
 use super::temp_usage::{Charge, TempKind};
 use crate::mesh::InputMesh;
@@ -140,28 +140,6 @@ impl<T: Pod> RecordFile<T> {
         }
     }
 
-    /// Copies the records to a new file at `path`; returns the copy's CRC-32.
-    pub(crate) fn copy_to(&self, path: &Path) -> io::Result<u32> {
-        let mut to = File::create(path)?;
-        self.stream_crc32(|bytes| to.write_all(bytes))
-    }
-
-    /// Hands every byte to `sink`, a block at a time; returns their CRC-32.
-    fn stream_crc32(&self, mut sink: impl FnMut(&[u8]) -> io::Result<()>) -> io::Result<u32> {
-        let mut from = self.reader_at_start()?;
-        let mut hasher = crc32fast::Hasher::new();
-        let mut buf = vec![0u8; IO_BUFFER];
-        let mut left = self.bytes();
-        while left > 0 {
-            let n = left.min(buf.len() as u64) as usize;
-            from.read_exact(&mut buf[..n])?;
-            hasher.update(&buf[..n]);
-            sink(&buf[..n])?;
-            left -= n as u64;
-        }
-        Ok(hasher.finalize())
-    }
-
     /// Names the records `path` (a checkpoint's file) and hands them to the checkpoint: from
     /// then on `discard` leaves them and their bytes are the checkpoint's, not this file's
     /// (the charge is given back). The unnamed file itself is linked at `path` where the file
@@ -169,17 +147,10 @@ impl<T: Pod> RecordFile<T> {
     /// is copied; elsewhere they are copied and the unnamed file closed. Returns the
     /// records' CRC-32.
     pub(crate) fn keep_at(&mut self, path: &Path) -> io::Result<u32> {
-        match std::fs::remove_file(path) {
-            Err(e) if e.kind() != io::ErrorKind::NotFound => return Err(e),
-            _ => {}
+        let (crc32, copy) = keep_unnamed_at(&self.handle()?, self.bytes(), path)?;
+        if let Some(copy) = copy {
+            *self.file.lock().unwrap_or_else(|e| e.into_inner()) = Some(copy);
         }
-        let crc32 = if link_unnamed(&self.handle()?, path).is_ok() {
-            self.stream_crc32(|_| Ok(()))?
-        } else {
-            let crc32 = self.copy_to(path)?;
-            *self.file.lock().unwrap_or_else(|e| e.into_inner()) = Some(File::open(path)?);
-            crc32
-        };
         self.charge.release();
         self.kept = true;
         Ok(crc32)
@@ -197,7 +168,7 @@ impl<T: Pod> RecordFile<T> {
         }
     }
 
-    /// The records of a checkpoint's file (`copy_to`'s) of `bytes` bytes, opened read-only.
+    /// The records of a checkpoint's file (`keep_at`'s) of `bytes` bytes, opened read-only.
     pub(crate) fn open_kept(path: &Path, bytes: u64) -> io::Result<RecordFile<T>> {
         let size = std::mem::size_of::<T>() as u64;
         if !bytes.is_multiple_of(size) || File::open(path)?.metadata()?.len() != bytes {

@@ -79,12 +79,21 @@ pub(crate) fn encode_corners(out: &mut Vec<u8>, triangles: &[[u32; 3]]) {
 
 /// The `n` triangles coded in `bytes` (`encode_corners`), every id below `vertices`.
 pub(crate) fn decode_corners(bytes: &[u8], n: usize, vertices: u64) -> io::Result<Vec<[u32; 3]>> {
+    decode_corners_and_ids(bytes, n, vertices).map(|(triangles, _)| triangles)
+}
+
+/// `decode_corners`, with the triangles' distinct ids, ascending (as they are stored).
+fn decode_corners_and_ids(
+    bytes: &[u8],
+    n: usize,
+    vertices: u64,
+) -> io::Result<(Vec<[u32; 3]>, Vec<u32>)> {
     let corrupt = || io::Error::new(io::ErrorKind::InvalidData, "a leaf's triangles are corrupt");
     let mut at = 0;
     let v = varint::get(bytes, &mut at).ok_or_else(corrupt)?;
     if v == 0 {
         return if n == 0 && at == bytes.len() {
-            Ok(Vec::new())
+            Ok((Vec::new(), Vec::new()))
         } else {
             Err(corrupt())
         };
@@ -103,7 +112,8 @@ pub(crate) fn decode_corners(bytes: &[u8], n: usize, vertices: u64) -> io::Resul
     if ids.last().is_some_and(|&last| last as u64 >= vertices) {
         return Err(corrupt());
     }
-    Ok(rows.iter().map(|r| r.map(|i| ids[i as usize])).collect())
+    let triangles = rows.iter().map(|r| r.map(|i| ids[i as usize])).collect();
+    Ok((triangles, ids))
 }
 
 /// Each leaf's triangle indices (ascending, as both constructions keep the input's order), in
@@ -165,35 +175,13 @@ impl LeafListSpool {
     /// it (`O_TMPFILE`), so its bytes are on disk once, else copied; its bytes are then the
     /// checkpoint's, not this spool's. Returns its length and CRC-32.
     pub(crate) fn keep_at(&mut self, path: &Path) -> io::Result<(u64, u32)> {
-        match std::fs::remove_file(path) {
-            Err(e) if e.kind() != io::ErrorKind::NotFound => return Err(e),
-            _ => {}
-        }
         let len = self.file.metadata()?.len();
-        let mut hasher = crc32fast::Hasher::new();
-        let mut buffer = vec![0u8; 1 << 20];
-        let linked = crate::external::file_io::link_unnamed(&self.file, path).is_ok();
-        let mut copy = if linked {
-            None
-        } else {
-            Some(BufWriter::new(File::create(path)?))
-        };
-        let mut at = 0;
-        while at < len {
-            let n = (len - at).min(buffer.len() as u64) as usize;
-            self.file.read_exact_at(&mut buffer[..n], at)?;
-            hasher.update(&buffer[..n]);
-            if let Some(copy) = &mut copy {
-                copy.write_all(&buffer[..n])?;
-            }
-            at += n as u64;
-        }
+        let (crc32, copy) = crate::external::file_io::keep_unnamed_at(&self.file, len, path)?;
         if let Some(copy) = copy {
-            copy.into_inner().map_err(|e| e.into_error())?.sync_all()?;
-            self.file = File::open(path)?;
+            self.file = copy;
         }
         self.charge.release();
-        Ok((len, hasher.finalize()))
+        Ok((len, crc32))
     }
 
     /// The lists of `map` spooled to an unnamed file in `dir`.
@@ -249,10 +237,10 @@ impl LeafCorners {
         self.spool.leaf(i)
     }
 
-    /// The triangles of the `i`th leaf in key order.
-    pub fn triangles_of(&self, i: usize) -> io::Result<Vec<[u32; 3]>> {
+    /// The triangles of the `i`th leaf in key order, and their distinct vertex ids ascending.
+    pub fn triangles_of(&self, i: usize) -> io::Result<(Vec<[u32; 3]>, Vec<u32>)> {
         let (n, coded) = self.spool.coded(i)?;
-        decode_corners(&coded, n as usize, u64::MAX)
+        decode_corners_and_ids(&coded, n as usize, u64::MAX)
     }
 
     /// The triangles of `map` spooled to an unnamed file in `dir`, in key order (as
