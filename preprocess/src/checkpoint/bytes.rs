@@ -45,6 +45,13 @@ impl Enc {
     pub fn f32(&mut self, v: f32) {
         self.u32(v.to_bits());
     }
+    /// A LEB128 varint: a byte for values below 128 (most use counts).
+    pub fn varint(&mut self, v: u64) {
+        crate::external::varint::put(&mut self.buffer, v);
+        if self.sink.is_some() && self.buffer.len() >= SPILL_BYTES {
+            self.spill();
+        }
+    }
     pub fn f64(&mut self, v: f64) {
         self.u64(v.to_bits());
     }
@@ -122,6 +129,9 @@ impl<'a> Dec<'a> {
     }
     pub fn u64(&mut self) -> io::Result<u64> {
         Ok(u64::from_le_bytes(self.take()?))
+    }
+    pub fn varint(&mut self) -> io::Result<u64> {
+        crate::external::varint::get(self.bytes, &mut self.at).ok_or_else(|| damaged("varint"))
     }
     pub fn f32(&mut self) -> io::Result<f32> {
         Ok(f32::from_bits(self.u32()?))

@@ -11,7 +11,8 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 /// Version of the checkpoint's files: a build of another version never resumes from them.
-pub const CHECKPOINT_FORMAT: u32 = 2;
+/// 3: the use counts in a level's state are varints (they were u32s).
+pub const CHECKPOINT_FORMAT: u32 = 3;
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Manifest {

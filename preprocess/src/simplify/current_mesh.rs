@@ -165,9 +165,11 @@ impl CurrentMesh {
 
     /// The counts, for a build's checkpoint (`decode` reads them back).
     pub(crate) fn encode(&self, e: &mut crate::checkpoint::Enc) {
-        // Each shard's counts as u32s (after `Enc::list`'s own count of shards).
+        // Each shard's counts as varints (after `Enc::list`'s own count of shards): a byte a
+        // vertex where four were (the counts are written at every level's commit, and two
+        // generations of them are on disk while one is committed).
         e.list(&self.shards, |e, shard| {
-            (0..shard.len()).for_each(|at| e.u32(shard.get(at)));
+            (0..shard.len()).for_each(|at| e.varint(shard.get(at) as u64));
         });
         let mut edges: Vec<(u64, u32)> = self.nonmanifold.iter().map(|(&k, &n)| (k, n)).collect();
         edges.sort_unstable();
@@ -182,16 +184,17 @@ impl CurrentMesh {
         d: &mut crate::checkpoint::Dec,
         vertex_count: usize,
     ) -> std::io::Result<Self> {
+        let damaged = || std::io::Error::new(std::io::ErrorKind::InvalidData, "use counts");
         let mut i = 0;
         let shards = d.list(0, |d| {
             let mut shard = Shard::zeroed(shard_len(vertex_count, i));
             for at in 0..shard.len() {
-                shard.set(at, d.u32()?);
+                let n = u32::try_from(d.varint()?).map_err(|_| damaged())?;
+                shard.set(at, n);
             }
             i += 1;
             Ok(shard)
         })?;
-        let damaged = || std::io::Error::new(std::io::ErrorKind::InvalidData, "use counts");
         if shards.len() != shard_count(vertex_count) {
             return Err(damaged());
         }
