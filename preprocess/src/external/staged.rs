@@ -380,6 +380,11 @@ impl RawStager {
         self.triangles.push(&t)
     }
 
+    /// Drops the colours staged so far and stages no more (their file goes).
+    pub fn forget_colors(&mut self) {
+        self.colors = None;
+    }
+
     /// The directory it stages into.
     pub fn dir(&self) -> &Path {
         &self.dir

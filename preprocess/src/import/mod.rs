@@ -15,6 +15,7 @@ mod obj;
 mod off;
 mod ply;
 mod ply_header;
+mod sink;
 mod stl;
 pub(crate) mod weld;
 
@@ -116,9 +117,10 @@ pub fn load_mesh_from_reader(
 
 /// Stages the mesh at `path` on disk (the out-of-core build's import): streamed once into
 /// record files in `dir`, then welded and cleaned by `external::weld_within_budget` with about
-/// `budget` bytes of memory — the same mesh, ids and counts as [`load_mesh`]. PLY (ASCII,
-/// binary, `.gz`) streams; other formats are read whole first. A mesh with no triangles left
-/// is an error.
+/// `budget` bytes of memory — the same mesh, ids and counts as [`load_mesh`]. PLY, OFF, STL
+/// and OBJ (plain or `.gz`) stream through the same readers as [`load_mesh`]'s; an OBJ whose
+/// faces give texture coordinates or normals (resolved by index, in memory) and glTF are
+/// read whole first. A mesh with no triangles left is an error.
 pub fn stage_mesh(
     path: &Path,
     dir: &Path,
@@ -126,11 +128,32 @@ pub fn stage_mesh(
 ) -> Result<crate::external::StagedMesh, ImportError> {
     let at = |kind: ImportErrorKind| kind.at_path(path);
     let (format, gz) = format_of(path).map_err(at)?;
-    let raw = match format {
-        MeshFormat::Ply => stage_ply(&mut Input::open(path, gz).map_err(at)?, dir).map_err(at)?,
-        _ => crate::external::RawStaged::from_raw(&read_raw(path).map_err(at)?, dir)
-            .map_err(|e| at(ImportErrorKind::Io(e)))?,
+    let stager = |d: &sink::Declared| {
+        crate::external::RawStager::new(dir, d.normals, d.colors, d.uvs)
+            .map_err(ImportErrorKind::Io)
     };
+    let finish = |stager: crate::external::RawStager| stager.finish().map_err(ImportErrorKind::Io);
+    let open = || Input::open(path, gz);
+    let whole =
+        || crate::external::RawStaged::from_raw(&read_raw(path)?, dir).map_err(ImportErrorKind::Io);
+    let raw = match format {
+        MeshFormat::Ply => stage_ply(&mut open().map_err(at)?, dir),
+        MeshFormat::Off => off::read_into(&mut open().map_err(at)?, stager).and_then(finish),
+        MeshFormat::Stl => stl::read_into(&mut open().map_err(at)?, stager).and_then(finish),
+        MeshFormat::Obj => {
+            let colored = |colors: bool| {
+                crate::external::RawStager::new(dir, false, colors, false)
+                    .map_err(ImportErrorKind::Io)
+            };
+            match obj::read_into(&mut open().map_err(at)?, colored, false) {
+                Ok(Some((stager, _))) => finish(stager),
+                Ok(None) => whole(),
+                Err(e) => Err(e),
+            }
+        }
+        MeshFormat::Gltf => whole(),
+    }
+    .map_err(at)?;
     weld_staged(raw, dir, budget).map_err(at)
 }
 

@@ -4,6 +4,7 @@
 
 use super::error::{show, ImportErrorKind as K, Location};
 use super::input::{check_finite, fan, parse_float, parse_int, Input};
+use super::sink::{at, in_memory, Declared, MeshSink};
 use super::RawMesh;
 
 #[derive(Default, Clone, Copy)]
@@ -70,8 +71,16 @@ fn truncated(expected: u64, what: &str, done: u64) -> K {
     }
 }
 
-/// Reads an OFF file.
+/// Reads an OFF file into memory.
 pub(crate) fn read(input: &mut Input) -> Result<RawMesh, K> {
+    read_into(input, |d| Ok(in_memory(d)))
+}
+
+/// Reads an OFF file into the sink `make_sink` makes once the header is read.
+pub(crate) fn read_into<S: MeshSink>(
+    input: &mut Input,
+    make_sink: impl FnOnce(&Declared) -> Result<S, K>,
+) -> Result<S, K> {
     if !input.skip_blank(true)? {
         return Err(K::Header {
             at: Location::Line(input.line),
@@ -123,14 +132,13 @@ pub(crate) fn read(input: &mut Input) -> Result<RawMesh, K> {
         });
     }
 
-    let cap = input.prealloc(nv, false);
-    let mut mesh = RawMesh {
-        positions: Vec::with_capacity(cap),
-        triangles: Vec::with_capacity(input.prealloc(nf, false)),
-        normals: flags.normals.then(|| Vec::with_capacity(cap)),
-        colors: flags.colors.then(|| Vec::with_capacity(cap)),
-        uvs: flags.uvs.then(|| Vec::with_capacity(cap)),
-    };
+    let mut mesh = make_sink(&Declared {
+        normals: flags.normals,
+        colors: flags.colors,
+        uvs: flags.uvs,
+        vertex_capacity: input.prealloc(nv, false),
+        face_capacity: input.prealloc(nf, false),
+    })?;
 
     let simple = !(flags.colors || flags.normals || flags.uvs);
     let mut vals: Vec<f64> = Vec::new();
@@ -162,7 +170,7 @@ pub(crate) fn read(input: &mut Input) -> Result<RawMesh, K> {
                 input.skip_line()?; // extra values (4th coordinate, colours) are ignored
             }
             check_finite(p, i, || Location::Line(line))?;
-            mesh.positions.push(p);
+            mesh.vertex(&at(p))?;
             continue;
         }
         vals.clear();
@@ -196,13 +204,13 @@ pub(crate) fn read(input: &mut Input) -> Result<RawMesh, K> {
         }
         let p = [vals[0], vals[1], vals[2]];
         check_finite(p, i, || Location::Line(line))?;
-        mesh.positions.push(p);
+        let mut vertex = at(p);
         let mut at = 3;
-        if let Some(n) = &mut mesh.normals {
-            n.push([vals[at] as f32, vals[at + 1] as f32, vals[at + 2] as f32]);
+        if flags.normals {
+            vertex.normal = [vals[at] as f32, vals[at + 1] as f32, vals[at + 2] as f32];
             at += 3;
         }
-        if let Some(c) = &mut mesh.colors {
+        if flags.colors {
             let float = float_syntax[at..at + ncolor].iter().any(|&f| f);
             let mut rgba = [255u8; 4];
             for (k, v) in vals[at..at + ncolor].iter().enumerate() {
@@ -212,15 +220,17 @@ pub(crate) fn read(input: &mut Input) -> Result<RawMesh, K> {
                     v.clamp(0.0, 255.0) as u8
                 };
             }
-            c.push(rgba);
+            vertex.color = rgba;
             at += ncolor;
         }
-        if let Some(uv) = &mut mesh.uvs {
-            uv.push([vals[at] as f32, vals[at + 1] as f32]);
+        if flags.uvs {
+            vertex.uv = [vals[at] as f32, vals[at + 1] as f32];
         }
+        mesh.vertex(&vertex)?;
     }
 
     let mut poly: Vec<u32> = Vec::new();
+    let mut fanned: Vec<[u32; 3]> = Vec::new();
     for f in 0..nf {
         if !input.skip_blank(true)? {
             return Err(truncated(nf, "faces", f));
@@ -257,7 +267,9 @@ pub(crate) fn read(input: &mut Input) -> Result<RawMesh, K> {
             }
             poly.push(v as u32);
         }
-        fan(&poly, &mut mesh.triangles);
+        fanned.clear();
+        fan(&poly, &mut fanned);
+        mesh.triangles(&fanned)?;
         if !input.end_line(true)? {
             input.skip_line()?; // face colour
         }

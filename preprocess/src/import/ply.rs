@@ -6,58 +6,9 @@
 use super::error::{show, ImportErrorKind as K, Location};
 use super::input::{check_finite, fan, parse_int, Input};
 use super::ply_header::{header_err, parse_header, Element, Format, Prop, PropType, Scalar};
+use super::sink::{Declared, MeshSink};
 use super::RawMesh;
-use crate::external::{RawStager, RawVertex};
-
-/// Where a reader puts what it reads: in memory (`RawMesh`) or on disk (`RawStager`, the
-/// out-of-core build's staging).
-pub(crate) trait MeshSink {
-    fn vertex(&mut self, v: &RawVertex) -> Result<(), K>;
-    fn triangles(&mut self, t: &[[u32; 3]]) -> Result<(), K>;
-}
-
-impl MeshSink for RawMesh {
-    fn vertex(&mut self, v: &RawVertex) -> Result<(), K> {
-        self.positions.push(v.position);
-        if let Some(n) = &mut self.normals {
-            n.push(v.normal);
-        }
-        if let Some(c) = &mut self.colors {
-            c.push(v.color);
-        }
-        if let Some(uv) = &mut self.uvs {
-            uv.push(v.uv);
-        }
-        Ok(())
-    }
-
-    fn triangles(&mut self, t: &[[u32; 3]]) -> Result<(), K> {
-        self.triangles.extend_from_slice(t);
-        Ok(())
-    }
-}
-
-impl MeshSink for RawStager {
-    fn vertex(&mut self, v: &RawVertex) -> Result<(), K> {
-        self.push_vertex(v).map_err(K::Io)
-    }
-
-    fn triangles(&mut self, t: &[[u32; 3]]) -> Result<(), K> {
-        t.iter()
-            .try_for_each(|&t| self.push_triangle(t))
-            .map_err(K::Io)
-    }
-}
-
-/// The attributes a file's vertices carry, and how many vertices and face-like records its
-/// header declares (a hint for preallocation, bounded by the file's size where known).
-pub(crate) struct Declared {
-    pub normals: bool,
-    pub colors: bool,
-    pub uvs: bool,
-    pub vertex_capacity: usize,
-    pub face_capacity: usize,
-}
+use crate::external::RawVertex;
 
 /// What a vertex property feeds.
 #[derive(Clone, Copy, Debug)]
@@ -156,15 +107,7 @@ enum FaceKind {
 
 /// Reads a PLY file into memory.
 pub(crate) fn read(input: &mut Input) -> Result<RawMesh, K> {
-    read_into(input, |d| {
-        Ok(RawMesh {
-            positions: Vec::with_capacity(d.vertex_capacity),
-            triangles: Vec::with_capacity(d.face_capacity),
-            normals: d.normals.then(|| Vec::with_capacity(d.vertex_capacity)),
-            colors: d.colors.then(|| Vec::with_capacity(d.vertex_capacity)),
-            uvs: d.uvs.then(|| Vec::with_capacity(d.vertex_capacity)),
-        })
-    })
+    read_into(input, |d| Ok(super::sink::in_memory(d)))
 }
 
 /// Reads a PLY file into the sink `make_sink` makes once the header is read.

@@ -3,14 +3,34 @@
 
 use super::error::{show, ImportErrorKind as K, Location};
 use super::input::{check_finite, parse_float, Input};
+use super::sink::{at, in_memory, Declared, MeshSink};
 use super::RawMesh;
 
-/// Reads an STL file, telling ASCII from binary by content.
+/// Reads an STL file into memory, telling ASCII from binary by content.
 pub(crate) fn read(input: &mut Input) -> Result<RawMesh, K> {
+    read_into(input, |d| Ok(in_memory(d)))
+}
+
+/// Reads an STL file into the sink `make_sink` makes (told the expected size where the file
+/// declares it), telling ASCII from binary by content.
+pub(crate) fn read_into<S: MeshSink>(
+    input: &mut Input,
+    make_sink: impl FnOnce(&Declared) -> Result<S, K>,
+) -> Result<S, K> {
     if is_ascii(input)? {
-        read_ascii(input)
+        read_ascii(input, make_sink(&no_attributes(0))?)
     } else {
-        read_binary(input)
+        read_binary(input, make_sink)
+    }
+}
+
+fn no_attributes(triangles: usize) -> Declared {
+    Declared {
+        normals: false,
+        colors: false,
+        uvs: false,
+        vertex_capacity: 3 * triangles,
+        face_capacity: triangles,
     }
 }
 
@@ -43,7 +63,10 @@ fn is_ascii(input: &mut Input) -> Result<bool, K> {
         || rest.is_empty())
 }
 
-fn read_binary(input: &mut Input) -> Result<RawMesh, K> {
+fn read_binary<S: MeshSink>(
+    input: &mut Input,
+    make_sink: impl FnOnce(&Declared) -> Result<S, K>,
+) -> Result<S, K> {
     let size = input.remaining();
     let Some(header) = input.bytes(84)? else {
         return Err(K::Truncated {
@@ -82,12 +105,7 @@ fn read_binary(input: &mut Input) -> Result<RawMesh, K> {
             ),
         });
     }
-    let cap = input.prealloc(count, bounded);
-    let mut mesh = RawMesh {
-        positions: Vec::with_capacity(3 * cap),
-        triangles: Vec::with_capacity(cap),
-        ..Default::default()
-    };
+    let mut mesh = make_sink(&no_attributes(input.prealloc(count, bounded)))?;
     for t in 0..count {
         let Some(rec) = input.bytes(50)? else {
             return Err(K::Truncated {
@@ -99,15 +117,16 @@ fn read_binary(input: &mut Input) -> Result<RawMesh, K> {
         };
         let f =
             |k: usize| f32::from_le_bytes(rec[12 + 4 * k..16 + 4 * k].try_into().unwrap()) as f64;
-        let base = mesh.positions.len() as u32;
+        // Facet t's corners are vertices 3t, 3t + 1, 3t + 2 (3t fits: the count was checked).
+        let base = 3 * t as u32;
         for c in 0..3 {
             let p = [f(3 * c), f(3 * c + 1), f(3 * c + 2)];
             check_finite(p, (base + c as u32) as u64, || {
                 Location::Record("triangle".into(), t)
             })?;
-            mesh.positions.push(p);
+            mesh.vertex(&at(p))?;
         }
-        mesh.triangles.push([base, base + 1, base + 2]);
+        mesh.triangles(&[[base, base + 1, base + 2]])?;
     }
     Ok(mesh)
 }
@@ -149,11 +168,12 @@ fn number(input: &mut Input) -> Result<f64, K> {
     }
 }
 
-fn read_ascii(input: &mut Input) -> Result<RawMesh, K> {
-    let mut mesh = RawMesh::default();
+fn read_ascii<S: MeshSink>(input: &mut Input, mut mesh: S) -> Result<S, K> {
     expect(input, "solid")?;
     input.skip_line()?; // solid name
     let mut corners: Vec<u32> = Vec::new();
+    let mut fanned: Vec<[u32; 3]> = Vec::new();
+    let mut vertices: u64 = 0;
     loop {
         let Some((w, line)) = word(input)? else {
             return Ok(mesh); // tolerate a missing endsolid
@@ -194,9 +214,16 @@ fn read_ascii(input: &mut Input) -> Result<RawMesh, K> {
             match word(input)? {
                 Some((w, line)) if w.eq_ignore_ascii_case(b"vertex") => {
                     let p = [number(input)?, number(input)?, number(input)?];
-                    check_finite(p, mesh.positions.len() as u64, || Location::Line(line))?;
-                    corners.push(mesh.positions.len() as u32);
-                    mesh.positions.push(p);
+                    check_finite(p, vertices, || Location::Line(line))?;
+                    if vertices > u32::MAX as u64 {
+                        return Err(K::TooLarge {
+                            at: Location::Line(line),
+                            msg: format!("more than {} vertices", u32::MAX as u64 + 1),
+                        });
+                    }
+                    corners.push(vertices as u32);
+                    mesh.vertex(&at(p))?;
+                    vertices += 1;
                 }
                 Some((w, _)) if w.eq_ignore_ascii_case(b"endloop") => break,
                 Some((w, line)) => {
@@ -214,7 +241,9 @@ fn read_ascii(input: &mut Input) -> Result<RawMesh, K> {
                 msg: format!("facet has {} vertices, expected at least 3", corners.len()),
             });
         }
-        super::input::fan(&corners, &mut mesh.triangles);
+        fanned.clear();
+        super::input::fan(&corners, &mut fanned);
+        mesh.triangles(&fanned)?;
         expect(input, "endfacet")?;
     }
 }
