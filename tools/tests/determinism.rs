@@ -269,14 +269,15 @@ fn a_2m_triangle_build_stays_within_64_mib() {
     let stages = per_stage("peak_rss_bytes");
     assert!(stages.windows(2).all(|w| w[0] <= w[1]), "{json}");
     assert!(stages.last().is_some_and(|&last| last <= peak), "{json}");
-    // Temporary disk: issue 12 asks for 1.5× the input; this pins what the build reaches
-    // (1.52× here in the twentieth session, the hierarchy's buckets beside the staged mesh;
-    // 2.46× in the nineteenth, 2.68× in the sixteenth, 3.31× in the fifteenth, 6.1× before),
-    // so that a change that puts more on disk fails here.
+    // Temporary disk: issue 12 asks for at most 1.5× the input. The build reaches 1.39× here
+    // in the twenty-first session (the hierarchy's buckets beside the staged mesh; 1.52× in
+    // the twentieth, 2.46× in the nineteenth, 2.68× in the sixteenth, 3.31× in the fifteenth,
+    // 6.1× before); the pin leaves a little room under the issue's bound, so that a change
+    // that puts more on disk fails here.
     let input = std::fs::metadata(&generated).unwrap().len();
     let temp = json["temp_bytes_peak"].as_u64().unwrap();
     assert!(
-        temp as f64 <= 1.6 * input as f64,
+        temp as f64 <= 1.45 * input as f64,
         "temporary files peaked at {temp} bytes, {:.2}× the {input}-byte input: {json}",
         temp as f64 / input as f64
     );

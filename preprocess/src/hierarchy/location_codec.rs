@@ -16,7 +16,7 @@
 //!
 //! Neighbouring triangles follow each other in scans and in `gen mesh` output, so a record
 //! takes about seven bytes where LEB128 varints alone took about ten (a bucket record of a
-//! 2 M-triangle input: 7.x against 9.6; the buckets beside the staged mesh are the
+//! 2 M-triangle input: 7.0 against 9.6; the buckets beside the staged mesh are the
 //! hierarchy stage's temporary peak).
 //!
 //! A stream of records starts from a zero state; the buckets start one at each run, so that a
