@@ -1,7 +1,7 @@
-//! The out-of-core import of every mesh format (`import::stage_mesh`): OFF, STL and OBJ stream
-//! through the same readers as the in-memory import and give the same mesh, ids, attributes
-//! and counts; they hold a bounded heap while they do (this binary counts its allocations);
-//! an OBJ whose faces give texture coordinates or normals is read whole and still agrees.
+//! The out-of-core import of every mesh format (`import::stage_mesh`): OFF, STL and OBJ (its
+//! texture coordinates and normals by face corner too) stream through the same readers as
+//! the in-memory import and give the same mesh, ids, attributes and counts, and hold a
+//! bounded heap while they do (this binary counts its allocations).
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::fmt::Write as _;
@@ -188,29 +188,57 @@ fn stl_binary(g: &Grid) -> Vec<u8> {
     b
 }
 
-/// OBJ: `colors` on every vertex but the last when `colors` is `Some(false)`; faces as
-/// `v//vn` when `normals`.
-fn obj(g: &Grid, colors: Option<bool>, normals: bool) -> String {
+/// What an OBJ's face corners carry besides the vertex.
+#[derive(Clone, Copy, PartialEq)]
+enum Corners {
+    Plain,
+    /// `v//vn`, a normal per vertex, in vertex order.
+    Normals,
+    /// `v/vt/vn`: texture coordinates shared by four vertices each and listed backwards,
+    /// normals by vertex; a vertex's corners disagree (its first counts).
+    Both,
+    /// `v/vt` on every corner but the last face's: no vertex keeps one.
+    MostlyTextured,
+}
+
+/// OBJ: `colors` on every vertex (`Some(true)`), on every vertex but the last
+/// (`Some(false)`), or none; face corners as `corners` says.
+fn obj(g: &Grid, colors: Option<bool>, corners: Corners) -> String {
     let mut s = String::from("# grid\no grid\n");
+    let n = g.positions.len();
     for (i, p) in g.positions.iter().enumerate() {
         write!(s, "v {} {} {}", p[0], p[1], p[2]).unwrap();
-        let last = i + 1 == g.positions.len();
+        let last = i + 1 == n;
         if colors == Some(true) || (colors == Some(false) && !last) {
             write!(s, " {} 0.5 1", (i % 10) as f64 / 10.0).unwrap();
         }
         s.push('\n');
-        if normals {
+        if corners != Corners::Plain {
             writeln!(s, "vn 0 0 {}", 1.0 + i as f64).unwrap();
         }
-    }
-    s += "g faces\ns off\n";
-    for t in &g.triangles {
-        if normals {
-            let [a, b, c] = t.map(|v| v + 1);
-            writeln!(s, "f {a}//{a} {b}//{b} {c}//{c}").unwrap();
-        } else {
-            writeln!(s, "f {} {} {}", t[0] + 1, t[1] + 1, t[2] + 1).unwrap();
+        if i % 4 == 0 && corners != Corners::Plain {
+            writeln!(s, "vt {} 0.25", i as f64 / n as f64).unwrap();
         }
+    }
+    let texcoords = n.div_ceil(4);
+    s += "g faces\ns off\n";
+    for (f, t) in g.triangles.iter().enumerate() {
+        s += "f";
+        for (k, &v) in t.iter().enumerate() {
+            let v1 = v as usize + 1;
+            // Backwards, and shifted by the face so a vertex's corners differ.
+            let vt = texcoords - (v as usize / 4 + f + k) % texcoords;
+            match corners {
+                Corners::Plain => write!(s, " {v1}").unwrap(),
+                Corners::Normals => write!(s, " {v1}//{v1}").unwrap(),
+                Corners::Both => write!(s, " {v1}/{vt}/{}", (v as usize + f) % n + 1).unwrap(),
+                Corners::MostlyTextured if f + 1 == g.triangles.len() => {
+                    write!(s, " {v1}").unwrap()
+                }
+                Corners::MostlyTextured => write!(s, " {v1}/{vt}").unwrap(),
+            }
+        }
+        s.push('\n');
     }
     s
 }
@@ -226,18 +254,18 @@ fn off_stl_and_obj_stage_as_they_load() {
     }
     files.push(("ascii.stl".into(), stl_ascii(&g).into_bytes()));
     files.push(("binary.stl".into(), stl_binary(&g)));
-    files.push(("plain.obj".into(), obj(&g, None, false).into_bytes()));
-    files.push((
-        "colored.obj".into(),
-        obj(&g, Some(true), false).into_bytes(),
-    ));
-    // The last vertex without a colour: no vertex keeps one.
-    files.push((
-        "almost.obj".into(),
-        obj(&g, Some(false), false).into_bytes(),
-    ));
-    // Normals by face corner: read whole, the same mesh.
-    files.push(("normals.obj".into(), obj(&g, None, true).into_bytes()));
+    let objs = [
+        ("plain.obj", None, Corners::Plain),
+        ("colored.obj", Some(true), Corners::Plain),
+        // The last vertex without a colour: no vertex keeps one.
+        ("almost.obj", Some(false), Corners::Plain),
+        ("normals.obj", None, Corners::Normals),
+        ("both.obj", Some(true), Corners::Both),
+        ("mostly.obj", None, Corners::MostlyTextured),
+    ];
+    for (name, colors, corners) in objs {
+        files.push((name.into(), obj(&g, colors, corners).into_bytes()));
+    }
     let gz: Vec<(String, Vec<u8>)> = files
         .iter()
         .map(|(name, bytes)| (format!("{name}.gz"), gzip(bytes)))
@@ -253,6 +281,9 @@ fn off_stl_and_obj_stage_as_they_load() {
     assert!(loaded("colored.obj").colors.is_some());
     assert!(loaded("almost.obj").colors.is_none());
     assert!(loaded("normals.obj").normals.is_some());
+    let both = loaded("both.obj");
+    assert!(both.normals.is_some() && both.uvs.is_some() && both.colors.is_some());
+    assert!(loaded("mostly.obj").uvs.is_none());
 }
 
 #[test]
@@ -271,7 +302,11 @@ fn a_real_scan_streams_as_stl_off_and_obj_within_a_bounded_heap() {
     let files = [
         write(dir.path(), "dragon.stl", &stl_binary(&g)),
         write(dir.path(), "dragon.off", off(&g, "").as_bytes()),
-        write(dir.path(), "dragon.obj", obj(&g, None, false).as_bytes()),
+        write(
+            dir.path(),
+            "dragon.obj",
+            obj(&g, None, Corners::Both).as_bytes(),
+        ),
     ];
     drop(g);
     for path in &files {

@@ -6,6 +6,7 @@
 pub mod allocator;
 pub mod bits;
 mod chunk_reader;
+pub mod corner_attributes;
 mod cursor;
 mod fallible;
 pub(crate) mod file_io;

@@ -118,9 +118,10 @@ pub fn load_mesh_from_reader(
 /// Stages the mesh at `path` on disk (the out-of-core build's import): streamed once into
 /// record files in `dir`, then welded and cleaned by `external::weld_within_budget` with about
 /// `budget` bytes of memory — the same mesh, ids and counts as [`load_mesh`]. PLY, OFF, STL
-/// and OBJ (plain or `.gz`) stream through the same readers as [`load_mesh`]'s; an OBJ whose
-/// faces give texture coordinates or normals (resolved by index, in memory) and glTF are
-/// read whole first. A mesh with no triangles left is an error.
+/// and OBJ (plain or `.gz`) stream through the same readers as [`load_mesh`]'s (an OBJ's
+/// texture coordinates and normals, indexed apart from its positions, are joined into
+/// vertex order by external sorts); glTF is read whole first. A mesh with no triangles left
+/// is an error.
 pub fn stage_mesh(
     path: &Path,
     dir: &Path,
@@ -140,17 +141,7 @@ pub fn stage_mesh(
         MeshFormat::Ply => stage_ply(&mut open().map_err(at)?, dir),
         MeshFormat::Off => off::read_into(&mut open().map_err(at)?, stager).and_then(finish),
         MeshFormat::Stl => stl::read_into(&mut open().map_err(at)?, stager).and_then(finish),
-        MeshFormat::Obj => {
-            let colored = |colors: bool| {
-                crate::external::RawStager::new(dir, false, colors, false)
-                    .map_err(ImportErrorKind::Io)
-            };
-            match obj::read_into(&mut open().map_err(at)?, colored, false) {
-                Ok(Some((stager, _))) => finish(stager),
-                Ok(None) => whole(),
-                Err(e) => Err(e),
-            }
-        }
+        MeshFormat::Obj => stage_obj(&mut open().map_err(at)?, dir, budget),
         MeshFormat::Gltf => whole(),
     }
     .map_err(at)?;
@@ -168,6 +159,32 @@ pub fn stage_ply_from_reader(
     let at = |kind: ImportErrorKind| kind.at_path(name);
     let raw = stage_ply(&mut Input::new(Box::new(reader), false, None), dir).map_err(at)?;
     weld_staged(raw, dir, budget).map_err(at)
+}
+
+/// An OBJ streamed to disk: positions and colours through the stager, texture coordinates
+/// and normals through `CornerStager`, joined into vertex order when the file keeps them.
+fn stage_obj(
+    input: &mut Input,
+    dir: &Path,
+    budget: usize,
+) -> Result<crate::external::RawStaged, ImportErrorKind> {
+    let io = ImportErrorKind::Io;
+    let colored =
+        |colors: bool| crate::external::RawStager::new(dir, false, colors, false).map_err(io);
+    let mut corners = crate::external::corner_attributes::CornerStager::new(dir).map_err(io)?;
+    let (stager, facts) = obj::read_into(input, colored, &mut corners)?;
+    let mut raw = stager.finish().map_err(io)?;
+    let (uvs, normals) = corners
+        .finish(
+            facts.vertices,
+            facts.all_vt && facts.triangles,
+            facts.all_vn && facts.triangles,
+            budget,
+        )
+        .map_err(io)?;
+    raw.attributes.uvs = uvs;
+    raw.attributes.normals = normals;
+    Ok(raw)
 }
 
 fn stage_ply(input: &mut Input, dir: &Path) -> Result<crate::external::RawStaged, ImportErrorKind> {

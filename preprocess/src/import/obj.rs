@@ -5,12 +5,15 @@
 //!
 //! A vertex takes its texture coordinate and normal from the first face corner that uses it
 //! (OBJ indexes them separately); they are kept only if every face corner has them, colours
-//! only if every `v` has them.
+//! only if every `v` has them. One reader serves both imports: positions and colours go to a
+//! `MeshSink`, texture coordinates, normals and corners to a [`CornerTracker`] (in memory, or
+//! staged on disk for the out-of-core build and joined into vertex order at the end).
 
 use super::error::{show, ImportErrorKind as K, Location};
 use super::input::{check_finite, fan, parse_float, parse_int, Input};
 use super::sink::{at, MeshSink};
 use super::RawMesh;
+use crate::external::corner_attributes::{CornerStager, NONE};
 
 enum Keyword {
     V,
@@ -55,74 +58,120 @@ pub(crate) fn read(input: &mut Input) -> Result<RawMesh, K> {
             ..Default::default()
         })
     };
-    let (mut mesh, corners) =
-        read_into(input, in_memory, true)?.expect("face attributes are tracked");
-    let corners = corners.expect("face attributes are tracked");
-    let attr = |keep: bool, of: &[u32]| {
-        keep && !mesh.triangles.is_empty() && of.iter().any(|&i| i != UNSET)
-    };
-    mesh.uvs = attr(corners.all_vt, &corners.vt_of).then(|| {
-        corners
-            .vt_of
-            .iter()
+    let mut corners = CornerAttributes::default();
+    let (mut mesh, facts) = read_into(input, in_memory, &mut corners)?;
+    let keep = |all: bool, of: &[u32]| all && facts.triangles && of.iter().any(|&i| i != UNSET);
+    mesh.uvs = keep(facts.all_vt, &corners.vt_of).then(|| {
+        (corners.vt_of.iter())
             .map(|&i| {
-                if i == UNSET {
-                    [0.0; 2]
-                } else {
-                    corners.texcoords[i as usize]
-                }
+                corners
+                    .texcoords
+                    .get(i as usize)
+                    .copied()
+                    .unwrap_or_default()
             })
             .collect()
     });
-    mesh.normals = attr(corners.all_vn, &corners.vn_of).then(|| {
-        corners
-            .vn_of
-            .iter()
-            .map(|&i| {
-                if i == UNSET {
-                    [0.0; 3]
-                } else {
-                    corners.normals[i as usize]
-                }
-            })
+    mesh.normals = keep(facts.all_vn, &corners.vn_of).then(|| {
+        (corners.vn_of.iter())
+            .map(|&i| corners.normals.get(i as usize).copied().unwrap_or_default())
             .collect()
     });
     Ok(mesh)
 }
 
-/// The texture coordinates and normals an OBJ's face corners give its vertices, tracked by
-/// the in-memory read (a `u32` a vertex each, and the `vt` and `vn` values).
+/// Where an OBJ reader puts its `vt` and `vn` values and its face corners' indices into them
+/// (checked against the values read so far): in memory ([`CornerAttributes`]) or on disk
+/// (`external::corner_attributes::CornerStager`, the out-of-core build's import).
+pub(crate) trait CornerTracker {
+    /// A `v` statement: the next vertex.
+    fn vertex(&mut self);
+    fn texcoord(&mut self, uv: [f32; 2]) -> Result<(), K>;
+    fn normal(&mut self, n: [f32; 3]) -> Result<(), K>;
+    fn corner(&mut self, v: u32, vt: Option<u32>, vn: Option<u32>) -> Result<(), K>;
+}
+
+/// The texture coordinates and normals an OBJ's face corners give its vertices, in memory:
+/// the `vt` and `vn` values and, per vertex, the index of its first corner's.
 #[derive(Default)]
-pub(crate) struct CornerAttributes {
+struct CornerAttributes {
     texcoords: Vec<[f32; 2]>,
     normals: Vec<[f32; 3]>,
-    /// Per vertex: index into texcoords / normals from its first face corner.
     vt_of: Vec<u32>,
     vn_of: Vec<u32>,
-    all_vt: bool,
-    all_vn: bool,
+}
+
+impl CornerTracker for CornerAttributes {
+    fn vertex(&mut self) {
+        self.vt_of.push(UNSET);
+        self.vn_of.push(UNSET);
+    }
+    fn texcoord(&mut self, uv: [f32; 2]) -> Result<(), K> {
+        self.texcoords.push(uv);
+        Ok(())
+    }
+    fn normal(&mut self, n: [f32; 3]) -> Result<(), K> {
+        self.normals.push(n);
+        Ok(())
+    }
+    fn corner(&mut self, v: u32, vt: Option<u32>, vn: Option<u32>) -> Result<(), K> {
+        if let Some(vt) = vt {
+            if self.vt_of[v as usize] == UNSET {
+                self.vt_of[v as usize] = vt;
+            }
+        }
+        if let Some(vn) = vn {
+            if self.vn_of[v as usize] == UNSET {
+                self.vn_of[v as usize] = vn;
+            }
+        }
+        Ok(())
+    }
+}
+
+impl CornerTracker for CornerStager {
+    fn vertex(&mut self) {}
+    fn texcoord(&mut self, uv: [f32; 2]) -> Result<(), K> {
+        CornerStager::texcoord(self, uv).map_err(K::Io)
+    }
+    fn normal(&mut self, n: [f32; 3]) -> Result<(), K> {
+        CornerStager::normal(self, n).map_err(K::Io)
+    }
+    fn corner(&mut self, v: u32, vt: Option<u32>, vn: Option<u32>) -> Result<(), K> {
+        let (vt, vn) = (vt.unwrap_or(NONE), vn.unwrap_or(NONE));
+        CornerStager::corner(self, v, vt, vn).map_err(K::Io)
+    }
+}
+
+/// What decides an OBJ's attributes once it is read: a vertex keeps its first corner's
+/// texture coordinate (normal) only if every face corner has one (`all_vt`, `all_vn`) and
+/// the file has a triangle.
+pub(crate) struct ObjFacts {
+    pub all_vt: bool,
+    pub all_vn: bool,
+    pub triangles: bool,
+    pub vertices: u64,
 }
 
 /// Reads an OBJ file into the sink `make_sink(colors)` makes at the first vertex (`colors`:
-/// whether it has a colour; the sink is told to forget them if a later vertex has none).
-/// With `track_corners` the face corners' texture coordinates and normals are tracked (in
-/// memory) and returned; without, a face corner that has one stops the read: `Ok(None)`
-/// (the out-of-core import then reads the file whole, as attributes are resolved by index).
+/// whether it has a colour; the sink is told to forget them if a later vertex has none), the
+/// texture coordinates, normals and face corners into `corners`.
 pub(crate) fn read_into<S: MeshSink>(
     input: &mut Input,
     make_sink: impl FnOnce(bool) -> Result<S, K>,
-    track_corners: bool,
-) -> Result<Option<(S, Option<CornerAttributes>)>, K> {
+    corners: &mut impl CornerTracker,
+) -> Result<(S, ObjFacts), K> {
     let mut make_sink = Some(make_sink);
     let mut sink: Option<S> = None;
     let mut vertices: u64 = 0;
     let mut all_colored = true;
-    let mut corners = track_corners.then(|| CornerAttributes {
+    let mut facts = ObjFacts {
         all_vt: true,
         all_vn: true,
-        ..Default::default()
-    });
-    // `vt` and `vn` statements seen (their values are kept only when tracked).
+        triangles: false,
+        vertices: 0,
+    };
+    // `vt` and `vn` statements read so far (the range their indices are checked against).
     let (mut texcoord_count, mut normal_count) = (0usize, 0usize);
     let mut fanned: Vec<[u32; 3]> = Vec::new();
     let mut poly: Vec<u32> = Vec::new();
@@ -164,37 +213,22 @@ pub(crate) fn read_into<S: MeshSink>(
                     });
                 };
                 let v = resolve(v, vertices as usize, line, "vertex")?;
-                let Some(corners) = corners.as_mut() else {
-                    if vt.is_some() || vn.is_some() {
-                        return Ok(None);
-                    }
-                    poly.push(v);
-                    continue;
-                };
-                match vt {
-                    Some(vt) => {
-                        let vt = resolve(vt, texcoord_count, line, "texture coordinate")?;
-                        if corners.vt_of[v as usize] == UNSET {
-                            corners.vt_of[v as usize] = vt;
-                        }
-                    }
-                    None => corners.all_vt = false,
-                }
-                match vn {
-                    Some(vn) => {
-                        let vn = resolve(vn, normal_count, line, "normal")?;
-                        if corners.vn_of[v as usize] == UNSET {
-                            corners.vn_of[v as usize] = vn;
-                        }
-                    }
-                    None => corners.all_vn = false,
-                }
+                let vt = vt
+                    .map(|vt| resolve(vt, texcoord_count, line, "texture coordinate"))
+                    .transpose()?;
+                let vn = vn
+                    .map(|vn| resolve(vn, normal_count, line, "normal"))
+                    .transpose()?;
+                facts.all_vt &= vt.is_some();
+                facts.all_vn &= vn.is_some();
+                corners.corner(v, vt, vn)?;
                 poly.push(v);
             }
             input.end_line(true)?;
             fanned.clear();
             fan(&poly, &mut fanned);
             if !fanned.is_empty() {
+                facts.triangles = true;
                 // A face comes after a vertex it uses, so the sink exists.
                 sink.as_mut()
                     .expect("a face after its vertices")
@@ -254,31 +288,21 @@ pub(crate) fn read_into<S: MeshSink>(
                 }
                 sink.as_mut().expect("made above").vertex(&vertex)?;
                 vertices += 1;
-                if let Some(corners) = corners.as_mut() {
-                    corners.vt_of.push(UNSET);
-                    corners.vn_of.push(UNSET);
-                }
+                corners.vertex();
             }
             Keyword::Vt => {
                 if !(1..=3).contains(&n) {
                     return Err(count_err("texture coordinate", "1 to 3"));
                 }
                 texcoord_count += 1;
-                if let Some(corners) = corners.as_mut() {
-                    let uv = [vals[0] as f32, if n > 1 { vals[1] as f32 } else { 0.0 }];
-                    corners.texcoords.push(uv);
-                }
+                corners.texcoord([vals[0] as f32, if n > 1 { vals[1] as f32 } else { 0.0 }])?;
             }
             Keyword::Vn => {
                 if n != 3 {
                     return Err(count_err("normal", "3"));
                 }
                 normal_count += 1;
-                if let Some(corners) = corners.as_mut() {
-                    corners
-                        .normals
-                        .push([vals[0] as f32, vals[1] as f32, vals[2] as f32]);
-                }
+                corners.normal([vals[0] as f32, vals[1] as f32, vals[2] as f32])?;
             }
             Keyword::F | Keyword::Other => unreachable!(),
         }
@@ -289,5 +313,6 @@ pub(crate) fn read_into<S: MeshSink>(
         (None, Some(make)) => make(false)?,
         (None, None) => unreachable!("the sink is made when taken"),
     };
-    Ok(Some((sink, corners)))
+    facts.vertices = vertices;
+    Ok((sink, facts))
 }
