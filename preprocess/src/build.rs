@@ -13,8 +13,8 @@ use tessera_core::repository::{write_repository_streamed, BlobFeed, RepositoryDi
 
 use crate::build_tables::{assemble, Built, Parts};
 use crate::checkpoint::{
-    save_hierarchy, save_levels, Checkpoint, CheckpointError, HierarchyCheckpoint, InputFacts,
-    LevelsCheckpoint,
+    save_hierarchy, save_level_part, save_levels, Checkpoint, CheckpointError, HierarchyCheckpoint,
+    InputFacts, LevelsCheckpoint,
 };
 use crate::external::{LeafGroups, StagedMesh};
 use crate::finished_patches::{FinishedPatches, PatchEncoding};
@@ -25,8 +25,8 @@ use crate::hierarchy::{
 };
 use crate::mesh::InputMesh;
 use crate::simplify::{
-    simplify_from_leaves, simplify_hierarchy, simplify_levels, CurrentMesh, LevelState,
-    SimplifyError, SimplifySettings,
+    simplify_from_leaves, simplify_hierarchy, simplify_levels, CurrentMesh, LevelCheckpoints,
+    LevelState, SimplifyError, SimplifySettings,
 };
 use crate::vertex_table::LivePatch;
 
@@ -333,9 +333,9 @@ fn build_in_pool(
         triangles: input_triangles,
         attributes,
     };
-    let (resumed_hierarchy, resumed_state, resumed_finished) = match levels {
-        Some(l) => (Some(l.hierarchy), Some(l.state), Some(l.finished)),
-        None => (None, None, None),
+    let (resumed_hierarchy, resumed_state, resumed_finished, resumed_parts) = match levels {
+        Some(l) => (Some(l.hierarchy), Some(l.state), Some(l.finished), l.parts),
+        None => (None, None, None, Vec::new()),
     };
 
     // Where everything sits: bounding box, repository origin (its minimum corner: every build
@@ -417,10 +417,26 @@ fn build_in_pool(
     let mut sink =
         |patches: &[(SimplexKey, &LivePatch)]| finished.borrow_mut().add(patches, &encoding);
     let checkpoint_dir = checkpoint.as_deref().map(|c| c.dir().to_path_buf());
-    // A checkpointed build saves its state after the leaves and after each level.
-    let mut after_level = |state: &LevelState| match checkpoint.as_deref_mut() {
+    // A checkpointed build saves its state after the leaves and after each level, and the
+    // results of a level being simplified in parts, as its pacing allows.
+    let checkpoint = RefCell::new(checkpoint);
+    let mut after_level = |state: &LevelState| match checkpoint.borrow_mut().as_deref_mut() {
         Some(c) => save_levels(c, &facts, &hierarchy, state, &mut finished.borrow_mut()),
         None => Ok(()),
+    };
+    let mut after_part =
+        |state: &LevelState,
+         diamonds: usize,
+         write: &dyn Fn(&mut crate::checkpoint::Enc) -> std::io::Result<()>| {
+            match checkpoint.borrow_mut().as_deref_mut() {
+                Some(c) => save_level_part(c, state, diamonds, write),
+                None => Ok(false),
+            }
+        };
+    let mut checkpoints = LevelCheckpoints {
+        after_level: &mut after_level,
+        after_part: &mut after_part,
+        resumed_parts,
     };
     let simplified = match (source, &config.memory) {
         (Source::Resumed, _) => simplify_levels(
@@ -429,7 +445,7 @@ fn build_in_pool(
             &config.simplify,
             spill_dir,
             &mut sink,
-            &mut after_level,
+            &mut checkpoints,
         ),
         (Source::Staged(staged), Some(memory)) => {
             let simplifier_of =
@@ -469,14 +485,14 @@ fn build_in_pool(
                     (&dir, &hierarchy.frame),
                 )
                 .and_then(|state| {
-                    after_level(&state)?;
+                    (checkpoints.after_level)(&state)?;
                     simplify_levels(
                         state,
                         &hierarchy,
                         &config.simplify,
                         spill_dir,
                         &mut sink,
-                        &mut after_level,
+                        &mut checkpoints,
                     )
                 }),
             })

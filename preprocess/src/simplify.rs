@@ -39,6 +39,7 @@ mod levels;
 mod live_record;
 mod live_store;
 mod local_edges;
+mod partial_level;
 mod positions;
 mod result_spill;
 
@@ -68,7 +69,8 @@ pub use positions::{simplifier_position, ulp_step};
 use result_spill::{Held, Payload, ResultSpill};
 
 pub use current_mesh::CurrentMesh;
-pub use levels::{simplify_levels, LevelState};
+pub use levels::LevelState;
+pub(crate) use levels::{simplify_levels, LevelCheckpoints};
 
 /// The simplifier's own error of every split diamond (the patches went to the caller's
 /// `finished` as they were made).
@@ -266,8 +268,8 @@ pub fn simplify_from_leaves(
 ) -> Result<Simplified, SimplifyError> {
     let store = LiveStore::new(spill_dir, positions::SimplifierScale::of(&hierarchy.frame))?;
     let state = LevelState::from_leaves(leaves, vertex_count, current, store)?;
-    simplify_levels(state, hierarchy, settings, spill_dir, finished, &mut |_| {
-        Ok(())
+    LevelCheckpoints::none(|checkpoints| {
+        simplify_levels(state, hierarchy, settings, spill_dir, finished, checkpoints)
     })
 }
 

@@ -121,6 +121,14 @@ impl<'a> Dec<'a> {
     pub fn u8(&mut self) -> io::Result<u8> {
         Ok(self.take::<1>()?[0])
     }
+    /// The next `n` bytes, as they are.
+    pub fn take_bytes(&mut self, n: usize) -> io::Result<&'a [u8]> {
+        let end = self.at.checked_add(n).filter(|&e| e <= self.bytes.len());
+        let end = end.ok_or_else(|| damaged("truncated"))?;
+        let out = &self.bytes[self.at..end];
+        self.at = end;
+        Ok(out)
+    }
     pub fn u32(&mut self) -> io::Result<u32> {
         Ok(u32::from_le_bytes(self.take()?))
     }

@@ -23,6 +23,56 @@ pub(crate) struct LevelsCheckpoint {
     pub hierarchy: Hierarchy,
     pub state: LevelState,
     pub finished: FinishedPatches,
+    /// The parts of the next level saved so far (`save_level_part`), in order.
+    pub parts: Vec<Vec<u8>>,
+}
+
+/// A part file's name: `part-L-K.bin`, the K-th part of the level after L levels.
+fn part_name(levels_done: usize, k: usize) -> String {
+    format!("part-{levels_done}-{k}.bin")
+}
+
+/// Saves a part of the level after `state`'s (`simplify/partial_level.rs`: results that
+/// `write` encodes, `diamonds` of the level's done with it) as a stage naming the last
+/// stage's files and the level's parts so far. Only when a checkpoint is due (the levels'
+/// pacing) and the last stage is `state`'s; says whether it saved.
+pub(crate) fn save_level_part(
+    checkpoint: &mut Checkpoint,
+    state: &LevelState,
+    diamonds: usize,
+    write: &dyn Fn(&mut crate::checkpoint::Enc) -> io::Result<()>,
+) -> io::Result<bool> {
+    if !checkpoint.level_due() {
+        return Ok(false);
+    }
+    let start = std::time::Instant::now();
+    let Some(last) = checkpoint
+        .last_stage()
+        .filter(|s| s.name == "leaves" || s.name.starts_with("level-"))
+        .cloned()
+    else {
+        return Ok(false);
+    };
+    let done = state.levels_done() as u64;
+    if last.values.get("levels_done") != Some(&done) {
+        // The level before was not committed (its pacing): a part would not follow it.
+        return Ok(false);
+    }
+    let k = last
+        .files
+        .iter()
+        .filter(|f| f.name.starts_with("part-"))
+        .count();
+    let file = write_streamed(checkpoint, &part_name(state.levels_done(), k), write)?;
+    let mut stage = last;
+    // `level-L.part-K`: of the levels' kind (it replaces the last level's stage), but not a
+    // level for `--stop-after` or a resume's report.
+    stage.name = format!("level-{done}.part-{}", k + 1);
+    stage.files.push(file);
+    stage.values.insert("part_diamonds".into(), diamonds as u64);
+    checkpoint.level_saved(start);
+    checkpoint.commit(stage)?;
+    Ok(true)
 }
 
 /// Saves the state after `state.levels_done()` levels and commits stage `leaves` (none yet)
@@ -106,10 +156,21 @@ pub(crate) fn load_levels(checkpoint: &Checkpoint) -> io::Result<Option<LevelsCh
     if state.levels_done() as u64 != done {
         return Err(invalid("the state is not the stage's"));
     }
+    let part_files = stage.files.iter().filter(|f| f.name.starts_with("part-"));
+    let parts = part_files
+        .enumerate()
+        .map(|(k, f)| {
+            if f.name != part_name(done as usize, k) {
+                return Err(invalid("a level's part out of order"));
+            }
+            std::fs::read(checkpoint.path(&f.name))
+        })
+        .collect::<io::Result<Vec<_>>>()?;
     Ok(Some(LevelsCheckpoint {
         facts,
         hierarchy,
         state,
         finished,
+        parts,
     }))
 }

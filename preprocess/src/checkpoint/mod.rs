@@ -26,7 +26,7 @@ mod staged;
 
 pub(crate) use bytes::{Dec, Enc};
 pub(crate) use hierarchy::{load_hierarchy, save_hierarchy, HierarchyCheckpoint, InputFacts};
-pub(crate) use levels::{load_levels, save_levels, LevelsCheckpoint};
+pub(crate) use levels::{load_levels, save_level_part, save_levels, LevelsCheckpoint};
 pub use manifest::{
     FileRecord, Fingerprint, Manifest, StageRecord, StreamFingerprint, CHECKPOINT_FORMAT,
 };

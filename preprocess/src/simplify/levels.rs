@@ -11,11 +11,12 @@ use tessera_core::leb::SimplexKey;
 use super::batches::{query_edges, split_batch, Pending};
 use super::edge_census::count_edges;
 use super::live_store::{LiveStore, StoreCheckpoint};
+use super::partial_level;
 use super::positions::SimplifierScale;
 use super::result_spill::{Held, Payload, ResultSpill};
 use super::{
-    gather_patches, numbering_table, simplify_diamond, Context, CurrentMesh, FinishedPatchSink,
-    LeafSource, Simplified, SimplifyError, SimplifySettings, MERGE_GROUP,
+    gather_patches, numbering_table, simplify_diamond, Context, CurrentMesh, DiamondResult,
+    FinishedPatchSink, LeafSource, Simplified, SimplifyError, SimplifySettings, MERGE_GROUP,
 };
 use crate::checkpoint::{Dec, Enc};
 use crate::frame::LatticeFrame;
@@ -214,15 +215,49 @@ fn finish_leaves(state: &LevelState, finished: &mut FinishedPatchSink) -> std::i
     Ok(())
 }
 
-/// Merges the levels `state` has not merged yet, finest first, calling `after_level` after
-/// each (a build's checkpoint).
-pub fn simplify_levels(
+/// What a build's checkpoint does while the levels merge: `after_level` after each level;
+/// `after_part` while a level's diamonds are simplified, a part at a time (before any
+/// merges): given the state, the level's diamonds done so far and an encoder of the results
+/// made since the last part it saved, it says whether it saved them
+/// (`checkpoint::save_level_part`); `resumed_parts`: the parts a resumed build's checkpoint
+/// holds of the level after `state`'s.
+pub(crate) struct LevelCheckpoints<'a> {
+    pub after_level: &'a mut dyn FnMut(&LevelState) -> std::io::Result<()>,
+    pub after_part: &'a mut PartSink<'a>,
+    pub resumed_parts: Vec<Vec<u8>>,
+}
+
+/// See [`LevelCheckpoints::after_part`].
+#[rustfmt::skip]
+pub(crate) type PartSink<'a> =
+    dyn FnMut(&LevelState, usize, &dyn Fn(&mut Enc) -> std::io::Result<()>)
+        -> std::io::Result<bool> + 'a;
+
+impl LevelCheckpoints<'_> {
+    /// Nothing saved (a build without a checkpoint).
+    pub(crate) fn none<R>(f: impl FnOnce(&mut LevelCheckpoints) -> R) -> R {
+        let mut after_level = |_: &LevelState| Ok(());
+        let mut after_part =
+            |_: &LevelState, _: usize, _: &dyn Fn(&mut Enc) -> std::io::Result<()>| Ok(false);
+        f(&mut LevelCheckpoints {
+            after_level: &mut after_level,
+            after_part: &mut after_part,
+            resumed_parts: Vec::new(),
+        })
+    }
+}
+
+/// The parts a level's diamonds are simplified in (each a checkpoint's chance).
+const PARTS_PER_LEVEL: usize = 8;
+
+/// Merges the levels `state` has not merged yet, finest first, saving what `checkpoints` asks.
+pub(crate) fn simplify_levels(
     mut state: LevelState,
     hierarchy: &Hierarchy,
     settings: &SimplifySettings,
     spill_dir: Option<&std::path::Path>,
     finished: &mut FinishedPatchSink,
-    after_level: &mut dyn FnMut(&LevelState) -> std::io::Result<()>,
+    checkpoints: &mut LevelCheckpoints,
 ) -> Result<Simplified, SimplifyError> {
     let frame = &hierarchy.frame;
     let ctx = Context {
@@ -248,27 +283,59 @@ pub fn simplify_levels(
     let levels: Vec<&[usize]> = by_level
         .chunk_by(|&a, &b| hierarchy.diamonds[a].level == hierarchy.diamonds[b].level)
         .collect();
+    let mut resumed_parts = std::mem::take(&mut checkpoints.resumed_parts);
     for level_group in levels.into_iter().skip(state.levels_done) {
         let no_extra = HashSet::default();
         let spill = ResultSpill::new(spill_dir, SimplifierScale::of(frame))?;
-        let mut pending: Vec<Pending> = level_group
-            .par_iter()
-            .map(|&d| {
-                Ok(Pending {
-                    result: simplify_diamond(
-                        &ctx,
-                        d,
-                        &hierarchy.diamond(d),
-                        &state.patches,
-                        &state.current,
-                        &no_extra,
-                        &spill,
-                    )?,
+        // Results a resumed build's checkpoint holds: the level's first diamonds.
+        let mut pending: Vec<Pending> = Vec::with_capacity(level_group.len());
+        for part in resumed_parts.drain(..) {
+            for result in partial_level::decode_results(&part, &spill)? {
+                if level_group.get(pending.len()) != Some(&result.diamond) {
+                    return Err(SimplifyError::Finished(std::io::Error::new(
+                        std::io::ErrorKind::InvalidData,
+                        "a level's part in the checkpoint is not this hierarchy's",
+                    )));
+                }
+                pending.push(Pending {
+                    result,
                     extra_locks: HashSet::default(),
                     attempts: 0,
+                });
+            }
+        }
+        let mut saved = pending.len();
+        let part = level_group.len().div_ceil(PARTS_PER_LEVEL).max(1);
+        while pending.len() < level_group.len() {
+            let next = &level_group[pending.len()..(pending.len() + part).min(level_group.len())];
+            let made: Vec<Pending> = next
+                .par_iter()
+                .map(|&d| {
+                    Ok(Pending {
+                        result: simplify_diamond(
+                            &ctx,
+                            d,
+                            &hierarchy.diamond(d),
+                            &state.patches,
+                            &state.current,
+                            &no_extra,
+                            &spill,
+                        )?,
+                        extra_locks: HashSet::default(),
+                        attempts: 0,
+                    })
                 })
-            })
-            .collect::<std::io::Result<_>>()?;
+                .collect::<std::io::Result<_>>()?;
+            pending.extend(made);
+            if pending.len() < level_group.len() {
+                let unsaved: Vec<&DiamondResult> =
+                    pending[saved..].iter().map(|p| &p.result).collect();
+                let write = |e: &mut Enc| partial_level::encode_results(&unsaved, &spill, e);
+                if (checkpoints.after_part)(&state, pending.len(), &write)? {
+                    saved = pending.len();
+                }
+            }
+        }
         while !pending.is_empty() {
             // The rest of the mesh's counts of the edges the pending diamonds share with it.
             let live_list: Vec<SimplexKey> = state.live.iter().map(|k| k.key()).collect();
@@ -355,7 +422,7 @@ pub fn simplify_levels(
         }
         crate::external::allocator::release_freed_memory();
         state.levels_done += 1;
-        after_level(&state)?;
+        (checkpoints.after_level)(&state)?;
         // Removed patches' bytes go once no commit names them (the one just made, if one was).
         state.patches.release_dead()?;
     }

@@ -82,6 +82,25 @@ impl ResultSpill {
         }
     }
 
+    /// The bytes `encode` makes of a held payload, left held (a mid-level checkpoint copies
+    /// them: `partial_level.rs`).
+    pub(super) fn bytes_of(&self, held: &Held) -> io::Result<Vec<u8>> {
+        match held {
+            Held::Memory(payload) => Ok(encode(payload, &self.scale)),
+            Held::Spilled { at, bytes } => {
+                let file = self.file.as_ref().expect("spilled without a file");
+                let mut buffer = vec![0u8; *bytes as usize];
+                file.read_exact_at(&mut buffer, *at)?;
+                Ok(buffer)
+            }
+        }
+    }
+
+    /// Holds the payload whose `encode`d bytes are `bytes` (a resumed mid-level checkpoint's).
+    pub(super) fn hold_bytes(&self, bytes: &[u8]) -> io::Result<Held> {
+        self.hold(decode(bytes, &self.scale)?)
+    }
+
     /// Gives back the disk space of a payload that will not be taken again (taken, or
     /// replaced by a diamond's simplification again): the whole blocks inside its bytes, so
     /// the file holds about the results not yet merged rather than the whole level's.
@@ -113,6 +132,14 @@ fn encode(payload: &Payload, scale: &SimplifierScale) -> Vec<u8> {
 }
 
 fn decode(bytes: &[u8], scale: &SimplifierScale) -> std::io::Result<Payload> {
+    // Read back from this build's own spill file or from a checkpoint whose CRC-32 matched,
+    // so a short payload is a bug, not damage: an error all the same.
+    if bytes.len() < 12 {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            "a level's result payload is cut short",
+        ));
+    }
     let mut at = 0;
     let mut take = |n: usize| {
         let part = &bytes[at..at + n];
