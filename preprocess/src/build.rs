@@ -13,8 +13,8 @@ use tessera_core::repository::{write_repository_streamed, BlobFeed, RepositoryDi
 
 use crate::build_tables::{assemble, Built, Parts};
 use crate::checkpoint::{
-    save_hierarchy, save_level_part, save_levels, Checkpoint, CheckpointError, HierarchyCheckpoint,
-    InputFacts, LevelsCheckpoint,
+    drop_level_parts, save_hierarchy, save_level_part, save_levels, Checkpoint, CheckpointError,
+    HierarchyCheckpoint, InputFacts, LevelsCheckpoint,
 };
 use crate::external::{LeafGroups, StagedMesh};
 use crate::finished_patches::{FinishedPatches, PatchEncoding};
@@ -417,6 +417,7 @@ fn build_in_pool(
     let mut sink =
         |patches: &[(SimplexKey, &LivePatch)]| finished.borrow_mut().add(patches, &encoding);
     let checkpoint_dir = checkpoint.as_deref().map(|c| c.dir().to_path_buf());
+    let damaged_dir = checkpoint_dir.clone().unwrap_or_default();
     // A checkpointed build saves its state after the leaves and after each level, and the
     // results of a level being simplified in parts, as its pacing allows.
     let checkpoint = RefCell::new(checkpoint);
@@ -430,12 +431,18 @@ fn build_in_pool(
          write: &dyn Fn(&mut crate::checkpoint::Enc) -> std::io::Result<()>| {
             match checkpoint.borrow_mut().as_deref_mut() {
                 Some(c) => save_level_part(c, state, diamonds, write),
-                None => Ok(false),
+                None => Ok(None),
             }
         };
+    let mut drop_parts = || match checkpoint.borrow_mut().as_deref_mut() {
+        Some(c) => drop_level_parts(c),
+        None => Ok(0),
+    };
     let mut checkpoints = LevelCheckpoints {
+        in_parts: checkpoint.borrow().is_some(),
         after_level: &mut after_level,
         after_part: &mut after_part,
+        drop_parts: &mut drop_parts,
         resumed_parts,
     };
     let simplified = match (source, &config.memory) {
@@ -510,6 +517,10 @@ fn build_in_pool(
     .map_err(|e| match e {
         SimplifyError::Conformity(e) => BuildError::Conformity(e),
         SimplifyError::Finished(e) => temporary(e),
+        SimplifyError::Checkpoint(e) => BuildError::Checkpoint(CheckpointError::Damaged {
+            dir: damaged_dir,
+            reason: e.to_string(),
+        }),
     })?;
     let mut finished = finished.into_inner();
     finished.seal().map_err(temporary)?;

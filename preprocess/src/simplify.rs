@@ -108,6 +108,9 @@ pub enum SimplifyError {
     /// The caller's `finished` failed (writing the patches out).
     #[error(transparent)]
     Finished(#[from] std::io::Error),
+    /// A resumed build's checkpoint holds a part of a level that does not read back.
+    #[error("a level's part: {0}")]
+    Checkpoint(std::io::Error),
 }
 
 /// The leaves' patches, a group at a time (every leaf of the hierarchy once, each carrying its

@@ -56,7 +56,7 @@ fn a_gzipped_binary_ply_stages_as_it_loads() {
 }
 
 #[test]
-fn other_formats_stage_through_memory() {
+fn an_off_scan_stages_as_it_loads() {
     same_as_load_mesh("mesh/bunny00.off", 64 << 10);
 }
 

@@ -77,6 +77,10 @@ impl Enc {
             }
         }
     }
+    /// Bytes encoded so far (written out and buffered).
+    pub fn position(&self) -> u64 {
+        self.sink.as_ref().map_or(0, |s| s.written) + self.buffer.len() as u64
+    }
     /// The bytes of an in-memory `Enc`.
     pub fn into_bytes(self) -> Vec<u8> {
         assert!(self.sink.is_none(), "a streaming Enc keeps no bytes");
@@ -120,14 +124,6 @@ impl<'a> Dec<'a> {
     }
     pub fn u8(&mut self) -> io::Result<u8> {
         Ok(self.take::<1>()?[0])
-    }
-    /// The next `n` bytes, as they are.
-    pub fn take_bytes(&mut self, n: usize) -> io::Result<&'a [u8]> {
-        let end = self.at.checked_add(n).filter(|&e| e <= self.bytes.len());
-        let end = end.ok_or_else(|| damaged("truncated"))?;
-        let out = &self.bytes[self.at..end];
-        self.at = end;
-        Ok(out)
     }
     pub fn u32(&mut self) -> io::Result<u32> {
         Ok(u32::from_le_bytes(self.take()?))

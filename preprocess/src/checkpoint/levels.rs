@@ -23,8 +23,8 @@ pub(crate) struct LevelsCheckpoint {
     pub hierarchy: Hierarchy,
     pub state: LevelState,
     pub finished: FinishedPatches,
-    /// The parts of the next level saved so far (`save_level_part`), in order.
-    pub parts: Vec<Vec<u8>>,
+    /// The part files of the next level saved so far (`save_level_part`), in order.
+    pub parts: Vec<std::path::PathBuf>,
 }
 
 /// A part file's name: `part-L-K.bin`, the K-th part of the level after L levels.
@@ -35,15 +35,15 @@ fn part_name(levels_done: usize, k: usize) -> String {
 /// Saves a part of the level after `state`'s (`simplify/partial_level.rs`: results that
 /// `write` encodes, `diamonds` of the level's done with it) as a stage naming the last
 /// stage's files and the level's parts so far. Only when a checkpoint is due (the levels'
-/// pacing) and the last stage is `state`'s; says whether it saved.
+/// pacing) and the last stage is `state`'s; says where it saved them.
 pub(crate) fn save_level_part(
     checkpoint: &mut Checkpoint,
     state: &LevelState,
     diamonds: usize,
     write: &dyn Fn(&mut crate::checkpoint::Enc) -> io::Result<()>,
-) -> io::Result<bool> {
+) -> io::Result<Option<std::path::PathBuf>> {
     if !checkpoint.level_due() {
-        return Ok(false);
+        return Ok(None);
     }
     let start = std::time::Instant::now();
     let Some(last) = checkpoint
@@ -51,19 +51,20 @@ pub(crate) fn save_level_part(
         .filter(|s| s.name == "leaves" || s.name.starts_with("level-"))
         .cloned()
     else {
-        return Ok(false);
+        return Ok(None);
     };
     let done = state.levels_done() as u64;
     if last.values.get("levels_done") != Some(&done) {
         // The level before was not committed (its pacing): a part would not follow it.
-        return Ok(false);
+        return Ok(None);
     }
     let k = last
         .files
         .iter()
         .filter(|f| f.name.starts_with("part-"))
         .count();
-    let file = write_streamed(checkpoint, &part_name(state.levels_done(), k), write)?;
+    let name = part_name(state.levels_done(), k);
+    let file = write_streamed(checkpoint, &name, write)?;
     let mut stage = last;
     // `level-L.part-K`: of the levels' kind (it replaces the last level's stage), but not a
     // level for `--stop-after` or a resume's report.
@@ -72,7 +73,7 @@ pub(crate) fn save_level_part(
     stage.values.insert("part_diamonds".into(), diamonds as u64);
     checkpoint.level_saved(start);
     checkpoint.commit(stage)?;
-    Ok(true)
+    Ok(Some(checkpoint.path(&name)))
 }
 
 /// Saves the state after `state.levels_done()` levels and commits stage `leaves` (none yet)
@@ -134,6 +135,34 @@ pub(crate) fn save_levels(
     })
 }
 
+/// Commits the last stage again without the level's part files, if it has any (the level is
+/// about to merge: its results' payloads are read from the parts, still open, and their disk
+/// space given back as they are taken). Returns the parts' bytes. A build killed from then
+/// on until the level's commit simplifies the whole level again.
+pub(crate) fn drop_level_parts(checkpoint: &mut Checkpoint) -> io::Result<u64> {
+    let Some(last) = checkpoint.last_stage().cloned() else {
+        return Ok(0);
+    };
+    let (parts, files): (Vec<_>, Vec<_>) =
+        (last.files.into_iter()).partition(|f| f.name.starts_with("part-"));
+    if parts.is_empty() {
+        return Ok(0);
+    }
+    let mut values = last.values;
+    let done = values
+        .remove("part_diamonds")
+        .map(|_| ())
+        .and_then(|()| values.get("levels_done").copied());
+    let done = done.ok_or_else(|| invalid("a level's part in a stage of no level"))?;
+    checkpoint.commit(StageRecord {
+        // Of the levels' kind, but not a level for `--stop-after` (it was reached before).
+        name: format!("level-{done}.merging"),
+        files,
+        values,
+    })?;
+    Ok(parts.iter().map(|f| f.bytes).sum())
+}
+
 /// The state of a checkpoint whose last stage is `leaves` or `level-N`.
 pub(crate) fn load_levels(checkpoint: &Checkpoint) -> io::Result<Option<LevelsCheckpoint>> {
     let Some(stage) = checkpoint
@@ -163,7 +192,7 @@ pub(crate) fn load_levels(checkpoint: &Checkpoint) -> io::Result<Option<LevelsCh
             if f.name != part_name(done as usize, k) {
                 return Err(invalid("a level's part out of order"));
             }
-            std::fs::read(checkpoint.path(&f.name))
+            Ok(checkpoint.path(&f.name))
         })
         .collect::<io::Result<Vec<_>>>()?;
     Ok(Some(LevelsCheckpoint {

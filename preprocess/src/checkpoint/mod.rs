@@ -12,7 +12,11 @@
 //!   first level (`levels.rs`);
 //! - `level-N`: the same state after N levels are merged. The live patches and the finished
 //!   patches are append-only files named in the checkpoint, so a level's checkpoint writes only
-//!   the small state (indexes, counts) and records how far the big files were valid.
+//!   the small state (indexes, counts) and records how far the big files were valid;
+//! - `level-N.part-K`: `level-N`'s files and K part files of the next level's results, made
+//!   before any of them merged (`simplify/partial_level.rs`), which a resumed build takes
+//!   instead of simplifying those diamonds again; `level-N.merging`: `level-N`'s files again
+//!   once the next level starts merging (its parts' bytes are then freed as they are taken).
 //!
 //! Whatever a killed build wrote after its last manifest (a longer append-only file, a file
 //! no manifest names) is cut back or removed when the checkpoint is opened. Once a stage is
@@ -24,9 +28,13 @@ mod levels;
 pub mod manifest;
 mod staged;
 
+#[cfg(test)]
+pub(crate) use bytes::write_atomic_with;
 pub(crate) use bytes::{Dec, Enc};
 pub(crate) use hierarchy::{load_hierarchy, save_hierarchy, HierarchyCheckpoint, InputFacts};
-pub(crate) use levels::{load_levels, save_level_part, save_levels, LevelsCheckpoint};
+pub(crate) use levels::{
+    drop_level_parts, load_levels, save_level_part, save_levels, LevelsCheckpoint,
+};
 pub use manifest::{
     FileRecord, Fingerprint, Manifest, StageRecord, StreamFingerprint, CHECKPOINT_FORMAT,
 };

@@ -216,32 +216,39 @@ fn finish_leaves(state: &LevelState, finished: &mut FinishedPatchSink) -> std::i
 }
 
 /// What a build's checkpoint does while the levels merge: `after_level` after each level;
-/// `after_part` while a level's diamonds are simplified, a part at a time (before any
-/// merges): given the state, the level's diamonds done so far and an encoder of the results
-/// made since the last part it saved, it says whether it saved them
-/// (`checkpoint::save_level_part`); `resumed_parts`: the parts a resumed build's checkpoint
-/// holds of the level after `state`'s.
+/// `after_part` while a level's diamonds are simplified a part at a time (before any merge,
+/// `in_parts` only): given the state, the level's diamonds done so far and an encoder of the
+/// results made since the last part it saved, it saves them or not
+/// (`checkpoint::save_level_part`) and says where; `resumed_parts`: the part files a resumed
+/// build's checkpoint holds of the level after `state`'s.
 pub(crate) struct LevelCheckpoints<'a> {
+    pub in_parts: bool,
     pub after_level: &'a mut dyn FnMut(&LevelState) -> std::io::Result<()>,
     pub after_part: &'a mut PartSink<'a>,
-    pub resumed_parts: Vec<Vec<u8>>,
+    /// Called once a level with saved parts is about to merge (`checkpoint::drop_level_parts`):
+    /// the bytes of the parts the checkpoint no longer names.
+    pub drop_parts: &'a mut dyn FnMut() -> std::io::Result<u64>,
+    pub resumed_parts: Vec<std::path::PathBuf>,
 }
 
 /// See [`LevelCheckpoints::after_part`].
 #[rustfmt::skip]
 pub(crate) type PartSink<'a> =
     dyn FnMut(&LevelState, usize, &dyn Fn(&mut Enc) -> std::io::Result<()>)
-        -> std::io::Result<bool> + 'a;
+        -> std::io::Result<Option<std::path::PathBuf>> + 'a;
 
 impl LevelCheckpoints<'_> {
-    /// Nothing saved (a build without a checkpoint).
+    /// Nothing saved (a build without a checkpoint): each level simplified at once.
     pub(crate) fn none<R>(f: impl FnOnce(&mut LevelCheckpoints) -> R) -> R {
         let mut after_level = |_: &LevelState| Ok(());
         let mut after_part =
-            |_: &LevelState, _: usize, _: &dyn Fn(&mut Enc) -> std::io::Result<()>| Ok(false);
+            |_: &LevelState, _: usize, _: &dyn Fn(&mut Enc) -> std::io::Result<()>| Ok(None);
+        let mut drop_parts = || Ok(0);
         f(&mut LevelCheckpoints {
+            in_parts: false,
             after_level: &mut after_level,
             after_part: &mut after_part,
+            drop_parts: &mut drop_parts,
             resumed_parts: Vec::new(),
         })
     }
@@ -289,12 +296,14 @@ pub(crate) fn simplify_levels(
         let spill = ResultSpill::new(spill_dir, SimplifierScale::of(frame))?;
         // Results a resumed build's checkpoint holds: the level's first diamonds.
         let mut pending: Vec<Pending> = Vec::with_capacity(level_group.len());
-        for part in resumed_parts.drain(..) {
-            for result in partial_level::decode_results(&part, &spill)? {
+        for path in resumed_parts.drain(..) {
+            let results =
+                partial_level::decode_results(&path).map_err(SimplifyError::Checkpoint)?;
+            for result in results {
                 if level_group.get(pending.len()) != Some(&result.diamond) {
-                    return Err(SimplifyError::Finished(std::io::Error::new(
+                    return Err(SimplifyError::Checkpoint(std::io::Error::new(
                         std::io::ErrorKind::InvalidData,
-                        "a level's part in the checkpoint is not this hierarchy's",
+                        "a level's part is not this hierarchy's",
                     )));
                 }
                 pending.push(Pending {
@@ -305,7 +314,10 @@ pub(crate) fn simplify_levels(
             }
         }
         let mut saved = pending.len();
-        let part = level_group.len().div_ceil(PARTS_PER_LEVEL).max(1);
+        let part = match checkpoints.in_parts {
+            true => level_group.len().div_ceil(PARTS_PER_LEVEL).max(1),
+            false => level_group.len().max(1),
+        };
         while pending.len() < level_group.len() {
             let next = &level_group[pending.len()..(pending.len() + part).min(level_group.len())];
             let made: Vec<Pending> = next
@@ -330,11 +342,34 @@ pub(crate) fn simplify_levels(
             if pending.len() < level_group.len() {
                 let unsaved: Vec<&DiamondResult> =
                     pending[saved..].iter().map(|p| &p.result).collect();
-                let write = |e: &mut Enc| partial_level::encode_results(&unsaved, &spill, e);
-                if (checkpoints.after_part)(&state, pending.len(), &write)? {
+                let spans = std::cell::RefCell::new(Vec::new());
+                let write = |e: &mut Enc| {
+                    *spans.borrow_mut() = partial_level::encode_results(&unsaved, &spill, e)?;
+                    Ok(())
+                };
+                if let Some(path) = (checkpoints.after_part)(&state, pending.len(), &write)? {
+                    // The saved payloads are read from the part from now on; the spill's
+                    // copies go.
+                    let file = std::sync::Arc::new(partial_level::open_part(&path)?);
+                    for (p, (at, bytes)) in pending[saved..].iter_mut().zip(spans.take()) {
+                        let moved = Held::InPart {
+                            file: file.clone(),
+                            at,
+                            bytes,
+                        };
+                        spill.release(&std::mem::replace(&mut p.result.payload, moved));
+                    }
                     saved = pending.len();
                 }
             }
+        }
+        if pending
+            .iter()
+            .any(|p| matches!(p.result.payload, Held::InPart { .. }))
+        {
+            // The merges change the state the parts were made against: the checkpoint goes
+            // back to the level's start, and the parts' payloads are freed as they are taken.
+            spill.adopt_parts((checkpoints.drop_parts)()?);
         }
         while !pending.is_empty() {
             // The rest of the mesh's counts of the edges the pending diamonds share with it.

@@ -31,7 +31,17 @@ pub(super) struct Payload {
 #[derive(Debug)]
 pub(super) enum Held {
     Memory(Payload),
-    Spilled { at: u64, bytes: u64 },
+    Spilled {
+        at: u64,
+        bytes: u64,
+    },
+    /// In a part file of the build's checkpoint (`partial_level.rs`), which stays until the
+    /// level is committed: the spill's copy is given back once the part is saved.
+    InPart {
+        file: std::sync::Arc<File>,
+        at: u64,
+        bytes: u64,
+    },
 }
 
 /// The level's spill file, or none (results held in memory).
@@ -40,6 +50,9 @@ pub(super) struct ResultSpill {
     end: AtomicU64,
     charge: Charge,
     scale: SimplifierScale,
+    /// Whether the level's part files (`Held::InPart`) are no longer named by the checkpoint
+    /// (`adopt_parts`): their payloads' bytes are then given back as they are taken.
+    parts_adopted: std::sync::atomic::AtomicBool,
 }
 
 impl ResultSpill {
@@ -50,6 +63,7 @@ impl ResultSpill {
             end: AtomicU64::new(0),
             charge: Charge::new(TempKind::ResultSpill),
             scale,
+            parts_adopted: std::sync::atomic::AtomicBool::new(false),
         })
     }
 
@@ -79,7 +93,25 @@ impl ResultSpill {
                 self.release(&held);
                 decode(&buffer, &self.scale)
             }
+            Held::InPart {
+                ref file,
+                at,
+                bytes,
+            } => {
+                let mut buffer = vec![0u8; bytes as usize];
+                file.read_exact_at(&mut buffer, at)?;
+                self.release(&held);
+                decode(&buffer, &self.scale)
+            }
         }
+    }
+
+    /// Takes over the level's part files once the checkpoint no longer names them (the level
+    /// merges: `bytes` of them, still open, charged here), so that their payloads' disk space
+    /// is given back as they are taken, as the spill's is.
+    pub(super) fn adopt_parts(&self, bytes: u64) {
+        self.charge.grow(bytes);
+        self.parts_adopted.store(true, Ordering::Relaxed);
     }
 
     /// The bytes `encode` makes of a held payload, left held (a mid-level checkpoint copies
@@ -93,22 +125,31 @@ impl ResultSpill {
                 file.read_exact_at(&mut buffer, *at)?;
                 Ok(buffer)
             }
+            Held::InPart { file, at, bytes } => {
+                let mut buffer = vec![0u8; *bytes as usize];
+                file.read_exact_at(&mut buffer, *at)?;
+                Ok(buffer)
+            }
         }
-    }
-
-    /// Holds the payload whose `encode`d bytes are `bytes` (a resumed mid-level checkpoint's).
-    pub(super) fn hold_bytes(&self, bytes: &[u8]) -> io::Result<Held> {
-        self.hold(decode(bytes, &self.scale)?)
     }
 
     /// Gives back the disk space of a payload that will not be taken again (taken, or
     /// replaced by a diamond's simplification again): the whole blocks inside its bytes, so
     /// the file holds about the results not yet merged rather than the whole level's.
     pub(super) fn release(&self, held: &Held) {
-        if let (Some(file), Held::Spilled { at, bytes }) = (&self.file, held) {
-            self.charge
-                .shrink(crate::external::holes::punch(file, *at, at + bytes));
-        }
+        let (file, at, bytes) = match held {
+            Held::Spilled { at, bytes } => match &self.file {
+                Some(file) => (file, *at, *bytes),
+                None => return,
+            },
+            // Named by the checkpoint until adopted: left as it is.
+            Held::InPart { file, at, bytes } if self.parts_adopted.load(Ordering::Relaxed) => {
+                (&**file, *at, *bytes)
+            }
+            _ => return,
+        };
+        self.charge
+            .shrink(crate::external::holes::punch(file, at, at + bytes));
     }
 }
 
@@ -132,42 +173,41 @@ fn encode(payload: &Payload, scale: &SimplifierScale) -> Vec<u8> {
 }
 
 fn decode(bytes: &[u8], scale: &SimplifierScale) -> std::io::Result<Payload> {
-    // Read back from this build's own spill file or from a checkpoint whose CRC-32 matched,
-    // so a short payload is a bug, not damage: an error all the same.
-    if bytes.len() < 12 {
-        return Err(std::io::Error::new(
-            std::io::ErrorKind::InvalidData,
-            "a level's result payload is cut short",
-        ));
-    }
-    let mut at = 0;
-    let mut take = |n: usize| {
-        let part = &bytes[at..at + n];
-        at += n;
-        part
+    // Read back from this build's spill file or from a checkpoint's part whose CRC-32 matched,
+    // so a payload that does not decode is a bug or damage: an error, not a panic.
+    let cut = || std::io::Error::new(std::io::ErrorKind::InvalidData, "a result payload is cut");
+    let mut at = 0usize;
+    let mut take = |n: usize| -> std::io::Result<&[u8]> {
+        let end = at
+            .checked_add(n)
+            .filter(|&e| e <= bytes.len())
+            .ok_or_else(cut)?;
+        let part = &bytes[at..end];
+        at = end;
+        Ok(part)
     };
     let u32_of = |b: &[u8]| u32::from_le_bytes(b.try_into().expect("4 bytes"));
     let u64_of = |b: &[u8]| u64::from_le_bytes(b.try_into().expect("8 bytes"));
-    let count = u32_of(take(4));
-    let mut patches = Vec::with_capacity(count as usize);
+    let count = u32_of(take(4)?);
+    // Each patch takes at least 27 bytes (key and length).
+    let mut patches = Vec::with_capacity((count as usize).min(bytes.len() / 27));
     for _ in 0..count {
-        let root = take(1)[0];
-        let level = u16::from_le_bytes(take(2).try_into().expect("2 bytes"));
-        let path = u128::from_le_bytes(take(16).try_into().expect("16 bytes"));
-        let n = u64_of(take(8)) as usize;
+        let root = take(1)?[0];
+        let level = u16::from_le_bytes(take(2)?.try_into().expect("2 bytes"));
+        let path = u128::from_le_bytes(take(16)?.try_into().expect("16 bytes"));
+        let n = usize::try_from(u64_of(take(8)?)).map_err(|_| cut())?;
         patches.push((
             SimplexKey { root, level, path },
-            decode_patch(take(n), scale)?,
+            decode_patch(take(n)?, scale)?,
         ));
     }
-    let n = u64_of(take(8)) as usize;
-    let vertices = (0..n)
-        .map(|_| {
-            let v = u32_of(take(4));
-            let d = i32::from_le_bytes(take(4).try_into().expect("4 bytes"));
-            (v, d)
-        })
-        .collect();
+    let n = usize::try_from(u64_of(take(8)?)).map_err(|_| cut())?;
+    let mut vertices = Vec::with_capacity(n.min(bytes.len() / 8));
+    for _ in 0..n {
+        let v = u32_of(take(4)?);
+        let d = i32::from_le_bytes(take(4)?.try_into().expect("4 bytes"));
+        vertices.push((v, d));
+    }
     Ok(Payload { patches, vertices })
 }
 
