@@ -253,7 +253,7 @@ mod tests {
                 shared_growth: (0..diamond as u64).map(|e| (e, 1)).collect(),
                 conflicts: vec![],
             },
-            border_break: (diamond % 2 == 0).then(|| border(0)),
+            border_break: diamond.is_multiple_of(2).then(|| border(0)),
             border_break_if_used_outside: vec![border(5); diamond % 3],
         }
     }
