@@ -138,6 +138,8 @@ fn a_build_killed_after_each_stage_resumes_to_the_same_bytes() {
         ("staged", "1"),
         ("hierarchy", "3"),
         ("leaves", "3"),
+        // Inside the first level: the leaves' patches finished again on resume.
+        ("level-0.part-1", "2"),
         ("level-2", "1"),
         // Inside level 4: two parts of its diamonds' results saved, the rest not yet made.
         ("level-3.part-2", "3"),

@@ -34,15 +34,15 @@ fn part_name(levels_done: usize, k: usize) -> String {
 
 /// Saves a part of the level after `state`'s (`simplify/partial_level.rs`: results that
 /// `write` encodes, `diamonds` of the level's done with it) as a stage naming the last
-/// stage's files and the level's parts so far. Only when a checkpoint is due (the levels'
-/// pacing) and the last stage is `state`'s; says where it saved them.
+/// stage's files and the level's parts so far. Only when a part is due
+/// (`Checkpoint::part_due`) and the last stage is `state`'s; says where it saved them.
 pub(crate) fn save_level_part(
     checkpoint: &mut Checkpoint,
     state: &LevelState,
     diamonds: usize,
     write: &dyn Fn(&mut crate::checkpoint::Enc) -> io::Result<()>,
 ) -> io::Result<Option<std::path::PathBuf>> {
-    if !checkpoint.level_due() {
+    if !checkpoint.part_due() {
         return Ok(None);
     }
     let start = std::time::Instant::now();
