@@ -7,6 +7,10 @@ bound of the true peak).
 
     tools/fd-disk-peak.py PID DIR
 """
+import os
+import sys
+import time
+
 pid, d = int(sys.argv[1]), os.path.realpath(sys.argv[2])
 peak = 0
 while os.path.exists(f"/proc/{pid}"):
