@@ -6,6 +6,7 @@
 //! Architecture invariant: nothing here knows the GPU; the runtime never imports this crate.
 
 pub mod build;
+mod build_checks;
 mod build_config;
 mod build_tables;
 pub mod checkpoint;

@@ -11,6 +11,8 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use tessera_preprocess::import::{load_mesh, stage_mesh};
 
+mod stage_support;
+
 /// The system allocator, counting the bytes held and their peak.
 struct Counting;
 
@@ -52,30 +54,7 @@ fn same_as_load_mesh(path: &Path, budget: usize) -> usize {
     PEAK.store(before, Ordering::Relaxed);
     let staged = stage_mesh(path, dir.path(), budget).unwrap();
     let heap = PEAK.load(Ordering::Relaxed) - before;
-    let expected = load_mesh(path).unwrap();
-    assert_eq!(staged.load().unwrap(), expected.mesh, "{path:?}");
-    assert_eq!(
-        [
-            staged.raw_vertices,
-            staged.raw_triangles,
-            staged.welded_vertices,
-            staged.degenerate_triangles,
-            staged.duplicate_triangles,
-            staged.unreferenced_vertices,
-        ],
-        [
-            expected.raw_vertices,
-            expected.raw_triangles,
-            expected.welded_vertices,
-            expected.degenerate_triangles,
-            expected.duplicate_triangles,
-            expected.unreferenced_vertices,
-        ]
-        .map(|n| n as u64),
-        "{path:?}"
-    );
-    drop(staged);
-    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+    stage_support::assert_same_as_load_mesh(staged, path, dir.path());
     heap
 }
 

@@ -4,7 +4,9 @@
 
 use std::path::{Path, PathBuf};
 
-use tessera_preprocess::import::{load_mesh, stage_mesh};
+use tessera_preprocess::import::stage_mesh;
+
+mod stage_support;
 
 fn testdata(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -16,37 +18,7 @@ fn same_as_load_mesh(name: &str, budget: usize) {
     let path = testdata(name);
     let dir = tempfile::tempdir().unwrap();
     let staged = stage_mesh(&path, dir.path(), budget).unwrap();
-    let expected = load_mesh(&path).unwrap();
-    assert_eq!(
-        staged.load().unwrap(),
-        expected.mesh,
-        "{name} at {budget} B"
-    );
-    assert_eq!(
-        [
-            staged.raw_vertices,
-            staged.raw_triangles,
-            staged.welded_vertices,
-            staged.degenerate_triangles,
-            staged.duplicate_triangles,
-            staged.unreferenced_vertices,
-        ],
-        [
-            expected.raw_vertices,
-            expected.raw_triangles,
-            expected.welded_vertices,
-            expected.degenerate_triangles,
-            expected.duplicate_triangles,
-            expected.unreferenced_vertices,
-        ]
-        .map(|n| n as u64)
-    );
-    drop(staged);
-    assert_eq!(
-        std::fs::read_dir(dir.path()).unwrap().count(),
-        0,
-        "files left"
-    );
+    stage_support::assert_same_as_load_mesh(staged, &path, dir.path());
 }
 
 #[test]
