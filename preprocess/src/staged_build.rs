@@ -20,7 +20,7 @@ fn temporary(memory: &MemoryBudget) -> impl Fn(std::io::Error) -> BuildError + '
     }
 }
 
-/// `build::validate`'s checks of the mesh, in the same order and with the same errors, by
+/// `build_checks::validate`'s checks of the mesh, in the same order and with the same errors, by
 /// streaming the staged files; returns the bounding box.
 pub(crate) fn validate_staged(
     staged: &StagedMesh,
