@@ -97,7 +97,8 @@ pub fn load_mesh_bytes(name: &Path, bytes: &[u8]) -> Result<ImportReport, Import
 
 /// Loads a mesh of `format` from `reader` (a pipe, standard input): the same reader and the
 /// same welding as [`load_mesh`] of a file with these bytes, so the same [`ImportReport`].
-/// Errors name the input `name`. glTF (not streamable) and `.gz` are not read this way.
+/// Errors name the input `name`. glTF (its buffers are read at offsets) and `.gz` are not
+/// read this way.
 pub fn load_mesh_from_reader(
     reader: impl Read + 'static,
     format: MeshFormat,
@@ -120,7 +121,8 @@ pub fn load_mesh_from_reader(
 /// `budget` bytes of memory — the same mesh, ids and counts as [`load_mesh`]. PLY, OFF, STL
 /// and OBJ (plain or `.gz`) stream through the same readers as [`load_mesh`]'s (an OBJ's
 /// texture coordinates and normals, indexed apart from its positions, are joined into
-/// vertex order by external sorts); glTF is read whole first. A mesh with no triangles left
+/// vertex order by external sorts); a glTF's buffers are read by chunks from its file (a
+/// gzipped glTF is read whole first). A mesh with no triangles left
 /// is an error.
 pub fn stage_mesh(
     path: &Path,
@@ -142,7 +144,8 @@ pub fn stage_mesh(
         MeshFormat::Off => off::read_into(&mut open().map_err(at)?, stager).and_then(finish),
         MeshFormat::Stl => stl::read_into(&mut open().map_err(at)?, stager).and_then(finish),
         MeshFormat::Obj => stage_obj(&mut open().map_err(at)?, dir, budget),
-        MeshFormat::Gltf => whole(),
+        MeshFormat::Gltf if gz => whole(),
+        MeshFormat::Gltf => gltf::read_file(path, stager).and_then(finish),
     }
     .map_err(at)?;
     weld_staged(raw, dir, budget).map_err(at)
@@ -250,16 +253,15 @@ fn read_raw(path: &Path) -> Result<RawMesh, ImportErrorKind> {
     let (format, gz) = format_of(path)?;
     let raw = match format {
         MeshFormat::Gltf => {
-            let bytes = if gz {
-                Input::open(path, true)?.read_to_end()?
+            if gz {
+                let base = match path.parent() {
+                    Some(dir) if !dir.as_os_str().is_empty() => dir,
+                    _ => Path::new("."),
+                };
+                gltf::read(&Input::open(path, true)?.read_to_end()?, Some(base))?
             } else {
-                std::fs::read(path).map_err(ImportErrorKind::Io)?
-            };
-            let base = match path.parent() {
-                Some(dir) if !dir.as_os_str().is_empty() => dir,
-                _ => Path::new("."),
-            };
-            gltf::read(&bytes, Some(base))?
+                gltf::read_file(path, |d| Ok(sink::in_memory(d)))?
+            }
         }
         _ => read_stream(format, &mut Input::open(path, gz)?)?,
     };
@@ -286,7 +288,7 @@ fn read_stream(format: MeshFormat, input: &mut Input) -> Result<RawMesh, ImportE
         MeshFormat::Obj => obj::read(input),
         MeshFormat::Off => off::read(input),
         MeshFormat::Stl => stl::read(input),
-        MeshFormat::Gltf => unreachable!("glTF is read whole, not streamed"),
+        MeshFormat::Gltf => unreachable!("glTF is read from a file or bytes, not a stream"),
     }
 }
 
