@@ -370,7 +370,10 @@ fn a_real_scan_streams_as_stl_off_obj_and_glb_within_a_bounded_heap() {
         // its triangles); staged at a 1 MiB budget each file takes about 5 MiB (the readers'
         // and writers' buffers, the sorts' runs and merge heads).
         let heap = same_as_load_mesh(path, 1 << 20);
-        eprintln!("{path:?}: heap peak {:.1} MiB", heap as f64 / (1 << 20) as f64);
+        eprintln!(
+            "{path:?}: heap peak {:.1} MiB",
+            heap as f64 / (1 << 20) as f64
+        );
         assert!(
             heap < 16 << 20,
             "{path:?}: the heap peaked {:.1} MiB above the start",

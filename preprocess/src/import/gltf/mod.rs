@@ -456,7 +456,11 @@ impl Assembler {
             Mode::TriangleStrip => {
                 let [a, b] = self.held;
                 if k >= 2 {
-                    out.push(if k.is_multiple_of(2) { [a, b, i] } else { [b, a, i] });
+                    out.push(if k.is_multiple_of(2) {
+                        [a, b, i]
+                    } else {
+                        [b, a, i]
+                    });
                 }
                 self.held = [b, i];
             }
