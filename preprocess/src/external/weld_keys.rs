@@ -39,10 +39,19 @@ pub(super) fn canonical_f32_bits(x: f64) -> u32 {
     }
 }
 
-/// What step 1 needs of a key: whether two keys hold the same position, and the index.
+/// What step 1 needs of a key: whether two keys hold the same position, the index, and a
+/// hash of the position (equal positions, equal hashes) that spreads positions over windows.
 pub(super) trait GroupKey: Pod + Ord + Send {
     fn same_position(&self, other: &Self) -> bool;
     fn index(&self) -> u64;
+    fn position_hash(&self) -> u64;
+}
+
+/// A 64-bit mix of position bits (the multiplier of Fibonacci hashing after each word).
+fn mix(words: impl IntoIterator<Item = u64>) -> u64 {
+    words.into_iter().fold(0u64, |h, w| {
+        (h.rotate_left(29) ^ w).wrapping_mul(0x9E37_79B9_7F4A_7C15)
+    })
 }
 
 impl GroupKey for PositionKey {
@@ -51,6 +60,9 @@ impl GroupKey for PositionKey {
     }
     fn index(&self) -> u64 {
         self.index
+    }
+    fn position_hash(&self) -> u64 {
+        mix(self.bits)
     }
 }
 
@@ -61,36 +73,116 @@ impl GroupKey for NarrowPositionKey {
     fn index(&self) -> u64 {
         self.index as u64
     }
+    fn position_hash(&self) -> u64 {
+        mix(self.bits.map(u64::from))
+    }
 }
 
 /// Step 1: `(index << 32) | representative` for every vertex, in index order.
+///
+/// The keys are sorted a window of positions at a time, each window the positions whose hash
+/// falls in its share (so a group is never split), as many windows as the keys need to fit in
+/// `half`: each window costs a pass over the positions, but no key goes to disk (a window
+/// larger than `half` — one position repeated that often — spills as any sort does). The
+/// windows' pairs go to one sort back into index order; the representatives are the same as
+/// one sort of every key would give (a group's first index is its least).
 pub(super) fn representatives<K: GroupKey>(
     positions: &PositionFile,
     half: usize,
     dir: &Path,
     key_of: impl Fn([f64; 3], u64) -> K,
 ) -> io::Result<Sorted<u64>> {
-    let mut error = None;
-    let keys = ok_values(positions.read()?, &mut error)
-        .enumerate()
-        .map(|(i, p)| key_of(p, i as u64));
-    let sorted = sort_external(keys, half, dir)?;
-    check(error)?;
-    let mut run: Option<(K, u64)> = None;
-    let mut error = None;
-    let pairs = ok_values(sorted, &mut error).map(move |key: K| {
-        let rep = match run {
-            Some((first, rep)) if first.same_position(&key) => rep,
-            _ => key.index(),
-        };
-        run = Some((key, rep));
-        (key.index() << 32) | rep
-    });
+    let key_bytes = positions
+        .len()
+        .saturating_mul(std::mem::size_of::<K>() as u64);
+    // Each window costs a pass over the positions: at most `MAX_WINDOWS`, their keys spilled
+    // in runs where the budget is smaller than that.
+    const MAX_WINDOWS: u64 = 16;
+    let windows = key_bytes.div_ceil(half.max(1) as u64).clamp(1, MAX_WINDOWS);
+    let mut pairs = WindowPairs {
+        positions,
+        half,
+        dir,
+        key_of,
+        windows,
+        next_window: 0,
+        sorted: None,
+        run: None,
+        error: None,
+    };
     // Ascending: each delta is about 2^32, five bytes instead of eight.
     let codec = super::sort::RunCodec::delta_u64();
-    let by_index = super::sort::sort_external_with(pairs, half, dir, codec)?;
-    check(error)?;
+    let by_index = super::sort::sort_external_with(&mut pairs, half, dir, codec)?;
+    check(pairs.error)?;
     Ok(by_index)
+}
+
+/// The `(index << 32) | representative` pairs of one window after another.
+struct WindowPairs<'a, K: GroupKey, F> {
+    positions: &'a PositionFile,
+    half: usize,
+    dir: &'a Path,
+    key_of: F,
+    windows: u64,
+    next_window: u64,
+    /// The current window's keys, sorted.
+    sorted: Option<Sorted<K>>,
+    /// The last key and its group's representative.
+    run: Option<(K, u64)>,
+    error: Option<io::Error>,
+}
+
+impl<K: GroupKey, F: Fn([f64; 3], u64) -> K> WindowPairs<'_, K, F> {
+    /// The window's keys, sorted.
+    fn sort_window(&self, window: u64) -> io::Result<Sorted<K>> {
+        let windows = self.windows;
+        let mut error = None;
+        let keys = ok_values(self.positions.read()?, &mut error)
+            .enumerate()
+            .map(|(i, p)| (self.key_of)(p, i as u64))
+            // The hash's share: its top bits scaled to the window count.
+            .filter(|k| ((k.position_hash() >> 32) * windows) >> 32 == window);
+        let sorted = sort_external(keys, self.half, self.dir)?;
+        check(error)?;
+        Ok(sorted)
+    }
+}
+
+impl<K: GroupKey, F: Fn([f64; 3], u64) -> K> Iterator for WindowPairs<'_, K, F> {
+    type Item = u64;
+
+    fn next(&mut self) -> Option<u64> {
+        loop {
+            if let Some(sorted) = &mut self.sorted {
+                match sorted.next() {
+                    Some(Ok(key)) => {
+                        let rep = match self.run {
+                            Some((first, rep)) if first.same_position(&key) => rep,
+                            _ => key.index(),
+                        };
+                        self.run = Some((key, rep));
+                        return Some((key.index() << 32) | rep);
+                    }
+                    Some(Err(e)) => {
+                        self.error = Some(e);
+                        return None;
+                    }
+                    None => self.sorted = None,
+                }
+            }
+            if self.error.is_some() || self.next_window == self.windows {
+                return None;
+            }
+            match self.sort_window(self.next_window) {
+                Ok(sorted) => (self.sorted, self.run) = (Some(sorted), None),
+                Err(e) => {
+                    self.error = Some(e);
+                    return None;
+                }
+            }
+            self.next_window += 1;
+        }
+    }
 }
 
 /// A triangle by its sorted corners, then its position in the triangle list.
