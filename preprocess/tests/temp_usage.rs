@@ -17,11 +17,11 @@ fn temporary_bytes_are_counted_while_held_and_given_back() {
     let staged = stage_mesh(&path, dir.path(), 256 << 10).unwrap();
     // Only the staged mesh's own files are left, and they are what is counted.
     assert_eq!(temp_usage::current(), staged.bytes());
-    // On the way the raw files, the sort runs and the id maps were held too (1.70× the staged
-    // mesh since the weld frees each triangle file behind the pass that replaces it; 2.6×
-    // before).
+    // On the way the raw files, the sort runs and the id maps were held too (1.44× the staged
+    // mesh since step 1 sorts by windows of positions, its keys in memory; 1.70× since the
+    // weld frees each triangle file behind the pass that replaces it; 2.6× before).
     assert!(
-        temp_usage::peak() > 3 * staged.bytes() / 2,
+        temp_usage::peak() > 5 * staged.bytes() / 4,
         "peak {} for {} staged",
         temp_usage::peak(),
         staged.bytes()

@@ -2,8 +2,9 @@
 //! in-memory `import::weld`, from a `RawStaged` mesh, with memory bounded by a budget (external
 //! sorts and windows over the id maps) whatever the mesh's size and vertex order.
 //!
-//! 1. Group bit-identical positions (`-0.0` as `0.0`): sort (position bits, index); each run's
-//!    first index is the group's *representative*. Groups numbered by first index order as
+//! 1. Group bit-identical positions (`-0.0` as `0.0`): sort (position bits, index), a window
+//!    of positions (split by a hash of their bits) at a time so the keys stay in memory
+//!    (`weld_keys::representatives`); each run's first index is the group's *representative*. Groups numbered by first index order as
 //!    representatives are, so representatives stand in for group numbers until the end.
 //! 2. Map triangle corners to representatives, a window of the representative map at a time
 //!    (windows ascending: a representative is at most its vertex's index, so a corner mapped
@@ -97,8 +98,8 @@ pub fn weld_external(raw: RawStaged, budget: usize, dir: &Path) -> io::Result<St
         )));
     }
 
-    // 1. Representatives: sort by position bits, then pair each index with its run's first,
-    //    sorted back into index order. Positions that are all f32 are sorted by their f32
+    // 1. Representatives: sort by position bits (a window of positions at a time), then pair
+    //    each index with its run's first, sorted back into index order. Positions that are all f32 are sorted by their f32
     //    bits (16-byte keys, half the runs of f64 bits): the same groups, the same firsts.
     let by_index = match &raw_positions {
         PositionFile::Narrow(_) => {

@@ -82,8 +82,9 @@ impl GroupKey for NarrowPositionKey {
 ///
 /// The keys are sorted a window of positions at a time, each window the positions whose hash
 /// falls in its share (so a group is never split), as many windows as the keys need to fit in
-/// `half`: each window costs a pass over the positions, but no key goes to disk (a window
-/// larger than `half` — one position repeated that often — spills as any sort does). The
+/// a quarter of the budget (`half / 2`; the pairs' sort holds the other quarter): each window
+/// costs a pass over the positions, but no key goes to disk (a window larger than that — one
+/// position repeated that often — spills as any sort does). The
 /// windows' pairs go to one sort back into index order; the representatives are the same as
 /// one sort of every key would give (a group's first index is its least).
 pub(super) fn representatives<K: GroupKey>(
@@ -92,16 +93,20 @@ pub(super) fn representatives<K: GroupKey>(
     dir: &Path,
     key_of: impl Fn([f64; 3], u64) -> K,
 ) -> io::Result<Sorted<u64>> {
+    // A window's keys and the pairs' sort are in memory together: half of `half` each.
+    let quarter = half / 2;
     let key_bytes = positions
         .len()
         .saturating_mul(std::mem::size_of::<K>() as u64);
     // Each window costs a pass over the positions: at most `MAX_WINDOWS`, their keys spilled
     // in runs where the budget is smaller than that.
     const MAX_WINDOWS: u64 = 16;
-    let windows = key_bytes.div_ceil(half.max(1) as u64).clamp(1, MAX_WINDOWS);
+    let windows = key_bytes
+        .div_ceil(quarter.max(1) as u64)
+        .clamp(1, MAX_WINDOWS);
     let mut pairs = WindowPairs {
         positions,
-        half,
+        budget: quarter,
         dir,
         key_of,
         windows,
@@ -112,7 +117,7 @@ pub(super) fn representatives<K: GroupKey>(
     };
     // Ascending: each delta is about 2^32, five bytes instead of eight.
     let codec = super::sort::RunCodec::delta_u64();
-    let by_index = super::sort::sort_external_with(&mut pairs, half, dir, codec)?;
+    let by_index = super::sort::sort_external_with(&mut pairs, quarter, dir, codec)?;
     check(pairs.error)?;
     Ok(by_index)
 }
@@ -120,7 +125,8 @@ pub(super) fn representatives<K: GroupKey>(
 /// The `(index << 32) | representative` pairs of one window after another.
 struct WindowPairs<'a, K: GroupKey, F> {
     positions: &'a PositionFile,
-    half: usize,
+    /// Bytes a window's sort may hold.
+    budget: usize,
     dir: &'a Path,
     key_of: F,
     windows: u64,
@@ -142,7 +148,7 @@ impl<K: GroupKey, F: Fn([f64; 3], u64) -> K> WindowPairs<'_, K, F> {
             .map(|(i, p)| (self.key_of)(p, i as u64))
             // The hash's share: its top bits scaled to the window count.
             .filter(|k| ((k.position_hash() >> 32) * windows) >> 32 == window);
-        let sorted = sort_external(keys, self.half, self.dir)?;
+        let sorted = sort_external(keys, self.budget, self.dir)?;
         check(error)?;
         Ok(sorted)
     }
