@@ -8,7 +8,9 @@ use anyhow::{bail, Context};
 use clap::Args;
 use serde_json::json;
 use tessera_preprocess::checkpoint::{Fingerprint, StreamFingerprint};
-use tessera_preprocess::dem::{load_dem, DemFormat, DemOptions, HeightGrid, TerrainOptions};
+use tessera_preprocess::dem::{
+    load_dem, stage_dem_by_rows, DemFormat, DemOptions, HeightGrid, TerrainOptions,
+};
 use tessera_preprocess::import::{
     load_mesh, load_mesh_from_reader, ImportError, ImportErrorKind, ImportReport, MeshFormat,
 };
@@ -105,11 +107,12 @@ pub fn load_input_staged(
     if DemFormat::from_path(path).is_some() {
         let grid = args.load_grid(path)?;
         let mesh = grid.to_mesh(&options);
-        let description = height_field_description(path, &grid, mesh.triangles.len())?;
+        let facts = GridFacts::of(&grid);
+        let description = height_field_description(path, &facts, mesh.triangles.len())?;
         return Ok(LoadedInput {
             mesh,
             domain: Domain::HeightField,
-            grid: Some(GridFacts::of(&grid)),
+            grid: Some(facts),
             description,
         });
     }
@@ -197,16 +200,30 @@ pub fn load_build_input(
     args: &HeightFieldArgs,
     staging: Option<(&Path, u64)>,
 ) -> anyhow::Result<(BuildInput, Option<Fingerprint>)> {
-    // A height field under a budget: its grid read whole (4 bytes a sample), its mesh staged
-    // row by row as it is made (48 bytes a sample in memory otherwise).
+    // A height field under a budget: its mesh staged row by row as it is made (48 bytes a
+    // sample in memory otherwise); a `.npy` read by rows too, any other grid read whole first
+    // (4 bytes a sample).
     if let (Some((dir, _)), true) = (staging, DemFormat::from_path(path).is_some()) {
-        let grid = args.load_grid(path)?;
-        let staged = grid.stage(&args.terrain_options()?, dir)?;
-        let description = height_field_description(path, &grid, staged.triangles.len() as usize)?;
+        let options = args.terrain_options()?;
+        let (facts, staged) = match stage_dem_by_rows(path, &options, dir)? {
+            Some((placed, staged)) => {
+                let facts = GridFacts {
+                    valid_samples: staged.raw_vertices as usize,
+                    ..GridFacts::of(&placed)
+                };
+                (facts, staged)
+            }
+            None => {
+                let grid = args.load_grid(path)?;
+                let staged = grid.stage(&options, dir)?;
+                (GridFacts::of(&grid), staged)
+            }
+        };
+        let description = height_field_description(path, &facts, staged.triangles.len() as usize)?;
         let input = BuildInput::Staged {
             staged,
             domain: Domain::HeightField,
-            grid: Some(GridFacts::of(&grid)),
+            grid: Some(facts),
             description,
         };
         return Ok((input, None));
@@ -345,7 +362,7 @@ impl GridFacts {
 /// "height field C × R (…)", or the error of a grid with no triangle.
 fn height_field_description(
     path: &Path,
-    grid: &HeightGrid,
+    grid: &GridFacts,
     triangles: usize,
 ) -> anyhow::Result<String> {
     if triangles == 0 {
@@ -358,9 +375,7 @@ fn height_field_description(
     }
     Ok(format!(
         "height field {} × {} ({} samples with heights, {triangles} triangles)",
-        grid.columns,
-        grid.rows,
-        grid.valid_samples(),
+        grid.columns, grid.rows, grid.valid_samples,
     ))
 }
 

@@ -92,8 +92,20 @@ fn a_memory_budget_does_not_change_a_byte() {
     let generated = generate_2m(dir.path(), &["--density-range", "1000"]);
     let temp = dir.path().join("temp");
     std::fs::create_dir(&temp).unwrap();
-    let cases: [(std::path::PathBuf, &[&str]); 4] = [
+    // A terrain as `.npy`: under a budget its rows are read and meshed one at a time
+    // (`dem::stage_dem_by_rows`), the grid never held.
+    let terrain = dir.path().join("t7.npy");
+    tessera(&[
+        "gen",
+        "terrain",
+        "--levels",
+        "7",
+        "-o",
+        terrain.to_str().unwrap(),
+    ]);
+    let cases: [(std::path::PathBuf, &[&str]); 5] = [
         (generated, &["64M"]),
+        (terrain, &["1M"]),
         (testdata("mesh/dragon_vrip_res2.ply.gz"), &["1M"]),
         // 1G: the weld in memory, the barycentres indexed, two allocator arenas.
         (testdata("mesh/bunny00.off"), &["1M", "1G"]),

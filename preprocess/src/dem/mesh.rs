@@ -7,7 +7,7 @@
 use std::io;
 use std::path::Path;
 
-use super::{HeightGrid, TerrainOptions};
+use super::{infinite_sample, DemErrorKind, HeightGrid, TerrainOptions};
 use crate::external::staged::VertexAttributes;
 use crate::external::{PositionFile, RecordFile, StagedMesh};
 use crate::mesh::InputMesh;
@@ -23,54 +23,9 @@ impl HeightGrid {
         mut vertex: impl FnMut([f64; 3]) -> Result<(), E>,
         mut triangle: impl FnMut([u32; 3]) -> Result<(), E>,
     ) -> Result<(), E> {
-        let columns = self.columns;
-        let (origin, spacing) = self.placement(options);
-        // Counter-clockwise from above when x grows with the column and y with the row;
-        // mirrored otherwise.
-        let flip = (spacing[0] < 0.0) != (spacing[1] < 0.0);
-        let mut push = |t: [u32; 3]| {
-            if t.iter().all(|&v| v != u32::MAX) {
-                triangle(if flip { [t[0], t[2], t[1]] } else { t })
-            } else {
-                Ok(())
-            }
-        };
-        // Vertex ids of the row above and of this row (u32::MAX: missing).
-        let mut above = vec![u32::MAX; columns];
-        let mut here = vec![u32::MAX; columns];
-        let mut next_id = 0u32;
-        for (r, row) in self.heights.chunks_exact(columns).enumerate() {
-            for (c, &h) in row.iter().enumerate() {
-                here[c] = u32::MAX;
-                if !h.is_nan() {
-                    here[c] = next_id;
-                    next_id += 1;
-                    vertex([
-                        origin[0] + c as f64 * spacing[0],
-                        origin[1] + r as f64 * spacing[1],
-                        h as f64 * options.vertical_exaggeration,
-                    ])?;
-                }
-            }
-            if r > 0 {
-                for c in 0..columns - 1 {
-                    let (a, b, d, e) = (above[c], above[c + 1], here[c], here[c + 1]);
-                    let corners = [a, b, d, e].iter().filter(|&&v| v != u32::MAX).count();
-                    if corners == 4 {
-                        push([a, b, e])?;
-                        push([a, e, d])?;
-                    } else if corners == 3 {
-                        // The one triangle of the three present corners, same orientation.
-                        match [a, b, d, e].iter().position(|&v| v == u32::MAX) {
-                            Some(0) => push([b, e, d])?,
-                            Some(1) => push([a, e, d])?,
-                            Some(2) => push([a, b, e])?,
-                            _ => push([a, b, d])?,
-                        }
-                    }
-                }
-            }
-            std::mem::swap(&mut above, &mut here);
+        let mut mesher = RowMesher::new(self, options);
+        for row in self.heights.chunks_exact(self.columns) {
+            mesher.row(row, &mut vertex, &mut triangle)?;
         }
         Ok(())
     }
@@ -127,6 +82,163 @@ impl HeightGrid {
     }
 }
 
+/// The mesh of a grid made a row of samples at a time: the vertex ids of the row above and of
+/// this one are all it keeps.
+pub(crate) struct RowMesher {
+    columns: usize,
+    origin: [f64; 2],
+    spacing: [f64; 2],
+    exaggeration: f64,
+    /// Counter-clockwise from above when x grows with the column and y with the row;
+    /// mirrored otherwise.
+    flip: bool,
+    /// Vertex ids of the row above and of this row (u32::MAX: missing).
+    above: Vec<u32>,
+    here: Vec<u32>,
+    next_id: u32,
+    row: usize,
+}
+
+impl RowMesher {
+    /// For `grid`'s placement (its heights unused).
+    pub(crate) fn new(grid: &HeightGrid, options: &TerrainOptions) -> RowMesher {
+        let (origin, spacing) = grid.placement(options);
+        RowMesher {
+            columns: grid.columns,
+            origin,
+            spacing,
+            exaggeration: options.vertical_exaggeration,
+            flip: (spacing[0] < 0.0) != (spacing[1] < 0.0),
+            above: vec![u32::MAX; grid.columns],
+            here: vec![u32::MAX; grid.columns],
+            next_id: 0,
+            row: 0,
+        }
+    }
+
+    /// Hands the row's vertices (missing samples skipped) and the triangles of the cells
+    /// between it and the row above to `vertex` and `triangle`.
+    pub(crate) fn row<E>(
+        &mut self,
+        heights: &[f32],
+        vertex: &mut impl FnMut([f64; 3]) -> Result<(), E>,
+        triangle: &mut impl FnMut([u32; 3]) -> Result<(), E>,
+    ) -> Result<(), E> {
+        let (r, flip) = (self.row, self.flip);
+        let mut push = |t: [u32; 3]| {
+            if t.iter().all(|&v| v != u32::MAX) {
+                triangle(if flip { [t[0], t[2], t[1]] } else { t })
+            } else {
+                Ok(())
+            }
+        };
+        for (c, &h) in heights.iter().enumerate() {
+            self.here[c] = u32::MAX;
+            if !h.is_nan() {
+                self.here[c] = self.next_id;
+                self.next_id += 1;
+                vertex([
+                    self.origin[0] + c as f64 * self.spacing[0],
+                    self.origin[1] + r as f64 * self.spacing[1],
+                    h as f64 * self.exaggeration,
+                ])?;
+            }
+        }
+        if r > 0 {
+            for c in 0..self.columns - 1 {
+                let (a, b, d, e) = (
+                    self.above[c],
+                    self.above[c + 1],
+                    self.here[c],
+                    self.here[c + 1],
+                );
+                let corners = [a, b, d, e].iter().filter(|&&v| v != u32::MAX).count();
+                if corners == 4 {
+                    push([a, b, e])?;
+                    push([a, e, d])?;
+                } else if corners == 3 {
+                    // The one triangle of the three present corners, same orientation.
+                    match [a, b, d, e].iter().position(|&v| v == u32::MAX) {
+                        Some(0) => push([b, e, d])?,
+                        Some(1) => push([a, e, d])?,
+                        Some(2) => push([a, b, e])?,
+                        _ => push([a, b, d])?,
+                    }
+                }
+            }
+        }
+        std::mem::swap(&mut self.above, &mut self.here);
+        self.row += 1;
+        Ok(())
+    }
+}
+
+/// The mesh of the grid whose placement `grid` gives (its heights unused: they come from
+/// `next_row`, a row at a time), staged on disk in `dir` as it is made: the same files as
+/// [`HeightGrid::stage`] of the whole grid, which is never held. The rows are checked as
+/// [`HeightGrid::validate`] checks a grid (no infinite height, not every sample missing,
+/// exactly `grid.rows` rows).
+pub fn stage_rows(
+    grid: &HeightGrid,
+    options: &TerrainOptions,
+    dir: &Path,
+    mut next_row: impl FnMut(&mut Vec<f32>) -> Result<bool, DemErrorKind>,
+) -> Result<StagedMesh, DemErrorKind> {
+    let io = DemErrorKind::Io;
+    grid.validate_placement()?;
+    let mut positions = PositionFile::create(dir).map_err(io)?;
+    let mut triangles = RecordFile::<[u32; 3]>::create(dir).map_err(io)?;
+    let mut mesher = RowMesher::new(grid, options);
+    let (mut row, mut rows) = (Vec::with_capacity(grid.columns), 0);
+    while next_row(&mut row)? {
+        if rows == grid.rows || row.len() != grid.columns {
+            return Err(DemErrorKind::Format(format!(
+                "row {rows} of a {} × {} grid holds {} samples",
+                grid.columns,
+                grid.rows,
+                row.len()
+            )));
+        }
+        if let Some(c) = row.iter().position(|h| h.is_infinite()) {
+            return Err(infinite_sample(rows, c, rows * grid.columns + c));
+        }
+        mesher
+            .row(&row, &mut |p| positions.push(&p), &mut |t| {
+                triangles.push(&t)
+            })
+            .map_err(io)?;
+        rows += 1;
+    }
+    if rows != grid.rows {
+        return Err(DemErrorKind::Format(format!(
+            "{rows} rows of a {} × {} grid",
+            grid.columns, grid.rows
+        )));
+    }
+    let (positions, triangles) = (
+        positions.finish().map_err(io)?,
+        triangles.finish().map_err(io)?,
+    );
+    if positions.is_empty() {
+        return Err(DemErrorKind::Format("every sample is missing".into()));
+    }
+    Ok(StagedMesh {
+        raw_vertices: positions.len(),
+        raw_triangles: triangles.len(),
+        welded_vertices: 0,
+        degenerate_triangles: 0,
+        duplicate_triangles: 0,
+        unreferenced_vertices: 0,
+        positions,
+        triangles,
+        attributes: VertexAttributes {
+            normals: None,
+            colors: None,
+            uvs: None,
+        },
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -153,5 +265,54 @@ mod tests {
         assert!(!in_memory.triangles.is_empty());
         assert_eq!(staged.load().unwrap(), in_memory);
         assert_eq!(staged.raw_vertices as usize, grid.valid_samples());
+    }
+
+    #[test]
+    fn a_npy_staged_by_rows_is_the_grid_staged_whole() {
+        let (columns, rows) = (9, 7);
+        let mut heights: Vec<f32> = (0..columns * rows).map(|i| (i * 5 % 7) as f32).collect();
+        for i in [0, 10, 11, 12, 30, 62] {
+            heights[i] = f32::NAN;
+        }
+        let grid = HeightGrid::unit(columns, rows, heights);
+        let options = TerrainOptions {
+            spacing: Some(30.0),
+            vertical_exaggeration: 2.0,
+        };
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("g.npy");
+        std::fs::write(&path, crate::dem::write::npy_bytes(&grid)).unwrap();
+        let (placed, by_rows) = crate::dem::stage_dem_by_rows(&path, &options, dir.path())
+            .unwrap()
+            .expect("a C-order .npy is read by rows");
+        assert_eq!((placed.columns, placed.rows), (columns, rows));
+        let whole = grid.stage(&options, dir.path()).unwrap();
+        assert_eq!(by_rows.raw_vertices, whole.raw_vertices);
+        assert_eq!(by_rows.load().unwrap(), whole.load().unwrap());
+
+        // Checked as a grid read whole is: an infinite height, a truncated file, every
+        // sample missing.
+        let message = |grid: &HeightGrid, cut: usize| {
+            let mut bytes = crate::dem::write::npy_bytes(grid);
+            bytes.truncate(bytes.len() - cut);
+            std::fs::write(&path, bytes).unwrap();
+            let staged = crate::dem::stage_dem_by_rows(&path, &options, dir.path());
+            let whole = crate::dem::load_dem(&path, &Default::default());
+            (
+                staged.err().unwrap().to_string(),
+                whole.err().unwrap().to_string(),
+            )
+        };
+        let mut infinite = grid.clone();
+        infinite.heights[40] = f32::INFINITY;
+        let (rows_message, whole_message) = message(&infinite, 0);
+        assert_eq!(rows_message, whole_message);
+        assert!(rows_message.contains("sample 40 (row 4, column 4) is infinite"));
+        let (rows_message, whole_message) = message(&grid, 4);
+        assert!(rows_message.contains("g.npy"), "{rows_message}");
+        assert!(whole_message.contains("g.npy"), "{whole_message}");
+        let missing = HeightGrid::unit(columns, rows, vec![f32::NAN; columns * rows]);
+        let (rows_message, whole_message) = message(&missing, 0);
+        assert_eq!(rows_message, whole_message);
     }
 }

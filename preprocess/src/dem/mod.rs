@@ -114,6 +114,33 @@ pub fn load_dem(path: &Path, options: &DemOptions) -> Result<HeightGrid, DemErro
     read_dem(format, &bytes, options).map_err(|kind| DemError::new(path, kind))
 }
 
+/// Stages the mesh of the height field at `path` in `dir` a row at a time, its grid never held
+/// whole, where its format allows: a `.npy` stored row by row (C order; what `tessera gen
+/// terrain` writes). Returns the grid's placement (no heights) and the staged mesh — the same
+/// files as [`HeightGrid::stage`] of [`load_dem`]'s grid — or `None` for any other file.
+pub fn stage_dem_by_rows(
+    path: &Path,
+    options: &TerrainOptions,
+    dir: &Path,
+) -> Result<Option<(HeightGrid, crate::external::StagedMesh)>, DemError> {
+    if dem_format(path)? != DemFormat::Npy {
+        return Ok(None);
+    }
+    let error = |kind| DemError::new(path, kind);
+    let file = std::fs::File::open(path).map_err(|e| error(DemErrorKind::Io(e)))?;
+    let len = file
+        .metadata()
+        .map_err(|e| error(DemErrorKind::Io(e)))?
+        .len();
+    let input = std::io::BufReader::with_capacity(1 << 16, file);
+    let Some(mut rows) = npy::npy_rows(input, len).map_err(error)? else {
+        return Ok(None);
+    };
+    let grid = HeightGrid::unit(rows.columns(), rows.rows(), Vec::new());
+    let staged = mesh::stage_rows(&grid, options, dir, |row| rows.next_row(row)).map_err(error)?;
+    Ok(Some((grid, staged)))
+}
+
 /// Reads a height field from `bytes` held in memory as if they were the file `name` (format
 /// from its extension): the same readers and checks as [`load_dem`], and errors name `name`.
 pub fn load_dem_bytes(
@@ -157,6 +184,13 @@ fn read_dem(
     Ok(grid)
 }
 
+/// The error of an infinite height.
+pub(crate) fn infinite_sample(row: usize, column: usize, index: usize) -> DemErrorKind {
+    DemErrorKind::Format(format!(
+        "sample {index} (row {row}, column {column}) is infinite"
+    ))
+}
+
 /// How a grid becomes a mesh.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TerrainOptions {
@@ -193,7 +227,28 @@ impl HeightGrid {
     /// finite spacing and origin, no infinite height.
     pub fn validate(&self) -> Result<(), DemErrorKind> {
         let cells = self.columns.checked_mul(self.rows);
-        if self.columns < 2 || self.rows < 2 || cells != Some(self.heights.len()) {
+        if cells != Some(self.heights.len()) {
+            return Err(DemErrorKind::Format(format!(
+                "a {} × {} grid with {} heights: need at least 2 × 2 and one height per sample",
+                self.columns,
+                self.rows,
+                self.heights.len()
+            )));
+        }
+        self.validate_placement()?;
+        if let Some(i) = self.heights.iter().position(|h| h.is_infinite()) {
+            return Err(infinite_sample(i / self.columns, i % self.columns, i));
+        }
+        if self.heights.iter().all(|h| h.is_nan()) {
+            return Err(DemErrorKind::Format("every sample is missing".into()));
+        }
+        Ok(())
+    }
+
+    /// [`Self::validate`]'s checks that need no height: at least 2 × 2 samples, a finite
+    /// placement whose every sample lies at a finite position.
+    pub fn validate_placement(&self) -> Result<(), DemErrorKind> {
+        if self.columns < 2 || self.rows < 2 {
             return Err(DemErrorKind::Format(format!(
                 "a {} × {} grid with {} heights: need at least 2 × 2 and one height per sample",
                 self.columns,
@@ -224,16 +279,6 @@ impl HeightGrid {
                 self.spacing,
                 if self.geographic { " degrees" } else { "" }
             )));
-        }
-        if let Some(i) = self.heights.iter().position(|h| h.is_infinite()) {
-            return Err(DemErrorKind::Format(format!(
-                "sample {i} (row {}, column {}) is infinite",
-                i / self.columns,
-                i % self.columns
-            )));
-        }
-        if self.heights.iter().all(|h| h.is_nan()) {
-            return Err(DemErrorKind::Format("every sample is missing".into()));
         }
         Ok(())
     }

@@ -72,9 +72,25 @@ fn read_exact(input: &mut impl Read, out: &mut [u8]) -> Result<(), DemErrorKind>
     input.read_exact(out).map_err(DemErrorKind::Io)
 }
 
+/// A `.npy` header: the array's shape and order, and how its values decode.
+struct Header {
+    shape: Vec<usize>,
+    fortran: bool,
+    little: bool,
+    size: usize,
+    decode: fn(&[u8], bool) -> f64,
+    count: usize,
+}
+
 /// `.npy` data from `input`, which holds `len` bytes: the header, then the values a chunk at
 /// a time, so that a file is read without holding its bytes.
 fn parse_npy_from(input: &mut impl Read, len: u64) -> Result<Array, DemErrorKind> {
+    let header = read_header(input, len)?;
+    read_values(input, header)
+}
+
+/// The header, checked against the `len` bytes the file holds; `input` is left at the data.
+fn read_header(input: &mut impl Read, len: u64) -> Result<Header, DemErrorKind> {
     let mut head = [0u8; 12];
     if len < 10 {
         return Err(bad("not a .npy array (no \\x93NUMPY magic)"));
@@ -185,6 +201,26 @@ fn parse_npy_from(input: &mut impl Read, len: u64) -> Result<Array, DemErrorKind
         .try_fold(1u64, |n, &d| n.checked_mul(d as u64))
         .ok_or_else(|| DemErrorKind::TooLarge(format!("shape {shape:?}")))?;
     let count = check_fits("array", count, size as u64, len - data_start as u64)?;
+    Ok(Header {
+        shape,
+        fortran,
+        little,
+        size,
+        decode,
+        count,
+    })
+}
+
+/// The values that follow `header`.
+fn read_values(input: &mut impl Read, header: Header) -> Result<Array, DemErrorKind> {
+    let Header {
+        shape,
+        fortran,
+        little,
+        size,
+        decode,
+        count,
+    } = header;
     let narrow = shape.len() == 2 && count > 1;
     let mut values = match narrow {
         true => Values::Narrow(Vec::with_capacity(count)),
@@ -213,6 +249,63 @@ fn parse_npy_from(input: &mut impl Read, len: u64) -> Result<Array, DemErrorKind
         };
     }
     Ok(Array { shape, values })
+}
+
+/// A 2-D `.npy` grid in row order (C order), read a row at a time: heights as f32, the values
+/// [`read_npy_from`] gives.
+pub struct NpyRows<R> {
+    input: R,
+    header: Header,
+    rows_read: usize,
+    bytes: Vec<u8>,
+}
+
+/// The rows of the `.npy` grid `input` holds (`len` bytes), or `None` where the array is not
+/// a grid stored row by row (Fortran order, or not 2-D: read those whole).
+pub fn npy_rows<R: Read>(mut input: R, len: u64) -> Result<Option<NpyRows<R>>, DemErrorKind> {
+    let header = read_header(&mut input, len)?;
+    if header.fortran || header.shape.len() != 2 || header.count <= 1 {
+        return Ok(None);
+    }
+    Ok(Some(NpyRows {
+        input,
+        header,
+        rows_read: 0,
+        bytes: Vec::new(),
+    }))
+}
+
+impl<R: Read> NpyRows<R> {
+    pub fn columns(&self) -> usize {
+        self.header.shape[1]
+    }
+
+    pub fn rows(&self) -> usize {
+        self.header.shape[0]
+    }
+
+    /// The next row into `out`; false after the last.
+    pub fn next_row(&mut self, out: &mut Vec<f32>) -> Result<bool, DemErrorKind> {
+        if self.rows_read == self.rows() {
+            return Ok(false);
+        }
+        let Header {
+            size,
+            little,
+            decode,
+            ..
+        } = self.header;
+        self.bytes.resize(self.columns() * size, 0);
+        read_exact(&mut self.input, &mut self.bytes)?;
+        out.clear();
+        out.extend(
+            self.bytes
+                .chunks_exact(size)
+                .map(|c| decode(c, little) as f32),
+        );
+        self.rows_read += 1;
+        Ok(true)
+    }
 }
 
 fn to_grid(array: Array) -> Result<HeightGrid, DemErrorKind> {
