@@ -64,21 +64,26 @@ impl HeightGrid {
         let mut triangles = RecordFile::<[u32; 3]>::create(dir)?;
         self.for_each_mesh_element(options, |p| positions.push(&p), |t| triangles.push(&t))?;
         let (positions, triangles) = (positions.finish()?, triangles.finish()?);
-        Ok(StagedMesh {
-            raw_vertices: positions.len(),
-            raw_triangles: triangles.len(),
-            welded_vertices: 0,
-            degenerate_triangles: 0,
-            duplicate_triangles: 0,
-            unreferenced_vertices: 0,
-            positions,
-            triangles,
-            attributes: VertexAttributes {
-                normals: None,
-                colors: None,
-                uvs: None,
-            },
-        })
+        Ok(unwelded(positions, triangles))
+    }
+}
+
+/// A grid's staged mesh: nothing welded or removed, no attributes.
+fn unwelded(positions: PositionFile, triangles: RecordFile<[u32; 3]>) -> StagedMesh {
+    StagedMesh {
+        raw_vertices: positions.len(),
+        raw_triangles: triangles.len(),
+        welded_vertices: 0,
+        degenerate_triangles: 0,
+        duplicate_triangles: 0,
+        unreferenced_vertices: 0,
+        positions,
+        triangles,
+        attributes: VertexAttributes {
+            normals: None,
+            colors: None,
+            uvs: None,
+        },
     }
 }
 
@@ -222,21 +227,7 @@ pub fn stage_rows(
     if positions.is_empty() {
         return Err(DemErrorKind::Format("every sample is missing".into()));
     }
-    Ok(StagedMesh {
-        raw_vertices: positions.len(),
-        raw_triangles: triangles.len(),
-        welded_vertices: 0,
-        degenerate_triangles: 0,
-        duplicate_triangles: 0,
-        unreferenced_vertices: 0,
-        positions,
-        triangles,
-        attributes: VertexAttributes {
-            normals: None,
-            colors: None,
-            uvs: None,
-        },
-    })
+    Ok(unwelded(positions, triangles))
 }
 
 #[cfg(test)]

@@ -100,12 +100,7 @@ pub fn load_dem(path: &Path, options: &DemOptions) -> Result<HeightGrid, DemErro
     if format == DemFormat::Npy {
         // Read a chunk at a time: the file's bytes and the grid are never held together.
         let error = |kind| DemError::new(path, kind);
-        let file = std::fs::File::open(path).map_err(|e| error(DemErrorKind::Io(e)))?;
-        let len = file
-            .metadata()
-            .map_err(|e| error(DemErrorKind::Io(e)))?
-            .len();
-        let mut input = std::io::BufReader::with_capacity(1 << 16, file);
+        let (mut input, len) = open_buffered(path)?;
         let grid = npy::read_npy_from(&mut input, len).map_err(error)?;
         grid.validate().map_err(error)?;
         return Ok(grid);
@@ -127,18 +122,21 @@ pub fn stage_dem_by_rows(
         return Ok(None);
     }
     let error = |kind| DemError::new(path, kind);
-    let file = std::fs::File::open(path).map_err(|e| error(DemErrorKind::Io(e)))?;
-    let len = file
-        .metadata()
-        .map_err(|e| error(DemErrorKind::Io(e)))?
-        .len();
-    let input = std::io::BufReader::with_capacity(1 << 16, file);
+    let (input, len) = open_buffered(path)?;
     let Some(mut rows) = npy::npy_rows(input, len).map_err(error)? else {
         return Ok(None);
     };
     let grid = HeightGrid::unit(rows.columns(), rows.rows(), Vec::new());
     let staged = mesh::stage_rows(&grid, options, dir, |row| rows.next_row(row)).map_err(error)?;
     Ok(Some((grid, staged)))
+}
+
+/// The file at `path`, buffered for reading a chunk at a time, and its length.
+fn open_buffered(path: &Path) -> Result<(std::io::BufReader<std::fs::File>, u64), DemError> {
+    let io = |e| DemError::new(path, DemErrorKind::Io(e));
+    let file = std::fs::File::open(path).map_err(io)?;
+    let len = file.metadata().map_err(io)?.len();
+    Ok((std::io::BufReader::with_capacity(1 << 16, file), len))
 }
 
 /// Reads a height field from `bytes` held in memory as if they were the file `name` (format
