@@ -411,23 +411,20 @@ fn build_in_pool(
                     spill_dir,
                     &mut sink,
                 ),
-                Some(dir) => LevelState::from_leaves_in(
-                    next,
-                    input_vertices,
-                    current,
-                    (&dir, &hierarchy.frame),
-                )
-                .and_then(|state| {
-                    (checkpoints.after_level)(&state)?;
-                    simplify_levels(
-                        state,
-                        &hierarchy,
-                        &config.simplify,
-                        spill_dir,
-                        &mut sink,
-                        &mut checkpoints,
-                    )
-                }),
+                Some(dir) => {
+                    LevelState::from_leaves_in(next, input_vertices, current, (&dir, &hierarchy))
+                        .and_then(|state| {
+                            (checkpoints.after_level)(&state)?;
+                            simplify_levels(
+                                state,
+                                &hierarchy,
+                                &config.simplify,
+                                spill_dir,
+                                &mut sink,
+                                &mut checkpoints,
+                            )
+                        })
+                }
             })
         }
         (Source::Staged(_), None) => unreachable!("a staged build has a budget"),

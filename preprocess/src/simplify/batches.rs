@@ -151,11 +151,21 @@ pub(super) fn split_batch(
             }
         }
     }
-    let (clean, dirty): (Vec<_>, Vec<_>) = pending
+    // The held back leave `pending`, and the clean stay in its buffer, in order: a level's
+    // pending diamonds can be many, and a copy of them all was the simplification's peak.
+    let mut clean = pending;
+    let mut at = 0;
+    let held: Vec<Pending> = clean
+        .extract_if(.., |_| {
+            at += 1;
+            !blocked[at - 1].is_empty()
+        })
+        .collect();
+    let dirty = held
         .into_iter()
-        .zip(blocked)
-        .partition(|(_, blocked)| blocked.is_empty());
-    (clean.into_iter().map(|(p, _)| p).collect(), dirty)
+        .zip(blocked.into_iter().filter(|b| !b.is_empty()))
+        .collect();
+    (clean, dirty)
 }
 
 /// Vertices of `gathered` sharing a triangle with an endpoint of any of `edges`.

@@ -17,6 +17,7 @@ use rustc_hash::{FxHashMap as HashMap, FxHashSet as HashSet};
 use tessera_core::leb::SimplexKey;
 
 use super::current_mesh::{edge_key, triangle_edges};
+use crate::packed_key::PackedKey;
 use std::borrow::Cow;
 use std::io;
 
@@ -30,7 +31,7 @@ pub(super) type TrianglesOf<'f, 's> =
 
 pub(super) fn count_edges<'s>(
     query: &[u64],
-    live: &[SimplexKey],
+    live: &[PackedKey],
     triangles_of: &TrianglesOf<'_, 's>,
 ) -> io::Result<HashMap<u64, u32>> {
     if query.is_empty() {
@@ -40,7 +41,7 @@ pub(super) fn count_edges<'s>(
     let endpoints = EndpointBitmap::new(query);
     live.par_iter()
         .try_fold(HashMap::default, |mut counts: HashMap<u64, u32>, key| {
-            let triangles = triangles_of(key)?;
+            let triangles = triangles_of(&key.key())?;
             for t in triangles.as_deref().unwrap_or(&[]) {
                 for (a, b) in triangle_edges(t) {
                     if endpoints.contains(a) && endpoints.contains(b) {
@@ -110,7 +111,8 @@ mod tests {
         ];
         query.sort_unstable();
         let triangles_of = |k: &SimplexKey| Ok(patches.get(k).map(|t| Cow::Borrowed(&t[..])));
-        let counts = count_edges(&query, &[a, b], &triangles_of).unwrap();
+        let live = [a, b].map(PackedKey::of_hierarchy);
+        let counts = count_edges(&query, &live, &triangles_of).unwrap();
         assert_eq!(counts.get(&edge_key(1, 2)), Some(&3));
         assert_eq!(counts.get(&edge_key(0, 1)), Some(&1));
         assert_eq!(counts.get(&edge_key(200, 300)), Some(&1));

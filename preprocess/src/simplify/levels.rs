@@ -56,13 +56,18 @@ impl LevelState {
     /// kept in `patches`. They go to `finished` when the levels start (`finish_leaves`), not
     /// here: under a budget the staged mesh is still on disk while the leaves are made, and
     /// their encoded bytes beside it and the live store made the build's temporary peak.
+    /// `leaf_count`: the hierarchy's leaves, so that the live set and index are made at their
+    /// size (growing, a table holds its old and its new buckets at once: at a 4097² height
+    /// field the index's last doubling was the simplification's peak).
     pub(super) fn from_leaves(
         leaves: &mut LeafSource,
-        vertex_count: usize,
+        (leaf_count, vertex_count): (usize, usize),
         current: CurrentMesh,
         mut patches: LiveStore,
     ) -> Result<LevelState, SimplifyError> {
-        let mut live: HashSet<PackedKey> = HashSet::default();
+        let mut live: HashSet<PackedKey> =
+            HashSet::with_capacity_and_hasher(leaf_count, Default::default());
+        patches.reserve(leaf_count);
         while let Some(group) = leaves()? {
             live.extend(group.iter().map(|(key, _)| PackedKey::of_hierarchy(*key)));
             patches.insert_all(group)?;
@@ -82,15 +87,16 @@ impl LevelState {
     }
 
     /// `from_leaves` with the live patches in a named file of the checkpoint directory `dir`
-    /// (the hierarchy's `frame`'s).
+    /// (with `hierarchy`'s frame and leaf count).
     pub fn from_leaves_in(
         leaves: &mut LeafSource,
         vertex_count: usize,
         current: CurrentMesh,
-        (dir, frame): (&std::path::Path, &LatticeFrame),
+        (dir, hierarchy): (&std::path::Path, &Hierarchy),
     ) -> Result<LevelState, SimplifyError> {
-        let store = LiveStore::new_named(dir, SimplifierScale::of(frame))?;
-        Self::from_leaves(leaves, vertex_count, current, store)
+        let store = LiveStore::new_named(dir, SimplifierScale::of(&hierarchy.frame))?;
+        let counts = (hierarchy.mesh.leaf_count(), vertex_count);
+        Self::from_leaves(leaves, counts, current, store)
     }
 
     /// Levels merged so far.
@@ -373,7 +379,8 @@ pub(crate) fn simplify_levels(
         }
         while !pending.is_empty() {
             // The rest of the mesh's counts of the edges the pending diamonds share with it.
-            let live_list: Vec<SimplexKey> = state.live.iter().map(|k| k.key()).collect();
+            // Packed (16 B a key, not 32): the level's first list is every live simplex.
+            let live_list: Vec<PackedKey> = state.live.iter().copied().collect();
             let counts = count_edges(&query_edges(&pending), &live_list, &|k| {
                 state.patches.triangles(k)
             })?;

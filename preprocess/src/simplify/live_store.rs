@@ -196,6 +196,16 @@ impl LiveStore {
         }
     }
 
+    /// Makes room for `patches` patches in all.
+    pub(super) fn reserve(&mut self, patches: usize) {
+        match self {
+            LiveStore::Memory(map) => map.reserve(patches.saturating_sub(map.len())),
+            LiveStore::Disk(store) => store
+                .index
+                .reserve(patches.saturating_sub(store.index.len())),
+        }
+    }
+
     /// Inserts `patches`: on disk, their records encoded in parallel and appended in order, a
     /// chunk at a time.
     pub(super) fn insert_all(&mut self, patches: Vec<(SimplexKey, LivePatch)>) -> io::Result<()> {
