@@ -72,7 +72,6 @@ pub(crate) fn assemble(
         .enumerate()
         .map(|(row, &i)| (hierarchy.diamonds[i].id, row as u32))
         .collect();
-    let simplices = breadth_first(&hierarchy, &table_index, &finished);
     let patch_sphere = |key| finished.get(key).map(|p| p.sphere);
     let error_floor = step.iter().copied().fold(model_size * 1e-9, f64::max);
     // Patches are stored on the position lattice: each vertex within half a step per axis of
@@ -119,37 +118,26 @@ pub(crate) fn assemble(
     // 4. The tet table: each record points into the blobs, laid out in table order.
     on_stage("tables");
     let t = Instant::now();
-    let mut tets = Vec::with_capacity(simplices.len());
-    let mut spheres = Vec::with_capacity(simplices.len());
+    let (mut tets, order) = breadth_first(&hierarchy, &table_index, &finished);
+    let mut spheres = Vec::with_capacity(tets.len());
     let (mut patch_offset, mut id_offset) = (0u64, 0u64);
-    for entry in &simplices {
-        let p = finished.record(entry.row)?;
-        let (center, radius) = p.sphere.to_f32();
-        tets.push(TetRecord {
-            center,
-            radius,
-            cone_axis: p.cone.axis,
-            cone_cos: p.cone.cos,
-            diamond: entry.diamond,
-            parent_diamond: entry.parent_diamond,
-            first_child: entry.first_child,
-            level: entry.level as u32,
-            patch_offset,
-            patch_bytes: p.patch_bytes,
-            vertex_count: p.vertex_count,
-            strip_index_count: p.strip_index_count,
-            triangle_count: p.triangle_count,
-            id_offset,
-            id_bytes: p.id_bytes,
-            patch_checksum: p.patch_checksum,
-        });
+    for (tet, &row) in tets.iter_mut().zip(&order) {
+        let p = finished.record(row)?;
+        (tet.center, tet.radius) = p.sphere.to_f32();
+        (tet.cone_axis, tet.cone_cos) = (p.cone.axis, p.cone.cos);
+        tet.patch_offset = patch_offset;
+        tet.patch_bytes = p.patch_bytes;
+        tet.vertex_count = p.vertex_count;
+        tet.strip_index_count = p.strip_index_count;
+        tet.triangle_count = p.triangle_count;
+        tet.id_offset = id_offset;
+        tet.id_bytes = p.id_bytes;
+        tet.patch_checksum = p.patch_checksum;
         spheres.push(p.sphere);
         patch_offset += p.patch_bytes as u64;
         id_offset += p.id_bytes as u64;
     }
     nest_simplex_spheres(&mut tets, &mut spheres, RADIUS_MARGIN * model_size);
-    let order: Vec<u32> = simplices.iter().map(|e| e.row).collect();
-    drop(simplices);
     stage("tables", t);
 
     let header = Header {
@@ -197,55 +185,60 @@ pub(crate) fn assemble(
     })
 }
 
-/// One row of the simplex table: its simplex (the row of its finished patch's record, and its
-/// level), the table rows of the diamond its split makes (`NO_INDEX` for a leaf) and of the
-/// diamond whose split made it (`NO_INDEX` for a root), and its first child's row. (20 bytes:
-/// at 100 M triangles the table has 1.6 M rows.)
-struct TableEntry {
-    row: u32,
-    level: u16,
-    diamond: u32,
-    parent_diamond: u32,
-    first_child: u32,
-}
-
-/// The simplex table, breadth-first from the roots: a level at a time, each level's simplices
-/// in the order of their parents (so siblings are adjacent), exactly sized.
+/// The tet table, breadth-first from the roots: a level at a time, each level's simplices in
+/// the order of their parents (so siblings are adjacent), exactly sized, with each row's
+/// level, the table rows of the diamond its split makes (`NO_INDEX` for a leaf) and of the
+/// diamond whose split made it (`NO_INDEX` for a root) and its first child's row filled in;
+/// and each row's simplex as the row of its finished patch's record. The patch fields are the
+/// caller's to fill (a table of these rows beside the records was 20 B a simplex more at the
+/// build's peak).
 fn breadth_first(
     hierarchy: &Hierarchy,
     table_index: &HashMap<DiamondId, u32>,
     finished: &FinishedPatches,
-) -> Vec<TableEntry> {
+) -> (Vec<TetRecord>, Vec<u32>) {
     let mesh = &hierarchy.mesh;
     // Each split turns one leaf into two: the table holds every root and two per split.
     let rows = 2 * mesh.leaf_count() - mesh.roots().len();
-    let mut table: Vec<TableEntry> = Vec::with_capacity(rows);
-    let mut level: Vec<(Simplex, u32)> = mesh.roots().iter().map(|&r| (r, NO_INDEX)).collect();
-    while !level.is_empty() {
-        let next_start = table.len() + level.len();
-        let mut next = Vec::new();
-        for (s, parent_diamond) in level {
+    let mut table: Vec<TetRecord> = Vec::with_capacity(rows);
+    let mut order: Vec<u32> = Vec::with_capacity(rows);
+    // Only a level's split simplices are kept (with their diamonds' rows): the next level is
+    // their children, made as it is walked (a level's every simplex, twice as many, made
+    // this step's peak larger than the tables).
+    let mut level_rows = |simplices: &mut dyn Iterator<Item = (Simplex, u32)>, len: usize| {
+        let next_start = table.len() + len;
+        let mut split_ones: Vec<(Simplex, u32)> = Vec::new();
+        for (s, parent_diamond) in simplices {
             // A simplex at the lattice resolution has no integer midpoint: its truncated
             // `split_point` may be another diamond's id, but it is never split.
             let split = s.can_split() && mesh.is_split(s.split_point());
             let (diamond, first_child) = if split {
                 let diamond = table_index[&s.split_point()];
-                let first = (next_start + next.len()) as u32;
-                next.extend(s.children().map(|c| (c, diamond)));
+                let first = (next_start + 2 * split_ones.len()) as u32;
+                split_ones.push((s, diamond));
                 (diamond, first)
             } else {
                 (NO_INDEX, NO_INDEX)
             };
-            table.push(TableEntry {
-                row: finished.row(s.key),
-                level: s.level(),
+            table.push(TetRecord {
+                level: s.level() as u32,
                 diamond,
                 parent_diamond,
                 first_child,
+                ..bytemuck::Zeroable::zeroed()
             });
+            order.push(finished.row(s.key));
         }
-        level = next;
+        split_ones
+    };
+    let roots = mesh.roots();
+    let mut parents = level_rows(&mut roots.iter().map(|&r| (r, NO_INDEX)), roots.len());
+    while !parents.is_empty() {
+        let mut children = parents
+            .iter()
+            .flat_map(|&(p, diamond)| p.children().map(move |c| (c, diamond)));
+        parents = level_rows(&mut children, 2 * parents.len());
     }
     debug_assert_eq!(table.len(), rows);
-    table
+    (table, order)
 }
