@@ -201,11 +201,11 @@ pub fn load_build_input(
     staging: Option<(&Path, u64)>,
 ) -> anyhow::Result<(BuildInput, Option<Fingerprint>)> {
     // A height field under a budget: its mesh staged row by row as it is made (48 bytes a
-    // sample in memory otherwise); a `.npy` read by rows too, any other grid read whole first
-    // (4 bytes a sample).
+    // sample in memory otherwise); a `.npy` or a raw f32 file read by rows too, any other grid
+    // read whole first (4 bytes a sample).
     if let (Some((dir, _)), true) = (staging, DemFormat::from_path(path).is_some()) {
         let options = args.terrain_options()?;
-        let (facts, staged) = match stage_dem_by_rows(path, &options, dir)? {
+        let (facts, staged) = match stage_dem_by_rows(path, &args.dem_options(), &options, dir)? {
             Some((placed, staged)) => {
                 let facts = GridFacts {
                     valid_samples: staged.raw_vertices as usize,

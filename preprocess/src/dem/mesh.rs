@@ -273,9 +273,10 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("g.npy");
         std::fs::write(&path, crate::dem::write::npy_bytes(&grid)).unwrap();
-        let (placed, by_rows) = crate::dem::stage_dem_by_rows(&path, &options, dir.path())
-            .unwrap()
-            .expect("a C-order .npy is read by rows");
+        let (placed, by_rows) =
+            crate::dem::stage_dem_by_rows(&path, &Default::default(), &options, dir.path())
+                .unwrap()
+                .expect("a C-order .npy is read by rows");
         assert_eq!((placed.columns, placed.rows), (columns, rows));
         let whole = grid.stage(&options, dir.path()).unwrap();
         assert_eq!(by_rows.raw_vertices, whole.raw_vertices);
@@ -287,7 +288,8 @@ mod tests {
             let mut bytes = crate::dem::write::npy_bytes(grid);
             bytes.truncate(bytes.len() - cut);
             std::fs::write(&path, bytes).unwrap();
-            let staged = crate::dem::stage_dem_by_rows(&path, &options, dir.path());
+            let staged =
+                crate::dem::stage_dem_by_rows(&path, &Default::default(), &options, dir.path());
             let whole = crate::dem::load_dem(&path, &Default::default());
             (
                 staged.err().unwrap().to_string(),
@@ -305,5 +307,68 @@ mod tests {
         let missing = HeightGrid::unit(columns, rows, vec![f32::NAN; columns * rows]);
         let (rows_message, whole_message) = message(&missing, 0);
         assert_eq!(rows_message, whole_message);
+    }
+
+    #[test]
+    fn a_raw_f32_file_staged_by_rows_is_the_grid_staged_whole() {
+        let (columns, rows) = (6, 5);
+        let mut heights: Vec<f32> = (0..columns * rows).map(|i| (i * 3 % 11) as f32).collect();
+        for i in [0, 7, 8, 29] {
+            heights[i] = f32::NAN;
+        }
+        let raw =
+            |heights: &[f32]| -> Vec<u8> { heights.iter().flat_map(|h| h.to_le_bytes()).collect() };
+        let options = TerrainOptions {
+            spacing: Some(10.0),
+            vertical_exaggeration: 1.5,
+        };
+        let dem = crate::dem::DemOptions {
+            raw_size: Some((columns, rows)),
+            ..Default::default()
+        };
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("g.f32");
+        std::fs::write(&path, raw(&heights)).unwrap();
+        let (placed, by_rows) = crate::dem::stage_dem_by_rows(&path, &dem, &options, dir.path())
+            .unwrap()
+            .expect("a raw f32 file is read by rows");
+        assert_eq!((placed.columns, placed.rows), (columns, rows));
+        let grid = crate::dem::load_dem(&path, &dem).unwrap();
+        let whole = grid.stage(&options, dir.path()).unwrap();
+        assert_eq!(by_rows.raw_vertices, whole.raw_vertices);
+        assert_eq!(by_rows.load().unwrap(), whole.load().unwrap());
+
+        // The whole-grid reader's errors: a file a sample short and one a sample long, no size
+        // given, an infinite height.
+        let messages = |bytes: Vec<u8>, dem: &crate::dem::DemOptions| {
+            std::fs::write(&path, bytes).unwrap();
+            let staged = crate::dem::stage_dem_by_rows(&path, dem, &options, dir.path());
+            let whole = crate::dem::load_dem(&path, dem);
+            (
+                staged.err().unwrap().to_string(),
+                whole.err().unwrap().to_string(),
+            )
+        };
+        let (rows_message, whole_message) = messages(raw(&heights[1..]), &dem);
+        assert_eq!(rows_message, whole_message);
+        assert!(
+            rows_message.contains("the file has 116 bytes"),
+            "{rows_message}"
+        );
+        let long = raw(&[&heights[..], &[1.0]].concat());
+        let (rows_message, whole_message) = messages(long, &dem);
+        assert_eq!(rows_message, whole_message);
+        assert!(
+            rows_message.contains("124 bytes is not 6 × 5"),
+            "{rows_message}"
+        );
+        let (rows_message, whole_message) = messages(raw(&heights), &Default::default());
+        assert_eq!(rows_message, whole_message);
+        assert!(rows_message.contains("--raw-size"), "{rows_message}");
+        let mut infinite = heights.clone();
+        infinite[13] = f32::INFINITY;
+        let (rows_message, whole_message) = messages(raw(&infinite), &dem);
+        assert_eq!(rows_message, whole_message);
+        assert!(rows_message.contains("is infinite"), "{rows_message}");
     }
 }

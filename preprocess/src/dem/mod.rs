@@ -111,24 +111,35 @@ pub fn load_dem(path: &Path, options: &DemOptions) -> Result<HeightGrid, DemErro
 
 /// Stages the mesh of the height field at `path` in `dir` a row at a time, its grid never held
 /// whole, where its format allows: a `.npy` stored row by row (C order; what `tessera gen
-/// terrain` writes). Returns the grid's placement (no heights) and the staged mesh — the same
-/// files as [`HeightGrid::stage`] of [`load_dem`]'s grid — or `None` for any other file.
+/// terrain` writes) and a raw f32 file (`dem`'s `raw_size`). Returns the grid's placement (no
+/// heights) and the staged mesh — the same files as [`HeightGrid::stage`] of [`load_dem`]'s
+/// grid — or `None` for any other file.
 pub fn stage_dem_by_rows(
     path: &Path,
+    dem: &DemOptions,
     options: &TerrainOptions,
     dir: &Path,
 ) -> Result<Option<(HeightGrid, crate::external::StagedMesh)>, DemError> {
-    if dem_format(path)? != DemFormat::Npy {
+    let error = |kind| DemError::new(path, kind);
+    let format = dem_format(path)?;
+    if !matches!(format, DemFormat::Npy | DemFormat::RawF32) {
         return Ok(None);
     }
-    let error = |kind| DemError::new(path, kind);
     let (input, len) = open_buffered(path)?;
+    type NextRow<'a> = dyn FnMut(&mut Vec<f32>) -> Result<bool, DemErrorKind> + 'a;
+    let stage = |columns, rows, next_row: &mut NextRow| {
+        let grid = HeightGrid::unit(columns, rows, Vec::new());
+        let staged = mesh::stage_rows(&grid, options, dir, next_row).map_err(error)?;
+        Ok(Some((grid, staged)))
+    };
+    if format == DemFormat::RawF32 {
+        let mut rows = raw::f32_rows(input, len, dem).map_err(error)?;
+        return stage(rows.columns(), rows.rows(), &mut |row| rows.next_row(row));
+    }
     let Some(mut rows) = npy::npy_rows(input, len).map_err(error)? else {
         return Ok(None);
     };
-    let grid = HeightGrid::unit(rows.columns(), rows.rows(), Vec::new());
-    let staged = mesh::stage_rows(&grid, options, dir, |row| rows.next_row(row)).map_err(error)?;
-    Ok(Some((grid, staged)))
+    stage(rows.columns(), rows.rows(), &mut |row| rows.next_row(row))
 }
 
 /// The file at `path`, buffered for reading a chunk at a time, and its length.
