@@ -270,8 +270,8 @@ pub fn simplify_from_leaves(
     finished: &mut FinishedPatchSink,
 ) -> Result<Simplified, SimplifyError> {
     let store = LiveStore::new(spill_dir, positions::SimplifierScale::of(&hierarchy.frame))?;
-    let counts = (hierarchy.mesh.leaf_count(), vertex_count);
-    let state = LevelState::from_leaves(leaves, counts, current, store)?;
+    let leaf_count = hierarchy.mesh.leaf_count();
+    let state = LevelState::from_leaves(leaves, leaf_count, vertex_count, current, store)?;
     LevelCheckpoints::none(|checkpoints| {
         simplify_levels(state, hierarchy, settings, spill_dir, finished, checkpoints)
     })

@@ -339,7 +339,7 @@ mod tests {
         assert_eq!(by_rows.load().unwrap(), whole.load().unwrap());
 
         // The whole-grid reader's errors: a file a sample short and one a sample long, no size
-        // given, an infinite height.
+        // given, a grid of one sample, an infinite height.
         let messages = |bytes: Vec<u8>, dem: &crate::dem::DemOptions| {
             std::fs::write(&path, bytes).unwrap();
             let staged = crate::dem::stage_dem_by_rows(&path, dem, &options, dir.path());
@@ -365,6 +365,16 @@ mod tests {
         let (rows_message, whole_message) = messages(raw(&heights), &Default::default());
         assert_eq!(rows_message, whole_message);
         assert!(rows_message.contains("--raw-size"), "{rows_message}");
+        let single = crate::dem::DemOptions {
+            raw_size: Some((1, 1)),
+            ..Default::default()
+        };
+        let (rows_message, whole_message) = messages(raw(&[1.0]), &single);
+        assert_eq!(rows_message, whole_message);
+        assert!(
+            rows_message.contains("need at least 2 × 2"),
+            "{rows_message}"
+        );
         let mut infinite = heights.clone();
         infinite[13] = f32::INFINITY;
         let (rows_message, whole_message) = messages(raw(&infinite), &dem);

@@ -126,20 +126,18 @@ pub fn stage_dem_by_rows(
         return Ok(None);
     }
     let (input, len) = open_buffered(path)?;
-    type NextRow<'a> = dyn FnMut(&mut Vec<f32>) -> Result<bool, DemErrorKind> + 'a;
-    let stage = |columns, rows, next_row: &mut NextRow| {
-        let grid = HeightGrid::unit(columns, rows, Vec::new());
-        let staged = mesh::stage_rows(&grid, options, dir, next_row).map_err(error)?;
-        Ok(Some((grid, staged)))
+    let mut rows = if format == DemFormat::RawF32 {
+        let (columns, rows) = raw::f32_grid_size(dem, len).map_err(error)?;
+        npy::raw_f32_rows(input, columns, rows)
+    } else {
+        match npy::npy_rows(input, len).map_err(error)? {
+            Some(rows) => rows,
+            None => return Ok(None),
+        }
     };
-    if format == DemFormat::RawF32 {
-        let mut rows = raw::f32_rows(input, len, dem).map_err(error)?;
-        return stage(rows.columns(), rows.rows(), &mut |row| rows.next_row(row));
-    }
-    let Some(mut rows) = npy::npy_rows(input, len).map_err(error)? else {
-        return Ok(None);
-    };
-    stage(rows.columns(), rows.rows(), &mut |row| rows.next_row(row))
+    let grid = HeightGrid::unit(rows.columns(), rows.rows(), Vec::new());
+    let staged = mesh::stage_rows(&grid, options, dir, |row| rows.next_row(row)).map_err(error)?;
+    Ok(Some((grid, staged)))
 }
 
 /// The file at `path`, buffered for reading a chunk at a time, and its length.
@@ -238,7 +236,7 @@ impl HeightGrid {
         let cells = self.columns.checked_mul(self.rows);
         if cells != Some(self.heights.len()) {
             return Err(DemErrorKind::Format(format!(
-                "a {} × {} grid with {} heights: need at least 2 × 2 and one height per sample",
+                "a {} × {} grid with {} heights: need one height per sample",
                 self.columns,
                 self.rows,
                 self.heights.len()
@@ -257,12 +255,11 @@ impl HeightGrid {
     /// [`Self::validate`]'s checks that need no height: at least 2 × 2 samples, a finite
     /// placement whose every sample lies at a finite position.
     pub fn validate_placement(&self) -> Result<(), DemErrorKind> {
+        // No height count here: a grid read by rows has none yet (its heights are not held).
         if self.columns < 2 || self.rows < 2 {
             return Err(DemErrorKind::Format(format!(
-                "a {} × {} grid with {} heights: need at least 2 × 2 and one height per sample",
-                self.columns,
-                self.rows,
-                self.heights.len()
+                "a {} × {} grid: need at least 2 × 2 samples",
+                self.columns, self.rows
             )));
         }
         let finite = |v: [f64; 2]| v.iter().all(|x| x.is_finite());

@@ -72,6 +72,15 @@ fn read_exact(input: &mut impl Read, out: &mut [u8]) -> Result<(), DemErrorKind>
     input.read_exact(out).map_err(DemErrorKind::Io)
 }
 
+fn decode_f32(b: &[u8], little: bool) -> f64 {
+    let a = [b[0], b[1], b[2], b[3]];
+    (if little {
+        f32::from_le_bytes(a)
+    } else {
+        f32::from_be_bytes(a)
+    }) as f64
+}
+
 /// A `.npy` header: the array's shape and order, and how its values decode.
 struct Header {
     shape: Vec<usize>,
@@ -178,14 +187,7 @@ fn read_header(input: &mut impl Read, len: u64) -> Result<Header, DemErrorKind> 
                 u32::from_be_bytes(a)
             }) as f64
         },
-        ('f', 4) => |b, le| {
-            let a = [b[0], b[1], b[2], b[3]];
-            (if le {
-                f32::from_le_bytes(a)
-            } else {
-                f32::from_be_bytes(a)
-            }) as f64
-        },
+        ('f', 4) => decode_f32,
         ('f', 8) => |b, le| {
             let a: [u8; 8] = b.try_into().expect("8 bytes");
             if le {
@@ -273,6 +275,25 @@ pub fn npy_rows<R: Read>(mut input: R, len: u64) -> Result<Option<NpyRows<R>>, D
         rows_read: 0,
         bytes: Vec::new(),
     }))
+}
+
+/// The rows of a headerless grid of `columns` × `rows` little-endian f32 samples (a raw f32
+/// file, its size checked by the caller: `raw::f32_grid_size`), read as a `.npy` of that
+/// shape is.
+pub(super) fn raw_f32_rows<R: Read>(input: R, columns: usize, rows: usize) -> NpyRows<R> {
+    NpyRows {
+        input,
+        header: Header {
+            shape: vec![rows, columns],
+            fortran: false,
+            little: true,
+            size: 4,
+            decode: decode_f32,
+            count: columns * rows,
+        },
+        rows_read: 0,
+        bytes: Vec::new(),
+    }
 }
 
 impl<R: Read> NpyRows<R> {

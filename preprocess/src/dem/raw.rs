@@ -2,8 +2,6 @@
 //! given by the caller), and the JSON grid `{"width": W, "height": H, "values": [...]}` (the
 //! volcano of vega-datasets), `null` values marking holes, with an optional `"spacing"`.
 
-use std::io::Read;
-
 use super::error::{bad, check_fits, DemErrorKind};
 use super::{DemOptions, HeightGrid};
 
@@ -18,7 +16,10 @@ pub fn read_f32(bytes: &[u8], options: &DemOptions) -> Result<HeightGrid, DemErr
 
 /// The (columns, rows) of a raw f32 file of `len` bytes: `--raw-size`'s, if the file holds
 /// exactly that many samples.
-fn f32_grid_size(options: &DemOptions, len: u64) -> Result<(usize, usize), DemErrorKind> {
+pub(super) fn f32_grid_size(
+    options: &DemOptions,
+    len: u64,
+) -> Result<(usize, usize), DemErrorKind> {
     let Some((columns, rows)) = options.raw_size else {
         return Err(DemErrorKind::NoGrid(
             "a raw f32 file needs its size (--raw-size WIDTHxHEIGHT)".into(),
@@ -33,60 +34,6 @@ fn f32_grid_size(options: &DemOptions, len: u64) -> Result<(usize, usize), DemEr
         )));
     }
     Ok((columns, rows))
-}
-
-/// A raw f32 file read a row at a time (`dem::stage_dem_by_rows`): the same size checks as
-/// [`read_f32`], before any row is read.
-pub(super) struct F32Rows<R> {
-    input: R,
-    columns: usize,
-    rows: usize,
-    rows_read: usize,
-    bytes: Vec<u8>,
-}
-
-pub(super) fn f32_rows<R: Read>(
-    input: R,
-    len: u64,
-    options: &DemOptions,
-) -> Result<F32Rows<R>, DemErrorKind> {
-    let (columns, rows) = f32_grid_size(options, len)?;
-    Ok(F32Rows {
-        input,
-        columns,
-        rows,
-        rows_read: 0,
-        bytes: Vec::new(),
-    })
-}
-
-impl<R: Read> F32Rows<R> {
-    pub(super) fn columns(&self) -> usize {
-        self.columns
-    }
-
-    pub(super) fn rows(&self) -> usize {
-        self.rows
-    }
-
-    /// The next row's heights into `out`; false once every row is read.
-    pub(super) fn next_row(&mut self, out: &mut Vec<f32>) -> Result<bool, DemErrorKind> {
-        if self.rows_read == self.rows {
-            return Ok(false);
-        }
-        self.bytes.resize(self.columns * 4, 0);
-        self.input
-            .read_exact(&mut self.bytes)
-            .map_err(DemErrorKind::Io)?;
-        out.clear();
-        out.extend(
-            self.bytes
-                .chunks_exact(4)
-                .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])),
-        );
-        self.rows_read += 1;
-        Ok(true)
-    }
 }
 
 pub fn read_json(bytes: &[u8]) -> Result<HeightGrid, DemErrorKind> {

@@ -61,7 +61,8 @@ impl LevelState {
     /// field the index's last doubling was the simplification's peak).
     pub(super) fn from_leaves(
         leaves: &mut LeafSource,
-        (leaf_count, vertex_count): (usize, usize),
+        leaf_count: usize,
+        vertex_count: usize,
         current: CurrentMesh,
         mut patches: LiveStore,
     ) -> Result<LevelState, SimplifyError> {
@@ -95,8 +96,8 @@ impl LevelState {
         (dir, hierarchy): (&std::path::Path, &Hierarchy),
     ) -> Result<LevelState, SimplifyError> {
         let store = LiveStore::new_named(dir, SimplifierScale::of(&hierarchy.frame))?;
-        let counts = (hierarchy.mesh.leaf_count(), vertex_count);
-        Self::from_leaves(leaves, counts, current, store)
+        let leaf_count = hierarchy.mesh.leaf_count();
+        Self::from_leaves(leaves, leaf_count, vertex_count, current, store)
     }
 
     /// Levels merged so far.
