@@ -4,7 +4,8 @@
 //! decodes on its own.
 
 use std::fs::File;
-use std::io::{self, Read, Seek, SeekFrom, Write};
+use std::io::{self, Seek, SeekFrom, Write};
+use std::os::unix::fs::FileExt;
 
 use super::barycentres::RECORD_BYTES;
 use super::bucketed::BucketBudget;
@@ -94,17 +95,17 @@ impl BucketStore {
         self.spill(0)
     }
 
-    /// Calls `f` for each of a bucket's records, in input order, a run at a time.
+    /// Calls `f` for each of a bucket's records, in input order, a run at a time (read with
+    /// `pread`, so several buckets may be read at once).
     pub(super) fn for_each(
-        &mut self,
+        &self,
         bucket: usize,
         mut f: impl FnMut(u32, [f64; 3]),
     ) -> io::Result<()> {
         let mut bytes = Vec::new();
         for &(offset, len) in &self.runs[bucket] {
             bytes.resize(len as usize, 0);
-            self.file.seek(SeekFrom::Start(offset))?;
-            self.file.read_exact(&mut bytes)?;
+            self.file.read_exact_at(&mut bytes, offset)?;
             let (mut at, mut delta) = (0, Delta::default());
             while at < bytes.len() {
                 let (t, q) = delta.decode(&bytes, &mut at, true)?;
@@ -115,7 +116,7 @@ impl BucketStore {
     }
 
     /// A bucket's records, in input order.
-    pub(super) fn load(&mut self, bucket: usize) -> io::Result<Vec<(u32, [f64; 3])>> {
+    pub(super) fn load(&self, bucket: usize) -> io::Result<Vec<(u32, [f64; 3])>> {
         let mut records = Vec::with_capacity(self.counts[bucket] as usize);
         self.for_each(bucket, |t, q| records.push((t, q)))?;
         Ok(records)

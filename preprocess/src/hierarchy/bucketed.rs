@@ -21,9 +21,12 @@
 //!    splits in other buckets' cells: a bucket not yet processed sees them when it is; a
 //!    processed one is marked for re-reading (a forced split makes children holding at most
 //!    what their parent holds, so, the parent being within the criterion, they need no split).
-//! 4. **Final assignment**: the leaves of processed, untouched buckets keep the lists found in
-//!    step 3; every other bucket is streamed once more, run by run, and each record descended
-//!    from the bucket's cell to its final leaf.
+//! 4. **Final assignment**: the leaves step 3 wrote keep their lists unless a later bucket's
+//!    forced split split them; a bucket step 3 did not load is streamed once more, run by run,
+//!    and each record descended from the bucket's cell to its final leaf; a bucket with split
+//!    leaves is streamed too, but only the records of those leaves' lists (read back from the
+//!    spool, merged in input order) are descended, from their leaf. The mesh is final by then,
+//!    so a few buckets at a time are located in parallel, their lists written in bucket order.
 //!
 //! Why the result is `build_hierarchy`'s exactly: with `LeafTriangles(max)`, the result of
 //! both is the least conforming LEB refinement in which no splittable leaf holds more than
@@ -41,16 +44,18 @@
 use std::io;
 use std::path::PathBuf;
 
+use rayon::prelude::*;
 use rustc_hash::FxHashMap as HashMap;
 
-use tessera_core::leb::{ConformingMesh, Diamond, Simplex, SimplexKey};
+use tessera_core::leb::{ConformingMesh, Simplex, SimplexKey};
 
 use super::barycentres::{BarycentreSource, InOrder, RECORD_BYTES};
 use super::bucket_store::BucketStore;
-use super::coarse_passes::coarse_refine;
-use super::leaf_lists::{LeafListSpool, LeafListWriter};
+use super::coarse_passes::{coarse_refine, LOCATE_CHUNK};
+use super::leaf_lists::{LeafListSpool, LeafListWriter, ListSpan};
 use super::locator::Locator;
-use super::{partition, Construction, Hierarchy, Located, SplitDiamond};
+use super::refine::{refine, Located, LocatedLists};
+use super::{Construction, Hierarchy, SplitDiamond};
 use crate::frame::LatticeFrame;
 
 /// How much of the input the bucketed construction may hold at once, and where its
@@ -94,7 +99,8 @@ pub struct BucketStats {
     pub largest_split_bucket: u64,
     /// Simplices split outside the bucket being split (forced across a cell's border).
     pub cross_splits: usize,
-    /// Processed buckets that a later bucket's forced split touched (read again).
+    /// Processed buckets some of whose leaves a later bucket's forced split split (those
+    /// leaves' records located again in step 4).
     pub dirty_buckets: usize,
     /// Runs written to the temporary file.
     pub runs: usize,
@@ -171,6 +177,7 @@ pub fn build_hierarchy_bucketed_spooled(
     buckets.sort_unstable_by_key(|s| s.key);
     stats.buckets = buckets.len();
     let mut store = BucketStore::new(budget, buckets.len())?;
+    let triangle_bound: u64;
     {
         let locator = Locator::new(&mesh, mesh.roots());
         let leaf_bucket: Vec<u32> = {
@@ -183,19 +190,37 @@ pub fn build_hierarchy_bucketed_spooled(
         };
         let mut io_error = None;
         let mut order = InOrder::default();
+        // A chunk at a time: located in parallel, then stored in order.
+        let mut chunk: Vec<(u32, [f64; 3])> = Vec::with_capacity(LOCATE_CHUNK);
+        let mut leaves: Vec<u32> = Vec::new();
+        let mut distribute = |chunk: &mut Vec<(u32, [f64; 3])>| -> io::Result<()> {
+            chunk
+                .par_iter()
+                .with_min_len(1 << 10)
+                .map(|&(_, b)| locator.locate_root(frame.dim, b))
+                .collect_into_vec(&mut leaves);
+            for (&(t, b), &leaf) in chunk.iter().zip(&leaves) {
+                store.push(leaf_bucket[leaf as usize] as usize, t, b)?;
+            }
+            chunk.clear();
+            Ok(())
+        };
         source.for_each_barycentre_last(&mut |t, b| {
             if io_error.is_some() || !order.accept(t) {
                 return;
             }
-            let leaf = locator.locate_root(frame.dim, b);
-            if let Err(e) = store.push(leaf_bucket[leaf as usize] as usize, t, b) {
-                io_error = Some(e);
+            chunk.push((t, b));
+            if chunk.len() == LOCATE_CHUNK {
+                if let Err(e) = distribute(&mut chunk) {
+                    io_error = Some(e);
+                }
             }
         })?;
         if let Some(e) = io_error {
             return Err(e);
         }
-        order.finish(triangles)?;
+        distribute(&mut chunk)?;
+        triangle_bound = order.finish(triangles)?;
         store.flush()?;
     }
     stats.largest_bucket = store.counts.iter().copied().max().unwrap_or(0);
@@ -218,12 +243,14 @@ pub fn build_hierarchy_bucketed_spooled(
             .find_map(|&l| bucket_of.get(&key.ancestor(l)).copied())
             .expect("every leaf lies in a bucket's cell")
     };
-    // Each leaf's list goes to the spool as soon as it is final. A processed bucket's leaves
-    // are final until a later bucket's forced split touches the bucket: then they are
-    // forgotten (the space they took stays unused) and assigned again in step 4.
+    // Each leaf's list goes to the spool as soon as it is final. A processed bucket's leaf
+    // stays final until a later bucket's forced split splits it: then its list is taken out
+    // of the spool (the space it took stays unused) and its triangles are located again in
+    // step 4, from that leaf down; the bucket's other leaves keep theirs.
     let mut spool = LeafListWriter::new(&budget.temp_dir)?;
-    let mut done: Vec<Option<Vec<SimplexKey>>> = vec![None; buckets.len()];
     let mut processed = vec![false; buckets.len()];
+    // Per bucket: its leaves split since their lists were written, with those lists' spans.
+    let mut stale: Vec<Vec<(SimplexKey, ListSpan)>> = vec![Vec::new(); buckets.len()];
     for (b, cell) in buckets.iter().enumerate() {
         let count = store.counts[b] as usize;
         if !(cell.can_split() && criterion.needs_split(cell, count)) {
@@ -232,7 +259,7 @@ pub fn build_hierarchy_bucketed_spooled(
         stats.split_buckets += 1;
         stats.largest_split_bucket = stats.largest_split_bucket.max(count as u64);
         let records = store.load(b)?;
-        let mut dirty = Vec::new();
+        let mut touched = Vec::new();
         let lists = split_bucket(
             &mut mesh,
             cell,
@@ -242,36 +269,53 @@ pub fn build_hierarchy_bucketed_spooled(
             &mut |key| {
                 stats.cross_splits += 1;
                 let other = owner(key) as usize;
-                if other != b && processed[other] && done[other].is_some() {
-                    dirty.push(other);
+                if other != b && processed[other] {
+                    touched.push((other, key));
                 }
             },
         );
-        for other in dirty {
-            if let Some(keys) = done[other].take() {
-                stats.dirty_buckets += 1;
-                keys.into_iter().for_each(|k| spool.forget(k));
+        // A touched key with no list is a child of a leaf already taken out.
+        for (other, key) in touched {
+            if let Some(span) = spool.take(key) {
+                stats.dirty_buckets += usize::from(stale[other].is_empty());
+                stale[other].push((key, span));
             }
         }
-        let mut keys = Vec::with_capacity(lists.len());
         for (key, list) in lists {
             spool.write(key, &list)?;
-            keys.push(key);
         }
         processed[b] = true;
-        done[b] = Some(keys);
     }
 
-    // 4. Final assignment.
-    for (b, cell) in buckets.iter().enumerate() {
-        if done[b].is_some() || store.counts[b] == 0 {
-            continue;
+    // 4. Final assignment: the buckets never split in step 3 from their cells, and the
+    // leaves split since step 3 wrote them from those leaves. The mesh no longer changes, so
+    // a window of buckets is located in parallel and their lists written in bucket order, as
+    // one at a time would write them.
+    let remaining: Vec<(usize, Vec<(SimplexKey, ListSpan)>)> = stale
+        .into_iter()
+        .enumerate()
+        .filter(|(b, stale)| !stale.is_empty() || (!processed[*b] && store.counts[*b] > 0))
+        .collect();
+    for window in assignment_windows(&remaining, &store.counts, cap) {
+        // The window's stale lists, read back (each a part of its bucket's triangles).
+        let mut starts: Vec<Vec<(Simplex, Vec<u32>)>> = Vec::with_capacity(window.len());
+        for (_, stale) in window {
+            let mut leaves = Vec::with_capacity(stale.len());
+            for &(key, span) in stale {
+                let leaf = mesh.simplex(key).expect("a split leaf stays in the mesh");
+                leaves.push((leaf, spool.read(span, triangle_bound)?));
+            }
+            starts.push(leaves);
         }
-        let locator = Locator::new(&mesh, std::slice::from_ref(cell));
-        let mut lists: Vec<Vec<u32>> = vec![Vec::new(); locator.leaves.len()];
-        store.for_each(b, |t, q| lists[locator.locate_from(0, q) as usize].push(t))?;
-        for (leaf, list) in locator.leaves.iter().zip(lists) {
-            spool.write(leaf.key, &list)?;
+        let assigned: Vec<io::Result<LeafLists>> = window
+            .par_iter()
+            .zip(&starts)
+            .map(|((b, _), stale)| assign_bucket(&mesh, &buckets[*b], stale, &store, *b))
+            .collect();
+        for lists in assigned {
+            for (key, list) in lists? {
+                spool.write(key, &list)?;
+            }
         }
     }
     drop(store);
@@ -323,6 +367,86 @@ impl Criterion {
 /// Leaves with their triangles, in input order.
 type LeafLists = Vec<(SimplexKey, Vec<u32>)>;
 
+/// Step 4's windows of buckets located together: consecutive, at most
+/// `ASSIGNMENT_WINDOW_CAPS` buckets' cap of triangles in all (their lists, 4 bytes a triangle,
+/// are held together: well within the 70 bytes a triangle of the cap a split bucket takes),
+/// a bucket over that alone.
+fn assignment_windows<'a, T>(
+    buckets: &'a [(usize, T)],
+    counts: &'a [u64],
+    cap: u64,
+) -> impl Iterator<Item = &'a [(usize, T)]> + 'a {
+    let most = cap.saturating_mul(ASSIGNMENT_WINDOW_CAPS);
+    let mut rest = buckets;
+    std::iter::from_fn(move || {
+        let first = rest.first()?.0;
+        let mut sum = counts[first];
+        let mut end = 1;
+        while end < rest.len() && sum + counts[rest[end].0] <= most {
+            sum += counts[rest[end].0];
+            end += 1;
+        }
+        let (window, after) = rest.split_at(end);
+        rest = after;
+        Some(window)
+    })
+}
+
+/// Step 4's windows hold up to this many buckets' cap of triangles.
+const ASSIGNMENT_WINDOW_CAPS: u64 = 4;
+
+/// Step 4 for one bucket: with no `stale` leaves (a bucket step 3 did not split), each of
+/// its records located from the bucket's cell; else only the records of the stale leaves'
+/// lists (split since step 3 wrote them), each from its leaf. Returns the leaves found with
+/// their triangles, in input order.
+fn assign_bucket(
+    mesh: &ConformingMesh,
+    cell: &Simplex,
+    stale: &[(Simplex, Vec<u32>)],
+    store: &BucketStore,
+    b: usize,
+) -> io::Result<LeafLists> {
+    if stale.is_empty() {
+        let locator = Locator::new(mesh, std::slice::from_ref(cell));
+        let mut lists: Vec<Vec<u32>> = vec![Vec::new(); locator.leaves.len()];
+        store.for_each(b, |t, q| lists[locator.locate_from(0, q) as usize].push(t))?;
+        return Ok(locator
+            .leaves
+            .iter()
+            .map(|leaf| leaf.key)
+            .zip(lists)
+            .collect());
+    }
+    let starts: Vec<Simplex> = stale.iter().map(|(leaf, _)| *leaf).collect();
+    let locator = Locator::new(mesh, &starts);
+    // The stale lists merged, in input order (each triangle is in one of them at most).
+    let mut wanted: Vec<(u32, u32)> = stale
+        .iter()
+        .enumerate()
+        .flat_map(|(i, (_, list))| list.iter().map(move |&t| (t, i as u32)))
+        .collect();
+    wanted.sort_unstable();
+    let mut lists: Vec<Vec<u32>> = vec![Vec::new(); locator.leaves.len()];
+    let mut next = wanted.iter().peekable();
+    store.for_each(b, |t, q| {
+        while next.next_if(|&&(w, _)| w < t).is_some() {}
+        if let Some(&(_, start)) = next.next_if(|&&(w, _)| w == t) {
+            lists[locator.locate_from(start as usize, q) as usize].push(t);
+        }
+    })?;
+    if next.next().is_some() {
+        return Err(io::Error::other(
+            "bucketed hierarchy: a split leaf's triangle is missing from its bucket",
+        ));
+    }
+    Ok(locator
+        .leaves
+        .iter()
+        .map(|leaf| leaf.key)
+        .zip(lists)
+        .collect())
+}
+
 /// Step 3 for one bucket: `build_hierarchy`'s splitting, on the leaves inside `cell`.
 /// `touched(key)` hears of every split simplex outside the cell (a forced split). Returns the
 /// cell's leaves with their triangles.
@@ -337,13 +461,18 @@ fn split_bucket(
     // Earlier buckets' forced splits may have split the cell already.
     let locator = Locator::new(mesh, std::slice::from_ref(cell));
     let mut lists: Vec<Vec<Located>> = vec![Vec::new(); locator.leaves.len()];
-    for (triangle, barycenter) in records {
-        lists[locator.locate_from(0, barycenter) as usize].push(Located {
+    let leaves: Vec<u32> = records
+        .par_iter()
+        .with_min_len(1 << 12)
+        .map(|&(_, barycenter)| locator.locate_from(0, barycenter))
+        .collect();
+    for ((triangle, barycenter), leaf) in records.into_iter().zip(leaves) {
+        lists[leaf as usize].push(Located {
             barycenter,
             triangle,
         });
     }
-    let mut leaf_triangles: HashMap<SimplexKey, Vec<Located>> = HashMap::default();
+    let mut leaf_triangles: LocatedLists = HashMap::default();
     let mut queue = Vec::new();
     for (leaf, list) in locator.leaves.iter().zip(lists) {
         if leaf.can_split() && criterion.needs_split(leaf, list.len()) {
@@ -351,28 +480,15 @@ fn split_bucket(
         }
         leaf_triangles.insert(leaf.key, list);
     }
-    while let Some(s) = queue.pop() {
-        if !mesh.contains_leaf(&s) || !s.can_split() {
-            continue;
-        }
-        mesh.split(s.split_point(), &mut |d: &Diamond| {
-            for t in &d.simplices {
-                let Some(triangles) = leaf_triangles.remove(&t.key) else {
-                    touched(t.key);
-                    continue;
-                };
-                let children = t.children();
-                let parts = partition(triangles, &t.bisector());
-                for (c, part) in children.iter().zip(parts) {
-                    if criterion.needs_split(c, part.len()) && c.can_split() {
-                        queue.push(*c);
-                    }
-                    leaf_triangles.insert(c.key, part);
-                }
-            }
-            diamonds.push(SplitDiamond::of(d));
-        });
-    }
+    let needs_split = |s: &Simplex, n: usize| criterion.needs_split(s, n);
+    refine(
+        mesh,
+        &mut leaf_triangles,
+        queue,
+        &needs_split,
+        diamonds,
+        touched,
+    );
     leaf_triangles
         .into_iter()
         .map(|(key, list)| (key, list.iter().map(|l| l.triangle).collect()))

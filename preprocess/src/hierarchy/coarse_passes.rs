@@ -4,6 +4,7 @@
 
 use std::io;
 
+use rayon::prelude::*;
 use rustc_hash::FxHashMap as HashMap;
 
 use tessera_core::leb::{Bisector, ConformingMesh, Diamond, Simplex, SimplexKey};
@@ -13,6 +14,9 @@ use super::bucketed::{BucketStats, Criterion};
 use super::locator::Locator;
 use super::SplitDiamond;
 use crate::frame::LatticeFrame;
+
+/// Barycentres a pass descends together, in parallel.
+pub(super) const LOCATE_CHUNK: usize = 1 << 16;
 
 /// Deepest histogram below a counted leaf.
 const MAX_HISTOGRAM_DEPTH: u32 = 12;
@@ -82,15 +86,39 @@ pub(super) fn coarse_refine(
             }
         }
         let mut order = InOrder::default();
+        // A chunk of barycentres at a time, each descended in parallel to its deepest
+        // histogram node; the hits are then counted in order (apart from the histograms,
+        // which the descents read), and summed up each histogram once the pass is over.
+        let mut hits: Vec<Vec<u64>> = histograms.iter().map(|h| vec![0; h.nodes.len()]).collect();
+        let mut chunk: Vec<[f64; 3]> = Vec::with_capacity(LOCATE_CHUNK);
+        let mut deepest: Vec<Option<(u32, u32)>> = Vec::new();
+        let mut count = |chunk: &mut Vec<[f64; 3]>| {
+            chunk
+                .par_iter()
+                .with_min_len(1 << 10)
+                .map(|&q| {
+                    let h = leaf_histogram[locator.locate_root(frame.dim, q) as usize];
+                    (h != u32::MAX).then(|| (h, histograms[h as usize].deepest(q) as u32))
+                })
+                .collect_into_vec(&mut deepest);
+            for &(h, node) in deepest.iter().flatten() {
+                hits[h as usize][node as usize] += 1;
+            }
+            chunk.clear();
+        };
         source.for_each_barycentre(&mut |t, q| {
             if !order.accept(t) {
                 return;
             }
-            let h = leaf_histogram[locator.locate_root(frame.dim, q) as usize];
-            if h != u32::MAX {
-                histograms[h as usize].add(q);
+            chunk.push(q);
+            if chunk.len() == LOCATE_CHUNK {
+                count(&mut chunk);
             }
         })?;
+        count(&mut chunk);
+        for (h, hits) in histograms.iter_mut().zip(hits) {
+            h.sum_up(hits);
+        }
         triangles = Some(order.finish(triangles)?);
         stats.coarse_passes += 1;
 
@@ -173,13 +201,27 @@ impl Histogram {
         Histogram { nodes }
     }
 
-    fn add(&mut self, q: [f64; 3]) {
+    /// The deepest node holding `q`.
+    fn deepest(&self, q: [f64; 3]) -> usize {
         let mut i = 0;
-        while let Some(n) = &mut self.nodes[i] {
-            n.count += 1;
-            match &n.bisector {
-                Some(b) => i = 2 * i + 1 + b.child_index_of(q),
-                None => break,
+        while let Some(HistogramNode {
+            bisector: Some(b), ..
+        }) = &self.nodes[i]
+        {
+            i = 2 * i + 1 + b.child_index_of(q);
+        }
+        i
+    }
+
+    /// Sets each node's count from `hits` (each node's count of points it was the deepest
+    /// node of): the points in its subtree.
+    fn sum_up(&mut self, mut hits: Vec<u64>) {
+        for i in (1..self.nodes.len()).rev() {
+            hits[(i - 1) / 2] += hits[i];
+        }
+        for (node, n) in self.nodes.iter_mut().zip(hits) {
+            if let Some(node) = node {
+                node.count = n;
             }
         }
     }

@@ -309,9 +309,18 @@ impl LeafListWriter {
         Ok(())
     }
 
-    /// Drops `key`'s list, if written (the leaf was split).
-    pub fn forget(&mut self, key: SimplexKey) {
-        self.spans.remove(&key);
+    /// Takes `key`'s list out, if written (the leaf was split): where it is, for `read`.
+    pub fn take(&mut self, key: SimplexKey) -> Option<ListSpan> {
+        self.spans.remove(&key)
+    }
+
+    /// A list written earlier, at `span` (each index below `below`).
+    pub fn read(&mut self, span: ListSpan, below: u64) -> io::Result<Vec<u32>> {
+        self.file.flush()?;
+        let (offset, n, bytes) = span;
+        let mut coded = vec![0u8; bytes as usize];
+        self.file.get_ref().read_exact_at(&mut coded, offset)?;
+        decode_list(&coded, n as usize, below)
     }
 
     /// The spool of `leaves` (each with its latest list; one never written has none). A list
@@ -349,23 +358,30 @@ mod tests {
     }
 
     #[test]
-    fn lists_come_back_by_key_the_latest_written_and_forgotten_ones_gone() {
+    fn lists_come_back_by_key_the_latest_written_and_taken_ones_gone() {
         let dir = tempfile::tempdir().unwrap();
         let mut w = LeafListWriter::new(dir.path()).unwrap();
         w.write(key(5), &[1, 2, 3]).unwrap();
         w.write(key(2), &[9]).unwrap();
         w.write(key(7), &[4, 8]).unwrap();
         w.write(key(5), &[10, 11]).unwrap(); // rewritten: the latest counts
-        w.forget(key(7));
-        let spool = w.finish([key(2), key(5), key(6)].into_iter()).unwrap();
+        let taken = w.take(key(7)).unwrap();
+        assert!(w.take(key(7)).is_none(), "taken once");
+        assert_eq!(w.read(taken, 9).unwrap(), [4, 8], "a taken list reads back");
+        assert!(w.read(taken, 8).is_err(), "an index past the bound");
+        w.write(key(3), &[5]).unwrap(); // written after a read: the file goes on
+        let spool = w
+            .finish([key(2), key(3), key(5), key(6)].into_iter())
+            .unwrap();
         let leaves: Vec<_> = spool.leaves().collect();
-        assert_eq!(leaves, [(key(2), 1), (key(5), 2), (key(6), 0)]);
+        assert_eq!(leaves, [(key(2), 1), (key(3), 1), (key(5), 2), (key(6), 0)]);
         assert_eq!(spool.list(0).unwrap(), [9]);
-        assert_eq!(spool.list(1).unwrap(), [10, 11]);
-        assert!(spool.list(2).unwrap().is_empty());
-        assert_eq!(spool.triangles(), 3);
+        assert_eq!(spool.list(1).unwrap(), [5]);
+        assert_eq!(spool.list(2).unwrap(), [10, 11]);
+        assert!(spool.list(3).unwrap().is_empty());
+        assert_eq!(spool.triangles(), 4);
         let map = spool.into_map().unwrap();
-        assert_eq!(map.len(), 3);
+        assert_eq!(map.len(), 4);
         assert_eq!(map[&key(5)], [10, 11]);
     }
 

@@ -15,6 +15,7 @@ mod coarse_passes;
 mod leaf_lists;
 mod location_codec;
 mod locator;
+mod refine;
 
 pub use barycentres::{BarycentreSource, MeshBarycentres, SpooledBarycentres};
 pub use bucketed::{
@@ -26,7 +27,9 @@ pub use leaf_lists::{LeafCorners, LeafListSpool, LeafListWriter};
 
 use rustc_hash::FxHashMap as HashMap;
 
-use tessera_core::leb::{Bisector, ConformingMesh, Diamond, DiamondId, Simplex, SimplexKey};
+use tessera_core::leb::{ConformingMesh, Diamond, DiamondId, Simplex, SimplexKey};
+
+use refine::{refine, Located, LocatedLists};
 
 use crate::frame::LatticeFrame;
 
@@ -94,7 +97,7 @@ pub fn build_hierarchy(
     let mut mesh = ConformingMesh::new(frame.dim, frame.bits);
     // Each leaf's triangles, in input order, with their barycentres beside them: partitioning
     // then streams through memory instead of gathering barycentres from all over the input.
-    let mut leaf_triangles: HashMap<SimplexKey, Vec<Located>> =
+    let mut leaf_triangles: LocatedLists =
         mesh.roots().iter().map(|r| (r.key, Vec::new())).collect();
     let roots: Vec<Simplex> = mesh.roots().to_vec();
     for (t, b) in barycenters.iter().enumerate() {
@@ -108,31 +111,20 @@ pub fn build_hierarchy(
         Construction::LeafTriangles(max) => count > max,
         Construction::Levels(levels) => s.level() < levels,
     };
-    let mut queue: Vec<Simplex> = roots
+    let queue: Vec<Simplex> = roots
         .iter()
         .copied()
         .filter(|r| needs_split(r, leaf_triangles[&r.key].len()))
         .collect();
     let mut diamonds = Vec::new();
-    while let Some(s) = queue.pop() {
-        if !mesh.contains_leaf(&s) || !s.can_split() {
-            continue;
-        }
-        mesh.split(s.split_point(), &mut |d: &Diamond| {
-            for t in &d.simplices {
-                let triangles = leaf_triangles.remove(&t.key).unwrap_or_default();
-                let children = t.children();
-                let parts = partition(triangles, &t.bisector());
-                for (c, part) in children.iter().zip(parts) {
-                    if needs_split(c, part.len()) && c.can_split() {
-                        queue.push(*c);
-                    }
-                    leaf_triangles.insert(c.key, part);
-                }
-            }
-            diamonds.push(SplitDiamond::of(d));
-        });
-    }
+    refine(
+        &mut mesh,
+        &mut leaf_triangles,
+        queue,
+        &needs_split,
+        &mut diamonds,
+        &mut |key| unreachable!("every leaf holds a list, {key:?} too"),
+    );
     diamonds.sort_unstable_by_key(|d| (d.level, d.id));
     Hierarchy {
         frame,
@@ -143,29 +135,4 @@ pub fn build_hierarchy(
             .map(|(key, list)| (key, list.iter().map(|l| l.triangle).collect()))
             .collect(),
     }
-}
-
-/// A triangle in a leaf under construction.
-#[derive(Clone, Copy)]
-struct Located {
-    barycenter: [f64; 3],
-    triangle: u32,
-}
-
-/// Splits a leaf's triangles between its children (`bisector`'s tie rule), keeping their order
-/// (and allocating each child's list at its size).
-fn partition(triangles: Vec<Located>, bisector: &Bisector) -> [Vec<Located>; 2] {
-    let sides: Vec<u8> = triangles
-        .iter()
-        .map(|l| bisector.child_index_of(l.barycenter) as u8)
-        .collect();
-    let ones = sides.iter().map(|&s| s as usize).sum::<usize>();
-    let mut parts = [
-        Vec::with_capacity(triangles.len() - ones),
-        Vec::with_capacity(ones),
-    ];
-    for (l, side) in triangles.into_iter().zip(sides) {
-        parts[side as usize].push(l);
-    }
-    parts
 }
