@@ -3,6 +3,8 @@
 
 use std::io;
 
+use rayon::prelude::*;
+
 use super::chunk_reader::ChunkReader;
 use super::staged::{RecordFile, IO_BUFFER};
 
@@ -67,3 +69,30 @@ impl<T: bytemuck::Pod> Cursor<T> {
         self.block[(index - self.start) as usize]
     }
 }
+
+/// Runs `pass` over `indices` (ascending record indices) and `out` split alike into a few
+/// pieces side by side (two a worker, each of at least `MIN_INDICES_A_PASS`): each piece's
+/// pass reads its own range of the file with its own cursor, all in parallel. `states` (one
+/// a piece, kept by the caller from call to call: a cursor's block, say) grows to the pieces.
+pub(super) fn in_passes<I: Sync, T: Send, S: Send + Default>(
+    indices: &[I],
+    out: &mut [T],
+    states: &mut Vec<S>,
+    pass: impl Fn(&[I], &mut [T], &mut S) -> io::Result<()> + Sync,
+) -> io::Result<()> {
+    debug_assert_eq!(indices.len(), out.len());
+    let passes = (2 * rayon::current_num_threads())
+        .min(indices.len().div_ceil(MIN_INDICES_A_PASS))
+        .max(1);
+    let per_pass = indices.len().div_ceil(passes).max(1);
+    if states.len() < passes {
+        states.resize_with(passes, S::default);
+    }
+    out.par_chunks_mut(per_pass)
+        .zip(indices.par_chunks(per_pass))
+        .zip(states.par_iter_mut())
+        .try_for_each(|((out, indices), state)| pass(indices, out, state))
+}
+
+/// Indices a pass of [`in_passes`] reads at least (fewer passes where there are few).
+const MIN_INDICES_A_PASS: usize = 1 << 16;

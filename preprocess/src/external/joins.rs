@@ -11,7 +11,7 @@ use rayon::prelude::*;
 use rustc_hash::{FxHashMap as HashMap, FxHashSet as HashSet};
 use tessera_core::leb::SimplexKey;
 
-use super::cursor::Cursor;
+use super::cursor::{in_passes, Cursor};
 use super::fallible::{check, ok_values};
 use super::position_file::{PositionBlocks, PositionCursor};
 use super::sort::sort_external;
@@ -22,9 +22,9 @@ use crate::vertex_table::{LivePatch, VertexTable};
 
 /// The locations of a staged mesh's triangles, as `frame.location` of their corners (the
 /// in-memory build's `MeshBarycentres`), a chunk of triangles at a time: the chunk's corners
-/// sorted by vertex pick their positions in one pass over the positions file (up to the
-/// chunk's largest id). No temporary file; the positions file is read once a chunk (from the
-/// page cache, mostly). Costly all the same: read it once (`SpooledBarycentres`). Where the
+/// sorted by vertex pick their positions in a pass over the positions file (up to the
+/// chunk's largest id; a few passes side by side, each over its own range of vertices). No
+/// temporary file; the positions file is read once a chunk (from the page cache, mostly). Costly all the same: read it once (`SpooledBarycentres`). Where the
 /// positions file fits the budget it is read whole and indexed instead (no sort).
 pub struct JoinedBarycentres<'a> {
     pub staged: &'a StagedMesh,
@@ -34,8 +34,9 @@ pub struct JoinedBarycentres<'a> {
 }
 
 /// Bytes a triangle of a chunk takes: its corners (12), their sort keys (24), their positions
-/// (72), and its barycentre twice (48: the chunk handed to `f` and the one made meanwhile).
-const JOIN_BYTES_PER_TRIANGLE: usize = 156;
+/// (72) and places in sorted order (12), and its barycentre twice (48: the chunk handed to `f`
+/// and the one made meanwhile).
+const JOIN_BYTES_PER_TRIANGLE: usize = 168;
 
 impl BarycentreSource for JoinedBarycentres<'_> {
     fn for_each_barycentre(&self, f: &mut dyn FnMut(u32, [f64; 3])) -> io::Result<()> {
@@ -78,48 +79,87 @@ impl BarycentreSource for JoinedBarycentres<'_> {
         let mut triangles = self.staged.triangles.read_chunks(chunk)?;
         let mut first = 0u32;
         // Buffers reused from chunk to chunk.
-        let (mut part, mut corners, mut at) = (Vec::new(), Vec::new(), Vec::new());
-        let mut blocks = PositionBlocks::default();
-        // A chunk's barycentres are joined and computed on their own thread while the
-        // previous chunk's are handed to `f` (a spool's writes). That thread is outside the
-        // build's worker pool, so it works serially: parallel calls there would start rayon's
-        // global pool beside the one `--threads` sized.
-        let produce = || {
-            if !triangles.read_into(&mut part)? {
-                return Ok(None);
-            }
-            // (vertex, corner slot in the chunk), by vertex.
-            corners.clear();
-            corners.extend(
-                part.iter()
-                    .enumerate()
-                    .flat_map(|(i, t): (usize, &[u32; 3])| {
-                        (0..3).map(move |k| ((t[k] as u64) << 32) | (3 * i + k) as u64)
-                    }),
-            );
-            corners.sort_unstable();
-            at.clear();
-            at.resize(corners.len(), [0.0f64; 3]);
-            let mut positions = PositionCursor::reusing(&self.staged.positions, &mut blocks)?;
-            for &c in &corners {
-                at[c as u32 as usize] = positions.at((c >> 32) as u32);
-            }
-            positions.finish(&mut blocks)?;
-            let barycentres: Vec<[f64; 3]> = at
-                .chunks_exact(3)
-                .map(|c| self.frame.location([c[0], c[1], c[2]]))
-                .collect();
-            Ok(Some(barycentres))
-        };
-        super::prefetch::one_ahead(produce, |next| {
-            while let Some(barycentres) = next()? {
+        let mut buffers = JoinBuffers::default();
+        let mut produce = || self.join_chunk(&mut triangles, &mut buffers);
+        let mut current = produce()?;
+        while let Some(barycentres) = current.take() {
+            // The next chunk is joined by the pool while this one goes to `f` (a spool's
+            // writes) on this thread.
+            let mut next = None;
+            rayon::in_place_scope(|scope| {
+                scope.spawn(|_| next = Some(produce()));
                 for b in barycentres {
                     f(first, b);
                     first += 1;
                 }
+            });
+            current = next.expect("the scope ran the join")?;
+        }
+        Ok(())
+    }
+}
+
+/// A chunk join's buffers, kept from chunk to chunk (fresh ones each time cost page faults).
+#[derive(Default)]
+struct JoinBuffers {
+    part: Vec<[u32; 3]>,
+    /// (vertex, corner slot in the chunk), sorted.
+    corners: Vec<u64>,
+    /// The sorted corners' positions.
+    positions: Vec<[f64; 3]>,
+    /// Each corner slot's place among the sorted corners.
+    rank: Vec<u32>,
+    /// One per pass over the positions file (`in_passes`).
+    blocks: Vec<PositionBlocks>,
+}
+
+impl JoinedBarycentres<'_> {
+    /// The next chunk's barycentres: its corners sorted by vertex, their positions read in a
+    /// few passes over the positions file side by side (each over its own range of vertices,
+    /// in order), then the barycentres computed, all in parallel.
+    fn join_chunk(
+        &self,
+        triangles: &mut super::chunk_reader::ChunkReader<[u32; 3]>,
+        buffers: &mut JoinBuffers,
+    ) -> io::Result<Option<Vec<[f64; 3]>>> {
+        let JoinBuffers {
+            part,
+            corners,
+            positions,
+            rank,
+            blocks,
+        } = buffers;
+        if !triangles.read_into(part)? {
+            return Ok(None);
+        }
+        corners.clear();
+        corners.par_extend(part.par_iter().enumerate().flat_map_iter(|(i, t)| {
+            (0..3).map(move |k| ((t[k] as u64) << 32) | (3 * i + k) as u64)
+        }));
+        corners.par_sort_unstable();
+        positions.clear();
+        positions.resize(corners.len(), [0.0; 3]);
+        in_passes(corners, positions, blocks, |corners, out, blocks| {
+            let mut cursor = PositionCursor::reusing(&self.staged.positions, blocks)?;
+            for (p, &c) in out.iter_mut().zip(corners) {
+                *p = cursor.at((c >> 32) as u32);
             }
-            Ok(())
-        })
+            cursor.finish(blocks)
+        })?;
+        rank.clear();
+        rank.resize(corners.len(), 0);
+        for (i, &c) in corners.iter().enumerate() {
+            rank[c as u32 as usize] = i as u32;
+        }
+        let barycentres = rank
+            .par_chunks_exact(3)
+            .with_min_len(1 << 12)
+            .map(|r| {
+                let at = |k: usize| positions[r[k] as usize];
+                self.frame.location([at(0), at(1), at(2)])
+            })
+            .collect();
+        Ok(Some(barycentres))
     }
 }
 

@@ -10,14 +10,15 @@ use std::path::Path;
 use rayon::prelude::*;
 use tessera_core::leb::SimplexKey;
 
-use super::cursor::Cursor;
+use super::cursor::{in_passes, Cursor};
 use super::fallible::check;
 use super::staged::RecordFile;
 use crate::hierarchy::{encode_corners, LeafCorners, LeafListSpool, LeafListWriter};
 
 /// The triangles `lists` names (indices into `triangles`), a leaf at a time in key order, in
 /// a new spool in `dir`: a group of leaves of about `max_triangles` triangles costs one pass
-/// over the triangle file (up to the group's last triangle).
+/// over the triangle file (up to the group's last triangle; a few passes side by side, each
+/// over its own range of triangles).
 pub fn leaf_corners(
     triangles: &RecordFile<[u32; 3]>,
     lists: LeafListSpool,
@@ -27,6 +28,8 @@ pub fn leaf_corners(
     let mut writer = LeafListWriter::new(dir)?;
     let leaves = lists.leaves().len();
     let mut start = 0;
+    // The passes' cursor blocks, kept from group to group.
+    let mut blocks: Vec<Vec<[u32; 3]>> = Vec::new();
     while start < leaves {
         let mut end = start;
         let mut n = 0;
@@ -34,27 +37,41 @@ pub fn leaf_corners(
             n += lists.leaf(end).1;
             end += 1;
         }
+        // The group's lists, read and checked side by side.
+        let group_lists: Vec<Vec<u32>> = (start..end)
+            .into_par_iter()
+            .map(|leaf| {
+                let list = lists.list(leaf)?;
+                if !list.windows(2).all(|w| w[0] < w[1]) {
+                    return Err(io::Error::other(format!(
+                        "leaf {:?} lists its triangles out of order",
+                        lists.leaf(leaf).0
+                    )));
+                }
+                Ok(list)
+            })
+            .collect::<io::Result<_>>()?;
         // (triangle, leaf in the group), by triangle. A leaf lists its triangles in ascending
         // order (both constructions keep the input's), so taking them in file order keeps it.
         let mut wanted: Vec<(u32, u32)> = Vec::with_capacity(n);
         let mut group: Vec<Vec<[u32; 3]>> = Vec::with_capacity(end - start);
-        for leaf in start..end {
-            let list = lists.list(leaf)?;
-            if !list.windows(2).all(|w| w[0] < w[1]) {
-                return Err(io::Error::other(format!(
-                    "leaf {:?} lists its triangles out of order",
-                    lists.leaf(leaf).0
-                )));
-            }
+        for (i, list) in group_lists.into_iter().enumerate() {
             group.push(Vec::with_capacity(list.len()));
-            wanted.extend(list.iter().map(|&t| (t, (leaf - start) as u32)));
+            wanted.extend(list.into_iter().map(|t| (t, i as u32)));
         }
-        wanted.sort_unstable();
-        let mut file = Cursor::new(triangles)?;
-        for &(t, leaf) in &wanted {
-            group[leaf as usize].push(file.at(t));
+        wanted.par_sort_unstable();
+        let mut corners = vec![[0u32; 3]; wanted.len()];
+        in_passes(&wanted, &mut corners, &mut blocks, |wanted, out, block| {
+            let mut file = Cursor::reusing(triangles, std::mem::take(block))?;
+            for (c, &(t, _)) in out.iter_mut().zip(wanted) {
+                *c = file.at(t);
+            }
+            *block = std::mem::take(&mut file.block);
+            check(file.error.take())
+        })?;
+        for (&(_, leaf), c) in wanted.iter().zip(corners) {
+            group[leaf as usize].push(c);
         }
-        check(file.error.take())?;
         drop(wanted);
         let coded: Vec<Vec<u8>> = group
             .par_iter()
