@@ -14,10 +14,18 @@
 //! number of threads. Welded vertex ids follow the input's order, which scans keep spatially
 //! coherent, so one diamond touches few shards.
 
+use std::convert::Infallible;
+
 use rayon::prelude::*;
 use rustc_hash::FxHashMap as HashMap;
 
 use crate::mesh::InputMesh;
+
+/// Ranges of shards the input's use counts are counted in side by side (`count_uses`).
+const USE_COUNT_RANGES: usize = 64;
+
+/// Triangles whose corners `count_uses` sorts out at a time (12 bytes each).
+const USE_COUNT_CHUNK: usize = 1 << 18;
 
 /// log2 of the vertex ids per shard.
 const SHARD_BITS: u32 = 12;
@@ -126,22 +134,46 @@ impl CurrentMesh {
             nonmanifold.insert(k, n);
         }
         let mut current = Self::zeroed(vertex_count, nonmanifold);
-        for t in triangles()? {
-            for v in t? {
-                current.count_use(v);
-            }
-        }
+        current.count_uses(triangles()?)?;
         Ok(current)
     }
 
     fn with_edges(mesh: &InputMesh, nonmanifold: HashMap<u64, u32>) -> Self {
         let mut current = Self::zeroed(mesh.positions.len(), nonmanifold);
-        for t in &mesh.triangles {
-            for &v in t {
-                current.count_use(v);
-            }
-        }
+        let Ok(()) = current.count_uses(mesh.triangles.iter().map(|&t| Ok::<_, Infallible>(t)));
         current
+    }
+
+    /// Adds a use for each corner of `triangles`, a chunk of triangles at a time: the chunk's
+    /// corners sorted out by ranges of shards, each range counted on its own, in parallel
+    /// (a sum: the same counts in any order). Counting corner by corner jumped all over the
+    /// counts (25 MB at 50 M vertices): a 100 M-triangle build spent some 10 s on it.
+    fn count_uses<E>(
+        &mut self,
+        triangles: impl Iterator<Item = Result<[u32; 3], E>>,
+    ) -> Result<(), E> {
+        let per_range = self.shards.len().div_ceil(USE_COUNT_RANGES).max(1);
+        let mut ranges: Vec<Vec<u32>> = vec![Vec::new(); self.shards.len().div_ceil(per_range)];
+        let mut triangles = triangles.peekable();
+        while triangles.peek().is_some() {
+            ranges.iter_mut().for_each(Vec::clear);
+            for t in triangles.by_ref().take(USE_COUNT_CHUNK) {
+                for v in t? {
+                    ranges[vertex_shard(v) as usize / per_range].push(v);
+                }
+            }
+            self.shards
+                .par_chunks_mut(per_range)
+                .zip(&ranges)
+                .for_each(|(shards, corners)| {
+                    for &v in corners {
+                        let shard = &mut shards[vertex_shard(v) as usize % per_range];
+                        let at = offset(v);
+                        shard.set(at, shard.get(at) + 1);
+                    }
+                });
+        }
+        Ok(())
     }
 
     /// Zero counts for `vertex_count` vertices, straight in their shards (never a whole-mesh
@@ -154,13 +186,6 @@ impl CurrentMesh {
             shards,
             nonmanifold,
         }
-    }
-
-    #[inline]
-    fn count_use(&mut self, v: u32) {
-        let shard = &mut self.shards[vertex_shard(v) as usize];
-        let at = offset(v);
-        shard.set(at, shard.get(at) + 1);
     }
 
     /// The counts, for a build's checkpoint (`decode` reads them back).
