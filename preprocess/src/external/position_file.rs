@@ -123,6 +123,24 @@ impl PositionWriter {
         }
     }
 
+    /// Appends `positions`, as `push` would one by one: a run of them that all narrow to f32
+    /// in one write.
+    pub fn push_all(&mut self, positions: &[[f64; 3]]) -> io::Result<()> {
+        let mut narrow: Vec<[f32; 3]> = Vec::new();
+        for chunk in positions.chunks(1 << 16) {
+            if let PositionWriter::Narrow { records, .. } = self {
+                if chunk.iter().all(narrows) {
+                    narrow.clear();
+                    narrow.extend(chunk.iter().map(|p| p.map(|x| x as f32)));
+                    records.push_all(&narrow)?;
+                    continue;
+                }
+            }
+            chunk.iter().try_for_each(|p| self.push(p))?;
+        }
+        Ok(())
+    }
+
     /// Rewrites the f32 records written so far as f64 (the f32 file is removed).
     fn widen(&mut self) -> io::Result<()> {
         let PositionWriter::Narrow { dir, records } = self else {
@@ -247,6 +265,27 @@ mod tests {
             w.push(p).unwrap();
         }
         w.finish().unwrap()
+    }
+
+    #[test]
+    fn positions_pushed_together_are_the_file_pushed_one_by_one() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut many: Vec<[f64; 3]> = (0..200_000)
+            .map(|i| [i as f64, 0.5, -(i as f64) * 0.25])
+            .collect();
+        for widened in [false, true] {
+            if widened {
+                many[150_001][2] = 0.1; // inside the third chunk of the second call
+            }
+            let one_by_one = written(dir.path(), &many);
+            let mut w = PositionFile::create(dir.path()).unwrap();
+            w.push_all(&many[..70_000]).unwrap();
+            w.push_all(&many[70_000..]).unwrap();
+            let together = w.finish().unwrap();
+            assert_eq!(matches!(together, PositionFile::Wide(_)), widened);
+            assert_eq!(together.bytes(), one_by_one.bytes());
+            assert_eq!(together.read_all().unwrap(), many);
+        }
     }
 
     #[test]

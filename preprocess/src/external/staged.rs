@@ -423,16 +423,12 @@ impl StagedMesh {
     pub fn from_report(report: crate::import::ImportReport, dir: &Path) -> io::Result<StagedMesh> {
         fn write<T: Pod>(records: &[T], dir: &Path) -> io::Result<RecordFile<T>> {
             let mut file = RecordFile::create(dir)?;
-            for record in records {
-                file.push(record)?;
-            }
+            file.push_all(records)?;
             file.finish()
         }
         let mesh = &report.mesh;
         let mut positions = PositionFile::create(dir)?;
-        for p in &mesh.positions {
-            positions.push(p)?;
-        }
+        positions.push_all(&mesh.positions)?;
         Ok(StagedMesh {
             positions: positions.finish()?,
             triangles: write(&mesh.triangles, dir)?,
