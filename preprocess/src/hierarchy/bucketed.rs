@@ -428,13 +428,16 @@ fn assign_bucket(
     wanted.sort_unstable();
     let mut lists: Vec<Vec<u32>> = vec![Vec::new(); locator.leaves.len()];
     let mut next = wanted.iter().peekable();
-    store.for_each(b, |t, q| {
-        while next.next_if(|&&(w, _)| w < t).is_some() {}
-        if let Some(&(_, start)) = next.next_if(|&&(w, _)| w == t) {
+    let mut missing = false;
+    store.for_each(b, |t, q| match next.peek() {
+        Some(&&(w, start)) if w == t => {
+            next.next();
             lists[locator.locate_from(start as usize, q) as usize].push(t);
         }
+        Some(&&(w, _)) if w < t => missing = true,
+        _ => {}
     })?;
-    if next.next().is_some() {
+    if missing || next.next().is_some() {
         return Err(io::Error::other(
             "bucketed hierarchy: a split leaf's triangle is missing from its bucket",
         ));
