@@ -32,15 +32,22 @@ pub(crate) fn validate_staged(
     }
     let mut lo = [f64::INFINITY; 3];
     let mut hi = [f64::NEG_INFINITY; 3];
-    for (index, p) in staged.positions.read().map_err(&io)?.enumerate() {
-        let p = p.map_err(&io)?;
-        if p.iter().any(|x| !x.is_finite()) {
-            return Err(BuildError::NonFinite { index });
+    // A chunk at a time: a record at a time through the readers' iterators cost most of the
+    // pass (0.5 s of a 10 M-triangle build).
+    let mut first = 0usize;
+    let mut positions = staged.positions.read_chunks(VALIDATE_CHUNK).map_err(&io)?;
+    let mut chunk = Vec::new();
+    while positions.read_into(&mut chunk).map_err(&io)? {
+        for (i, p) in chunk.iter().enumerate() {
+            if p.iter().any(|x| !x.is_finite()) {
+                return Err(BuildError::NonFinite { index: first + i });
+            }
+            for k in 0..3 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
         }
-        for i in 0..3 {
-            lo[i] = lo[i].min(p[i]);
-            hi[i] = hi[i].max(p[i]);
-        }
+        first += chunk.len();
     }
     if let Some(axis) = (0..3).find(|&i| hi[i] - lo[i] > MAX_EXTENT) {
         return Err(BuildError::TooLarge {
@@ -49,22 +56,31 @@ pub(crate) fn validate_staged(
         });
     }
     let count = staged.positions.len() as usize;
-    for (index, t) in staged.triangles.read().map_err(&io)?.enumerate() {
-        let t = t.map_err(&io)?;
-        if let Some(&vertex) = t.iter().find(|&&v| v as usize >= count) {
-            return Err(BuildError::IndexOutOfRange {
-                index,
-                vertex,
-                count,
-            });
+    let mut first = 0usize;
+    let mut triangles = staged.triangles.read_chunks(VALIDATE_CHUNK).map_err(&io)?;
+    let mut chunk = Vec::new();
+    while triangles.read_into(&mut chunk).map_err(&io)? {
+        for (i, t) in chunk.iter().enumerate() {
+            let index = first + i;
+            if let Some(&vertex) = t.iter().find(|&&v| v as usize >= count) {
+                return Err(BuildError::IndexOutOfRange {
+                    index,
+                    vertex,
+                    count,
+                });
+            }
+            if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
+                let vertex = if t[1] == t[2] { t[1] } else { t[0] };
+                return Err(BuildError::RepeatedVertex { index, vertex });
+            }
         }
-        if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
-            let vertex = if t[1] == t[2] { t[1] } else { t[0] };
-            return Err(BuildError::RepeatedVertex { index, vertex });
-        }
+        first += chunk.len();
     }
     Ok((lo, hi))
 }
+
+/// Records `validate_staged` reads at a time (1.5 MiB of f32 positions).
+const VALIDATE_CHUNK: usize = 1 << 17;
 
 /// The hierarchy (bucketed, from barycentres joined once into a spool), its leaves' triangles
 /// (on disk, read out of the staged triangle file, which is then discarded) and the use

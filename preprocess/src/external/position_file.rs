@@ -6,6 +6,7 @@
 use std::io;
 use std::path::{Path, PathBuf};
 
+use super::chunk_reader::ChunkReader;
 use super::cursor::Cursor;
 use super::staged::{RecordFile, RecordReader, RecordWriter};
 
@@ -65,6 +66,14 @@ impl PositionFile {
         Ok(match self {
             PositionFile::Narrow(f) => PositionReader::Narrow(f.read()?),
             PositionFile::Wide(f) => PositionReader::Wide(f.read()?),
+        })
+    }
+
+    /// Streams the positions in chunks of at most `records` (at least one), as f64.
+    pub fn read_chunks(&self, records: usize) -> io::Result<PositionChunks> {
+        Ok(match self {
+            PositionFile::Narrow(f) => PositionChunks::Narrow(f.read_chunks(records)?, Vec::new()),
+            PositionFile::Wide(f) => PositionChunks::Wide(f.read_chunks(records)?),
         })
     }
 
@@ -196,6 +205,28 @@ impl Iterator for PositionReader {
         match self {
             PositionReader::Narrow(r) => r.size_hint(),
             PositionReader::Wide(r) => r.size_hint(),
+        }
+    }
+}
+
+/// Reads positions a chunk at a time, as f64 (`PositionFile::read_chunks`).
+pub enum PositionChunks {
+    /// The reader and its f32 chunk, widened into the caller's.
+    Narrow(ChunkReader<[f32; 3]>, Vec<[f32; 3]>),
+    Wide(ChunkReader<[f64; 3]>),
+}
+
+impl PositionChunks {
+    /// The next chunk into `positions` (cleared first); false at the end.
+    pub fn read_into(&mut self, positions: &mut Vec<[f64; 3]>) -> io::Result<bool> {
+        match self {
+            PositionChunks::Narrow(reader, narrow) => {
+                positions.clear();
+                let more = reader.read_into(narrow)?;
+                positions.extend(narrow.iter().map(|p| p.map(f64::from)));
+                Ok(more)
+            }
+            PositionChunks::Wide(reader) => reader.read_into(positions),
         }
     }
 }
