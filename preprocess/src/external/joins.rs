@@ -132,10 +132,19 @@ impl JoinedBarycentres<'_> {
         if !triangles.read_into(part)? {
             return Ok(None);
         }
+        // Filled in place: a collecting `par_extend` held the keys twice for a moment, more
+        // than `JOIN_BYTES_PER_TRIANGLE` counts.
         corners.clear();
-        corners.par_extend(part.par_iter().enumerate().flat_map_iter(|(i, t)| {
-            (0..3).map(move |k| ((t[k] as u64) << 32) | (3 * i + k) as u64)
-        }));
+        corners.resize(3 * part.len(), 0);
+        corners
+            .par_chunks_mut(3)
+            .zip(part.par_iter())
+            .enumerate()
+            .for_each(|(i, (keys, t))| {
+                for k in 0..3 {
+                    keys[k] = ((t[k] as u64) << 32) | (3 * i + k) as u64;
+                }
+            });
         corners.par_sort_unstable();
         positions.clear();
         positions.resize(corners.len(), [0.0; 3]);
