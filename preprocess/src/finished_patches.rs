@@ -324,13 +324,14 @@ fn encode(live: &LivePatch, encoding: &PatchEncoding) -> (Vec<u8>, Vec<u8>, Fini
         bytes = packed;
     }
     let origin = encoding.origin;
-    let position = |g: u32| vertices.positions[vertices.row(g)];
-    let relative = |g: u32| {
-        let p = position(g);
+    let rows = vertices.rows_of(tris);
+    let position = |r: u32| vertices.positions[r as usize];
+    let relative = |r: u32| {
+        let p = position(r);
         [p[0] - origin[0], p[1] - origin[1], p[2] - origin[2]]
     };
-    let sphere = Sphere::around_points(tris.iter().flatten().map(|&g| relative(g)));
-    let cone = NormalCone::around_normals(tris.iter().map(|t| triangle_normal(t.map(position))));
+    let sphere = Sphere::around_points(rows.iter().flatten().map(|&r| relative(r)));
+    let cone = NormalCone::around_normals(rows.iter().map(|t| triangle_normal(t.map(position))));
     let finished = FinishedPatch {
         sphere,
         cone,

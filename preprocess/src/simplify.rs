@@ -467,7 +467,11 @@ fn simplify_locked(
     if indices.is_empty() {
         return (Vec::new(), 0.0);
     }
-    let rows: Vec<usize> = global_of.iter().map(|&g| vertices.row(g)).collect();
+    let index = vertices.row_index();
+    let rows: Vec<usize> = global_of
+        .iter()
+        .map(|&g| index.expect(g) as usize)
+        .collect();
     let local_positions: Vec<[f32; 3]> = rows.iter().map(|&r| vertices.simplifier[r]).collect();
     let bytes: &[u8] = bytemuck::cast_slice(&local_positions);
     let adapter = VertexDataAdapter::new(bytes, 12, 0).expect("tightly packed f32x3 positions");

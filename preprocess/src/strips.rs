@@ -52,7 +52,8 @@ pub fn build_patch(
     // new vertex or one seen before, which the packed strip codes in a few bits
     // (`tessera_core::repository::strip_codec`).
     let (strip, order) = strip_first_use(&strip, &order);
-    let rows: Vec<usize> = order.iter().map(|&g| vertices.row(g)).collect();
+    let index = vertices.row_index();
+    let rows: Vec<usize> = order.iter().map(|&g| index.expect(g) as usize).collect();
     PatchData {
         positions: rows
             .iter()

@@ -36,6 +36,7 @@ pub(super) fn distribute(
         .map(|(t, &slot)| (key(t), slot))
         .collect();
     let prepared: Vec<PreparedSimplex> = diamond.simplices.iter().map(Simplex::prepared).collect();
+    let index = vertices.row_index();
     for t in simplified.chunks_exact(3) {
         let tri = [0, 1, 2].map(|k| local.global_of[t[k] as usize]);
         let slot = match came_from.get(&key(t)) {
@@ -44,7 +45,7 @@ pub(super) fn distribute(
                 &diamond.simplices,
                 &prepared,
                 ctx.frame
-                    .barycentre(tri.map(|g| vertices.positions[vertices.row(g)])),
+                    .barycentre(tri.map(|g| vertices.positions[index.expect(g) as usize])),
             ),
         };
         out[slot].1.push(tri);

@@ -8,7 +8,7 @@
 
 use super::positions::SimplifierScale;
 use crate::external::packed_columns;
-use crate::vertex_table::{LivePatch, VertexTable};
+use crate::vertex_table::{LivePatch, RowIndex, VertexTable};
 
 /// Bytes of a record's head.
 pub(super) const HEAD: usize = 12;
@@ -63,11 +63,11 @@ fn local_rows(patch: &LivePatch) -> Option<Vec<[u32; 3]>> {
     if !ids.windows(2).all(|w| w[0] < w[1]) {
         return None;
     }
-    let row = |g: u32| ids.binary_search(&g).ok().map(|r| r as u32);
+    let index = RowIndex::new(ids);
     patch
         .triangles
         .iter()
-        .map(|t| Some([row(t[0])?, row(t[1])?, row(t[2])?]))
+        .map(|t| Some([index.get(t[0])?, index.get(t[1])?, index.get(t[2])?]))
         .collect()
 }
 
