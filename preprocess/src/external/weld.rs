@@ -163,19 +163,40 @@ pub fn weld_external(raw: RawStaged, budget: usize, dir: &Path) -> io::Result<St
     //    large as the triangle file, then never go to disk beside it.
     let mut dropped_positions = RecordFile::<u32>::create(dir)?;
     for (low, high) in least_corner_windows(&proper, raw_vertices, half)? {
+        // A chunk's keys made in parallel (made one by one, they were a tenth of a large
+        // import, on one core).
         let mut error = None;
-        let keys = ok_values(proper.read()?, &mut error)
-            .enumerate()
-            .filter_map(|(i, t)| {
-                let mut sorted = t;
-                sorted.sort_unstable();
-                (low..high)
-                    .contains(&(sorted[0] as u64))
-                    .then_some(DuplicateKey {
-                        corners: sorted,
-                        position: i as u32,
-                    })
-            });
+        let mut chunks = proper.read_chunks(PASS_TRIANGLES)?;
+        let mut first = 0usize;
+        let keys = std::iter::from_fn(|| {
+            let mut chunk = Vec::new();
+            match chunks.read_into(&mut chunk) {
+                Ok(true) => {}
+                Ok(false) => return None,
+                Err(e) => {
+                    error = Some(e);
+                    return None;
+                }
+            }
+            let at = first;
+            first += chunk.len();
+            let keys: Vec<DuplicateKey> = chunk
+                .par_iter()
+                .enumerate()
+                .filter_map(|(i, t)| {
+                    let mut sorted = *t;
+                    sorted.sort_unstable();
+                    (low..high)
+                        .contains(&(sorted[0] as u64))
+                        .then_some(DuplicateKey {
+                            corners: sorted,
+                            position: (at + i) as u32,
+                        })
+                })
+                .collect();
+            Some(keys)
+        })
+        .flatten();
         let sorted = sort_external(keys, half, dir)?;
         check(error)?;
         let mut previous: Option<[u32; 3]> = None;
@@ -198,18 +219,20 @@ pub fn weld_external(raw: RawStaged, budget: usize, dir: &Path) -> io::Result<St
     let (mut chunks, mut chunk) = (proper.consume_chunks(PASS_TRIANGLES)?, Vec::new());
     let mut i = 0usize;
     while chunks.read_into(&mut chunk)? {
-        for t in &chunk {
-            let at = i;
-            i += 1;
-            if let Some(Ok(d)) = dropped.peek() {
-                if *d as usize == at {
-                    dropped.next();
-                    duplicate += 1;
-                    continue;
-                }
+        // The runs between dropped positions in one write each (duplicates are rare).
+        let (base, mut from) = (i, 0usize);
+        i += chunk.len();
+        while let Some(Ok(d)) = dropped.peek() {
+            let d = *d as usize;
+            if d < base + from || d >= i {
+                break;
             }
-            kept.push(t)?;
+            kept.push_all(&chunk[from..d - base])?;
+            from = d - base + 1;
+            dropped.next();
+            duplicate += 1;
         }
+        kept.push_all(&chunk[from..])?;
     }
     if let Some(Err(e)) = dropped.next() {
         return Err(e);

@@ -47,9 +47,7 @@ impl MeshSink for RawStager {
     }
 
     fn triangles(&mut self, t: &[[u32; 3]]) -> Result<(), K> {
-        t.iter()
-            .try_for_each(|&t| self.push_triangle(t))
-            .map_err(K::Io)
+        self.push_triangles(t).map_err(K::Io)
     }
 
     fn forget_colors(&mut self) {
