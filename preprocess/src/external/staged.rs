@@ -227,8 +227,10 @@ impl<T: Pod> RecordWriter<T> {
     pub fn push_all(&mut self, records: &[T]) -> io::Result<()> {
         let bytes: &[u8] = bytemuck::cast_slice(records);
         self.records += records.len() as u64;
-        self.charge
-            .grow(bytes.len() as u64 + std::mem::take(&mut self.uncharged));
+        self.uncharged += bytes.len() as u64;
+        if self.uncharged >= CHARGE_BATCH {
+            self.charge.grow(std::mem::take(&mut self.uncharged));
+        }
         self.writer.write_all(bytes)
     }
 
