@@ -35,6 +35,7 @@ mod conformity;
 mod current_mesh;
 mod distribute;
 mod edge_census;
+mod input_edges;
 mod levels;
 mod live_record;
 mod live_store;

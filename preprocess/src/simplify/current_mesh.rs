@@ -14,15 +14,21 @@
 //! number of threads. Welded vertex ids follow the input's order, which scans keep spatially
 //! coherent, so one diamond touches few shards.
 
+use std::borrow::Cow;
 use std::convert::Infallible;
 
 use rayon::prelude::*;
 use rustc_hash::FxHashMap as HashMap;
 
+use super::input_edges::{nonmanifold_edges_within, TriangleChunks, TrianglePasses};
+use crate::external::RecordFile;
 use crate::mesh::InputMesh;
 
 /// Ranges of shards the input's use counts are counted in side by side (`count_uses`).
 const USE_COUNT_RANGES: usize = 64;
+
+/// Triangles a pass of `input_edges.rs` reads at a time (12 bytes each).
+const EDGE_PASS_TRIANGLES: usize = 1 << 18;
 
 /// Triangles whose corners `count_uses` sorts out at a time (12 bytes each).
 const USE_COUNT_CHUNK: usize = 1 << 18;
@@ -71,15 +77,21 @@ impl CurrentMesh {
         Self::with_edges(mesh, nonmanifold_edges(mesh))
     }
 
-    /// The input mesh's counts, its non-manifold edges found by an external sort of its edge
-    /// keys within `budget` bytes (temporary files in `temp_dir`): the same counts as `new`.
+    /// The input mesh's counts, its non-manifold edges found by sorting its edge keys within
+    /// `budget` bytes (`input_edges.rs`; temporary files in `temp_dir`): the same counts as
+    /// `new`.
     pub fn new_within(
         mesh: &InputMesh,
         budget: usize,
         temp_dir: &std::path::Path,
     ) -> std::io::Result<Self> {
-        let triangles = || Ok(mesh.triangles.iter().map(|&t| Ok(t)));
-        Self::from_stream(mesh.positions.len(), &triangles, budget, temp_dir)
+        let nonmanifold = nonmanifold_edges_within(
+            mesh.positions.len(),
+            &InMemory(&mesh.triangles),
+            budget,
+            temp_dir,
+        )?;
+        Ok(Self::with_edges(mesh, nonmanifold))
     }
 
     /// The counts of a mesh on disk (`new_within`'s, never loading it).
@@ -88,53 +100,11 @@ impl CurrentMesh {
         budget: usize,
         temp_dir: &std::path::Path,
     ) -> std::io::Result<Self> {
-        let triangles = || staged.triangles.read();
-        Self::from_stream(
-            staged.positions.len() as usize,
-            &triangles,
-            budget,
-            temp_dir,
-        )
-    }
-
-    /// The counts of `vertex_count` vertices used by the triangles `triangles()` streams
-    /// (twice: edges, then vertices).
-    fn from_stream<I: Iterator<Item = std::io::Result<[u32; 3]>>>(
-        vertex_count: usize,
-        triangles: &dyn Fn() -> std::io::Result<I>,
-        budget: usize,
-        temp_dir: &std::path::Path,
-    ) -> std::io::Result<Self> {
-        let mut error = None;
-        let keys = triangles()?
-            .map_while(|t| t.map_err(|e| error = Some(e)).ok())
-            .flat_map(|t| triangle_edges(&t).map(|(a, b)| edge_key(a, b)));
-        // Delta-coded runs: the keys take less than half the disk.
-        let codec = crate::external::sort::RunCodec::delta_u64();
-        let sorted = crate::external::sort::sort_external_with(keys, budget, temp_dir, codec)?;
-        if let Some(e) = error {
-            return Err(e);
-        }
-        let mut nonmanifold = HashMap::default();
-        let mut run: Option<(u64, u32)> = None;
-        for key in sorted {
-            let key = key?;
-            run = match run {
-                Some((k, n)) if k == key => Some((k, n + 1)),
-                Some((k, n)) => {
-                    if n > 2 {
-                        nonmanifold.insert(k, n);
-                    }
-                    Some((key, 1))
-                }
-                None => Some((key, 1)),
-            };
-        }
-        if let Some((k, n)) = run.filter(|&(_, n)| n > 2) {
-            nonmanifold.insert(k, n);
-        }
+        let vertex_count = staged.positions.len() as usize;
+        let nonmanifold =
+            nonmanifold_edges_within(vertex_count, &Staged(&staged.triangles), budget, temp_dir)?;
         let mut current = Self::zeroed(vertex_count, nonmanifold);
-        current.count_uses(triangles()?)?;
+        current.count_uses(staged.triangles.read()?)?;
         Ok(current)
     }
 
@@ -325,6 +295,57 @@ impl CurrentMesh {
         } else {
             touched.into_par_iter().for_each(apply);
         }
+    }
+}
+
+/// An input's triangles in memory, passed over a chunk at a time.
+struct InMemory<'a>(&'a [[u32; 3]]);
+
+impl TrianglePasses for InMemory<'_> {
+    fn triangle_count(&self) -> u64 {
+        self.0.len() as u64
+    }
+
+    fn for_each_chunk(&self, f: &mut dyn FnMut(&[[u32; 3]])) -> std::io::Result<()> {
+        self.0.chunks(EDGE_PASS_TRIANGLES).for_each(f);
+        Ok(())
+    }
+
+    fn chunks(&self) -> std::io::Result<TriangleChunks<'_>> {
+        Ok(Box::new(
+            self.0
+                .chunks(EDGE_PASS_TRIANGLES)
+                .map(|c| Ok(Cow::Borrowed(c))),
+        ))
+    }
+}
+
+/// The staged triangles, read a chunk at a time.
+struct Staged<'a>(&'a RecordFile<[u32; 3]>);
+
+impl TrianglePasses for Staged<'_> {
+    fn triangle_count(&self) -> u64 {
+        self.0.len()
+    }
+
+    fn for_each_chunk(&self, f: &mut dyn FnMut(&[[u32; 3]])) -> std::io::Result<()> {
+        let (mut reader, mut chunk) = (self.0.read_chunks(EDGE_PASS_TRIANGLES)?, Vec::new());
+        while reader.read_into(&mut chunk)? {
+            f(&chunk);
+        }
+        Ok(())
+    }
+
+    fn chunks(&self) -> std::io::Result<TriangleChunks<'_>> {
+        let mut reader = self.0.read_chunks(EDGE_PASS_TRIANGLES)?;
+        Ok(Box::new(std::iter::from_fn(move || {
+            let mut chunk = Vec::new();
+            match reader.read_into(&mut chunk) {
+                Ok(true) => Some(Ok(Cow::Owned(chunk))),
+                Ok(false) => None,
+                Err(e) => Some(Err(e)),
+            }
+        })))
     }
 }
 
