@@ -534,4 +534,29 @@ mod tests {
         let big = CurrentMesh::new(&fan(1000));
         assert_eq!(big.use_count(0), 1000);
     }
+
+    #[test]
+    fn counts_within_a_budget_are_the_counts_in_memory() {
+        // A fan with fins: edges (0, i) of three and four triangles.
+        let mut mesh = fan(600);
+        let far = mesh.positions.len() as u32 - 1;
+        for i in (1..600).step_by(7) {
+            mesh.triangles.push([0, i, far - i]);
+            if i % 2 == 1 {
+                mesh.triangles.push([i, 0, far - i - 1]);
+            }
+        }
+        let encoded = |current: &CurrentMesh| {
+            let mut e = crate::checkpoint::Enc::default();
+            current.encode(&mut e);
+            e.into_bytes()
+        };
+        let expected = encoded(&CurrentMesh::new(&mesh));
+        assert!(CurrentMesh::new(&mesh).may_have_nonmanifold());
+        let dir = tempfile::tempdir().unwrap();
+        for budget in [1 << 20, 8 * 400, 8 * 64, 8] {
+            let within = CurrentMesh::new_within(&mesh, budget, dir.path()).unwrap();
+            assert_eq!(encoded(&within), expected, "budget {budget}");
+        }
+    }
 }
