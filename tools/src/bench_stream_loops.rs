@@ -40,6 +40,9 @@ pub struct Row {
     /// The stream was quiet after this frame (CPU: nothing issued or in flight; GPU: the
     /// streamer's `settled`).
     pub settled: bool,
+    /// Wall-clock milliseconds from the run's start (before the repository was opened) to
+    /// this frame's end: what a user waits, reads from the disk included.
+    pub at_ms: f64,
 }
 
 /// What one loop of the path ended with.
@@ -197,6 +200,7 @@ impl<'r> Driver<'r> {
                         frame_ms,
                         read_ms: f.read_seconds * 1e3,
                         settled: f.loads == 0 && f.stats.loading_units == 0,
+                        at_ms: 0.0,
                     },
                     // Quiet: nothing issued, nothing in flight.
                     settled: f.loads == 0 && f.stats.loading_units == 0,
@@ -248,6 +252,7 @@ impl<'r> Driver<'r> {
                         frame_ms,
                         read_ms: (streamer.stats().read_seconds - read_before) * 1e3,
                         settled: f.settled,
+                        at_ms: 0.0,
                     },
                     settled: f.settled,
                     stats: f.stats,
@@ -259,8 +264,10 @@ impl<'r> Driver<'r> {
 }
 
 /// Flies `cams` `loops` times; after each loop the last camera is held until the stream
-/// settles (at most `settle_cap` frames), and the settled cut is recorded.
+/// settles (at most `settle_cap` frames), and the settled cut is recorded. Each row's `at_ms`
+/// counts from `started`.
 pub fn run_loops(
+    started: Instant,
     driver: &mut Driver,
     cams: &[Camera],
     tau: f32,
@@ -285,7 +292,8 @@ pub fn run_loops(
             if held > settle_cap {
                 break;
             }
-            let step = driver.frame(cam, tau, false)?;
+            let mut step = driver.frame(cam, tau, false)?;
+            step.row.at_ms = started.elapsed().as_secs_f64() * 1e3;
             anon.sample();
             frames += 1;
             peak_resident = peak_resident.max(step.stats.resident_bytes);
@@ -302,7 +310,8 @@ pub fn run_loops(
         let step = match last {
             Some(step) if !is_gpu => step,
             _ => {
-                let step = driver.frame(&last_cam, tau, true)?;
+                let mut step = driver.frame(&last_cam, tau, true)?;
+                step.row.at_ms = started.elapsed().as_secs_f64() * 1e3;
                 anon.sample();
                 frames += 1;
                 peak_resident = peak_resident.max(step.stats.resident_bytes);

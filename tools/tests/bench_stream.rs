@@ -26,6 +26,11 @@ fn bench_stream_reports_warm_and_cold_runs_that_settle_within_the_budget() {
         repo.to_str().unwrap(),
     ]);
     assert!(out.status.success());
+    // A copy, not fsynced: its pages are dirty for a while (a build fsyncs its output), which
+    // the cold run must flush before it can drop them.
+    let copy = dir.path().join("copied.tsr");
+    std::fs::copy(&repo, &copy).unwrap();
+    let repo = copy;
     let plot = dir.path().join("plot");
     // 0.5 MiB is a third of the bunny's repository: the stream runs under pressure; 4 MiB
     // holds everything.
@@ -95,6 +100,21 @@ fn check_run(repo: &Path, budget_mib: &str, plot: &Path) {
         // end; where the budget holds the view, the last cut is what τ asks for.
         let settled = s["settled_from_frame"].as_u64().expect("never settled");
         assert!(settled < frames.len() as u64 - 1);
+        // Wall-clock time from the start to each frame's end, and to the settled cut: what a
+        // user waits (the cold run's reads from the disk included).
+        let at: Vec<f64> = frames
+            .iter()
+            .map(|f| f["at_ms"].as_f64().unwrap())
+            .collect();
+        assert!(at[0] > 0.0 && at.windows(2).all(|w| w[0] <= w[1]), "{at:?}");
+        let to_settle = s["seconds_to_settle"].as_f64().expect("settled, so timed");
+        assert_eq!(to_settle, at[settled as usize] / 1e3);
+        assert!(to_settle <= s["seconds"].as_f64().unwrap(), "{s}");
+        // The cold run starts with the file out of the page cache (flushed, then dropped),
+        // except on a file system that lives in it.
+        if run["mode"] == "cold" && !on_tmpfs(repo) {
+            assert_eq!(s["page_cache_share_before"], 0.0, "{s}");
+        }
         let last = frames.last().unwrap();
         if fits {
             assert_eq!(last["wanted_not_resident"], 0, "{s}");
@@ -104,6 +124,17 @@ fn check_run(repo: &Path, budget_mib: &str, plot: &Path) {
             assert!(s["evictions"].as_u64().unwrap() > 0, "{s}");
         }
     }
+}
+
+/// Whether `path` lies on a tmpfs, whose pages cannot leave the page cache.
+fn on_tmpfs(path: &Path) -> bool {
+    use std::os::unix::ffi::OsStrExt;
+    let c = std::ffi::CString::new(path.as_os_str().as_bytes()).unwrap();
+    // SAFETY: a valid C string and a zeroed statfs to fill.
+    let mut fs: libc::statfs = unsafe { std::mem::zeroed() };
+    let rc = unsafe { libc::statfs(c.as_ptr(), &mut fs) };
+    const TMPFS_MAGIC: i64 = 0x0102_1994;
+    rc == 0 && fs.f_type as i64 == TMPFS_MAGIC
 }
 
 /// The soak run of issue 11, scaled down: a camera path flown three times on the GPU renderer
