@@ -163,15 +163,19 @@ pub fn width_of(max: u32) -> u32 {
 mod tests {
     use super::*;
 
-    #[test]
-    fn fixed_widths_and_rice_codes_read_back_as_written() {
-        let mut state = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = || {
+    /// A xorshift64 stream from `seed` (nonzero): the tests' random bits.
+    fn xorshift(mut state: u64) -> impl FnMut() -> u64 {
+        move || {
             state ^= state << 13;
             state ^= state >> 7;
             state ^= state << 17;
             state
-        };
+        }
+    }
+
+    #[test]
+    fn fixed_widths_and_rice_codes_read_back_as_written() {
+        let mut next = xorshift(0x9e37_79b9_7f4a_7c15);
         let mut items = Vec::new();
         for i in 0..5000 {
             let r = next();
@@ -213,13 +217,7 @@ mod tests {
     fn every_read_is_the_bits_at_its_position_near_the_end_and_past_it() {
         // A reference: bit p of the bytes, zeros past them.
         let bit = |bytes: &[u8], p: usize| bytes.get(p / 8).map_or(0, |b| (b >> (p % 8)) & 1);
-        let mut state = 0x2545_f491_4f6c_dd1du64;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            state
-        };
+        let mut next = xorshift(0x2545_f491_4f6c_dd1d);
         for len in 0..40 {
             let bytes: Vec<u8> = (0..len).map(|_| next() as u8).collect();
             let mut r = BitReader::new(&bytes);
