@@ -2,7 +2,7 @@
 """Converts a binary little-endian PLY of float x, y, z vertices and uchar/int triangle lists
 (what `tessera gen mesh` writes) to a binary STL or a GLB (positions as f32, u32 indices, one
 node), so the out-of-core import of those formats can be measured on the same mesh
-(BENCHMARKS.md, "Twenty-second session"). Standard library only.
+(BENCHMARKS.md, "Input formats"). Standard library only.
 
     tools/ply-to.py g2s.ply g2s.stl
     tools/ply-to.py g2s.ply g2s.glb
