@@ -7,12 +7,13 @@ use tessera_core::repository::{PatchCodec, RepositoryError};
 use crate::hierarchy::Construction;
 use crate::simplify::SimplifySettings;
 
-/// Default maximum triangles per leaf; chosen by the sweep in ARCHITECTURE.md.
+/// Default maximum triangles per leaf; chosen by the sweep in BENCHMARKS.md ("The patch
+/// size, found by experiment").
 pub const DEFAULT_LEAF_TRIANGLES: usize = 1024;
 
 /// Default leaf size of a height field (2D): a grid fills its triangles evenly, so leaves hold
 /// close to the cap and a smaller cap gives patches of the size a mesh's 1024 gives (measured
-/// sweep in ARCHITECTURE.md).
+/// sweep in BENCHMARKS.md).
 pub const DEFAULT_LEAF_TRIANGLES_HEIGHT_FIELD: usize = 256;
 
 /// Largest extent of a model along any axis, in its units.

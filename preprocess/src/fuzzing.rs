@@ -303,7 +303,7 @@ pub fn packed_patch(data: &[u8]) -> bool {
     let n = u16::from_le_bytes([data[0], data[1]]) as usize;
     let m = u16::from_le_bytes([data[2], data[3]]) as usize;
     let attributes = (data[4] & 7) as u32;
-    // Bit 3 picks the older strip coding (repositories packed before the twelfth session).
+    // Bit 3 picks the older strip coding (repositories packed before commit 4fa9fc2, 2026-12-03).
     let strips = if data[4] & 8 != 0 {
         StripCoding::IndexSequence
     } else {

@@ -3,7 +3,7 @@
 //! `cargo bench -p tessera-tools --bench decode`: builds the demo mesh (subdivision 7, 327,680
 //! triangles with normals) packed, then times `Repository::read_patch` over every patch on one
 //! thread — the loader's work for a unit — against the same patches packed with the strip
-//! coding before the twelfth session (`packed-v1`, meshoptimizer's index-sequence codec) and
+//! coding before commit 4fa9fc2 of 2026-12-03 (`packed-v1`, meshoptimizer's index-sequence codec) and
 //! the same reads from an unpacked build (a copy out of the map). Throughput is decoded bytes:
 //! what the GPU receives.
 

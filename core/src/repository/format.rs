@@ -31,8 +31,8 @@
 //! The patch blob is what a renderer uploads (positions, attributes, strips); the id blob holds
 //! each patch's global vertex ids, which only the CPU needs (crack checks). A repository holds
 //! its patches either as they are drawn (`SECTION_PATCHES`, `build --no-compress`) or packed
-//! (`SECTION_PACKED_STRIPS`, the default since the twelfth session; `SECTION_PACKED_PATCHES`
-//! before it, whose strips meshoptimizer's index-sequence codec packs): then each `TetRecord`'s `patch_offset`,
+//! (`SECTION_PACKED_STRIPS`, the default since commit 4fa9fc2 of 2026-12-03;
+//! `SECTION_PACKED_PATCHES` before it, whose strips meshoptimizer's index-sequence codec packs): then each `TetRecord`'s `patch_offset`,
 //! `patch_bytes` and `patch_checksum` describe the packed bytes, and the loader decodes them
 //! into the drawn layout, whose size the record's counts give (`patch::patch_bytes`). A
 //! tessera that predates packing refuses such a file as "made by a newer tessera" (an unknown
@@ -88,8 +88,8 @@ pub const SECTION_PATCHES: u32 = 3;
 /// Section kind: the global-id blob.
 pub const SECTION_IDS: u32 = 4;
 /// Section kind: the patch blob with every patch packed (`packed.rs`), strips by
-/// meshoptimizer's index-sequence codec (`PatchCodec::PackedV1`: written before the twelfth
-/// session, still read). A repository has exactly one patch blob.
+/// meshoptimizer's index-sequence codec (`PatchCodec::PackedV1`: written before commit 4fa9fc2
+/// of 2026-12-03, still read). A repository has exactly one patch blob.
 pub const SECTION_PACKED_PATCHES: u32 = 5;
 /// Section kind: the patch blob with every patch packed (`packed.rs`), strips by
 /// `strip_codec.rs` (`PatchCodec::Packed`, the default).

@@ -17,8 +17,8 @@
 //! strip             `strip_codec.rs` over the m stored indices (`StripCoding::Nibbles`, the
 //!                   default), or meshopt's index-sequence codec over them (u16 values with
 //!                   restart 0xFFFF when n ≤ 65,535, u32 with 0xFFFF_FFFF otherwise;
-//!                   `StripCoding::IndexSequence`, repositories packed before the twelfth
-//!                   session): both keep their order, strips and restarts as they are
+//!                   `StripCoding::IndexSequence`, repositories packed before commit
+//!                   4fa9fc2 of 2026-12-03): both keep their order, strips and restarts as they are
 //! zero padding      to a multiple of 8
 //! ```
 //!

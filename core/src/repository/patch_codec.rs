@@ -11,7 +11,7 @@ pub enum PatchCodec {
     /// when loaded.
     #[default]
     Packed,
-    /// Packed as before the twelfth session: `SECTION_PACKED_PATCHES`, strips by
+    /// Packed as before commit 4fa9fc2 (2026-12-03): `SECTION_PACKED_PATCHES`, strips by
     /// meshoptimizer's index-sequence codec. Read (and written by tests, to prove it).
     PackedV1,
 }
