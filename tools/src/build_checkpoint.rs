@@ -240,6 +240,11 @@ fn lock(dir: &Path, output: &Path) -> anyhow::Result<Option<std::fs::File>> {
 }
 
 /// Where the checkpoint goes: `--temp`, or the output's directory.
+/// Where the checkpoint of a build of `output` with `--temp temp_dir` lives.
+pub fn dir_for(output: &Path, temp_dir: Option<&Path>) -> PathBuf {
+    checkpoint_dir(output, &default_dir(output, temp_dir))
+}
+
 fn default_dir(output: &Path, temp_dir: Option<&Path>) -> PathBuf {
     match (temp_dir, output.parent()) {
         (Some(dir), _) => dir.to_path_buf(),

@@ -65,7 +65,7 @@ pub struct BreakdownBenchArgs {
 }
 
 pub fn run(args: BreakdownBenchArgs) -> anyhow::Result<Outcome> {
-    let repo = Repository::open(&args.repo)
+    let repo = crate::repository_arg::open(&args.repo, "bench breakdown")
         .with_context(|| format!("cannot open {}", args.repo.display()))?;
     let h = *repo.header();
     let mesh = crate::cmd_bench_render::load_source_mesh(&args.source, &repo)?;

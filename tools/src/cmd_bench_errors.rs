@@ -30,7 +30,6 @@ use tessera_core::repository::cut_mesh::CutMesh;
 use tessera_core::repository::surface::{
     leaf_surface, measure_object_cut, object_cut, patch_surface, PatchSurface,
 };
-use tessera_core::repository::Repository;
 
 use crate::view::export::write_ply;
 
@@ -73,7 +72,7 @@ struct CutRow {
 }
 
 pub fn run(args: ErrorsBenchArgs) -> anyhow::Result<Outcome> {
-    let repo = Repository::open(&args.repo)
+    let repo = crate::repository_arg::open(&args.repo, "bench errors")
         .with_context(|| format!("cannot open {}", args.repo.display()))?;
     let errors: Vec<f32> = repo.diamonds().iter().map(|d| d.error).collect();
     let smallest = errors

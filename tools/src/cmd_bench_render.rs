@@ -151,7 +151,10 @@ pub fn run(args: RenderBenchArgs) -> anyhow::Result<Outcome> {
 
     // The model, the peer's mesh and the camera.
     // Opened (and its directory validated) once; `--stream` shares it with the streamer.
-    let repo = std::sync::Arc::new(Repository::open(&args.repository)?);
+    let repo = std::sync::Arc::new(crate::repository_arg::open(
+        &args.repository,
+        "bench render",
+    )?);
     let h = *repo.header();
     let source = match &args.source {
         Some(path) => Some(load_source(path, &repo)?),

@@ -203,7 +203,7 @@ pub fn run(args: StreamBenchArgs) -> anyhow::Result<Outcome> {
         bail!("--loops must be at least 1");
     }
     let size = parse_size(&args.size)?;
-    let probe = Repository::open(&args.repository)?;
+    let probe = crate::repository_arg::open(&args.repository, "bench stream")?;
     let cams = cameras(&args, &probe, size)?;
     let file_bytes = probe.file_bytes();
     let codec = probe.codec().name();

@@ -51,8 +51,8 @@ pub struct BuildArgs {
     /// (`.OUT.tessera-build/`) is what a killed build leaves for `--resume`.
     #[arg(long, value_name = "DIR", requires = "memory")]
     pub temp: Option<PathBuf>,
-    /// Store the patches as they are drawn instead of packed (meshoptimizer's vertex and
-    /// index-sequence codecs, lossless; decoded by the loader): larger files, no decoding.
+    /// Store the patches as they are drawn instead of packed (meshoptimizer's vertex codec and
+    /// tessera's strip codec, lossless; decoded by the loader): larger files, no decoding.
     #[arg(long)]
     pub no_compress: bool,
     /// Store errors that are bounds: each diamond's error is an upper bound on the two-sided
@@ -128,6 +128,10 @@ pub fn run(args: BuildArgs) -> anyhow::Result<Outcome> {
     let staged_mesh =
         memory.is_some() && crate::input::is_plain_mesh(&args.input, &args.heightfield)?;
     let mesh_config = configure(&args, crate::input::mesh_domain(&args.heightfield), &memory);
+    if staged_mesh {
+        let temp = memory.as_ref().map(|m| m.temp_dir.as_path());
+        say_how_to_resume_when_interrupted(crate::build_checkpoint::dir_for(&args.output, temp));
+    }
     let prepared = crate::build_checkpoint::prepare(
         &args.input,
         &args.output,
@@ -395,6 +399,26 @@ fn temp_parts_json(
         .map(|(kind, bytes)| (kind.name().to_string(), json!(bytes)))
         .collect::<serde_json::Map<_, _>>()
         .into()
+}
+
+/// On Ctrl-C (SIGINT) or SIGTERM, says that the committed stages are kept and how to continue,
+/// then exits 130, as a shell reports an interrupted command (the working files have no names,
+/// so nothing else is left; nothing is ever written at the output before its last rename).
+fn say_how_to_resume_when_interrupted(dir: PathBuf) {
+    let installed = ctrlc::set_handler(move || {
+        if dir.exists() {
+            eprintln!(
+                "\ninterrupted: the stages done are kept in {}; the same command with \
+                 --resume continues from the last one",
+                dir.display()
+            );
+        } else {
+            eprintln!("\ninterrupted before the first stage: nothing is kept");
+        }
+        std::process::exit(130);
+    });
+    // Without the handler, an interrupt ends the build as before, only without the hint.
+    drop(installed);
 }
 
 #[cfg(test)]

@@ -54,7 +54,7 @@ pub fn run(args: CheckArgs) -> anyhow::Result<Outcome> {
         anyhow::bail!("tolerance {bad} must be a finite number ≥ 0");
     }
     let start = Instant::now();
-    let repo = Repository::open(&args.repository)?;
+    let repo = crate::repository_arg::open(&args.repository, "check")?;
     let config = CheckConfig {
         views: args.views,
         tolerances: args.tolerances.clone(),

@@ -6,7 +6,6 @@ use clap::Args;
 use serde_json::json;
 use tessera_core::repository::format::section_name;
 use tessera_core::repository::patch::drawn_patch_bytes;
-use tessera_core::repository::reader::Repository;
 
 use crate::Outcome;
 
@@ -20,7 +19,7 @@ pub struct InfoArgs {
 }
 
 pub fn run(args: InfoArgs) -> anyhow::Result<Outcome> {
-    let repo = Repository::open(&args.repository)?;
+    let repo = crate::repository_arg::open(&args.repository, "info")?;
     let h = repo.header();
     // One pass over the tet table, its pages dropped behind it (`scan_tets`): the peak
     // memory does not grow with the directory.

@@ -5,7 +5,6 @@ use std::path::PathBuf;
 
 use clap::{Args, ValueEnum};
 use serde_json::json;
-use tessera_core::repository::reader::Repository;
 use tessera_runtime::camera::{bounding_radius, Camera, Y_UP, Z_UP};
 use tessera_runtime::gpu::{FrameRequest, Readback, ShadingMode};
 
@@ -180,7 +179,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<Outcome> {
         anyhow::bail!("--tolerance {} must be a finite number ≥ 0", args.tolerance);
     }
     // Opened (and its directory validated) once: the streamer shares this map.
-    let shared = std::sync::Arc::new(Repository::open(&args.repository)?);
+    let shared = std::sync::Arc::new(crate::repository_arg::open(&args.repository, "render")?);
     let h = *shared.header();
     let camera = camera_from_args(&args, h.bbox_min, h.bbox_max, h.dimension)?;
     let ctx = args.gpu.context()?;

@@ -11,7 +11,7 @@ use anyhow::Context;
 use clap::Args;
 use serde_json::json;
 use tessera_core::repository::repack::repack;
-use tessera_core::repository::{PatchCodec, Repository};
+use tessera_core::repository::PatchCodec;
 
 use crate::Outcome;
 
@@ -41,7 +41,7 @@ pub fn run(args: RepackArgs) -> anyhow::Result<Outcome> {
         "{}: the output may not be the input (the input stays mapped while it is read)",
         args.output.display()
     );
-    let source = Repository::open(&args.repository)
+    let source = crate::repository_arg::open(&args.repository, "repack")
         .with_context(|| format!("{}", args.repository.display()))?;
     let codec = if args.no_compress {
         PatchCodec::Raw

@@ -1,5 +1,5 @@
 //! `tessera`: the command-line tool. Pipeline scripts depend on it: keep the flags, the JSON
-//! keys and the exit codes stable (README.md lists them).
+//! keys and the exit codes stable (docs/cli.md lists them).
 //!
 //! Exit codes: 0 success; 1 a check found problems; 2 bad usage or bad input (a clear message
 //! on stderr, no output file left behind); 3 the GPU device failed (lost, out of memory, a
@@ -32,6 +32,7 @@ mod input;
 mod output;
 mod peak_rss;
 mod progress;
+mod repository_arg;
 mod terrain;
 mod view;
 
@@ -87,7 +88,16 @@ pub enum Outcome {
 }
 
 fn main() -> ExitCode {
+    restore_default_sigpipe();
     let cli = Cli::parse();
+    let opens_a_window = match &cli.command {
+        Command::View(_) => true,
+        Command::Demo(args) => args.view,
+        _ => false,
+    };
+    if !opens_a_window {
+        keep_window_systems_out();
+    }
     let result = match cli.command {
         Command::Build(args) => cmd_build::run(args),
         Command::Info(args) => cmd_info::run(args),
@@ -116,6 +126,32 @@ fn main() -> ExitCode {
                 ExitCode::from(2)
             }
         }
+    }
+}
+
+/// Ends the process quietly when its standard output is a pipe closed early (`tessera info
+/// REPO | head`), as Unix tools do: Rust ignores SIGPIPE, so the next `println!` would panic.
+fn restore_default_sigpipe() {
+    #[cfg(unix)]
+    // SAFETY: called first thing in main, before any thread; SIG_DFL is a valid disposition.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
+}
+
+/// Keeps the window systems out of a headless command's GPU instance. wgpu enables every
+/// surface extension the Vulkan driver offers; Mesa's device-selection layer (an implicit
+/// layer of `mesa-vulkan-drivers`) then connects to Wayland and X11 to find the display's GPU,
+/// and libwayland prints "error: XDG_RUNTIME_DIR is invalid or not set" on a machine without
+/// a desktop, though nothing failed. The layer only reorders adapters, which tessera chooses
+/// itself (`--adapter`, `TESSERA_ADAPTER`, else the first usable by kind), so a command that
+/// opens no window disables it, through the loader's documented `NODEVICE_SELECT=1`, unless
+/// the user set it or `MESA_VK_DEVICE_SELECT` to steer the layer.
+fn keep_window_systems_out() {
+    let set = |name: &str| std::env::var_os(name).is_some();
+    if !set("NODEVICE_SELECT") && !set("MESA_VK_DEVICE_SELECT") {
+        // Before any thread is started: nothing reads the environment concurrently.
+        std::env::set_var("NODEVICE_SELECT", "1");
     }
 }
 

@@ -34,7 +34,6 @@ use serde_json::json;
 use tessera_bench::peers::{cluster_dag, discrete_lod, full_resolution, peer_mesh};
 use tessera_bench::subject::Subject;
 use tessera_core::repository::format::Header;
-use tessera_core::repository::reader::Repository;
 use tessera_runtime::camera::{bounding_radius, Camera};
 use tessera_runtime::faces::Faces;
 use tessera_runtime::gpu::full_mesh::FullMeshRenderer;
@@ -186,7 +185,7 @@ pub fn run(args: TradeArgs) -> anyhow::Result<Outcome> {
 
     // The model and its original.
     stages.stage("load");
-    let repo = Repository::open(repo_path)?;
+    let repo = crate::repository_arg::open(repo_path, "bench")?;
     let h = *repo.header();
     let mesh = crate::cmd_bench_render::load_source_mesh(source_path, &repo)?;
     stages.stage("reference BVH");

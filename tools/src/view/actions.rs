@@ -446,7 +446,7 @@ impl App {
     /// model's initial view; the frozen cut, target controller, path and selection cleared.
     /// On an error the current model stays.
     pub(super) fn open(&mut self, path: &Path) -> anyhow::Result<()> {
-        super::refuse_input_file(path)?;
+        crate::repository_arg::refuse_input_file(path, "view")?;
         let repo = std::sync::Arc::new(Repository::open(path)?);
         let size = self.renderer.size();
         let (renderer, streamer) = self.gpu.streaming(&self.ctx, repo.clone(), size)?;

@@ -62,7 +62,7 @@ pub struct ViewArgs {
     pub mode: Mode,
     #[command(flatten)]
     pub gpu: crate::gpu_args::GpuArgs,
-    /// Run the JSON-lines script in the window, then exit (README.md lists the actions).
+    /// Run the JSON-lines script in the window, then exit (docs/cli.md lists the actions).
     #[arg(long)]
     pub script: Option<PathBuf>,
     /// Print one JSON object per screenshot on stdout.
@@ -122,39 +122,6 @@ pub(super) fn default_bookmarks(repository: &std::path::Path) -> PathBuf {
     repository.with_file_name(format!("{}.bookmarks.json", stem.to_string_lossy()))
 }
 
-/// Refuses a mesh or a DEM given where a repository is expected, saying which `build`
-/// command makes one (a file named like an input but holding a repository passes).
-pub(super) fn refuse_input_file(path: &std::path::Path) -> anyhow::Result<()> {
-    let name = path.to_string_lossy().to_lowercase();
-    let name = name.strip_suffix(".gz").unwrap_or(&name);
-    // The importers' extensions, as their error messages list them.
-    let extensions = [
-        tessera_preprocess::import::SUPPORTED_EXTENSIONS,
-        tessera_preprocess::dem::DEM_EXTENSIONS,
-    ]
-    .join(", ");
-    let input = extensions
-        .split([',', ' '])
-        .filter(|e| e.starts_with('.') && e.len() > 1)
-        .any(|ext| name.ends_with(ext));
-    let mut magic = [0u8; 8];
-    let repository = std::fs::File::open(path)
-        .and_then(|mut f| std::io::Read::read_exact(&mut f, &mut magic))
-        .is_ok_and(|()| magic == tessera_core::repository::format::MAGIC);
-    if input && !repository {
-        let tsr = path.with_extension("tsr");
-        anyhow::bail!(
-            "{} is an input mesh or DEM, not a tessera repository: build one first with \
-             `tessera build {} -o {}`, then `tessera view {}`",
-            path.display(),
-            path.display(),
-            tsr.display(),
-            tsr.display()
-        );
-    }
-    Ok(())
-}
-
 /// Ok when a display server is named in the environment, else what is missing.
 pub fn display_present() -> anyhow::Result<()> {
     let set = |name: &str| std::env::var_os(name).is_some_and(|v| !v.is_empty());
@@ -189,7 +156,7 @@ pub fn run(args: ViewArgs) -> anyhow::Result<Outcome> {
     }
     // The script first: a bad line is reported before any window opens.
     let script = args.script.as_deref().map(script::load).transpose()?;
-    refuse_input_file(&args.repository)?;
+    crate::repository_arg::refuse_input_file(&args.repository, "view")?;
     display_present()?;
     let shared = Arc::new(Repository::open(&args.repository)?);
     let event_loop = EventLoop::new().map_err(|e| {

@@ -104,7 +104,7 @@ pub enum TargetChoice {
     Triangles,
 }
 
-/// The keys, as the overlay lists them (README.md too).
+/// The keys, as the overlay lists them (docs/cli.md too).
 pub const KEY_HELP: &str = "drag: orbit (fly: look)   right drag: pan   wheel: zoom to cursor   \
 double-click: pivot\nW A S D Q E: move   F: fly   C: freeze cut   R: reset   H: overlay   \
 P: screenshot   X: export cut   B: bookmark   1-9: go to bookmark   K: record path";

@@ -23,7 +23,7 @@ pub enum Action {
     /// `SETTLE_FRAMES`), the window's content as PNG.
     Screenshot(PathBuf),
     /// `{"key": "w", "frames": 30}`: as if the key were pressed and held for that many frames
-    /// (default 1); `KEYS` lists the keys (README.md says what each does).
+    /// (default 1); `KEYS` lists the keys (docs/cli.md says what each does).
     Key(char, u32),
     /// `{"overlay": true|false}`: show or hide the overlay.
     Overlay(bool),
