@@ -14,7 +14,7 @@ use tessera_runtime::geometric_check::{check_metric, CheckConfig};
 use tessera_runtime::views::check_views;
 
 /// Lattice steps a side: 15 points on each drawn triangle, 6 on each leaf.
-const STEPS: (usize, usize) = (4, 2);
+pub const STEPS: (usize, usize) = (4, 2);
 
 pub struct ErrorReport {
     pub cuts: usize,

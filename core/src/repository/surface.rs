@@ -103,26 +103,27 @@ pub fn measure_object_cut(
     })
 }
 
-/// One screen-space cut (the run-time rule for an eye, no culling) against the leaves.
+/// One screen-space cut (the run-time rule for an eye, no culling), or any surface, against
+/// the leaves.
 #[derive(Clone, Copy, Debug)]
 pub struct ScreenCutMeasure {
     pub triangles: usize,
-    /// The largest sampled error in pixels, both ways (see `measure_screen_cut`).
+    /// The largest sampled error in pixels, both ways (see `measure_screen_surface`).
     pub max_px: f64,
     pub samples: u64,
 }
 
+/// The quantisation error of `repo`'s positions: half the diagonal of a position step (the
+/// leaves stand within it of the input; every stored error counts it).
+pub fn quantisation_error(repo: &Repository) -> f64 {
+    let h = repo.header();
+    0.5 * h.position_step.iter().map(|s| s * s).sum::<f64>().sqrt()
+}
+
 /// Measures the cut the rule draws at `tau` pixels for `eye` (model coordinates) with
-/// `metric`, against `leaves`, in pixels, in the terms the stored errors bound
-/// (`build --bounded-errors`):
-/// - a cut sample x at distance d from the leaves counts (d − q)·k / max(|x − eye|, near):
-///   x lies in its diamond's sphere, so |x − eye| is at least the distance ρ divides by;
-/// - a leaf sample y at distance d from the cut counts (d − q)·k / max(|y − eye| + d, near):
-///   the point of the cut y is carried to is at most that far from the eye;
-///
-/// with q the quantisation error (the leaves stand within it of the input the bounds are
-/// measured against). Each is a lower estimate of what the bound covers, so a value above τ
-/// shows the stored errors are not bounds for this view.
+/// `metric`, against `leaves`, in pixels: the run-time rule's selection without culling,
+/// measured by `measure_screen_surface` with `repo`'s quantisation error. What `check
+/// --errors` reports for each of its cuts.
 pub fn measure_screen_cut(
     repo: &Repository,
     leaves: &PatchSurface,
@@ -132,14 +133,48 @@ pub fn measure_screen_cut(
     steps: (usize, usize),
 ) -> Result<ScreenCutMeasure, RepositoryError> {
     let h = repo.header();
-    let q = 0.5 * h.position_step.iter().map(|s| s * s).sum::<f64>().sqrt();
     let rhos = diamond_rhos(repo.diamonds(), eye_local(eye, h.origin), metric);
     let drawn = select_stateless(repo.tets(), &rhos, tau);
     let cut = patch_surface(repo, drawn.iter().map(|&t| t as usize))?;
+    let q = quantisation_error(repo);
+    Ok(measure_screen_surface(&cut, leaves, eye, metric, q, steps))
+}
+
+/// Measures any triangle surface `cut` (model coordinates: ours, a peer's selection, a
+/// simplified mesh) against `leaves` (`leaf_surface`) for `eye` (model coordinates) in pixels
+/// of `metric`, sampled both ways, in the terms the stored errors bound (`build
+/// --bounded-errors`):
+/// - a cut sample x at distance d from the leaves counts (d − q)·k / max(|x − eye|, near):
+///   x lies in its diamond's sphere, so |x − eye| is at least the distance ρ divides by;
+/// - a leaf sample y at distance d from the cut counts (d − q)·k / max(|y − eye| + d, near):
+///   the point of the cut y is carried to is at most that far from the eye;
+///
+/// with q the quantisation error (`quantisation_error`: the leaves stand within it of the
+/// input the bounds are measured against). Each is a lower estimate of what the bound covers,
+/// so a value above τ shows the stored errors are not bounds for this view. Every sample
+/// counts, seen from the eye or not, facing it or not.
+///
+/// Density: a barycentric lattice of `steps.0` steps a side on each cut triangle and `steps.1`
+/// on each leaf ((s+1)(s+2)/2 points each; `check --errors` uses (4, 2): 15 and 6). An empty
+/// cut against non-empty leaves measures infinite. The leaves measured against themselves
+/// measure 0.
+///
+/// Cost: one nearest-triangle query per sample, so about the leaves' samples (6 a leaf at
+/// s = 2) plus the cut's; a grid is built over each side once per call.
+pub fn measure_screen_surface(
+    cut: &PatchSurface,
+    leaves: &PatchSurface,
+    eye: [f64; 3],
+    metric: &ScreenSpaceMetric,
+    q: f64,
+    steps: (usize, usize),
+) -> ScreenCutMeasure {
+    assert!(q >= 0.0 && q.is_finite(), "quantisation error {q}");
+    assert!(eye.iter().all(|x| x.is_finite()), "eye {eye:?}");
     let (k, near) = (metric.k as f64, metric.near as f64);
     let from_eye = |p: [f64; 3]| length(sub(p, eye));
     let (max_px, samples) = both_ways(
-        &cut,
+        cut,
         leaves,
         steps,
         |p, d| match d.is_finite() {
@@ -151,11 +186,11 @@ pub fn measure_screen_cut(
             false => f64::INFINITY,
         },
     );
-    Ok(ScreenCutMeasure {
+    ScreenCutMeasure {
         triangles: cut.triangle_count(),
         max_px,
         samples,
-    })
+    }
 }
 
 /// The largest weighed sample distance both ways between `cut` and `leaves` (`weigh_cut` for

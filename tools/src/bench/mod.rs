@@ -10,15 +10,25 @@
 //! - `discrete_lod`: four meshopt levels, one per object by distance (seed 004);
 //! - `cluster_dag`: meshoptimizer's clusterlod DAG, cut per frame on the CPU.
 //!
-//! The measurement (`trade_off`, on `tessera_runtime::measure`): on every view, the surface each
-//! subject drew is sampled and measured against the original mesh in pixels, and its image
-//! compared with the full resolution; frames are timed in interleaved rounds. Then `verdict`
-//! says who draws the fewest triangles at equal measured error, `report` prints, `plots` draws.
+//! The measurements:
+//! - `dense` (the headline error, issue 46): every subject's cut at each of the check's eyes
+//!   (`--error-views`, 16) and τ, its own rule without culling, measured densely against the
+//!   repository's leaves both ways in pixels exactly as `check --errors` measures ours; once,
+//!   before any frame (errors are deterministic);
+//! - `trade_off` (on `tessera_runtime::measure`): on every view, the surface each subject drew
+//!   is sampled sparsely and measured against the original mesh in pixels over what the eye
+//!   sees (a secondary column), and its image compared with the full resolution; frames are
+//!   timed in interleaved rounds (the median of `--frames` runs, with the spread).
+//!
+//! Then `verdict` compares ours front to front with each peer on the dense error (and, as
+//! before, our rows against the peers' fronts on the sparse p99 and max), `report` prints,
+//! `plots` draws.
 //!
 //! Cameras: `--views` eyes outside the bounding sphere (`views::outside_views`, 1.3 to 4
 //! bounding radii), looking at the centre of the box.
 
 pub mod cpu_cut;
+pub mod dense;
 pub mod ours;
 pub mod plots;
 pub mod report;
@@ -34,6 +44,7 @@ use serde_json::json;
 use tessera_bench::peers::{cluster_dag, discrete_lod, full_resolution, peer_mesh};
 use tessera_bench::subject::Subject;
 use tessera_core::repository::format::Header;
+use tessera_core::repository::reader::Repository;
 use tessera_runtime::camera::{bounding_radius, Camera};
 use tessera_runtime::faces::Faces;
 use tessera_runtime::gpu::full_mesh::FullMeshRenderer;
@@ -94,9 +105,14 @@ pub struct TradeArgs {
     #[arg(long, default_value = "1920x1080", value_parser = parse_size)]
     pub size: (u32, u32),
     /// Points sampled per view on each drawn surface (against the original) and on the
-    /// original (against each drawn surface) to measure the error both ways.
+    /// original (against each drawn surface) to measure the sparse, visible error both ways.
     #[arg(long, default_value_t = 20_000)]
     pub samples: usize,
+    /// Eyes of the dense error pass (`check --errors`'s views: one in eight inside the model's
+    /// box): every subject's cut at each eye and τ, no culling, measured densely against the
+    /// input both ways. 0: no dense pass (timings and the sparse error only).
+    #[arg(long, default_value_t = 16)]
+    pub error_views: usize,
     /// Timed runs: rounds of one frame per view, subject and τ (after one warm-up round); a
     /// row's times are the median run's, with the fastest and slowest run as the spread.
     #[arg(long, default_value_t = 5)]
@@ -201,6 +217,23 @@ pub fn run(args: TradeArgs) -> anyhow::Result<Outcome> {
     stages.stage("cluster DAG (meshopt::clod_build)");
     let dag = cluster_dag::build(&peer_mesh);
 
+    // The dense errors, once: CPU only, before the GPU holds anything.
+    let centre = [0, 1, 2].map(|i| (0.5 * (h.bbox_min[i] + h.bbox_max[i]) - h.origin[i]) as f32);
+    let radius = bounding_radius(h.bbox_min, h.bbox_max) as f32;
+    let dense = match args.error_views {
+        0 => None,
+        views => Some(dense_pass(
+            &repo,
+            &peer_mesh,
+            &dag,
+            &levels,
+            (centre, radius),
+            &args,
+            views,
+            &stages,
+        )?),
+    };
+
     // The GPU side: every subject resident at once.
     stages.stage("upload");
     let ctx = args.gpu.context()?;
@@ -223,8 +256,6 @@ pub fn run(args: TradeArgs) -> anyhow::Result<Outcome> {
     )
     .with_context(|| format!("uploading {}", source_path.display()))?;
     let mut full = full_resolution::FullResolution::new(&peer_mesh, full_renderer);
-    let centre = [0, 1, 2].map(|i| (0.5 * (h.bbox_min[i] + h.bbox_max[i]) - h.origin[i]) as f32);
-    let radius = bounding_radius(h.bbox_min, h.bbox_max) as f32;
     let mut discrete = discrete_lod::DiscreteLod::new(
         &ctx,
         &peer_mesh,
@@ -266,12 +297,29 @@ pub fn run(args: TradeArgs) -> anyhow::Result<Outcome> {
     let (ours_rows, peers) = (&rows[0], [&full_rows, &rows[1], &rows[2]]);
     let comparisons = verdict::compare(ours_rows, &peers, verdict::Statistic::P99);
     let comparisons_max = verdict::compare(ours_rows, &peers, verdict::Statistic::Max);
+    let fronts = dense.as_ref().map(dense_verdict).unwrap_or_default();
 
     // The report.
     let all: Vec<&SubjectRows> = std::iter::once(ours_rows).chain(peers).collect();
     let plots = match &args.plot {
-        Some(dir) => plots::write_plots(dir, &all)?,
+        Some(dir) => plots::write_plots(dir, &all, dense.as_ref().map(|d| &d.subjects[..]))?,
         None => Vec::new(),
+    };
+    // Each row with its dense figures (null without the dense pass).
+    let rows_json = |s: &SubjectRows| -> Vec<serde_json::Value> {
+        let dense_rows = dense
+            .as_ref()
+            .and_then(|d| d.subjects.iter().find(|d| d.name == s.name));
+        s.rows
+            .iter()
+            .enumerate()
+            .map(|(i, r)| {
+                let mut v = report::row_json(r);
+                v["dense"] =
+                    dense_rows.map_or(serde_json::Value::Null, |d| dense::row_json(&d.rows[i]));
+                v
+            })
+            .collect()
     };
     let stats = cluster.stats();
     let value = json!({
@@ -288,8 +336,11 @@ pub fn run(args: TradeArgs) -> anyhow::Result<Outcome> {
         "psnr_saturated_db": PSNR_SATURATED_DB,
         // What the error columns measure.
         "metric": metric(faces),
-        "rows": ours_rows.rows.iter().map(report::row_json).collect::<Vec<_>>(),
-        "peers": peers.iter().map(|s| (s.name.to_string(), json!(s.rows.iter().map(report::row_json).collect::<Vec<_>>()))).collect::<serde_json::Map<_, _>>(),
+        "rows": rows_json(ours_rows),
+        "peers": peers.iter().map(|s| (s.name.to_string(), json!(rows_json(s)))).collect::<serde_json::Map<_, _>>(),
+        // The dense pass and the headline verdict on it.
+        "dense": dense.as_ref().map(|d| dense::pass_json(&d.pass)),
+        "verdict_dense": verdict::fronts_to_json(&fronts),
         "discrete_lod_levels": discrete.levels().map(|l| json!({
             "fraction": l.fraction,
             "triangles": l.triangles.len(),
@@ -306,7 +357,11 @@ pub fn run(args: TradeArgs) -> anyhow::Result<Outcome> {
         "verdict": verdict::to_json(&comparisons),
         "verdict_max": verdict::to_json(&comparisons_max),
         "plots": plots.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
-        "seconds": {"reference_bvh": reference_seconds, "measure": measure_seconds},
+        "seconds": {
+            "reference_bvh": reference_seconds,
+            "dense": dense.as_ref().map(|d| d.pass.seconds),
+            "measure": measure_seconds,
+        },
     });
     if args.json {
         println!("{value}");
@@ -355,11 +410,23 @@ pub fn run(args: TradeArgs) -> anyhow::Result<Outcome> {
     }
     println!();
     println!("differ %: pixels with a channel off by > 8 levels; PSNR saturates at 99 dB");
+    if let Some(d) = &dense {
+        println!();
+        for line in dense_table(d) {
+            println!("{line}");
+        }
+        println!("verdict (front to front at equal dense max error, ours ÷ peer triangles):");
+        for line in verdict::front_lines(&fronts) {
+            println!("{line}");
+        }
+    }
     println!("verdict (fewest triangles at equal measured p99 error):");
     for line in verdict::lines(&comparisons) {
         println!("{line}");
     }
-    println!("verdict (fewest triangles at equal measured max error, a sampled lower bound):");
+    println!(
+        "verdict (fewest triangles at equal sparse visible max error, a sampled lower bound):"
+    );
     for line in verdict::lines(&comparisons_max) {
         println!("{line}");
     }
@@ -367,4 +434,96 @@ pub fn run(args: TradeArgs) -> anyhow::Result<Outcome> {
         println!("plot written to {}", p.display());
     }
     Ok(Outcome::Ok)
+}
+
+/// The dense pass with the subjects that have one, its rows with the full resolution's.
+pub struct Dense {
+    pub pass: dense::DensePass,
+    /// Ours, the cluster DAG, the discrete LODs, the full resolution (error 0).
+    pub subjects: Vec<dense::DenseRows>,
+}
+
+/// Runs the dense pass (`dense`) over ours and the peers at `views` eyes.
+#[allow(clippy::too_many_arguments)]
+fn dense_pass(
+    repo: &Repository,
+    peer_mesh: &peer_mesh::PeerMesh,
+    dag: &cluster_dag::Dag,
+    levels: &[discrete_lod::Level],
+    sphere: ([f32; 3], f32),
+    args: &TradeArgs,
+    views: usize,
+    stages: &Stages,
+) -> anyhow::Result<Dense> {
+    let subjects = [
+        dense::Subject::Ours(repo),
+        dense::Subject::ClusterDag(dag, peer_mesh),
+        dense::Subject::DiscreteLod(levels, sphere, peer_mesh),
+    ];
+    let settings = dense::DenseSettings {
+        views,
+        tolerances: args.tolerances.clone(),
+        viewport_height: args.size.1,
+    };
+    stages.stage("dense errors");
+    let pass = dense::measure(repo, &subjects, &settings, &|done, total| {
+        stages.stage(&format!("dense errors: cut {done} of {total}"))
+    })?;
+    let mut all = pass.subjects.clone();
+    all.push(dense::full_resolution_rows(
+        peer_mesh.triangles.len(),
+        &args.tolerances,
+        views,
+    ));
+    Ok(Dense {
+        pass,
+        subjects: all,
+    })
+}
+
+/// Ours against each measured peer, front to front on the dense max error.
+fn dense_verdict(d: &Dense) -> Vec<verdict::FrontComparison> {
+    let points = |rows: &dense::DenseRows| -> Vec<(f64, f64)> {
+        rows.rows.iter().map(|r| (r.max_px, r.triangles)).collect()
+    };
+    let Some(ours) = d.subjects.iter().find(|s| s.name == "ours") else {
+        return Vec::new();
+    };
+    let ours = points(ours);
+    d.subjects
+        .iter()
+        .filter(|s| s.name != "ours" && s.name != "full_resolution")
+        .map(|s| verdict::front_to_front(&ours, (s.name, &points(s))))
+        .collect()
+}
+
+/// The dense figures as a table: per τ and subject, triangles, max px, max ÷ τ, worst eye.
+fn dense_table(d: &Dense) -> Vec<String> {
+    let mut lines = vec![format!(
+        "dense errors (as check --errors: {} eyes, no culling, both ways against the leaves; \
+         {} cuts in {:.1} s):",
+        d.pass.eyes.len(),
+        d.pass.cuts_measured,
+        d.pass.seconds
+    )];
+    lines.push(format!(
+        "{:>6} {:>16} {:>10} {:>10} {:>8} {:>6}",
+        "τ px", "subject", "triangles", "max px", "max/τ", "eye"
+    ));
+    let taus = d.subjects.first().map_or(0, |s| s.rows.len());
+    for i in 0..taus {
+        for s in d.subjects.iter().filter(|s| s.name != "full_resolution") {
+            let r = &s.rows[i];
+            lines.push(format!(
+                "{:>6} {:>16} {:>10} {:>10.3} {:>8.2} {:>6}",
+                r.tolerance,
+                s.name,
+                verdict::group_digits(r.triangles),
+                r.max_px,
+                r.max_px / r.tolerance as f64,
+                r.worst_view
+            ));
+        }
+    }
+    lines
 }

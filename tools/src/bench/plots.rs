@@ -5,9 +5,11 @@
 //!   line y = τ (the bound the cut rule aims at); a subject whose error is 0 (the full
 //!   resolution, by definition) has no point on a log axis and says so in its legend;
 //! - `frame_time_vs_tau.png`: wall milliseconds per frame against τ (log–log);
-//! - `triangles_vs_max_error.png`: each subject's rows as (measured max error, triangles),
-//!   joined in τ order (log–log): the trade itself, read at equal error (the full resolution,
-//!   error 0 by definition, is left out).
+//! - `triangles_vs_max_error.png`: each subject's rows as (dense max error, triangles), joined
+//!   in τ order, its Pareto front drawn bold (log–log): the trade itself, read at equal error
+//!   front to front (the full resolution, error 0 by definition, is left out). The dense max
+//!   (`dense`, as `check --errors`) where the bench measured it, else the sparse visible max;
+//! - `error_vs_tau.png` also draws the dense max (dotted) where measured.
 //!
 //! Rows with τ ≤ 0 are left out (no place on a log axis). Each plot is drawn into memory and
 //! written through a temporary file (`output::save_png`). Text is drawn with DejaVu Sans
@@ -19,6 +21,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{anyhow, Context};
 use plotters::prelude::*;
 
+use super::dense::DenseRows;
 use super::trade_off::{Row, SubjectRows};
 use crate::output::save_png;
 
@@ -179,8 +182,14 @@ pub fn register_font() -> anyhow::Result<()> {
         .map_err(|_| anyhow!("the embedded DejaVu Sans font does not parse"))
 }
 
-/// Writes the four plots into `dir` (created if missing); returns their paths.
-pub fn write_plots(dir: &Path, subjects: &[&SubjectRows]) -> anyhow::Result<Vec<PathBuf>> {
+/// Writes the four plots into `dir` (created if missing); returns their paths. `dense`: the
+/// dense pass's rows by subject name, when measured.
+pub fn write_plots(
+    dir: &Path,
+    subjects: &[&SubjectRows],
+    dense: Option<&[DenseRows]>,
+) -> anyhow::Result<Vec<PathBuf>> {
+    let dense_of = |name: &str| dense.and_then(|d| d.iter().find(|s| s.name == name));
     std::fs::create_dir_all(dir)
         .with_context(|| format!("cannot create --plot {}", dir.display()))?;
     register_font()?;
@@ -214,15 +223,20 @@ pub fn write_plots(dir: &Path, subjects: &[&SubjectRows]) -> anyhow::Result<Vec<
     )?);
 
     // Measured error, with y = τ.
+    let dense_errors = dense
+        .into_iter()
+        .flatten()
+        .flat_map(|s| s.rows.iter().map(|r| r.max_px));
     let errors = all_rows()
         .filter_map(|r| r.error)
         .flat_map(|e| [e.p99_px, e.max_px])
-        .chain(all_rows().map(|r| r.tolerance as f64));
+        .chain(all_rows().map(|r| r.tolerance as f64))
+        .chain(dense_errors);
     written.push(draw_plot(
         dir,
         &Plot {
             file: PLOT_FILES[1],
-            caption: "Measured screen-space error (p99 solid, max dashed)",
+            caption: "Screen-space error (sparse visible: p99 solid, max dashed; dense max dotted)",
             x_label: TAU_LABEL,
             y_label: "error (px)",
             legend: SeriesLabelPosition::UpperLeft,
@@ -261,6 +275,19 @@ pub fn write_plots(dir: &Path, subjects: &[&SubjectRows]) -> anyhow::Result<Vec<
                     .map_err(|e| err(&e))?
                     .label(format!("{} max", s.name))
                     .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], c));
+                if let Some(d) = dense_of(s.name) {
+                    let points: Vec<(f64, f64)> = d
+                        .rows
+                        .iter()
+                        .map(|r| (r.tolerance as f64, r.max_px))
+                        .filter(|p| p.0 > 0.0 && p.1 > 0.0 && p.1.is_finite())
+                        .collect();
+                    chart
+                        .draw_series(DashedLineSeries::new(points, 2, 4, c.stroke_width(2)))
+                        .map_err(|e| err(&e))?
+                        .label(format!("{} dense max", s.name))
+                        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], c));
+                }
             }
             Ok(())
         },
@@ -291,34 +318,65 @@ pub fn write_plots(dir: &Path, subjects: &[&SubjectRows]) -> anyhow::Result<Vec<
         },
     )?);
 
-    // The trade: triangles at each measured max error.
-    let measured = || {
-        subjects
-            .iter()
-            .filter(|s| s.name != "full_resolution")
-            .flat_map(|s| s.rows.iter())
+    // The trade: triangles at each max error, dense where measured.
+    let trade_of = |s: &SubjectRows| -> Vec<(f64, f64)> {
+        let points: Vec<(f64, f64)> = match dense_of(s.name) {
+            Some(d) => d.rows.iter().map(|r| (r.max_px, r.triangles)).collect(),
+            None => s
+                .rows
+                .iter()
+                .filter_map(|r| Some((r.error?.max_px, r.triangles)))
+                .collect(),
+        };
+        points
+            .into_iter()
+            .filter(|p| p.0 > 0.0 && p.0.is_finite() && p.1 > 0.0)
+            .collect()
     };
-    let max_errors = measured().filter_map(|r| r.error.map(|e| e.max_px));
+    let measured: Vec<&SubjectRows> = subjects
+        .iter()
+        .filter(|s| s.name != "full_resolution")
+        .copied()
+        .collect();
+    let trades: Vec<Vec<(f64, f64)>> = measured.iter().map(|s| trade_of(s)).collect();
+    let (caption, x_label) = match dense {
+        Some(_) => (
+            "Triangles against dense max error (as check --errors; fronts bold)",
+            "dense max error (px)",
+        ),
+        None => (
+            "Triangles against measured max error (two-sided, visible)",
+            "measured max error (px)",
+        ),
+    };
     written.push(draw_plot(
         dir,
         &Plot {
             file: PLOT_FILES[3],
-            caption: "Triangles against measured max error (two-sided, visible)",
-            x_label: "measured max error (px)",
+            caption,
+            x_label,
             y_label: "triangles (mean over views)",
             legend: SeriesLabelPosition::UpperRight,
         },
-        log_range(max_errors),
-        log_range(measured().map(|r| r.triangles)),
+        log_range(trades.iter().flatten().map(|p| p.0)),
+        log_range(trades.iter().flatten().map(|p| p.1)),
         |chart| {
-            for s in subjects.iter().filter(|s| s.name != "full_resolution") {
-                let trade: Vec<(f64, f64)> = s
-                    .rows
-                    .iter()
-                    .filter_map(|r| Some((r.error?.max_px, r.triangles)))
-                    .filter(|p| p.0 > 0.0 && p.0.is_finite() && p.1 > 0.0)
-                    .collect();
-                line(chart, s.name, trade, s.name.to_string())?;
+            for (s, trade) in measured.iter().zip(&trades) {
+                let c = colour(s.name);
+                let err = |e: &dyn std::fmt::Display| anyhow!("drawing {}: {e}", s.name);
+                chart
+                    .draw_series(DashedLineSeries::new(
+                        trade.clone(),
+                        4,
+                        4,
+                        c.stroke_width(1),
+                    ))
+                    .map_err(|e| err(&e))?;
+                let front = super::verdict::pareto_front(trade.iter().copied());
+                line(chart, s.name, front, format!("{} (front)", s.name))?;
+                chart
+                    .draw_series(trade.iter().map(|&p| Circle::new(p, 3, c)))
+                    .map_err(|e| err(&e))?;
             }
             Ok(())
         },

@@ -21,7 +21,7 @@ use std::time::Instant;
 
 use anyhow::Context;
 use tessera_core::cull::dot;
-use tessera_core::metric::center_minus_eye;
+use tessera_core::metric::{center_minus_eye, ScreenSpaceMetric};
 use tessera_runtime::camera::Camera;
 use tessera_runtime::faces::Faces;
 use tessera_runtime::gpu::full_mesh::FullMeshRenderer;
@@ -151,6 +151,36 @@ pub fn build(mesh: &PeerMesh) -> Dag {
     }
 }
 
+impl Dag {
+    /// The clusters the rule draws for `eye_local` (the eye relative to the repository origin)
+    /// at `tau` pixels of `metric`, without culling: own error ≤ τ < parent error, each
+    /// projected from its group's bounds (the module comment). The frame's selection is these
+    /// clusters less the culled ones; the dense error pass measures all of them.
+    pub fn cut(&self, eye_local: [f32; 3], metric: &ScreenSpaceMetric, tau: f32) -> Vec<u32> {
+        (0..self.clusters.len() as u32)
+            .filter(|&c| drawn(&self.clusters[c as usize], eye_local, metric, tau))
+            .collect()
+    }
+
+    /// The triangles of `clusters` (indices into the peers' vertices), in order.
+    pub fn triangles_of(&self, clusters: &[u32]) -> Vec<[u32; 3]> {
+        clusters
+            .iter()
+            .flat_map(|&c| {
+                let c = &self.clusters[c as usize];
+                &self.triangles[c.first as usize..(c.first + c.count) as usize]
+            })
+            .copied()
+            .collect()
+    }
+}
+
+/// The rule: `c` is drawn at `tau` for `eye_local` iff ρ(own) ≤ τ < ρ(parent).
+fn drawn(c: &Cluster, eye_local: [f32; 3], metric: &ScreenSpaceMetric, tau: f32) -> bool {
+    let rho = |b: &Bounds| metric.rho(b.error, center_minus_eye(b.centre, eye_local), b.radius);
+    rho(&c.own) <= tau && tau < rho(&c.parent)
+}
+
 pub struct ClusterDag<'m> {
     mesh: &'m PeerMesh,
     dag: Dag,
@@ -194,17 +224,21 @@ impl<'m> ClusterDag<'m> {
         self.dag.stats
     }
 
+    /// The DAG it cuts.
+    pub fn dag(&self) -> &Dag {
+        &self.dag
+    }
+
     /// The cut for `camera` at `tau` (the rule and culling of the module comment) into
     /// `self.selected`.
     fn select(&mut self, camera: &Camera, tau: f32) {
         let metric = camera.metric();
         let volume = camera.view_volume();
         let eye = camera.eye_local(self.origin);
-        let rho = |b: &Bounds| metric.rho(b.error, center_minus_eye(b.centre, eye), b.radius);
         self.selected.clear();
         self.selected_clusters = 0;
         for c in &self.dag.clusters {
-            if !(rho(&c.own) <= tau && tau < rho(&c.parent)) {
+            if !drawn(c, eye, &metric, tau) {
                 continue;
             }
             if !volume.sphere_visible(center_minus_eye(c.cull.centre, eye), c.cull.radius) {

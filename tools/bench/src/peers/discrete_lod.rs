@@ -13,7 +13,7 @@ use std::time::Instant;
 use tessera_runtime::faces::Faces;
 
 use anyhow::Context;
-use tessera_core::metric::center_minus_eye;
+use tessera_core::metric::{center_minus_eye, ScreenSpaceMetric};
 use tessera_runtime::camera::Camera;
 use tessera_runtime::gpu::full_mesh::FullMeshRenderer;
 use tessera_runtime::gpu::GpuContext;
@@ -75,6 +75,23 @@ pub fn build_levels(mesh: &PeerMesh) -> Vec<Level> {
         .collect()
 }
 
+/// The coarsest of the levels with `errors` (model units, finest first) whose error projects
+/// to ≤ `tau` pixels of `metric` at the object's bounding sphere `(centre, radius)` seen from
+/// `eye_local` (both relative to the repository origin); level 0 when none does. The frame's
+/// choice (`DiscreteLod::level_for`), and the dense error pass's.
+pub fn level_at(
+    mut errors: impl DoubleEndedIterator<Item = f64> + ExactSizeIterator,
+    (centre, radius): ([f32; 3], f32),
+    eye_local: [f32; 3],
+    metric: &ScreenSpaceMetric,
+    tau: f32,
+) -> usize {
+    let c = center_minus_eye(centre, eye_local);
+    errors
+        .rposition(|e| metric.rho(e as f32, c, radius) <= tau)
+        .unwrap_or(0)
+}
+
 pub struct DiscreteLod<'m> {
     mesh: &'m PeerMesh,
     levels: Vec<(Level, FullMeshRenderer)>,
@@ -132,12 +149,18 @@ impl<'m> DiscreteLod<'m> {
 
     /// The coarsest level whose projected error is ≤ τ (level 0 when none is).
     pub fn level_for(&self, camera: &Camera, tau: f32) -> usize {
-        let metric = camera.metric();
-        let c = center_minus_eye(self.centre, camera.eye_local(self.origin));
-        self.levels
-            .iter()
-            .rposition(|(l, _)| metric.rho(l.error as f32, c, self.radius) <= tau)
-            .unwrap_or(0)
+        level_at(
+            self.levels.iter().map(|(l, _)| l.error),
+            (self.centre, self.radius),
+            camera.eye_local(self.origin),
+            &camera.metric(),
+            tau,
+        )
+    }
+
+    /// The object's bounding sphere, relative to the repository origin.
+    pub fn sphere(&self) -> ([f32; 3], f32) {
+        (self.centre, self.radius)
     }
 }
 
