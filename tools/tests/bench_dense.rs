@@ -53,7 +53,9 @@ fn build_bunny(dir: &Path) -> PathBuf {
 }
 
 /// `measure_screen_cut` as it was written before it went through `measure_screen_surface`
-/// (2026-12-07): the reference the general measure must reproduce to the bit.
+/// (2026-12-07): the reference the general measure must reproduce to the bit. (The sampler
+/// under both, `sampled_directed_weighted`, is checked against brute force in core's
+/// `hausdorff::tests::weighed_sampling_is_exact`.)
 fn screen_cut_as_before(
     repo: &Repository,
     leaves: &PatchSurface,

@@ -147,6 +147,19 @@ impl<'g, 't> Search<'g, 't> {
     /// distance counts only for a `p` inside the grid), and the search ends once the best
     /// distance is no larger. A triangle whose box is farther than the best is not measured.
     pub(super) fn nearest(&mut self, p: [f64; 3], hint: Option<usize>) -> Corner {
+        self.nearest_until(p, hint, |_| false)
+    }
+
+    /// `nearest`, ended early once `enough(distance)` holds for the best distance found (the
+    /// hint's, or after a ring): the distance returned is then only an upper bound of the
+    /// nearest (and `enough` of it holds). `sampled_directed_weighted` stops once a sample
+    /// cannot raise the largest weighed value.
+    pub(super) fn nearest_until(
+        &mut self,
+        p: [f64; 3],
+        hint: Option<usize>,
+        enough: impl Fn(f64) -> bool,
+    ) -> Corner {
         self.query = self.query.wrapping_add(1);
         if self.query == 0 {
             self.stamp.fill(0);
@@ -163,6 +176,9 @@ impl<'g, 't> Search<'g, 't> {
             self.stamp[t] = self.query;
             best.distance = point_triangle_distance(p, &grid.triangles[t]);
             best.nearest = t;
+            if enough(best.distance) {
+                return best;
+            }
         }
         let inside = (0..3)
             .all(|k| p[k] >= grid.min[k] && p[k] <= grid.min[k] + grid.dims[k] as f64 * grid.cell);
@@ -178,7 +194,9 @@ impl<'g, 't> Search<'g, 't> {
         };
         let largest_ring = grid.dims.iter().copied().max().unwrap_or(1);
         for ring in 0..=largest_ring {
-            if ring > 0 && best.distance <= (ring - 1) as f64 * grid.cell + gap {
+            if ring > 0
+                && (best.distance <= (ring - 1) as f64 * grid.cell + gap || enough(best.distance))
+            {
                 break;
             }
             let lo = centre.map(|c| c.saturating_sub(ring));

@@ -135,7 +135,11 @@ pub fn sampled_directed(positions: &[[f64; 3]], from: &[u32], to: &[u32], steps:
 
 /// `sampled_directed` with each sample's distance d at point p turned into `weigh(p, d)`
 /// first (a projection to pixels, say); the largest weighed value. Infinite distances (an
-/// empty `to`) are weighed too.
+/// empty `to`) are weighed too. `weigh` must not decrease as d grows (for each p): the search
+/// of a sample ends as soon as a triangle is found whose distance (an upper bound of the
+/// sample's) weighs no more than the largest so far, since the sample cannot raise it. The
+/// result is that of searching every sample to the end, about twice as fast on the cuts of
+/// `check --errors` (most samples at distance 0, or well below the largest).
 pub fn sampled_directed_weighted(
     positions: &[[f64; 3]],
     from: &[u32],
@@ -165,7 +169,9 @@ pub fn sampled_directed_weighted(
                 let (u, v) = (i as f64 / steps as f64, j as f64 / steps as f64);
                 let w = 1.0 - u - v;
                 let p = [0, 1, 2].map(|k| u * a[k] + v * b[k] + w * c[k]);
-                let nearest = search.nearest(p, hint);
+                // Any triangle's distance bounds d, and `weigh` grows with d: once one found
+                // weighs no more than the largest, the sample cannot raise it.
+                let nearest = search.nearest_until(p, hint, |d| weigh(p, d) <= largest);
                 hint = Some(nearest.nearest);
                 largest = largest.max(weigh(p, nearest.distance));
             }

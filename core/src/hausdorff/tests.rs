@@ -179,4 +179,36 @@ proptest! {
         let through_grid = super::sampled_directed(&positions, a, b, 24);
         prop_assert!((through_grid - sampled).abs() <= 1e-12, "{} vs {}", through_grid, sampled);
     }
+
+    /// Weighed as `check --errors` weighs (the quantisation subtracted, over the distance from
+    /// an eye): the sampler, which ends a sample's search once it cannot raise the largest,
+    /// finds exactly what weighing every sample's exact distance does.
+    #[test]
+    fn weighed_sampling_is_exact(
+        positions in prop::collection::vec([coordinate(), coordinate(), coordinate()], 6..12),
+        picks in prop::collection::vec(0usize..1000, 6..24),
+        eye in [coordinate(), coordinate(), coordinate()],
+    ) {
+        let n = positions.len();
+        let indices: Vec<u32> = picks.iter().map(|&p| (p % n) as u32).collect();
+        let split = (indices.len() / 3 / 2).max(1) * 3;
+        let (a, b) = indices.split_at(split);
+        let b = &b[..b.len() / 3 * 3];
+        prop_assume!(!b.is_empty());
+        let weigh = |p: [f64; 3], d: f64| (d - 0.05).max(0.0) * 1000.0 / (length(sub(p, eye)) + d).max(0.1);
+        let targets = triangles(&positions, b);
+        let brute = triangles(&positions, a)
+            .iter()
+            .flat_map(|t| lattice_points(t, 6))
+            .map(|p| {
+                let d = targets
+                    .iter()
+                    .map(|t| point_triangle_distance(p, t))
+                    .fold(f64::INFINITY, f64::min);
+                weigh(p, d)
+            })
+            .fold(0.0, f64::max);
+        let through_grid = sampled_directed_weighted(&positions, a, b, 6, weigh);
+        prop_assert_eq!(through_grid, brute);
+    }
 }
