@@ -339,14 +339,16 @@ pub fn write_plots(
         .copied()
         .collect();
     let trades: Vec<Vec<(f64, f64)>> = measured.iter().map(|s| trade_of(s)).collect();
-    let (caption, x_label) = match dense {
+    let (caption, x_label, y_label) = match dense {
         Some(_) => (
             "Triangles against dense max error (as check --errors; fronts bold)",
             "dense max error (px)",
+            "triangles (no culling, mean over the check's eyes)",
         ),
         None => (
             "Triangles against measured max error (two-sided, visible)",
             "measured max error (px)",
+            "triangles (mean over views)",
         ),
     };
     written.push(draw_plot(
@@ -355,7 +357,7 @@ pub fn write_plots(
             file: PLOT_FILES[3],
             caption,
             x_label,
-            y_label: "triangles (mean over views)",
+            y_label,
             legend: SeriesLabelPosition::UpperRight,
         },
         log_range(trades.iter().flatten().map(|p| p.0)),
