@@ -200,12 +200,13 @@ struct NormalColourIn {
 // The fill's base colour where the model has no colours (as `VertexOut.colour` then is).
 const PLAIN_COLOUR: vec3<f32> = vec3<f32>(0.82, 0.80, 0.76);
 
-// Diffuse shading factor: the stored normal if the model has normals and this one is not
-// zero, else the face normal from screen derivatives (`face` = cross(dpdx, dpdy), taken in
-// uniform control flow by the caller).
+// Diffuse shading factor: the stored normal if the model has normals, this one is not zero
+// and the frame does not ask for face normals (`SHADE_FACES`), else the face normal from screen
+// derivatives (`face` = cross(dpdx, dpdy), taken in uniform control flow by the caller).
 fn shade(eye_relative: vec3<f32>, normal: vec3<f32>, face: vec3<f32>) -> f32 {
     var n = face;
-    if (frame.counts.w & ATTR_NORMALS) != 0u && dot(normal, normal) > 0.0 {
+    let stored = (frame.counts.w & ATTR_NORMALS) != 0u && (frame.counts.y & SHADE_FACES) == 0u;
+    if stored && dot(normal, normal) > 0.0 {
         n = normal;
     }
     n = normalize(n);

@@ -21,6 +21,7 @@ pub mod hierarchy;
 pub mod import;
 mod local_mesh;
 pub mod mesh;
+pub mod normals;
 mod packed_key;
 pub mod procedural;
 pub mod saturate;

@@ -21,8 +21,8 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context};
-use tessera_preprocess::checkpoint::{checkpoint_dir, manifest_for, Checkpoint, Fingerprint};
-use tessera_preprocess::{BuildConfig, BuildError};
+use tessera_preprocess::checkpoint::{checkpoint_dir, Checkpoint, Fingerprint, Manifest};
+use tessera_preprocess::BuildError;
 
 /// Environment variable of the tests' faults: `kill-after-stage:NAME` kills the build (SIGKILL)
 /// once stage NAME is committed (`NAME*`: the first stage whose name starts with NAME).
@@ -75,14 +75,15 @@ impl StopAfter {
     }
 }
 
-/// Opens or creates the build's checkpoint, or removes a stale one. `checkpointable`: the
-/// build stages a mesh (a file or standard input) under a memory budget. `stop_after`:
-/// `--stop-after` and whether `--json` was given.
+/// Opens or creates the build's checkpoint, or removes a stale one. `manifest`: what the
+/// build's input and flags make the checkpoint's manifest (a resume must match it).
+/// `checkpointable`: the build stages a mesh (a file or standard input) under a memory budget.
+/// `stop_after`: `--stop-after` and whether `--json` was given.
 pub fn prepare(
     input: &Path,
     output: &Path,
     temp_dir: Option<&Path>,
-    config: &BuildConfig,
+    manifest: &dyn Fn(Fingerprint) -> Manifest,
     checkpointable: bool,
     resume: bool,
     stop_after: Option<(StopAfter, bool)>,
@@ -127,7 +128,7 @@ pub fn prepare(
             Err(e) => return Err(e).with_context(|| format!("reading {}", input.display())),
         }
     };
-    let manifest = manifest_for(fingerprint, config);
+    let manifest = manifest(fingerprint);
     let mut resumed = false;
     let mut checkpoint = match resume.then(|| Checkpoint::open(&dir, manifest.clone())) {
         Some(Ok(Some(c))) => {

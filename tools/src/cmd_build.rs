@@ -55,6 +55,11 @@ pub struct BuildArgs {
     /// tessera's strip codec, lossless; decoded by the loader): larger files, no decoding.
     #[arg(long)]
     pub no_compress: bool,
+    /// Store no normals where the input has none: lit mode then shades with face normals.
+    /// By default a mesh without normals gets angle-weighted vertex normals computed at build
+    /// time (in the `--memory` budget where one is given); a height field keeps face normals.
+    #[arg(long)]
+    pub no_computed_normals: bool,
     /// Store errors that are bounds: each diamond's error is an upper bound on the two-sided
     /// (Hausdorff) distance between its patches and the input surface, so a cut drawn at τ
     /// is within τ of the input everywhere. Slower to build, and the errors are larger than
@@ -132,11 +137,21 @@ pub fn run(args: BuildArgs) -> anyhow::Result<Outcome> {
         let temp = memory.as_ref().map(|m| m.temp_dir.as_path());
         say_how_to_resume_when_interrupted(crate::build_checkpoint::dir_for(&args.output, temp));
     }
+    let manifest = |fingerprint| {
+        let mut manifest = tessera_preprocess::checkpoint::manifest_for(fingerprint, &mesh_config);
+        let normals = if args.no_computed_normals {
+            "input"
+        } else {
+            "input, else computed"
+        };
+        manifest.flags.insert("normals".into(), normals.into());
+        manifest
+    };
     let prepared = crate::build_checkpoint::prepare(
         &args.input,
         &args.output,
         memory.as_ref().map(|m| m.temp_dir.as_path()),
-        &mesh_config,
+        &manifest,
         staged_mesh,
         args.resume,
         args.stop_after.clone().map(|s| (s, args.json)),
@@ -294,6 +309,9 @@ fn load_or_resume(
     }
     let (mut input, stream) =
         crate::input::load_build_input(&args.input, &args.heightfield, staging)?;
+    if !args.no_computed_normals {
+        crate::input::compute_missing_normals(&mut input, staging)?;
+    }
     if let (Some(c), BuildInput::Staged { staged, .. }) = (checkpoint, &mut input) {
         let at = format!("checkpoint {}", c.dir().display());
         let at = || at.clone();

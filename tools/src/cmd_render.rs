@@ -3,6 +3,7 @@
 
 use std::path::PathBuf;
 
+use anyhow::Context;
 use clap::{Args, ValueEnum};
 use serde_json::json;
 use tessera_runtime::camera::{bounding_radius, Camera, Y_UP, Z_UP};
@@ -47,6 +48,14 @@ pub struct RenderArgs {
     /// Shading.
     #[arg(long, value_enum, default_value_t = Mode::Lit)]
     pub mode: Mode,
+    /// Also write the cut this view's rule selects, the whole model at its resolution without
+    /// culling, as `view`'s X does: binary glTF for a `.glb` name, else binary PLY with the
+    /// stored normals, colours and texture coordinates.
+    #[arg(long, value_name = "FILE")]
+    pub export: Option<std::path::PathBuf>,
+    /// Lit mode with face normals: each triangle flat, whatever normals the model stores.
+    #[arg(long)]
+    pub flat: bool,
     /// Overlay the triangle edges (where the adapter has line mode).
     #[arg(long)]
     pub wireframe: bool,
@@ -179,15 +188,24 @@ pub fn run(args: RenderArgs) -> anyhow::Result<Outcome> {
         anyhow::bail!("--tolerance {} must be a finite number ≥ 0", args.tolerance);
     }
     // Opened (and its directory validated) once: the streamer shares this map.
+    if args.flat && args.mode != Mode::Lit {
+        anyhow::bail!(
+            "--flat shades --mode lit with face normals; --mode {:?} has no shading to flatten",
+            args.mode
+        );
+    }
     let shared = std::sync::Arc::new(crate::repository_arg::open(&args.repository, "render")?);
     let h = *shared.header();
     let camera = camera_from_args(&args, h.bbox_min, h.bbox_max, h.dimension)?;
     let ctx = args.gpu.context()?;
     let (mut renderer, mut streamer) =
         args.gpu
-            .streaming(&ctx, shared, (camera.width, camera.height))?;
+            .streaming(&ctx, shared.clone(), (camera.width, camera.height))?;
     let mut request = FrameRequest {
-        mode: args.mode.into(),
+        mode: match (args.mode, args.flat) {
+            (Mode::Lit, true) => ShadingMode::LitFaces,
+            (mode, _) => mode.into(),
+        },
         wireframe: args.wireframe,
         ..FrameRequest::new(camera, args.tolerance)
     };
@@ -244,6 +262,15 @@ pub fn run(args: RenderArgs) -> anyhow::Result<Outcome> {
     let (stats, gpu) = (last.stats, streamer.stats());
     let memory = anon_peak.sample();
     save_png(&frame.image, &args.output)?;
+    let exported = match &args.export {
+        Some(path) => {
+            let (triangles, vertices) =
+                crate::view::export::export_cut(&shared, &camera, args.tolerance, path)
+                    .with_context(|| format!("exporting the cut to {}", path.display()))?;
+            Some((path, triangles, vertices))
+        }
+        None => None,
+    };
     if args.json {
         let mut value = json!({
                 "output": args.output.display().to_string(),
@@ -280,6 +307,13 @@ pub fn run(args: RenderArgs) -> anyhow::Result<Outcome> {
             &mut value,
             crate::peak_rss::MemoryNow::json(memory, anon_peak.bytes()),
         );
+        if let Some((path, triangles, vertices)) = exported {
+            value["export"] = json!({
+                "path": path.display().to_string(),
+                "triangles": triangles,
+                "vertices": vertices,
+            });
+        }
         println!("{value}");
     } else {
         println!(
@@ -303,6 +337,12 @@ pub fn run(args: RenderArgs) -> anyhow::Result<Outcome> {
                 |k| format!("settled after {k} frames")
             ),
         );
+        if let Some((path, triangles, vertices)) = exported {
+            println!(
+                "{}: the cut, {triangles} triangles, {vertices} vertices",
+                path.display()
+            );
+        }
     }
     Ok(Outcome::Ok)
 }

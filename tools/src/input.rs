@@ -258,6 +258,43 @@ pub fn load_build_input(
     Ok((staged_input(staged, args), fingerprint))
 }
 
+/// Gives a mesh input without normals angle-weighted vertex normals (`normals.rs`): in
+/// memory, or out of core within `staging`'s budget for a staged mesh. A height field keeps
+/// face normals; a resumed build has the normals its checkpoint staged.
+pub fn compute_missing_normals(
+    input: &mut BuildInput,
+    staging: Option<(&Path, u64)>,
+) -> anyhow::Result<()> {
+    let computed = match input {
+        BuildInput::Loaded(loaded) if loaded.grid.is_none() => {
+            tessera_preprocess::normals::compute_missing_normals(&mut loaded.mesh)
+        }
+        BuildInput::Staged {
+            staged, grid: None, ..
+        } if staged.attributes.normals.is_none() => {
+            let (dir, budget) = staging.expect("a staged mesh has a staging budget");
+            let normals = tessera_preprocess::external::vertex_normals::stage_vertex_normals(
+                staged,
+                budget as usize,
+                dir,
+            )
+            .context("computing the vertex normals")?;
+            staged.attributes.normals = Some(normals);
+            true
+        }
+        _ => false,
+    };
+    if computed {
+        let description = match input {
+            BuildInput::Loaded(loaded) => &mut loaded.description,
+            BuildInput::Staged { description, .. } => description,
+            BuildInput::Resumed { description, .. } => description,
+        };
+        description.push_str("; vertex normals computed");
+    }
+    Ok(())
+}
+
 /// Whether `path` is a mesh built as it is (not a height field, no exaggeration): what
 /// `build --memory` stages on disk, and what a checkpoint can resume.
 pub fn is_plain_mesh(path: &Path, args: &HeightFieldArgs) -> anyhow::Result<bool> {

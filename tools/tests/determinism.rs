@@ -255,15 +255,28 @@ fn a_staged_mesh_with_attributes_and_sub_f32_detail_gives_the_same_bytes() {
 /// run's peak (`peak_rss_bytes`: VmHWM) within it. Without `--stage-peaks` the kernel's peak is
 /// never reset (so `/usr/bin/time` sees the true peak too): each stage's figure is the peak so
 /// far, never falling.
+///
+/// Run twice: the default build, which computes the vertex normals the generated mesh lacks,
+/// and the geometry alone (`--no-computed-normals`), which issue 12's bound on temporary disk
+/// is about (the normals are data the input does not hold: the repository itself grows by
+/// 1.38×, and so do the live patches and finished patches on disk).
 #[test]
 fn a_2m_triangle_build_stays_within_64_mib() {
     let dir = tempfile::tempdir().unwrap();
     let generated = generate_2m(dir.path(), &[]);
-    let json = build_json(
-        &generated,
-        &dir.path().join("g2m.tsr"),
-        &["--memory", "64M"],
-    );
+    // 1.95× measured with the normals on 2026-12-07.
+    for (flags, temp_bound) in [(&[][..], 2.1), (&["--no-computed-normals"][..], 1.45)] {
+        let mut args = vec!["--memory", "64M"];
+        args.extend(flags);
+        let json = build_json(&generated, &dir.path().join("g2m.tsr"), &args);
+        check_2m_budgets(&generated, &json, temp_bound);
+    }
+}
+
+/// [`a_2m_triangle_build_stays_within_64_mib`]'s checks of one build's `json`: resident memory
+/// within 64 MiB, the stages' figures consistent, temporary files within `temp_bound` × the
+/// input.
+fn check_2m_budgets(generated: &Path, json: &serde_json::Value, temp_bound: f64) {
     let budget = 64u64 << 20;
     let peak = json["peak_rss_bytes"]
         .as_u64()
@@ -287,10 +300,10 @@ fn a_2m_triangle_build_stays_within_64_mib() {
     // 1.52× with 6bfa11d, 2.46× with e5233a6, 2.68× with 63da3b5, 3.31× with 58fd7a6 and 6.7×
     // with 766c6f2; the pin leaves a little room under the issue's bound, so that a change
     // that puts more on disk fails here.
-    let input = std::fs::metadata(&generated).unwrap().len();
+    let input = std::fs::metadata(generated).unwrap().len();
     let temp = json["temp_bytes_peak"].as_u64().unwrap();
     assert!(
-        temp as f64 <= 1.45 * input as f64,
+        temp as f64 <= temp_bound * input as f64,
         "temporary files peaked at {temp} bytes, {:.2}× the {input}-byte input: {json}",
         temp as f64 / input as f64
     );

@@ -33,13 +33,40 @@ pub struct JoinedBarycentres<'a> {
     pub budget: usize,
 }
 
-/// Bytes a triangle of a chunk takes: its corners (12), their sort keys (24), their positions
-/// (72) and places in sorted order (12), and its barycentre twice (48: the chunk handed to `f`
-/// and the one made meanwhile).
-const JOIN_BYTES_PER_TRIANGLE: usize = 168;
+/// Bytes a triangle of a chunk takes besides its mapped result: its corners (12), their sort
+/// keys (24), their positions (72) and places in sorted order (12). The result counts twice
+/// (the chunk handed to `f` and the one made meanwhile): 168 bytes with a barycentre.
+const JOIN_BYTES_PER_TRIANGLE: usize = 120;
 
 impl BarycentreSource for JoinedBarycentres<'_> {
     fn for_each_barycentre(&self, f: &mut dyn FnMut(u32, [f64; 3])) -> io::Result<()> {
+        let join = TriangleCorners {
+            staged: self.staged,
+            budget: self.budget,
+        };
+        join.for_each(&|_, corners| self.frame.location(corners), f)
+    }
+}
+
+/// Each triangle of a staged mesh with its corners' positions, mapped by a function in
+/// parallel and handed over in triangle order: positions that fit `budget` are read whole and
+/// indexed; otherwise a chunk of triangles at a time, the chunk's corners sorted by vertex
+/// pick their positions in a few passes over the positions file side by side (each over its
+/// own range of vertices), the next chunk joined by the pool while this one is handed over.
+pub struct TriangleCorners<'a> {
+    pub staged: &'a StagedMesh,
+    /// Bytes a chunk may hold in memory (`JOIN_BYTES_PER_TRIANGLE` a triangle, plus twice a
+    /// mapped result), or the positions read whole.
+    pub budget: usize,
+}
+
+impl TriangleCorners<'_> {
+    /// Calls `f(t, map(vertices of t, their positions))` for every triangle `t`, in order.
+    pub fn for_each<R: Send>(
+        &self,
+        map: &(dyn Fn([u32; 3], [[f64; 3]; 3]) -> R + Sync),
+        f: &mut dyn FnMut(u32, R),
+    ) -> io::Result<()> {
         // Positions that fit the budget are read once and indexed: no sort, one pass.
         if self.staged.positions.bytes() <= self.budget as u64 {
             let positions = self.staged.positions.read_all()?;
@@ -55,41 +82,42 @@ impl BarycentreSource for JoinedBarycentres<'_> {
                     return Ok(());
                 }
                 let at = |v: u32| positions.get(v as usize).copied();
-                let barycentres: Vec<Option<[f64; 3]>> = part
+                let mapped: Vec<Option<R>> = part
                     .par_iter()
                     .map(|t| match t.map(at) {
-                        [Some(a), Some(b), Some(c)] => Some(self.frame.location([a, b, c])),
+                        [Some(a), Some(b), Some(c)] => Some(map(*t, [a, b, c])),
                         _ => None,
                     })
                     .collect();
-                for (i, b) in barycentres.into_iter().enumerate() {
+                for (i, r) in mapped.into_iter().enumerate() {
                     let t = first + i as u32;
-                    let b = b.ok_or_else(|| {
+                    let r = r.ok_or_else(|| {
                         io::Error::other(format!(
                             "triangle {t} of a staged mesh names a vertex past its {} positions",
                             positions.len()
                         ))
                     })?;
-                    f(t, b);
+                    f(t, r);
                 }
                 first += part.len() as u32;
             }
         }
-        let chunk = (self.budget / JOIN_BYTES_PER_TRIANGLE).max(1 << 12);
+        let per_triangle = JOIN_BYTES_PER_TRIANGLE + 2 * std::mem::size_of::<R>();
+        let chunk = (self.budget / per_triangle).max(1 << 12);
         let mut triangles = self.staged.triangles.read_chunks(chunk)?;
         let mut first = 0u32;
         // Buffers reused from chunk to chunk.
         let mut buffers = JoinBuffers::default();
-        let mut produce = || self.join_chunk(&mut triangles, &mut buffers);
+        let mut produce = || self.join_chunk(&mut triangles, &mut buffers, map);
         let mut current = produce()?;
-        while let Some(barycentres) = current.take() {
+        while let Some(mapped) = current.take() {
             // The next chunk is joined by the pool while this one goes to `f` (a spool's
             // writes) on this thread.
             let mut next = None;
             rayon::in_place_scope(|scope| {
                 scope.spawn(|_| next = Some(produce()));
-                for b in barycentres {
-                    f(first, b);
+                for r in mapped {
+                    f(first, r);
                     first += 1;
                 }
             });
@@ -97,31 +125,16 @@ impl BarycentreSource for JoinedBarycentres<'_> {
         }
         Ok(())
     }
-}
 
-/// A chunk join's buffers, kept from chunk to chunk (fresh ones each time cost page faults).
-#[derive(Default)]
-struct JoinBuffers {
-    part: Vec<[u32; 3]>,
-    /// (vertex, corner slot in the chunk), sorted.
-    corners: Vec<u64>,
-    /// The sorted corners' positions.
-    positions: Vec<[f64; 3]>,
-    /// Each corner slot's place among the sorted corners.
-    rank: Vec<u32>,
-    /// One per pass over the positions file (`in_passes`).
-    blocks: Vec<PositionBlocks>,
-}
-
-impl JoinedBarycentres<'_> {
-    /// The next chunk's barycentres: its corners sorted by vertex, their positions read in a
-    /// few passes over the positions file side by side (each over its own range of vertices,
-    /// in order), then the barycentres computed, all in parallel.
-    fn join_chunk(
+    /// The next chunk's mapped triangles: its corners sorted by vertex, their positions read
+    /// in a few passes over the positions file side by side (each over its own range of
+    /// vertices, in order), then `map` applied, all in parallel.
+    fn join_chunk<R: Send>(
         &self,
         triangles: &mut super::chunk_reader::ChunkReader<[u32; 3]>,
         buffers: &mut JoinBuffers,
-    ) -> io::Result<Option<Vec<[f64; 3]>>> {
+        map: &(dyn Fn([u32; 3], [[f64; 3]; 3]) -> R + Sync),
+    ) -> io::Result<Option<Vec<R>>> {
         let JoinBuffers {
             part,
             corners,
@@ -160,16 +173,31 @@ impl JoinedBarycentres<'_> {
         for (i, &c) in corners.iter().enumerate() {
             rank[c as u32 as usize] = i as u32;
         }
-        let barycentres = rank
+        let mapped = rank
             .par_chunks_exact(3)
+            .zip(part.par_iter())
             .with_min_len(1 << 12)
-            .map(|r| {
+            .map(|(r, t)| {
                 let at = |k: usize| positions[r[k] as usize];
-                self.frame.location([at(0), at(1), at(2)])
+                map(*t, [at(0), at(1), at(2)])
             })
             .collect();
-        Ok(Some(barycentres))
+        Ok(Some(mapped))
     }
+}
+
+/// A chunk join's buffers, kept from chunk to chunk (fresh ones each time cost page faults).
+#[derive(Default)]
+struct JoinBuffers {
+    part: Vec<[u32; 3]>,
+    /// (vertex, corner slot in the chunk), sorted.
+    corners: Vec<u64>,
+    /// The sorted corners' positions.
+    positions: Vec<[f64; 3]>,
+    /// Each corner slot's place among the sorted corners.
+    rank: Vec<u32>,
+    /// One per pass over the positions file (`in_passes`).
+    blocks: Vec<PositionBlocks>,
 }
 
 /// The simplifier's f32 position of each vertex (`f32_of` of its input position) is moved

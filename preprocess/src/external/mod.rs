@@ -20,6 +20,7 @@ pub mod sort;
 pub mod staged;
 pub mod temp_usage;
 pub mod varint;
+pub mod vertex_normals;
 pub mod weld;
 mod weld_keys;
 

@@ -13,6 +13,8 @@ use crate::camera::Camera;
 pub enum ShadingMode {
     /// Lit by a light over the viewer's shoulder: stored normals, else the face normal.
     Lit,
+    /// Lit as `Lit`, with the face normal everywhere, stored normals ignored (`--flat`).
+    LitFaces,
     /// One colour per simplex.
     Patches,
     /// One colour per LEB level.
@@ -25,6 +27,11 @@ pub enum ShadingMode {
 }
 
 impl ShadingMode {
+    /// One of the two lit modes.
+    pub fn is_lit(self) -> bool {
+        matches!(self, ShadingMode::Lit | ShadingMode::LitFaces)
+    }
+
     /// One of the two check modes.
     pub fn is_check(self) -> bool {
         matches!(self, ShadingMode::Check | ShadingMode::CheckUnderside)
@@ -32,7 +39,7 @@ impl ShadingMode {
 
     fn code(self) -> u32 {
         match self {
-            ShadingMode::Lit => 0,
+            ShadingMode::Lit | ShadingMode::LitFaces => 0,
             ShadingMode::Patches => 1,
             ShadingMode::Levels => 2,
             ShadingMode::Check | ShadingMode::CheckUnderside => 3,
@@ -45,6 +52,8 @@ pub const FLAG_COLOUR: [u8; 4] = [255, 0, 255, 255];
 
 const CULL_FRUSTUM: u32 = 1;
 const CULL_CONES: u32 = 2;
+/// `ShadingMode::LitFaces`: the fragment stage ignores stored normals.
+const SHADE_FACES: u32 = 4;
 
 /// Mirrors `Frame` in `shaders/records.wgsl` (uniform layout: 16-byte rows).
 #[repr(C)]
@@ -95,8 +104,9 @@ impl FrameUniforms {
         let lattice = EyeLattice::new(draw.eye, header.bbox_min, header.position_step);
         let b = draw.basis();
         let light = normalize([0, 1, 2].map(|i| -b.forward[i] + 0.6 * b.up[i] - 0.4 * b.right[i]));
-        let flags =
-            (cull.frustum.is_some() as u32 * CULL_FRUSTUM) | (cull.cones as u32 * CULL_CONES);
+        let flags = (cull.frustum.is_some() as u32 * CULL_FRUSTUM)
+            | (cull.cones as u32 * CULL_CONES)
+            | ((mode == ShadingMode::LitFaces) as u32 * SHADE_FACES);
         let v4 = |v: [f32; 3], w: f32| [v[0], v[1], v[2], w];
         FrameUniforms {
             view_proj: draw.view_projection(),

@@ -314,7 +314,7 @@ impl Renderer {
             );
             pass.set_bind_group(0, &self.draw_group, &[]);
             // One face rule (see `FrameRequest::two_sided`).
-            let fill = match (request.two_sided, request.mode == ShadingMode::Lit) {
+            let fill = match (request.two_sided, request.mode.is_lit()) {
                 (true, false) => Pass::Fill,
                 (false, false) => Pass::FillFront,
                 (true, true) => Pass::FillLit,
