@@ -93,6 +93,14 @@ impl From<Mode> for ShadingMode {
     }
 }
 
+/// The shading of `mode`, lit with face normals when `flat` (`--flat`).
+pub fn shading(mode: Mode, flat: bool) -> ShadingMode {
+    match (mode, flat) {
+        (Mode::Lit, true) => ShadingMode::LitFaces,
+        (mode, _) => mode.into(),
+    }
+}
+
 /// Adds `extra`'s keys to the object `value`.
 pub fn merge(value: &mut serde_json::Value, extra: serde_json::Value) {
     if let (Some(v), serde_json::Value::Object(e)) = (value.as_object_mut(), extra) {
@@ -202,10 +210,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<Outcome> {
         args.gpu
             .streaming(&ctx, shared.clone(), (camera.width, camera.height))?;
     let mut request = FrameRequest {
-        mode: match (args.mode, args.flat) {
-            (Mode::Lit, true) => ShadingMode::LitFaces,
-            (mode, _) => mode.into(),
-        },
+        mode: shading(args.mode, args.flat),
         wireframe: args.wireframe,
         ..FrameRequest::new(camera, args.tolerance)
     };

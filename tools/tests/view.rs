@@ -35,6 +35,9 @@ fn view_runs_a_script_in_a_window_under_xvfb() {
         r#"{"mode":"patches"}"#.to_string(),
         format!(r#"{{"screenshot":"{}"}}"#, shot("patches1.png")),
         r#"{"mode":"lit"}"#.to_string(),
+        r#"{"flat":true}"#.to_string(),
+        format!(r#"{{"screenshot":"{}"}}"#, shot("flat1.png")),
+        r#"{"flat":false}"#.to_string(),
         r#"{"orbit":[150,-30,3]}"#.to_string(),
         r#"{"wait_frames":3}"#.to_string(),
         r#"{"key":"r"}"#.to_string(),
@@ -99,11 +102,11 @@ fn view_runs_a_script_in_a_window_under_xvfb() {
         .collect();
     assert_eq!(
         records.len(),
-        10,
+        11,
         "one record per screenshot, the key's included"
     );
     assert_eq!(
-        records[9]["path"].as_str().map(PathBuf::from),
+        records[10]["path"].as_str().map(PathBuf::from),
         Some(dir.path().join("tessera-view-001.png"))
     );
     for r in &records {
@@ -127,7 +130,7 @@ fn view_runs_a_script_in_a_window_under_xvfb() {
             image::open(path).unwrap().to_rgba8()
         })
         .collect();
-    let [lit1, lit16, patches1, reset, overlay, wide, dragged, panned, zoomed_out, _key] =
+    let [lit1, lit16, patches1, flat1, reset, overlay, wide, dragged, panned, zoomed_out, _key] =
         &images[..]
     else {
         unreachable!()
@@ -148,8 +151,16 @@ fn view_runs_a_script_in_a_window_under_xvfb() {
         differing_pixels(lit1, patches1) > model / 4,
         "patches ≠ lit"
     );
-    // `R` comes back to the first view: the same cut, the same image.
+    // Flat shading: the same cut (the bunny's computed normals ignored), shaded otherwise.
     assert_eq!(triangles(3), triangles(0));
+    assert_eq!(model_pixels(flat1), model);
+    assert!(
+        differing_pixels(lit1, flat1) > model / 4,
+        "flat ≠ lit: {} of {model} model pixels differ",
+        differing_pixels(lit1, flat1)
+    );
+    // `R` comes back to the first view: the same cut, the same image.
+    assert_eq!(triangles(4), triangles(0));
     assert_eq!(differing_pixels(lit1, reset), 0, "reset view ≠ first view");
     // The overlay is part of the window's content.
     assert!(
@@ -183,9 +194,9 @@ fn view_runs_a_script_in_a_window_under_xvfb() {
         );
     }
     assert!(
-        triangles(8) < triangles(0),
+        triangles(9) < triangles(0),
         "zoomed out: {} triangles, not fewer than {}",
-        triangles(8),
+        triangles(9),
         triangles(0)
     );
     assert!(

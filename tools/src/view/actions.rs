@@ -80,6 +80,7 @@ impl App {
                 Action::Freeze(on) => self.set_frozen(on),
                 Action::Fly(on) => self.set_fly(on),
                 Action::Wireframe(on) => self.controls.wireframe = on,
+                Action::Flat(on) => self.controls.flat = on,
                 Action::Culling(frustum, cones) => {
                     let c = &mut self.controls;
                     c.frustum_culling = frustum.unwrap_or(c.frustum_culling);

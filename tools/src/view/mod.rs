@@ -60,6 +60,9 @@ pub struct ViewArgs {
     /// Display mode at start.
     #[arg(long, value_enum, default_value_t = Mode::Lit)]
     pub mode: Mode,
+    /// Start with lit mode's face normals (each triangle flat) instead of the stored normals.
+    #[arg(long)]
+    pub flat: bool,
     #[command(flatten)]
     pub gpu: crate::gpu_args::GpuArgs,
     /// Run the JSON-lines script in the window, then exit (docs/cli.md lists the actions).
@@ -100,6 +103,7 @@ impl ViewArgs {
             up: None,
             fov: 60.0,
             mode: Mode::Lit,
+            flat: false,
             gpu: crate::gpu_args::GpuArgs {
                 adapter: None,
                 backend: None,
@@ -179,6 +183,7 @@ pub fn run(args: ViewArgs) -> anyhow::Result<Outcome> {
     let budget_bytes = args.gpu.budget_bytes(&ctx);
     let streaming = args.gpu.streaming(&ctx, shared.clone(), args.size)?;
     let mut controls = overlay::Controls::new(args.tolerance, args.mode);
+    controls.flat = args.flat;
     controls.budget_mib = budget_bytes as f64 / (1u64 << 20) as f64;
     if let Some(ms) = args.target_ms {
         (controls.target, controls.target_ms) = (overlay::TargetChoice::FrameTime, ms);
@@ -240,6 +245,7 @@ mod defaults_tests {
         assert_eq!(parsed.up, made.up);
         assert_eq!(parsed.fov, made.fov);
         assert_eq!(parsed.mode, made.mode);
+        assert_eq!(parsed.flat, made.flat);
         assert_eq!(parsed.script, made.script);
         assert_eq!(parsed.json, made.json);
         assert_eq!(parsed.gpu.gpu_budget, made.gpu.gpu_budget);

@@ -23,7 +23,7 @@ impl App {
     pub(super) fn draw_model(&mut self) -> anyhow::Result<bool> {
         let (cut_camera, draw_camera) = self.cameras();
         let mut request = FrameRequest {
-            mode: self.controls.mode.into(),
+            mode: self.controls.shading(),
             wireframe: self.controls.wireframe,
             cull: CullTests {
                 frustum: (self.controls.frustum_culling).then(|| cut_camera.view_volume()),

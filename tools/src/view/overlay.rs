@@ -49,6 +49,8 @@ pub struct Stats {
 pub struct Controls {
     pub tolerance: f32,
     pub mode: Mode,
+    /// Lit mode with face normals, whatever normals the model stores (`--flat`).
+    pub flat: bool,
     /// The triangles' edges over the fill.
     pub wireframe: bool,
     /// Patches outside the view volume are not drawn.
@@ -74,6 +76,7 @@ impl Controls {
         Controls {
             tolerance,
             mode,
+            flat: false,
             wireframe: false,
             frustum_culling: true,
             cone_culling: true,
@@ -85,6 +88,11 @@ impl Controls {
             budget_mib: 0.0,
             apply_budget: false,
         }
+    }
+
+    /// The shading the frame asks for.
+    pub fn shading(&self) -> tessera_runtime::gpu::ShadingMode {
+        crate::cmd_render::shading(self.mode, self.flat)
     }
 
     /// The target the controller should hold, if any.
@@ -202,6 +210,10 @@ pub fn ui(ctx: &egui::Context, stats: &Stats, controls: &mut Controls) {
                 ] {
                     ui.radio_value(&mut controls.mode, mode, name);
                 }
+                ui.add_enabled(
+                    controls.mode == Mode::Lit,
+                    egui::Checkbox::new(&mut controls.flat, "flat"),
+                );
                 ui.checkbox(&mut controls.wireframe, "wireframe");
             });
             ui.horizontal(|ui| {

@@ -53,6 +53,8 @@ pub enum Action {
     Fly(bool),
     /// `{"wireframe": true|false}`.
     Wireframe(bool),
+    /// `{"flat": true|false}`: lit mode with face normals (`--flat`).
+    Flat(bool),
     /// `{"culling": {"frustum": bool, "cones": bool}}` (a missing key keeps its setting).
     Culling(Option<bool>, Option<bool>),
     /// `{"export": "PATH"}`: the current cut (all of the model at the view's resolution) as
@@ -200,6 +202,7 @@ fn parse_line(line: &str) -> Result<Action, String> {
         "freeze" => Action::Freeze(flag(arg)?),
         "fly" => Action::Fly(flag(arg)?),
         "wireframe" => Action::Wireframe(flag(arg)?),
+        "flat" => Action::Flat(flag(arg)?),
         "culling" => {
             let o = arg
                 .as_object()
@@ -257,7 +260,7 @@ fn parse_line(line: &str) -> Result<Action, String> {
             return Err(format!(
                 "unknown action {other:?}: orbit, tolerance, mode, wait_frames, screenshot, \
                  key, overlay, resize, drag, right_drag, wheel, wheel_at, double_click, \
-                 target_ms, budget_triangles, target, freeze, fly, wireframe, culling, export, \
+                 target_ms, budget_triangles, target, freeze, fly, wireframe, flat, culling, export, \
                  play, open, gpu_budget"
             ))
         }
