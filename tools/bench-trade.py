@@ -76,8 +76,17 @@ def verdict_lines(bench):
     out = []
     for c in bench["verdict_dense"]:
         label = dict(SUBJECTS).get(c["peer"], c["peer"])
+        # Consecutive levels with the same reading (an open order below both fronts) as one.
+        groups = []
+        for lv in c["levels"]:
+            text = ratio_text(lv["ratio"])
+            if groups and groups[-1][2] == text and lv["ratio"]["kind"] == "open":
+                groups[-1][1] = lv["error_px"]
+            else:
+                groups.append([lv["error_px"], lv["error_px"], text])
         levels = "; ".join(
-            f"{lv['error_px']:.2f} px: {ratio_text(lv['ratio'])}" for lv in c["levels"]
+            (f"{lo:.2f} px" if lo == hi else f"{lo:.2f}–{hi:.2f} px") + f": {text}"
+            for lo, hi, text in groups
         )
         worst = c["worst"]
         worst_text = (
