@@ -106,12 +106,9 @@ pub fn run(args: BenchArgs) -> anyhow::Result<Outcome> {
 fn bench_build(args: BuildBenchArgs) -> anyhow::Result<Outcome> {
     let t = Instant::now();
     let input = crate::input::load_input(&args.input, &args.heightfield)?;
-    let is_mesh = input.grid.is_none();
     let (mut mesh, domain) = (input.mesh, input.domain);
     // As `tessera build` does (counted with the import).
-    if is_mesh {
-        tessera_preprocess::normals::compute_missing_normals(&mut mesh);
-    }
+    tessera_preprocess::normals::compute_missing_normals(&mut mesh);
     let import_seconds = t.elapsed().as_secs_f64();
     let dir = tempfile::tempdir()?;
     let ply_bytes = write_binary_ply(&mesh, &dir.path().join("mesh.ply"))?;

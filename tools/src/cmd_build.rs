@@ -56,8 +56,8 @@ pub struct BuildArgs {
     #[arg(long)]
     pub no_compress: bool,
     /// Store no normals where the input has none: lit mode then shades with face normals.
-    /// By default a mesh without normals gets angle-weighted vertex normals computed at build
-    /// time (in the `--memory` budget where one is given); a height field keeps face normals.
+    /// By default a mesh without normals, and a height field, gets angle-weighted vertex
+    /// normals computed at build time (within the `--memory` budget where one is given).
     #[arg(long)]
     pub no_computed_normals: bool,
     /// Store errors that are bounds: each diamond's error is an upper bound on the two-sided

@@ -258,20 +258,18 @@ pub fn load_build_input(
     Ok((staged_input(staged, args), fingerprint))
 }
 
-/// Gives a mesh input without normals angle-weighted vertex normals (`normals.rs`): in
-/// memory, or out of core within `staging`'s budget for a staged mesh. A height field keeps
-/// face normals; a resumed build has the normals its checkpoint staged.
+/// Gives an input without normals (a mesh, or a height field's mesh) angle-weighted vertex
+/// normals (`normals.rs`): in memory, or out of core within `staging`'s budget for a staged
+/// mesh. A resumed build has the normals its checkpoint staged.
 pub fn compute_missing_normals(
     input: &mut BuildInput,
     staging: Option<(&Path, u64)>,
 ) -> anyhow::Result<()> {
     let computed = match input {
-        BuildInput::Loaded(loaded) if loaded.grid.is_none() => {
+        BuildInput::Loaded(loaded) => {
             tessera_preprocess::normals::compute_missing_normals(&mut loaded.mesh)
         }
-        BuildInput::Staged {
-            staged, grid: None, ..
-        } if staged.attributes.normals.is_none() => {
+        BuildInput::Staged { staged, .. } if staged.attributes.normals.is_none() => {
             let (dir, budget) = staging.expect("a staged mesh has a staging budget");
             let normals = tessera_preprocess::external::vertex_normals::stage_vertex_normals(
                 staged,
