@@ -41,7 +41,9 @@ pub fn terrain_demo(
     let params = TerrainParams::default();
     let t = Instant::now();
     let grid = generate(&params)?;
-    let mesh = grid.to_mesh(&TerrainOptions::default());
+    let mut mesh = grid.to_mesh(&TerrainOptions::default());
+    // As `tessera build` of the same grid: shaded with computed normals.
+    tessera_preprocess::normals::compute_missing_normals(&mut mesh);
     let generate_seconds = t.elapsed().as_secs_f64();
     let path = dir_for_repo.join("terrain.tsr");
     let config = BuildConfig::for_domain(Domain::HeightField);
