@@ -1,6 +1,8 @@
-//! The surface a set of patches draws, dequantised to model coordinates, and how far an
-//! object-space cut of a repository is from its leaves (the input on the position lattice):
-//! what `tessera bench errors` and the bounded-error tests measure.
+//! The surface a set of patches draws, dequantised to model coordinates, and how far a cut
+//! is from the repository's leaves (the input on the position lattice): object-space cuts
+//! (`tessera bench errors`, the bounded-error tests), screen-space cuts in pixels (`check
+//! --errors`), and any triangle surface measured the same way (`measure_screen_surface`: the
+//! peers' cuts in `tessera bench`'s dense error pass).
 
 use super::format::{dequantize_position, NO_INDEX};
 use super::reader::{Repository, RepositoryError};
