@@ -655,6 +655,8 @@ fn bench_trade_off_measures_ours_and_the_peers() {
         bunny().to_str().unwrap(),
         "--views",
         "2",
+        "--error-views",
+        "2",
         "--tolerances",
         "0.5,2,8",
         "--size",

@@ -63,6 +63,8 @@ fn headless_gpu_commands_print_nothing_but_their_own_lines_on_stderr() {
             &mesh,
             "--views",
             "1",
+            "--error-views",
+            "1",
             "--tolerances",
             "2",
             "--frames",
