@@ -269,6 +269,9 @@ fn build_in_pool(
     let origin = bbox_min;
     let frame =
         LatticeFrame::around_box(bbox_min, bbox_max, config.lattice_bits, config.domain.dim());
+    // Levels above the model's cube for the coarser versions past its roots, where the roots
+    // alone could hold more than the coarsest cut's share of the input.
+    let frame = frame.with_headroom(config.headroom_for(input_triangles));
     assert!(
         (1..=POSITION_BITS).contains(&config.position_bits),
         "position bits {} outside 1..={POSITION_BITS}",

@@ -52,19 +52,28 @@ pub(crate) fn validate_config(config: &BuildConfig) -> Result<(), BuildError> {
     let SimplifySettings {
         keep,
         normal_weight,
+        coarsest_share,
         ..
     } = config.simplify;
     let keep_ok = keep > 0.0 && keep < 1.0;
     let weight_ok = normal_weight >= 0.0 && normal_weight.is_finite();
-    if !keep_ok || !weight_ok {
+    let share_ok = coarsest_share > 0.0 && coarsest_share <= 1.0;
+    if !keep_ok || !weight_ok || !share_ok {
         return Err(BuildError::Config(format!(
-            "simplifier keep {keep} must be in (0, 1), normal weight {normal_weight} ≥ 0"
+            "simplifier keep {keep} must be in (0, 1), normal weight {normal_weight} ≥ 0, \
+             coarsest share {coarsest_share} in (0, 1]"
         )));
     }
     if !(4..=30).contains(&config.lattice_bits) {
         return Err(BuildError::Config(format!(
             "lattice bits {} not in 4..=30",
             config.lattice_bits
+        )));
+    }
+    if config.lattice_bits + config.headroom > 30 {
+        return Err(BuildError::Config(format!(
+            "lattice bits {} with headroom {} exceed 30",
+            config.lattice_bits, config.headroom
         )));
     }
     match config.construction {

@@ -25,6 +25,10 @@ pub struct LatticeFrame {
     pub unit: f64,
     /// log2 of the cube side in lattice units.
     pub bits: u32,
+    /// Doublings between the model's cube and the lattice cube ([`Self::with_headroom`]): the
+    /// model's cube is `[0, 2^(bits − headroom)]^dim`, a corner of the lattice cube, and the
+    /// hierarchy has `dim · headroom` levels above it. 0: the model's cube is the lattice's.
+    pub headroom: u32,
 }
 
 /// Steps per lattice unit of a triangle's location ([`LatticeFrame::location`]): a power of
@@ -58,6 +62,23 @@ impl LatticeFrame {
             origin: extent.map(|e| 0.5 * e - 0.5 * side),
             unit: side / (1u64 << bits) as f64,
             bits,
+            headroom: 0,
+        }
+    }
+
+    /// The same frame in a lattice cube `2^headroom` times as wide, the model's cube at its
+    /// corner `[0, 2^bits]^dim` (same origin, same unit: every lattice coordinate, location and
+    /// simplifier position is unchanged). LEB bisection of a Kuhn cube gives, every `dim`
+    /// levels, the Kuhn subdivision of each sub-cube in the same orientation at the corner
+    /// `0`, so the hierarchy below the model's cube is the one the smaller lattice had, and
+    /// `dim · headroom` levels above it hold coarser versions of its roots: the chain past
+    /// the roots that lets the coarsest cut of a small model reach a small share of its
+    /// input (issue 46), in the same format and traversal.
+    pub fn with_headroom(self, headroom: u32) -> LatticeFrame {
+        LatticeFrame {
+            bits: self.bits + headroom,
+            headroom: self.headroom + headroom,
+            ..self
         }
     }
 
@@ -97,9 +118,15 @@ impl LatticeFrame {
             .map(|x| (x * LOCATION_STEPS).round() / LOCATION_STEPS)
     }
 
-    /// Side of the cube in model units.
+    /// Whether a diamond or simplex of `level` lies above the model's cube (its `dim · headroom`
+    /// levels of coarser versions past the model's roots).
+    pub fn is_above_model(&self, level: u16) -> bool {
+        (level as u32) < self.dim as u32 * self.headroom
+    }
+
+    /// Side of the model's cube in model units (the lattice cube's less its headroom).
     pub fn side(&self) -> f64 {
-        self.unit * (1u64 << self.bits) as f64
+        self.unit * (1u64 << (self.bits - self.headroom)) as f64
     }
 
     /// The model's size: its largest extent (1 for a point), the unit the simplifier works in.

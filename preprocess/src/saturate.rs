@@ -1,6 +1,7 @@
 //! Saturation (seed 001, "Saturation technique"): bottom-up over the diamond DAG,
 //! chain(D) = own(D) + max over split children C of chain(C) (0 below the leaves) when the
-//! own errors are bounds (`SimplifySettings::bounded_errors`), else
+//! own errors are bounds (`SimplifySettings::bounded_errors`), and for the diamonds above the
+//! model's cube (`LatticeFrame::is_above_model`, whose own errors are always bounds), else
 //! chain(D) = max(own(D), chain(C)) (meshoptimizer's estimates, the seed's rule),
 //! err(D) = max(chain(D) + quantisation, floor, max over C of err(C)·(1 + ERROR_MARGIN)), and
 //! sphere(D) ⊇ D's patches and every child's sphere grown by `radius_margin`, so that
@@ -37,7 +38,8 @@ pub struct OwnErrors<'a> {
     pub errors: &'a [f32],
     /// Each bounds the two-sided distance between what the diamond gathers and what it keeps
     /// (`SimplifySettings::bounded_errors`): chains sum. Otherwise they are estimates, and
-    /// chains take the maximum.
+    /// chains take the maximum, but above the model's cube, where they are bounds and sum
+    /// (`simplify.rs`, `own_error_is_bound`).
     pub are_bounds: bool,
 }
 
@@ -84,7 +86,7 @@ pub fn saturate(
             .map(|&c| chain[c])
             .fold(0.0f64, f64::max);
         let own_error = own.errors[i] as f64;
-        chain[i] = match own.are_bounds {
+        chain[i] = match own.are_bounds || hierarchy.frame.is_above_model(d.level) {
             true => own_error + below,
             false => own_error.max(below),
         };

@@ -148,6 +148,8 @@ struct Context<'a> {
     /// through a per-thread table of that size; `None` under a tight memory budget.
     numbering_table: Option<usize>,
     settings: SimplifySettings,
+    /// What a top diamond keeps at most (`coarsest_triangles`).
+    coarsest_triangles: usize,
 }
 
 /// How each diamond is simplified.
@@ -178,6 +180,12 @@ pub struct SimplifySettings {
     /// (the bound costs most of the build's time) and about 3× smaller at the root, but not a
     /// bound.
     pub bounded_errors: bool,
+    /// Share of the input's triangles the coarsest cut (the roots' patches) holds at most:
+    /// the top diamond (level 0, whose simplices are the roots) keeps the smaller of `keep` of
+    /// what it gathers and this share of the input. With the levels above the model's cube
+    /// (`BuildConfig::headroom`) each keeping half, the cap binds only on small models
+    /// (issue 46: the coarsest cut ≤ 1 % of every test scan) and finer levels are unchanged.
+    pub coarsest_share: f32,
     /// Fault injection for the conformity test: meshopt gets no locks, so diamonds may move
     /// their borders and the build must stop (`ConformityError`). Never set in a real build.
     pub fault_ignore_locks: bool,
@@ -190,6 +198,7 @@ impl Default for SimplifySettings {
             normal_weight: 0.05,
             keep_borders: true,
             bounded_errors: false,
+            coarsest_share: 0.01,
             fault_ignore_locks: false,
         }
     }
@@ -322,15 +331,17 @@ fn simplify_diamond(
     if ctx.settings.fault_ignore_locks {
         lock.fill(false);
     }
+    let target = target_triangles(ctx, diamond, local.indices.len() / 3);
     let (mut simplified, estimate) = simplify_locked(
         &local.indices,
         &local.global_of,
         &lock,
         &vertices,
         &ctx.settings,
+        target,
     );
     cancel_coincident_pairs(&mut simplified, &local.indices, interior.len());
-    let error = if ctx.settings.bounded_errors {
+    let error = if own_error_is_bound(ctx, diamond) {
         if simplified.is_empty() {
             // Everything went (a small piece with no vertex shared or locked): no output
             // would be near it to bound its distance, so the piece stays as it is.
@@ -456,14 +467,45 @@ fn bounded_error(global_of: &[u32], vertices: &VertexTable, gathered: &[u32], ke
     }
 }
 
-/// meshopt simplification to `settings.keep` of the triangles with the given locks; returns
-/// local indices and meshopt's error estimate (in the units of `positions`).
+/// Whether D's own error is the bound of `bounded_error` rather than meshopt's estimate: with
+/// `bounded_errors`, and for the diamonds above the model's cube (`BuildConfig::headroom`).
+/// Those simplify a version made from the one below, not the input, and meshopt's estimate is
+/// of that one step: saturated by the maximum, a far eye drew them where the chain from the
+/// input did not fit τ (the lion head's dense max 3.71 px at τ = 2.8), and at equal dense
+/// error the cuts drew up to 16 % more triangles than with the roots alone. With the step's
+/// bound, summed along the chain from the roots' error (`saturate.rs`), they are drawn only
+/// where the whole chain fits, and the fronts below the roots' error are as before. Cheap:
+/// those levels hold a few times the roots' triangles.
+fn own_error_is_bound(ctx: &Context, diamond: &Diamond) -> bool {
+    ctx.settings.bounded_errors || ctx.frame.is_above_model(diamond.level)
+}
+
+/// The triangles a top diamond keeps at most: `share` of the input's `input_triangles` over
+/// the hierarchy's `roots` (6 tetrahedra, 2 triangles), at least one a root.
+fn coarsest_triangles(share: f32, input_triangles: usize, roots: usize) -> usize {
+    ((input_triangles as f64 * share as f64) as usize).max(roots)
+}
+
+/// The triangles D aims to keep of the `gathered` it simplifies: `keep` of them, and for the
+/// top diamond (its simplices the roots) no more than the coarsest cut's share of the input.
+fn target_triangles(ctx: &Context, diamond: &Diamond, gathered: usize) -> usize {
+    let kept = (gathered as f64 * ctx.settings.keep as f64) as usize;
+    match diamond.level {
+        0 => kept.min(ctx.coarsest_triangles),
+        _ => kept,
+    }
+}
+
+/// meshopt simplification to `target` triangles with the given locks (it stops earlier where
+/// locks leave nothing to collapse); returns local indices and meshopt's error estimate (in
+/// the units of `positions`).
 fn simplify_locked(
     indices: &[u32],
     global_of: &[u32],
     lock: &[bool],
     vertices: &VertexTable,
     settings: &SimplifySettings,
+    target: usize,
 ) -> (Vec<u32>, f32) {
     if indices.is_empty() {
         return (Vec::new(), 0.0);
@@ -476,7 +518,7 @@ fn simplify_locked(
     let local_positions: Vec<[f32; 3]> = rows.iter().map(|&r| vertices.simplifier[r]).collect();
     let bytes: &[u8] = bytemuck::cast_slice(&local_positions);
     let adapter = VertexDataAdapter::new(bytes, 12, 0).expect("tightly packed f32x3 positions");
-    let target = ((indices.len() / 3) as f64 * settings.keep as f64) as usize * 3;
+    let target = target * 3;
     let options = SimplifyOptions::ErrorAbsolute;
     let mut error = 0.0f32;
     let out = match &vertices.normals {

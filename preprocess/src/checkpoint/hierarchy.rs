@@ -252,6 +252,7 @@ pub(super) fn encode_hierarchy(h: &Hierarchy) -> Vec<u8> {
     f.origin.iter().for_each(|&x| e.f64(x));
     e.f64(f.unit);
     e.u32(f.bits);
+    e.u32(f.headroom);
     e.list(&h.diamonds, |e, d| d.id.iter().for_each(|&x| e.i32(x)));
     e.into_bytes()
 }
@@ -265,9 +266,10 @@ pub(super) fn decode_hierarchy(bytes: &[u8]) -> io::Result<Hierarchy> {
     let origin = [d.f64()?, d.f64()?, d.f64()?];
     let unit = d.f64()?;
     let bits = d.u32()?;
+    let headroom = d.u32()?;
     let ids = d.list(12, |d| Ok([d.i32()?, d.i32()?, d.i32()?]))?;
     d.finish()?;
-    if !(dim == 2 || dim == 3) || !(4..=30).contains(&bits) {
+    if !(dim == 2 || dim == 3) || !(4..=30).contains(&bits) || headroom >= bits {
         return Err(invalid("hierarchy: bad frame"));
     }
     let mut mesh = ConformingMesh::new(dim, bits);
@@ -288,6 +290,7 @@ pub(super) fn decode_hierarchy(bytes: &[u8]) -> io::Result<Hierarchy> {
             origin,
             unit,
             bits,
+            headroom,
         },
         mesh,
         diamonds,

@@ -15,8 +15,9 @@ use super::partial_level;
 use super::positions::SimplifierScale;
 use super::result_spill::{Held, Payload, ResultSpill};
 use super::{
-    gather_patches, numbering_table, simplify_diamond, Context, CurrentMesh, DiamondResult,
-    FinishedPatchSink, LeafSource, Simplified, SimplifyError, SimplifySettings, MERGE_GROUP,
+    coarsest_triangles, gather_patches, numbering_table, simplify_diamond, Context, CurrentMesh,
+    DiamondResult, FinishedPatchSink, LeafSource, Simplified, SimplifyError, SimplifySettings,
+    MERGE_GROUP,
 };
 use crate::checkpoint::{Dec, Enc};
 use crate::frame::LatticeFrame;
@@ -49,6 +50,8 @@ pub struct LevelState {
     /// Whether the leaves' patches went to `finished` (`finish_leaves`).
     leaves_finished: bool,
     vertex_count: usize,
+    /// The input's triangles: the leaves' (`SimplifySettings::coarsest_share` is of these).
+    input_triangles: usize,
 }
 
 impl LevelState {
@@ -69,7 +72,9 @@ impl LevelState {
         let mut live: HashSet<PackedKey> =
             HashSet::with_capacity_and_hasher(leaf_count, Default::default());
         patches.reserve(leaf_count);
+        let mut input_triangles = 0;
         while let Some(group) = leaves()? {
+            input_triangles += group.iter().map(|(_, p)| p.triangles.len()).sum::<usize>();
             live.extend(group.iter().map(|(key, _)| PackedKey::of_hierarchy(*key)));
             patches.insert_all(group)?;
         }
@@ -84,6 +89,7 @@ impl LevelState {
             levels_done: 0,
             leaves_finished: false,
             vertex_count,
+            input_triangles,
         })
     }
 
@@ -124,6 +130,7 @@ impl LevelState {
             std::io::Error::other("the live patches are not in the checkpoint directory")
         })?;
         e.u64(self.vertex_count as u64);
+        e.u64(self.input_triangles as u64);
         e.u64(self.levels_done as u64);
         e.u8(self.leaves_finished as u8);
         e.u64(self.locked_vertices as u64);
@@ -151,6 +158,7 @@ impl LevelState {
         frame: &LatticeFrame,
     ) -> std::io::Result<LevelState> {
         let vertex_count = d.u64()? as usize;
+        let input_triangles = d.u64()? as usize;
         let levels_done = d.u64()? as usize;
         let leaves_finished = match d.u8()? {
             0 => false,
@@ -191,6 +199,7 @@ impl LevelState {
             levels_done,
             leaves_finished,
             vertex_count,
+            input_triangles,
         })
     }
 }
@@ -278,6 +287,11 @@ pub(crate) fn simplify_levels(
         frame,
         numbering_table: numbering_table(state.vertex_count, spill_dir.is_some()),
         settings: *settings,
+        coarsest_triangles: coarsest_triangles(
+            settings.coarsest_share,
+            state.input_triangles,
+            hierarchy.mesh.roots().len(),
+        ),
     };
     if !state.leaves_finished {
         finish_leaves(&state, finished)?;
