@@ -174,6 +174,7 @@ fn generated(triangles: u64, density_range: f64, seed: u64) -> InputMesh {
         seed,
         shuffle_vertices: true,
         density_range,
+        colour: false,
     })
     .unwrap()
     .to_input_mesh()

@@ -478,6 +478,7 @@ fn a_generated_mesh_six_times_its_budget_streams_with_every_frame_checked() {
         seed: 7,
         shuffle_vertices: false,
         density_range: 4.0,
+        colour: false,
     })
     .expect("mesh")
     .to_input_mesh();

@@ -1,5 +1,5 @@
 //! `tessera gen mesh --triangles N -o OUT.ply [--seed S] [--shuffle-vertices]
-//! [--density-range R] [--json]`: a closed, watertight, 2-manifold procedural mesh with the
+//! [--density-range R] [--colour] [--json]`: a closed, watertight, 2-manifold procedural mesh with the
 //! demo's relief (`tessera_preprocess::gen_mesh`), streamed as binary little-endian PLY in
 //! constant memory to a file (temporary file + rename) or to standard output (`-o -`).
 //!
@@ -36,6 +36,9 @@ pub struct MeshArgs {
     /// sparsest (around +z), measured on the mesh before its relief; 1 = nearly uniform.
     #[arg(long, value_name = "R", default_value_t = 1.0)]
     pub density_range: f64,
+    /// Give every vertex an RGB colour (PLY red, green, blue): a large coloured input.
+    #[arg(long)]
+    pub colour: bool,
     /// Print one JSON object (on stderr when the mesh goes to stdout).
     #[arg(long)]
     pub json: bool,
@@ -63,6 +66,7 @@ pub fn run(args: MeshArgs) -> anyhow::Result<Outcome> {
         seed: args.seed,
         shuffle_vertices: args.shuffle_vertices,
         density_range: args.density_range,
+        colour: args.colour,
     })
     .map_err(anyhow::Error::msg)?;
     let to_stdout = args.output.as_os_str() == "-";
@@ -117,6 +121,7 @@ pub fn run(args: MeshArgs) -> anyhow::Result<Outcome> {
             "seed": args.seed,
             "shuffle_vertices": args.shuffle_vertices,
             "density_range": args.density_range,
+            "colour": args.colour,
             "bytes": bytes,
             "seconds": seconds,
             "mb_per_s": mb_per_s,

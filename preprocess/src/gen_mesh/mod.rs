@@ -14,7 +14,7 @@ mod shuffle;
 mod surface;
 
 pub use cube_sphere::{CubeSphere, CubeVertex, MAX_TRIANGLES, MIN_TRIANGLES};
-pub use ply_stream::{write_ply, PLY_FACE_BYTES, PLY_VERTEX_BYTES};
+pub use ply_stream::{vertex_bytes, write_ply, PLY_FACE_BYTES};
 pub use shuffle::Shuffle;
 pub use surface::{Surface, MAX_DENSITY_RANGE};
 
@@ -30,6 +30,8 @@ pub struct MeshParams {
     pub shuffle_vertices: bool,
     /// Ratio of the largest to the smallest triangle area the density warp makes (≥ 1).
     pub density_range: f64,
+    /// Give every vertex an RGB colour ([`GenMesh::colour`]): a large attributed input.
+    pub colour: bool,
 }
 
 /// The triangle count made for a request: the request rounded up to even.
@@ -101,6 +103,22 @@ impl GenMesh {
         self.surface.position(self.cube_point(i)).map(|x| x as f32)
     }
 
+    /// The colour written in vertex slot `slot` (with [`MeshParams::colour`]): the direction
+    /// from the centre as a hue, darkened in the relief's hollows and lightened on its ridges,
+    /// so it varies both with place and at the scale of the relief.
+    pub fn colour(&self, slot: u64) -> [u8; 3] {
+        let p = self.position(slot).map(f64::from);
+        let r = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2])
+            .sqrt()
+            .max(f64::MIN_POSITIVE);
+        let shade = (0.55 + 2.0 * (r - 1.0)).clamp(0.2, 1.0);
+        p.map(|x| {
+            ((0.5 + 0.5 * x / r) * shade * 255.0)
+                .round()
+                .clamp(0.0, 255.0) as u8
+        })
+    }
+
     /// Triangle `t`'s vertex slots (output order), counter-clockwise from outside.
     pub fn triangle(&self, t: u64) -> [u32; 3] {
         self.topology.triangle(t).map(|i| {
@@ -122,7 +140,14 @@ impl GenMesh {
                 .map(|t| self.triangle(t))
                 .collect(),
             normals: None,
-            colors: None,
+            colors: self.params.colour.then(|| {
+                (0..self.vertex_count())
+                    .map(|i| {
+                        let [r, g, b] = self.colour(i);
+                        [r, g, b, 255]
+                    })
+                    .collect()
+            }),
             uvs: None,
         }
     }

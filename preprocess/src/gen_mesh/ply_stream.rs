@@ -8,8 +8,14 @@ use rayon::prelude::*;
 
 use super::GenMesh;
 
-/// Bytes of one vertex record (three little-endian f32).
-pub const PLY_VERTEX_BYTES: u64 = 12;
+/// Bytes of one vertex record: three little-endian f32, then three u8 with colours.
+pub fn vertex_bytes(mesh: &GenMesh) -> u64 {
+    if mesh.params.colour {
+        15
+    } else {
+        12
+    }
+}
 /// Bytes of one face record (a u8 count, 3, then three little-endian i32).
 pub const PLY_FACE_BYTES: u64 = 13;
 
@@ -22,7 +28,7 @@ pub fn header(mesh: &GenMesh) -> String {
     format!(
         "ply\nformat binary_little_endian 1.0\n\
          comment tessera gen mesh: requested {} triangles, seed {}, density range {}{}\n\
-         element vertex {}\nproperty float x\nproperty float y\nproperty float z\n\
+         element vertex {}\nproperty float x\nproperty float y\nproperty float z\n{}\
          element face {}\nproperty list uchar int vertex_indices\nend_header\n",
         p.triangles,
         p.seed,
@@ -33,6 +39,11 @@ pub fn header(mesh: &GenMesh) -> String {
             ""
         },
         mesh.vertex_count(),
+        if p.colour {
+            "property uchar red\nproperty uchar green\nproperty uchar blue\n"
+        } else {
+            ""
+        },
         mesh.triangle_count()
     )
 }
@@ -48,16 +59,21 @@ pub fn write_ply(
     out.write_all(header.as_bytes())?;
     let mut buf = Vec::with_capacity((BLOCK * PLY_FACE_BYTES) as usize);
     let nv = mesh.vertex_count();
+    let vertex_bytes = vertex_bytes(mesh);
     for start in (0..nv).step_by(BLOCK as usize) {
         let count = BLOCK.min(nv - start);
-        buf.resize((count * PLY_VERTEX_BYTES) as usize, 0);
-        buf.par_chunks_mut(PLY_VERTEX_BYTES as usize)
+        buf.resize((count * vertex_bytes) as usize, 0);
+        buf.par_chunks_mut(vertex_bytes as usize)
             .with_min_len(1024)
             .enumerate()
             .for_each(|(k, rec)| {
-                let p = mesh.position(start + k as u64);
-                for (c, x) in rec.chunks_exact_mut(4).zip(p) {
+                let slot = start + k as u64;
+                let p = mesh.position(slot);
+                for (c, x) in rec[..12].chunks_exact_mut(4).zip(p) {
                     c.copy_from_slice(&x.to_le_bytes());
+                }
+                if mesh.params.colour {
+                    rec[12..15].copy_from_slice(&mesh.colour(slot));
                 }
             });
         out.write_all(&buf)?;
@@ -81,5 +97,5 @@ pub fn write_ply(
         progress(nv + start + count);
     }
     out.flush()?;
-    Ok(header.len() as u64 + nv * PLY_VERTEX_BYTES + nt * PLY_FACE_BYTES)
+    Ok(header.len() as u64 + nv * vertex_bytes + nt * PLY_FACE_BYTES)
 }

@@ -13,6 +13,7 @@ fn params(triangles: u64) -> MeshParams {
         seed: 1,
         shuffle_vertices: false,
         density_range: 1.0,
+        colour: false,
     }
 }
 
@@ -68,6 +69,7 @@ fn imports_closed_with_the_exact_count_and_nothing_welded() {
     for (n, r) in [(192, 1.0), (1001, 1.0), (20_000, 1.0), (20_002, 1000.0)] {
         let mesh = GenMesh::new(MeshParams {
             density_range: r,
+            colour: false,
             ..params(n)
         })
         .unwrap();
@@ -176,6 +178,7 @@ fn density_range_sets_the_area_ratio() {
     for r in [1.0, 1000.0] {
         let mut mesh = GenMesh::new(MeshParams {
             density_range: r,
+            colour: false,
             ..params(200_000)
         })
         .unwrap()
@@ -208,6 +211,7 @@ fn bad_parameters_are_refused_with_the_reason() {
     for r in [0.5, f64::NAN, 1e7] {
         let e = GenMesh::new(MeshParams {
             density_range: r,
+            colour: false,
             ..params(1000)
         })
         .unwrap_err();
@@ -238,5 +242,39 @@ fn reading_a_stream_equals_reading_the_file() {
     assert!(
         message.starts_with("standard input: ") && message.contains("truncated"),
         "{message}"
+    );
+}
+
+/// `colour`: every vertex gets its colour (red, green, blue as PLY names them), read back as
+/// the importers read colours; the geometry is the same mesh's.
+#[test]
+fn coloured_meshes_carry_a_colour_a_vertex() {
+    let plain = GenMesh::new(params(20_000)).unwrap();
+    let coloured = GenMesh::new(MeshParams {
+        colour: true,
+        shuffle_vertices: true,
+        ..params(20_000)
+    })
+    .unwrap();
+    let bytes = ply_bytes(&coloured);
+    let mesh = import(bytes).mesh;
+    let colours = mesh.colors.as_ref().expect("colours read back");
+    assert_eq!(colours.len(), mesh.positions.len());
+    assert_eq!(Some(colours.clone()), coloured.to_input_mesh().colors);
+    let distinct: std::collections::HashSet<[u8; 4]> = colours.iter().copied().collect();
+    assert!(
+        distinct.len() > colours.len() / 4,
+        "{} distinct colours",
+        distinct.len()
+    );
+    // The same triangles over the same positions as without colours (up to the shuffle).
+    let unshuffled = GenMesh::new(MeshParams {
+        colour: true,
+        ..params(20_000)
+    })
+    .unwrap();
+    assert_eq!(
+        import(ply_bytes(&unshuffled)).mesh.positions,
+        import(ply_bytes(&plain)).mesh.positions
     );
 }
