@@ -109,6 +109,15 @@ def verdict_lines(bench):
     return out
 
 
+def peer_settings(bench):
+    """The peers' settings as the run states them: the DAG's clod_build settings (`--dag`) and
+    the discrete LODs' levels (`--lod-fractions`); runs before 2026-12-07 state neither."""
+    dag = bench.get("cluster_dag", {}).get("settings")
+    dag_text = f"cluster DAG `{dag['text']}`" if dag else "cluster DAG 128-triangle clusters"
+    levels = bench.get("discrete_lod_levels", [])
+    return f"{dag_text}, {len(levels)} discrete levels"
+
+
 def table(name, source, flags, bench, both=None):
     rows = {"ours": bench["rows"]}
     rows.update(bench["peers"])
@@ -122,7 +131,8 @@ def table(name, source, flags, bench, both=None):
     out = [
         f"**{name}** (`{source.relative_to(ROOT)}`{', ' + ' '.join(flags) if flags else ''}; "
         f"{bench['model_triangles']:,} triangles; full resolution wall ms {wall(full)}{full_both}; "
-        f"dense pass {dense['cuts_measured']} cuts in {bench['seconds']['dense']:.0f} s)",
+        f"dense pass {dense['cuts_measured']} cuts in {bench['seconds']['dense']:.0f} s; "
+        f"{peer_settings(bench)})",
         "",
         "| τ px | subject | dense max px (eye) | dense triangles | frame triangles | sparse max px | "
         "sparse p99 px | wall ms (runs) | two-sided wall ms (runs) |",

@@ -361,6 +361,20 @@ fn the_bench_measures_every_subject_densely() {
         };
         assert_eq!(dense(&both), dense(&v), "{name}");
     }
+    // The cluster DAG's settings are stated, and --dag changes them.
+    let settings = &v["cluster_dag"]["settings"];
+    assert_eq!(settings["max_triangles"], v["cluster_dag"]["max_triangles"]);
+    let other = bench("1", &["--dag", "triangles=32;partition=4"]);
+    let other_settings = &other["cluster_dag"]["settings"];
+    assert_eq!(other_settings["max_triangles"], 32, "{other_settings}");
+    assert_eq!(other_settings["partition_size"], 4, "{other_settings}");
+    for key in ["permissive", "fallback_sloppy", "ratio", "edge_limit"] {
+        assert_eq!(other_settings[key], settings[key], "{key}");
+    }
+    assert!(
+        other["cluster_dag"]["clusters"].as_u64() > v["cluster_dag"]["clusters"].as_u64(),
+        "smaller clusters, more of them"
+    );
     // Without the dense pass, no dense figures.
     let none = bench("0", &[]);
     assert!(none["dense"].is_null() && none["rows"][0]["dense"].is_null());

@@ -756,7 +756,8 @@ fn bench_trade_off_measures_ours_and_the_peers() {
     let ours = v["rows"].as_array().unwrap();
     assert!(ours[2]["triangles"].as_f64() <= ours[0]["triangles"].as_f64());
     assert!(ours[0]["error_p99_px"].as_f64().unwrap() > 0.0, "{v}");
-    assert_eq!(v["discrete_lod_levels"].as_array().unwrap().len(), 4);
+    // Nine levels by default, halving from the source (`--lod-fractions`).
+    assert_eq!(v["discrete_lod_levels"].as_array().unwrap().len(), 9);
     assert!(v["cluster_dag"]["clusters"].as_u64().unwrap() > 0);
     // The DAG's per-frame upload is charged apart from its CPU ms; ours uploads nothing per
     // frame.
@@ -846,6 +847,37 @@ fn bench_trade_off_refuses_bad_input_with_exit_two() {
         (
             &["bench", repo, "--source", source, "--size", "0x240"],
             &["size", "positive"],
+        ),
+        // Cluster DAG settings it does not know or cannot use.
+        (
+            &["bench", repo, "--source", source, "--dag", "leaves=3"],
+            &["--dag", "unknown key"],
+        ),
+        (
+            &["bench", repo, "--source", source, "--dag", "triangles=512"],
+            &["--dag", "triangles=512"],
+        ),
+        (
+            &[
+                "bench",
+                repo,
+                "--source",
+                source,
+                "--lod-fractions",
+                "0.5,0.25",
+            ],
+            &["--lod-fractions", "first level"],
+        ),
+        (
+            &[
+                "bench",
+                repo,
+                "--source",
+                source,
+                "--lod-fractions",
+                "1,0.25,0.5",
+            ],
+            &["--lod-fractions", "decrease"],
         ),
         // A plot directory that cannot be made.
         (

@@ -7,7 +7,8 @@
 //! renderer, and the peers in tessera-bench (`tessera_bench::peers`, one file each):
 //! - `full_resolution`: the source in one draw (error 0 by definition; the time baseline and
 //!   the reference picture);
-//! - `discrete_lod`: four meshopt levels, one per object by distance (seed 004);
+//! - `discrete_lod`: meshopt levels (`--lod-fractions`, nine by default), one per object by
+//!   distance (seed 004);
 //! - `cluster_dag`: meshoptimizer's clusterlod DAG, cut per frame on the CPU.
 //!
 //! The measurements:
@@ -129,11 +130,33 @@ pub struct TradeArgs {
     /// faces culled by every subject, as our default frame draws, and such samples not seen.
     #[arg(long)]
     pub two_sided: bool,
+    /// The peers' settings (boxed: `BenchArgs` stays small).
+    #[command(flatten)]
+    pub peers: Box<PeerArgs>,
     #[command(flatten)]
     pub gpu: crate::gpu_args::GpuArgs,
     /// Print one JSON object on stdout.
     #[arg(long)]
     pub json: bool,
+}
+
+/// The peers' settings: each at its best for the dense comparison by default (BENCHMARKS.md,
+/// "The cluster DAG's settings").
+#[derive(Args)]
+pub struct PeerArgs {
+    /// The cluster DAG's clod_build settings over the bench's default, `key=value` pairs
+    /// separated by `;`: triangles=N (per cluster), partition=N (clusters per group),
+    /// permissive=BOOL, sloppy=BOOL (sloppy fallback), ratio=X, edge-limit=X.
+    #[arg(long, default_value = "", value_parser = cluster_dag::DagSettings::parse)]
+    pub dag: cluster_dag::DagSettings,
+    /// The discrete LODs' levels, shares of the source's triangles, finest first: 1 (the
+    /// source), then strictly decreasing.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "1,0.5,0.25,0.125,0.0625,0.03125,0.015625,0.0078125,0.00390625"
+    )]
+    pub lod_fractions: Vec<f64>,
 }
 
 /// `count` cameras outside the bounding sphere of the model of `h`, looking at its box's
@@ -181,6 +204,8 @@ fn validate(args: &TradeArgs) -> anyhow::Result<()> {
             anyhow::bail!("{flag} must be at least 1");
         }
     }
+    discrete_lod::check_fractions(&args.peers.lod_fractions)
+        .map_err(|e| anyhow::anyhow!("--lod-fractions: {e}"))?;
     if args.up == Some([0.0; 3]) {
         anyhow::bail!("--up must not be the zero vector");
     }
@@ -213,9 +238,9 @@ pub fn run(args: TradeArgs) -> anyhow::Result<Outcome> {
 
     // The peers' offline work.
     stages.stage("discrete levels (meshopt::simplify)");
-    let levels = discrete_lod::build_levels(&peer_mesh);
+    let levels = discrete_lod::build_levels(&peer_mesh, &args.peers.lod_fractions);
     stages.stage("cluster DAG (meshopt::clod_build)");
-    let dag = cluster_dag::build(&peer_mesh);
+    let dag = cluster_dag::build(&peer_mesh, &args.peers.dag);
 
     // The dense errors, once: CPU only, before the GPU holds anything.
     let centre = [0, 1, 2].map(|i| (0.5 * (h.bbox_min[i] + h.bbox_max[i]) - h.origin[i]) as f32);
@@ -351,7 +376,16 @@ pub fn run(args: TradeArgs) -> anyhow::Result<Outcome> {
             "clusters": stats.clusters,
             "groups": stats.groups,
             "levels": stats.levels,
-            "max_triangles": cluster_dag::CLUSTER_TRIANGLES,
+            "max_triangles": stats.settings.cluster_triangles,
+            "settings": {
+                "max_triangles": stats.settings.cluster_triangles,
+                "partition_size": stats.settings.partition_size,
+                "permissive": stats.settings.permissive,
+                "fallback_sloppy": stats.settings.fallback_sloppy,
+                "ratio": stats.settings.ratio,
+                "edge_limit": stats.settings.edge_limit,
+                "text": stats.settings.to_string(),
+            },
             "seconds": stats.seconds,
         },
         "verdict": verdict::to_json(&comparisons),
@@ -396,10 +430,10 @@ pub fn run(args: TradeArgs) -> anyhow::Result<Outcome> {
                     .join(", ")
             ),
             "cluster_dag" => format!(
-                "cluster_dag (clod_build: {} clusters in {} groups, {} levels; CPU cut with \
+                "cluster_dag (clod_build {}: {} clusters in {} groups, {} levels; CPU cut with \
                  frustum + cone culling, triangles uploaded per frame: upload_ms in --json, apart \
                  from its CPU ms, in its wall ms)",
-                stats.clusters, stats.groups, stats.levels
+                stats.settings, stats.clusters, stats.groups, stats.levels
             ),
             other => other.to_string(),
         };

@@ -31,8 +31,119 @@ use tessera_runtime::measure::Surface;
 use super::peer_mesh::PeerMesh;
 use crate::subject::{Drawn, Subject};
 
-/// Triangles per cluster (clusterlod's `max_triangles`).
-pub const CLUSTER_TRIANGLES: usize = 128;
+/// The settings of `clod_build` the bench may change (`tessera bench --dag`); every other
+/// field of `clodConfig` is `clod_default_config`'s. `Default` is the setting that drew the
+/// fewest triangles at equal dense max error in the sweep of BENCHMARKS.md ("The cluster
+/// DAG's settings").
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DagSettings {
+    /// Triangles per cluster (`max_triangles`, 4–256; `max_vertices` the same,
+    /// `min_triangles` a third): smaller clusters, a finer cut.
+    pub cluster_triangles: usize,
+    /// Clusters per group (`partition_size`, ≥ 2, a target: groups may be a third larger):
+    /// the unit that is simplified together, its borders locked.
+    pub partition_size: usize,
+    /// `simplify_permissive`: meshopt's permissive mode (collapses across attribute seams
+    /// and complex topology), else regular simplification.
+    pub permissive: bool,
+    /// `simplify_fallback_sloppy`: a group that regular (or permissive) simplification cannot
+    /// halve is simplified sloppily, its error doubled (`simplify_error_factor_sloppy`).
+    pub fallback_sloppy: bool,
+    /// `simplify_ratio` (0–1): the share of a group's triangles its simplification aims for.
+    pub ratio: f32,
+    /// `simplify_error_edge_limit` (≥ 0; 0: off): a group's error at most this times its
+    /// longest (short) edge.
+    pub edge_limit: f32,
+}
+
+impl Default for DagSettings {
+    fn default() -> DagSettings {
+        DagSettings {
+            cluster_triangles: 128,
+            partition_size: 16,
+            permissive: true,
+            fallback_sloppy: true,
+            ratio: 0.5,
+            edge_limit: 0.0,
+        }
+    }
+}
+
+impl DagSettings {
+    /// Reads `key=value` pairs separated by `;` or `/` over the default (`""`: the default):
+    /// `triangles=N`, `partition=N`, `permissive=true|false`, `sloppy=true|false`,
+    /// `ratio=X`, `edge-limit=X`.
+    pub fn parse(text: &str) -> Result<DagSettings, String> {
+        let mut s = DagSettings::default();
+        for pair in text
+            .split([';', '/'])
+            .map(str::trim)
+            .filter(|p| !p.is_empty())
+        {
+            let (key, value) = pair
+                .split_once('=')
+                .ok_or_else(|| format!("{pair:?}: expected key=value"))?;
+            let bad = |e: &dyn std::fmt::Display| format!("{key}={value}: {e}");
+            match key.trim() {
+                "triangles" => s.cluster_triangles = value.parse().map_err(|e| bad(&e))?,
+                "partition" => s.partition_size = value.parse().map_err(|e| bad(&e))?,
+                "permissive" => s.permissive = value.parse().map_err(|e| bad(&e))?,
+                "sloppy" => s.fallback_sloppy = value.parse().map_err(|e| bad(&e))?,
+                "ratio" => s.ratio = value.parse().map_err(|e| bad(&e))?,
+                "edge-limit" => s.edge_limit = value.parse().map_err(|e| bad(&e))?,
+                other => {
+                    return Err(format!(
+                        "unknown key {other:?} (triangles, partition, permissive, sloppy, ratio, \
+                         edge-limit)"
+                    ))
+                }
+            }
+        }
+        if !(4..=256).contains(&s.cluster_triangles) {
+            return Err(format!("triangles={} is not in 4-256", s.cluster_triangles));
+        }
+        if s.partition_size < 2 {
+            return Err(format!("partition={} is under 2", s.partition_size));
+        }
+        if !(s.ratio > 0.0 && s.ratio < 1.0) {
+            return Err(format!("ratio={} is not in (0, 1)", s.ratio));
+        }
+        if !(s.edge_limit >= 0.0 && s.edge_limit.is_finite()) {
+            return Err(format!(
+                "edge-limit={} is not a finite number >= 0",
+                s.edge_limit
+            ));
+        }
+        Ok(s)
+    }
+
+    /// clusterlod's config: `clod_default_config(cluster_triangles)` with these settings.
+    pub fn config(&self) -> meshopt::ClodConfig {
+        meshopt::ClodConfig {
+            partition_size: self.partition_size,
+            simplify_permissive: self.permissive,
+            simplify_fallback_sloppy: self.fallback_sloppy,
+            simplify_ratio: self.ratio,
+            simplify_error_edge_limit: self.edge_limit,
+            ..meshopt::clod_default_config(self.cluster_triangles)
+        }
+    }
+}
+
+impl std::fmt::Display for DagSettings {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "triangles={};partition={};permissive={};sloppy={};ratio={};edge-limit={}",
+            self.cluster_triangles,
+            self.partition_size,
+            self.permissive,
+            self.fallback_sloppy,
+            self.ratio,
+            self.edge_limit
+        )
+    }
+}
 
 /// A sphere with an error, relative to the repository origin (clusterlod's `clodBounds`).
 #[derive(Clone, Copy, Debug)]
@@ -84,6 +195,8 @@ pub struct DagStats {
     /// DAG levels (the deepest group's depth + 1).
     pub levels: usize,
     pub seconds: f64,
+    /// The settings it was built with.
+    pub settings: DagSettings,
 }
 
 /// The DAG as built: every cluster's triangles, bounds and culling volumes.
@@ -93,47 +206,44 @@ pub struct Dag {
     pub stats: DagStats,
 }
 
-/// Runs `clod_build` on the peers' positions and keeps what the cut rule needs.
-pub fn build(mesh: &PeerMesh) -> Dag {
+/// Runs `clod_build` on the peers' positions with `settings` and keeps what the cut rule
+/// needs.
+pub fn build(mesh: &PeerMesh, settings: &DagSettings) -> Dag {
     let start = Instant::now();
     let adapter = mesh.vertex_adapter();
     let clod_mesh = meshopt::ClodMesh::new(mesh.indices(), &adapter);
     let mut groups: Vec<meshopt::ClodGroup> = Vec::new();
     let mut clusters = Vec::new();
     let mut triangles: Vec<[u32; 3]> = Vec::new();
-    meshopt::clod_build(
-        meshopt::clod_default_config(CLUSTER_TRIANGLES),
-        &clod_mesh,
-        |group, cs| {
-            for c in cs {
-                let own = if c.refined < 0 {
-                    Bounds {
-                        error: 0.0,
-                        ..Bounds::from(c.bounds)
-                    }
-                } else {
-                    Bounds::from(groups[c.refined as usize].simplified)
-                };
-                let b = meshopt::compute_cluster_bounds(c.indices, &adapter);
-                clusters.push(Cluster {
-                    first: triangles.len() as u32,
-                    count: (c.indices.len() / 3) as u32,
-                    own,
-                    parent: Bounds::from(group.simplified),
-                    cull: Cull {
-                        centre: c.bounds.center,
-                        radius: c.bounds.radius,
-                        cone_apex: b.cone_apex,
-                        cone_axis: b.cone_axis,
-                        cone_cutoff: b.cone_cutoff,
-                    },
-                });
-                triangles.extend(c.indices.chunks_exact(3).map(|t| [t[0], t[1], t[2]]));
-            }
-            groups.push(group);
-            groups.len() as i32 - 1
-        },
-    );
+    meshopt::clod_build(settings.config(), &clod_mesh, |group, cs| {
+        for c in cs {
+            let own = if c.refined < 0 {
+                Bounds {
+                    error: 0.0,
+                    ..Bounds::from(c.bounds)
+                }
+            } else {
+                Bounds::from(groups[c.refined as usize].simplified)
+            };
+            let b = meshopt::compute_cluster_bounds(c.indices, &adapter);
+            clusters.push(Cluster {
+                first: triangles.len() as u32,
+                count: (c.indices.len() / 3) as u32,
+                own,
+                parent: Bounds::from(group.simplified),
+                cull: Cull {
+                    centre: c.bounds.center,
+                    radius: c.bounds.radius,
+                    cone_apex: b.cone_apex,
+                    cone_axis: b.cone_axis,
+                    cone_cutoff: b.cone_cutoff,
+                },
+            });
+            triangles.extend(c.indices.chunks_exact(3).map(|t| [t[0], t[1], t[2]]));
+        }
+        groups.push(group);
+        groups.len() as i32 - 1
+    });
     let stats = DagStats {
         clusters: clusters.len(),
         groups: groups.len(),
@@ -143,6 +253,7 @@ pub fn build(mesh: &PeerMesh) -> Dag {
             .max()
             .unwrap_or(0),
         seconds: start.elapsed().as_secs_f64(),
+        settings: *settings,
     };
     Dag {
         clusters,
@@ -303,5 +414,53 @@ impl Subject for ClusterDag<'_> {
             positions: &self.mesh.positions_f64,
             triangles: &self.selected,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::DagSettings;
+
+    /// `--dag` text over the default, and back through `Display`.
+    #[test]
+    fn settings_parse_over_the_default_and_print_back() {
+        let check = |text: &str, expected: DagSettings| {
+            let s = DagSettings::parse(text).unwrap_or_else(|e| panic!("{text}: {e}"));
+            assert_eq!(s, expected, "{text}");
+            assert_eq!(DagSettings::parse(&s.to_string()), Ok(s), "{s}");
+        };
+        let d = DagSettings::default();
+        check("", d);
+        check(
+            "triangles=64; partition=8",
+            DagSettings {
+                cluster_triangles: 64,
+                partition_size: 8,
+                ..d
+            },
+        );
+        check(
+            "permissive=false/sloppy=false/ratio=0.7/edge-limit=1",
+            DagSettings {
+                permissive: false,
+                fallback_sloppy: false,
+                ratio: 0.7,
+                edge_limit: 1.0,
+                ..d
+            },
+        );
+        for bad in [
+            "triangles",
+            "leaves=3",
+            "triangles=2",
+            "triangles=300",
+            "partition=1",
+            "ratio=1",
+            "permissive=yes",
+            "edge-limit=-1",
+        ] {
+            assert!(DagSettings::parse(bad).is_err(), "{bad}");
+        }
+        assert_eq!(d.config().max_triangles, d.cluster_triangles);
     }
 }

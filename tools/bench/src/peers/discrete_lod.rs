@@ -1,9 +1,12 @@
 //! The discrete-LOD peer (seed 004's run-time scheme): a few whole-object levels made
 //! offline, one picked per object and frame by distance, drawn in one call.
 //!
-//! - Levels: `LEVEL_FRACTIONS` of the source's triangles, each simplified from the source by
+//! - Levels: shares of the source's triangles (`LEVEL_FRACTIONS` by default, halving down to
+//!   1/256; `tessera bench --lod-fractions`), each simplified from the source by
 //!   `meshopt::simplify` (absolute error, no target error: the count decides); level 0 is the
 //!   source itself with error 0. Each level records meshopt's error estimate in model units.
+//!   More levels only add choices (each level is made from the source alone): before
+//!   2026-12-07 four, 1, 1/4, 1/16, 1/64.
 //! - Choice: the coarsest level whose error projects to ≤ τ pixels at the distance from the
 //!   eye to the object's bounding sphere: ρ_l = err_l · K / max(|centre − eye| − radius, near)
 //!   (`ScreenSpaceMetric::rho`, the formula of our ρ with one sphere for the whole object).
@@ -22,8 +25,26 @@ use tessera_runtime::measure::Surface;
 use super::peer_mesh::PeerMesh;
 use crate::subject::{Drawn, Subject};
 
-/// Share of the source's triangles in each level, finest first.
-pub const LEVEL_FRACTIONS: [f64; 4] = [1.0, 0.25, 0.0625, 0.015625];
+/// Share of the source's triangles in each level by default, finest first: halving, from
+/// the source down to 1/256 (9 levels, 2x the source's triangles resident in all).
+pub const LEVEL_FRACTIONS: [f64; 9] = [
+    1.0, 0.5, 0.25, 0.125, 0.0625, 0.03125, 0.015625, 0.0078125, 0.00390625,
+];
+
+/// Checks a list of level shares: the first 1 (the source), then strictly decreasing, all
+/// above 0.
+pub fn check_fractions(fractions: &[f64]) -> Result<(), String> {
+    if fractions.first() != Some(&1.0) {
+        return Err("the first level must be 1 (the source itself)".into());
+    }
+    if let Some(w) = fractions.windows(2).find(|w| !(w[1] < w[0] && w[1] > 0.0)) {
+        return Err(format!(
+            "{} after {}: shares must decrease strictly and stay above 0",
+            w[1], w[0]
+        ));
+    }
+    Ok(())
+}
 
 /// One level as built.
 #[derive(Clone, Debug)]
@@ -37,10 +58,12 @@ pub struct Level {
     pub seconds: f64,
 }
 
-/// Simplifies the source to every `LEVEL_FRACTIONS` share, each from the source.
-pub fn build_levels(mesh: &PeerMesh) -> Vec<Level> {
+/// Simplifies the source to every share of `fractions` (`check_fractions`), each from the
+/// source.
+pub fn build_levels(mesh: &PeerMesh, fractions: &[f64]) -> Vec<Level> {
+    assert_eq!(check_fractions(fractions), Ok(()), "{fractions:?}");
     let adapter = mesh.vertex_adapter();
-    LEVEL_FRACTIONS
+    fractions
         .iter()
         .map(|&fraction| {
             if fraction >= 1.0 {
