@@ -364,9 +364,9 @@ fn the_bench_measures_every_subject_densely() {
     // The cluster DAG's settings are stated, and --dag changes them.
     let settings = &v["cluster_dag"]["settings"];
     assert_eq!(settings["max_triangles"], v["cluster_dag"]["max_triangles"]);
-    let other = bench("1", &["--dag", "triangles=32;partition=4"]);
+    let other = bench("1", &["--dag", "triangles=16;partition=4"]);
     let other_settings = &other["cluster_dag"]["settings"];
-    assert_eq!(other_settings["max_triangles"], 32, "{other_settings}");
+    assert_eq!(other_settings["max_triangles"], 16, "{other_settings}");
     assert_eq!(other_settings["partition_size"], 4, "{other_settings}");
     for key in ["permissive", "fallback_sloppy", "ratio", "edge_limit"] {
         assert_eq!(other_settings[key], settings[key], "{key}");
