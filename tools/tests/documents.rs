@@ -17,3 +17,13 @@ pub fn repo_root() -> std::path::PathBuf {
         .expect("tools/ has a parent")
         .to_path_buf()
 }
+
+/// ARCHITECTURE.md stays a map a new engineer reads in ten minutes and README.md a page
+/// (issue 45: at most 25 KB and 8 KB); what grows goes to docs/ or BENCHMARKS.md.
+#[test]
+fn the_map_and_the_readme_stay_short() {
+    for (name, limit) in [("ARCHITECTURE.md", 25_000), ("README.md", 8_000)] {
+        let bytes = std::fs::metadata(repo_root().join(name)).unwrap().len();
+        assert!(bytes <= limit, "{name} is {bytes} bytes, over {limit}");
+    }
+}
