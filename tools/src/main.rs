@@ -68,7 +68,7 @@ enum Command {
     /// Benchmarks with their peers measured in the same run: `bench REPO --source INPUT` (the
     /// trade-off: triangles, frame time and measured error per τ against discrete LODs, a
     /// cluster DAG and the full resolution), `bench build INPUT`, `bench render REPO`.
-    Bench(cmd_bench::BenchArgs),
+    Bench(Box<cmd_bench::BenchArgs>),
     /// Generate a procedural 1.3 M-triangle mesh and a terrain, build them, check them, render
     /// a few frames to PNG, print a summary. Without a GPU adapter the frames are skipped (the reason is
     /// printed); the check alone decides the exit code.
@@ -105,7 +105,7 @@ fn main() -> ExitCode {
         Command::Render(args) => cmd_render::run(args),
         Command::Check(args) => cmd_check::run(args),
         Command::Demo(args) => cmd_demo::run(args),
-        Command::Bench(args) => cmd_bench::run(args),
+        Command::Bench(args) => cmd_bench::run(*args),
         Command::Gen(args) => cmd_gen::run(args),
         Command::View(args) => view::run(args),
     };
