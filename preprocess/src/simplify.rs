@@ -198,7 +198,8 @@ impl Default for SimplifySettings {
             normal_weight: 0.05,
             keep_borders: true,
             bounded_errors: false,
-            coarsest_share: 0.01,
+            // 1: no cap (off with `BuildConfig::headroom`; 0.01 with it reaches 1 %).
+            coarsest_share: 1.0,
             fault_ignore_locks: false,
         }
     }
