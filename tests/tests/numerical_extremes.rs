@@ -1253,7 +1253,7 @@ fn tube_cameras() -> Vec<Camera> {
     cameras
 }
 
-/// Writes `mesh` as an OFF file (shortest round-trip decimal, so the import is exact) and
+/// Writes `mesh` as an OFF file (the shortest decimal that reads back exactly) and
 /// imports it back.
 fn through_off_file(mesh: &InputMesh) -> ImportReport {
     use std::fmt::Write as _;

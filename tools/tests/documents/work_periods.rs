@@ -1,6 +1,6 @@
 //! No numbered work period used as a unit of time, anywhere in the sources and documents:
 //! history is told by versions, dates and commits ("before commit 4fa9fc2 of 2026-12-03"),
-//! never as "the twelfth session" or "the third round", which mean nothing outside the team.
+//! never by an ordinal period of the team's own work, which means nothing outside it.
 //!
 //! The rule, on the words of every text file of the tree (letters, digits and hyphens; all
 //! else, comment markers and line breaks included, separates words, so a phrase broken across
