@@ -30,6 +30,7 @@
 
 pub mod cpu_cut;
 pub mod dense;
+pub mod front_verdict;
 pub mod ours;
 pub mod plots;
 pub mod report;
@@ -365,7 +366,7 @@ pub fn run(args: TradeArgs) -> anyhow::Result<Outcome> {
         "peers": peers.iter().map(|s| (s.name.to_string(), json!(rows_json(s)))).collect::<serde_json::Map<_, _>>(),
         // The dense pass and the headline verdict on it.
         "dense": dense.as_ref().map(|d| dense::pass_json(&d.pass)),
-        "verdict_dense": verdict::fronts_to_json(&fronts),
+        "verdict_dense": front_verdict::fronts_to_json(&fronts),
         "discrete_lod_levels": discrete.levels().map(|l| json!({
             "fraction": l.fraction,
             "triangles": l.triangles.len(),
@@ -450,7 +451,7 @@ pub fn run(args: TradeArgs) -> anyhow::Result<Outcome> {
             println!("{line}");
         }
         println!("verdict (front to front at equal dense max error, ours ÷ peer triangles):");
-        for line in verdict::front_lines(&fronts) {
+        for line in front_verdict::front_lines(&fronts) {
             println!("{line}");
         }
     }
@@ -516,7 +517,7 @@ fn dense_pass(
 }
 
 /// Ours against each measured peer, front to front on the dense max error.
-fn dense_verdict(d: &Dense) -> Vec<verdict::FrontComparison> {
+fn dense_verdict(d: &Dense) -> Vec<front_verdict::FrontComparison> {
     let points = |rows: &dense::DenseRows| -> Vec<(f64, f64)> {
         rows.rows.iter().map(|r| (r.max_px, r.triangles)).collect()
     };
@@ -527,7 +528,7 @@ fn dense_verdict(d: &Dense) -> Vec<verdict::FrontComparison> {
     d.subjects
         .iter()
         .filter(|s| s.name != "ours" && s.name != "full_resolution")
-        .map(|s| verdict::front_to_front(&ours, (s.name, &points(s))))
+        .map(|s| front_verdict::front_to_front(&ours, (s.name, &points(s))))
         .collect()
 }
 
