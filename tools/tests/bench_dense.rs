@@ -8,9 +8,8 @@
 //!   the same in the `--two-sided` arm, and the front-to-front verdict against each peer.
 
 mod cli_support;
-use cli_support::{json, tessera};
+use cli_support::{build_bunny, bunny, json, tessera};
 
-use std::path::{Path, PathBuf};
 
 use tessera_core::cut::{diamond_rhos, select_stateless};
 use tessera_core::hausdorff::sampled_directed_weighted;
@@ -24,33 +23,6 @@ use tessera_runtime::geometric_check::{check_metric, CheckConfig};
 use tessera_runtime::views::check_views;
 
 const STEPS: (usize, usize) = (4, 2);
-
-fn bunny() -> PathBuf {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../testdata/mesh/bunny00.off");
-    assert!(
-        path.exists(),
-        "{} is missing: run tools/fetch-testdata.sh first (README.md, 'Tests')",
-        path.display()
-    );
-    path
-}
-
-/// The bunny built into `dir`.
-fn build_bunny(dir: &Path) -> PathBuf {
-    let repo = dir.join("bunny.tsr");
-    let out = tessera(&[
-        "build",
-        bunny().to_str().unwrap(),
-        "-o",
-        repo.to_str().unwrap(),
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    repo
-}
 
 /// `measure_screen_cut` as it was written before it went through `measure_screen_surface`
 /// (2026-12-07): the reference the general measure must reproduce to the bit. (The sampler

@@ -1,7 +1,7 @@
 //! The CLI contract pipeline scripts rely on: JSON keys, exit codes, no partial outputs.
 
 mod cli_support;
-use cli_support::{json, tessera};
+use cli_support::{build_bunny, bunny, json, tessera};
 
 use std::path::Path;
 use std::process::Command;
@@ -306,34 +306,6 @@ fn corrupt_repositories_are_rejected_with_exit_two() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(2), "{stderr}");
     assert!(stderr.contains("patch of tet 0 is damaged"), "{stderr}");
-}
-
-/// `testdata/mesh/bunny00.off` (75 K triangles), fetched by `tools/fetch-testdata.sh`.
-fn bunny() -> std::path::PathBuf {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../testdata/mesh/bunny00.off");
-    assert!(
-        path.exists(),
-        "{} is missing: run tools/fetch-testdata.sh first (README.md, 'Tests')",
-        path.display()
-    );
-    path
-}
-
-/// Builds the bunny into `dir` and returns the repository's path.
-fn build_bunny(dir: &Path) -> std::path::PathBuf {
-    let repo = dir.join("bunny.tsr");
-    let out = tessera(&[
-        "build",
-        bunny().to_str().unwrap(),
-        "-o",
-        repo.to_str().unwrap(),
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    repo
 }
 
 /// Runs tessera and checks exit code 2 with a message containing every needle, no panic.

@@ -4,18 +4,11 @@
 //! `--no-computed-normals` stores none; `render --flat` shades with face normals.
 
 mod cli_support;
-use cli_support::tessera;
+use cli_support::{bunny, tessera};
 
-use std::path::Path;
 
 use tessera_core::repository::format::{oct_decode_normal, ATTR_NORMALS, NO_INDEX};
 use tessera_core::repository::Repository;
-
-fn bunny() -> std::path::PathBuf {
-    let scan = Path::new(env!("CARGO_MANIFEST_DIR")).join("../testdata/mesh/bunny00.off");
-    assert!(scan.exists(), "run tools/fetch-testdata.sh first");
-    scan
-}
 
 fn build(args: &[&str]) {
     let out = tessera(args);
