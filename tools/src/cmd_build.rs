@@ -51,8 +51,9 @@ pub struct BuildArgs {
     /// (`.OUT.tessera-build/`) is what a killed build leaves for `--resume`.
     #[arg(long, value_name = "DIR", requires = "memory")]
     pub temp: Option<PathBuf>,
-    /// Store the patches as they are drawn instead of packed (meshoptimizer's vertex codec and
-    /// tessera's strip codec, lossless; decoded by the loader): larger files, no decoding.
+    /// Store the patches as they are drawn instead of coded (positions predicted along the
+    /// strip and rANS-coded with the strip and attributes, lossless; decoded by the loader):
+    /// larger files, no decoding.
     #[arg(long)]
     pub no_compress: bool,
     /// Store no normals where the input has none: lit mode then shades with face normals.
@@ -269,7 +270,7 @@ fn configure(args: &BuildArgs, domain: Domain, memory: &Option<MemoryBudget>) ->
         codec: if args.no_compress {
             PatchCodec::Raw
         } else {
-            PatchCodec::Packed
+            PatchCodec::Coded
         },
         ..BuildConfig::for_domain(domain)
     };

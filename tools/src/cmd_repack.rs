@@ -1,8 +1,8 @@
-//! `tessera repack REPO -o OUT [--no-compress] [--json]`: the same repository with its patches
-//! packed (the default) or stored as drawn, without a rebuild — for repositories built before
-//! packing, packed with the older strip coding (`packed-v1`: repacked, their strips take the
-//! current coding; their vertex order stays, so they pack less well than a rebuild), or built
-//! with `build --no-compress` (`core::repository::repack`).
+//! `tessera repack REPO -o OUT [--no-compress | --codec NAME] [--json]`: the same repository
+//! with its patches entropy-coded (`coded`, the default), packed, or stored as drawn, without a
+//! rebuild — for repositories built before coding, packed (`packed`, `packed-v1`: their vertex
+//! order stays, so a `packed-v1` one codes less well than a rebuild), or built with
+//! `build --no-compress` (`core::repository::repack`).
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -22,9 +22,14 @@ pub struct RepackArgs {
     /// Repository to write (a temporary file, then renamed; may not be the input).
     #[arg(short, long)]
     pub output: PathBuf,
-    /// Store the patches as drawn instead of packed.
-    #[arg(long)]
+    /// Store the patches as drawn instead of coded (the same as `--codec raw`).
+    #[arg(long, conflicts_with = "codec")]
     pub no_compress: bool,
+    /// How to store the patches: `coded` (the default: positions predicted along the strip,
+    /// rANS), `packed` (the format before it: meshoptimizer's vertex codec, 4-bit strip
+    /// symbols) or `raw` (as drawn).
+    #[arg(long, value_name = "NAME", value_parser = ["coded", "packed", "raw"])]
+    pub codec: Option<String>,
     /// Print one JSON object on stdout.
     #[arg(long)]
     pub json: bool,
@@ -43,10 +48,10 @@ pub fn run(args: RepackArgs) -> anyhow::Result<Outcome> {
     );
     let source = crate::repository_arg::open(&args.repository, "repack")
         .with_context(|| format!("{}", args.repository.display()))?;
-    let codec = if args.no_compress {
-        PatchCodec::Raw
-    } else {
-        PatchCodec::Packed
+    let codec = match (args.no_compress, args.codec.as_deref()) {
+        (true, _) | (_, Some("raw")) => PatchCodec::Raw,
+        (_, Some("packed")) => PatchCodec::Packed,
+        _ => PatchCodec::Coded,
     };
     let bytes = repack(&source, codec, &args.output)
         .with_context(|| format!("{}", args.repository.display()))?;

@@ -26,6 +26,7 @@ mod cmd_gen_mesh;
 mod cmd_info;
 mod cmd_render;
 mod cmd_repack;
+mod cmd_simplify;
 mod demo_terrain;
 mod gpu_args;
 mod input;
@@ -58,8 +59,8 @@ enum Command {
     Build(cmd_build::BuildArgs),
     /// Describe a repository.
     Info(cmd_info::InfoArgs),
-    /// Rewrite a repository with its patches packed (the default) or stored as drawn
-    /// (`--no-compress`), without a rebuild.
+    /// Rewrite a repository with its patches entropy-coded (the default), packed or stored as
+    /// drawn (`--no-compress`), without a rebuild.
     Repack(cmd_repack::RepackArgs),
     /// Render a view of a repository to PNG on the GPU (lavapipe works).
     Render(cmd_render::RenderArgs),
@@ -76,6 +77,9 @@ enum Command {
     /// Generate inputs: `gen terrain` (diamond-square with a map of regions, seed 002), `gen mesh`
     /// (a closed procedural mesh of any size, streamed as binary PLY).
     Gen(cmd_gen::GenArgs),
+    /// Simplify a mesh out of core (seed 004: octree vertex clustering with generalised
+    /// quadrics): one mesh of N triangles, or the seed's levels, as binary PLY.
+    Simplify(cmd_simplify::SimplifyArgs),
     /// Browse a repository in a window (orbit, pan, zoom; overlay with statistics and the
     /// tolerance); `--script FILE` runs scripted actions and screenshots, then exits.
     View(view::ViewArgs),
@@ -107,6 +111,7 @@ fn main() -> ExitCode {
         Command::Demo(args) => cmd_demo::run(args),
         Command::Bench(args) => cmd_bench::run(*args),
         Command::Gen(args) => cmd_gen::run(args),
+        Command::Simplify(args) => cmd_simplify::run(args),
         Command::View(args) => view::run(args),
     };
     match result {

@@ -1070,7 +1070,7 @@ fn packed_and_raw_repositories_draw_the_same_pixels() {
     ]);
     assert!(out.status.success());
     let mut infos = Vec::new();
-    for (repo, codec) in [(&packed, "packed"), (&raw, "raw")] {
+    for (repo, codec) in [(&packed, "coded"), (&raw, "raw")] {
         let info = json(&tessera(&["info", repo.to_str().unwrap(), "--json"]));
         assert_eq!(info["patch_codec"], codec, "{info}");
         let levels = info["levels"].as_array().unwrap();

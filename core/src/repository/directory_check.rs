@@ -272,7 +272,7 @@ pub(crate) fn check_tables(
         let stored_ok = match blobs.codec {
             PatchCodec::Raw => expected == Some(t.patch_bytes as u64),
             // Packed: any multiple of 8, but the decoded patch must have a size a u32 holds.
-            PatchCodec::Packed | PatchCodec::PackedV1 => {
+            PatchCodec::Packed | PatchCodec::PackedV1 | PatchCodec::Coded => {
                 expected.is_some_and(|e| e <= MAX_PACKING_RATIO * t.patch_bytes as u64 + 256)
                     && t.patch_bytes % 8 == 0
             }
@@ -283,7 +283,7 @@ pub(crate) fn check_tables(
                     "patch is {} bytes but {} vertices and {} strip indices take {expected:?}",
                     t.patch_bytes, t.vertex_count, t.strip_index_count
                 ),
-                PatchCodec::Packed | PatchCodec::PackedV1 => format!(
+                PatchCodec::Packed | PatchCodec::PackedV1 | PatchCodec::Coded => format!(
                     "packed patch is {} bytes (not a multiple of 8), or {} vertices and {} \
                      strip indices decode to {expected:?} bytes (more than \
                      {MAX_PACKING_RATIO} × its size + 256)",

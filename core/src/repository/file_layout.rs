@@ -8,9 +8,9 @@ use super::directory_check::check_header_fields;
 use super::format::{
     compute_checksum, section_name, Header, PatchCodec, SectionEntry, DIAMOND_RECORD_SIZE,
     FORMAT_VERSION, HEADER_SIZE, MAGIC, MAX_SECTIONS, PATCH_SECTIONS, REQUIRED_SECTIONS,
-    SECTION_DIAMONDS, SECTION_ENTRY_SIZE, SECTION_FLAGS_ALL, SECTION_FLAG_OPTIONAL, SECTION_IDS,
-    SECTION_PACKED_PATCHES, SECTION_PACKED_STRIPS, SECTION_PATCHES, SECTION_TETS, TABLE_ALIGN,
-    TET_RECORD_SIZE, WRITTEN_SECTIONS,
+    SECTION_CODED_STRIPS, SECTION_DIAMONDS, SECTION_ENTRY_SIZE, SECTION_FLAGS_ALL,
+    SECTION_FLAG_OPTIONAL, SECTION_IDS, SECTION_PACKED_PATCHES, SECTION_PACKED_STRIPS,
+    SECTION_PATCHES, SECTION_TETS, TABLE_ALIGN, TET_RECORD_SIZE, WRITTEN_SECTIONS,
 };
 use super::reader::{corrupt, RepositoryError, RELEASE_CHUNK};
 
@@ -147,7 +147,11 @@ fn section_ranges(
         let record = match e.kind {
             SECTION_DIAMONDS => Some((h.diamond_count, DIAMOND_RECORD_SIZE)),
             SECTION_TETS => Some((h.tet_count, TET_RECORD_SIZE)),
-            SECTION_PATCHES | SECTION_PACKED_PATCHES | SECTION_PACKED_STRIPS | SECTION_IDS => None,
+            SECTION_PATCHES
+            | SECTION_PACKED_PATCHES
+            | SECTION_PACKED_STRIPS
+            | SECTION_CODED_STRIPS
+            | SECTION_IDS => None,
             _ if e.flags & SECTION_FLAG_OPTIONAL != 0 => None,
             _ => {
                 return Err(corrupt(format!(

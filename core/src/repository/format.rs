@@ -10,6 +10,7 @@
 //!   SECTION_PATCHES    patch blob                                   (see `patch.rs`)
 //!     or SECTION_PACKED_STRIPS, the same patches packed             (see `packed.rs`)
 //!     or SECTION_PACKED_PATCHES, packed with the older strip coding (read, not written)
+//!     or SECTION_CODED_STRIPS, the same patches entropy-coded                (see `coded.rs`)
 //!   SECTION_IDS        id blob                                      (see `global_ids.rs`)
 //! end of file        = the end of the last section
 //! ```
@@ -94,11 +95,15 @@ pub const SECTION_PACKED_PATCHES: u32 = 5;
 /// Section kind: the patch blob with every patch packed (`packed.rs`), strips by
 /// `strip_codec.rs` (`PatchCodec::Packed`, the default).
 pub const SECTION_PACKED_STRIPS: u32 = 6;
+/// Section kind: the patch blob with every patch entropy-coded (`coded.rs`: positions
+/// predicted along the strip, rANS; `PatchCodec::Coded`, the default since issue 49).
+pub const SECTION_CODED_STRIPS: u32 = 7;
 /// The kinds of a patch blob: a repository has exactly one of them.
-pub const PATCH_SECTIONS: [u32; 3] = [
+pub const PATCH_SECTIONS: [u32; 4] = [
     SECTION_PATCHES,
     SECTION_PACKED_PATCHES,
     SECTION_PACKED_STRIPS,
+    SECTION_CODED_STRIPS,
 ];
 /// The kinds every version-4 repository has, exactly once each, besides its one patch blob
 /// (`SECTION_PATCHES` or `SECTION_PACKED_PATCHES`).
@@ -349,6 +354,7 @@ pub fn section_name(kind: u32) -> String {
         SECTION_PATCHES => "patch blob".into(),
         SECTION_PACKED_PATCHES => "packed patch blob (v1)".into(),
         SECTION_PACKED_STRIPS => "packed patch blob".into(),
+        SECTION_CODED_STRIPS => "coded patch blob".into(),
         SECTION_IDS => "id blob".into(),
         other => format!("section kind {other}"),
     }

@@ -7,6 +7,9 @@
 //! - `patch_codec`: `PatchCodec`, raw or packed (and which strip coding), by section kind;
 //! - `packed`: the packed (compressed) form of a patch, the default on disk, decoded on load
 //!   into exactly what `encode_patch` writes; `strip_codec`: its strips in 4-bit symbols;
+//! - `coded`: the entropy-coded form of a patch (`SECTION_CODED_STRIPS`, the default on disk):
+//!   strip symbols and positions predicted along the strip, coded by `rans` (a static-model
+//!   rANS coder with per-patch 4-bit-weight tables), decoded on load like `packed`;
 //! - `global_ids`: each patch's global vertex ids, delta + varint coded in their own blob (the
 //!   CPU's checks need them, the GPU does not);
 //! - `writer`: `write_repository[_file]` (temporary file, fsync, rename; stale temporaries of
@@ -19,6 +22,7 @@
 //! - `reader`: `Repository::open`, which validates every count, offset and index before use.
 //!   A bad file is an error (`RepositoryError`), never a panic or an out-of-bounds read.
 
+pub mod coded;
 pub mod cut_mesh;
 mod directory_check;
 mod file_layout;
@@ -27,6 +31,7 @@ pub mod global_ids;
 pub mod packed;
 pub mod patch;
 mod patch_codec;
+pub mod rans;
 pub mod reader;
 pub mod repack;
 pub mod streamed_writer;

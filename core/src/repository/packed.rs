@@ -45,13 +45,16 @@ const VERTEX_CODEC_VERSION: i32 = 1;
 /// The vertex codec's compression level (meshoptimizer's default; 3 gains < 0.1 % here).
 const VERTEX_CODEC_LEVEL: i32 = 2;
 
-/// How a packed patch stores its strip (the rest is the same either way).
+/// How a packed patch stores its strip (the rest is the same either way), or that the whole
+/// patch is entropy-coded instead.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum StripCoding {
     /// meshoptimizer's index-sequence codec (`PatchCodec::PackedV1`).
     IndexSequence,
     /// `strip_codec.rs`: 4-bit symbols for first-use order (`PatchCodec::Packed`).
     Nibbles,
+    /// Not packed here: the whole patch coded by `coded.rs` (`PatchCodec::Coded`).
+    Coded,
 }
 
 impl StripCoding {
@@ -61,6 +64,7 @@ impl StripCoding {
             PatchCodec::Raw => None,
             PatchCodec::Packed => Some(StripCoding::Nibbles),
             PatchCodec::PackedV1 => Some(StripCoding::IndexSequence),
+            PatchCodec::Coded => Some(StripCoding::Coded),
         }
     }
 }
@@ -105,6 +109,9 @@ pub fn pack_patch(
     strips: StripCoding,
     out: &mut Vec<u8>,
 ) -> usize {
+    if strips == StripCoding::Coded {
+        return super::coded::code_patch(raw, vertex_count, strip_index_count, attributes, out);
+    }
     assert!(
         attributes & !ATTR_ALL == 0,
         "attribute bits {attributes:#x}"
@@ -150,6 +157,7 @@ pub fn pack_patch(
                         encode_strip(&indices, restart, &mut stream);
                         stream
                     }
+                    StripCoding::Coded => unreachable!("coded patches are coded apart"),
                     StripCoding::IndexSequence => {
                         // The bound grows with the largest value, and restarts are the largest.
                         let largest = indices.iter().max().map_or(0, |&i| i as usize + 1);
@@ -217,6 +225,15 @@ pub fn unpack_patch(
     strips: StripCoding,
     out: &mut [u8],
 ) -> Result<(), UnpackError> {
+    if strips == StripCoding::Coded {
+        return super::coded::decode_patch(
+            packed,
+            vertex_count,
+            strip_index_count,
+            attributes,
+            out,
+        );
+    }
     if attributes & !ATTR_ALL != 0 {
         return fail(format!("unknown attribute bits {attributes:#x}"));
     }
@@ -267,6 +284,7 @@ pub fn unpack_patch(
                     StripCoding::IndexSequence => {
                         decode_strip(stream, n, strip_index_count, width, target)
                     }
+                    StripCoding::Coded => unreachable!("coded patches are decoded apart"),
                 }
             }
             _ => decode_vertices(stream, n, size, &mut out[to..to + size * n]),

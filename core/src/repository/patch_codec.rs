@@ -1,6 +1,8 @@
 //! How a repository stores its patches: the codec a patch blob's section kind names.
 
-use super::format::{SECTION_PACKED_PATCHES, SECTION_PACKED_STRIPS, SECTION_PATCHES};
+use super::format::{
+    SECTION_CODED_STRIPS, SECTION_PACKED_PATCHES, SECTION_PACKED_STRIPS, SECTION_PATCHES,
+};
 
 /// How a repository stores its patches.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -8,21 +10,24 @@ pub enum PatchCodec {
     /// As drawn: `SECTION_PATCHES`, each patch exactly `patch::patch_bytes(..)`.
     Raw,
     /// Packed: `SECTION_PACKED_STRIPS` (`packed.rs`, strips by `strip_codec.rs`), decoded
-    /// when loaded.
-    #[default]
+    /// when loaded; the default from commit 4fa9fc2 (2026-12-03) to issue 49.
     Packed,
     /// Packed as before commit 4fa9fc2 (2026-12-03): `SECTION_PACKED_PATCHES`, strips by
     /// meshoptimizer's index-sequence codec. Read (and written by tests, to prove it).
     PackedV1,
+    /// Entropy-coded: `SECTION_CODED_STRIPS` (`coded.rs`), decoded when loaded.
+    #[default]
+    Coded,
 }
 
 impl PatchCodec {
-    /// Its name in messages and JSON: `"raw"` or `"packed"`.
+    /// Its name in messages and JSON: `"raw"`, `"packed"`, `"packed-v1"` or `"coded"`.
     pub fn name(self) -> &'static str {
         match self {
             PatchCodec::Raw => "raw",
             PatchCodec::Packed => "packed",
             PatchCodec::PackedV1 => "packed-v1",
+            PatchCodec::Coded => "coded",
         }
     }
 
@@ -32,6 +37,7 @@ impl PatchCodec {
             PatchCodec::Raw => SECTION_PATCHES,
             PatchCodec::Packed => SECTION_PACKED_STRIPS,
             PatchCodec::PackedV1 => SECTION_PACKED_PATCHES,
+            PatchCodec::Coded => SECTION_CODED_STRIPS,
         }
     }
 
@@ -41,6 +47,7 @@ impl PatchCodec {
             SECTION_PATCHES => Some(PatchCodec::Raw),
             SECTION_PACKED_STRIPS => Some(PatchCodec::Packed),
             SECTION_PACKED_PATCHES => Some(PatchCodec::PackedV1),
+            SECTION_CODED_STRIPS => Some(PatchCodec::Coded),
             _ => None,
         }
     }

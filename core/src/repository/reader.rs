@@ -459,7 +459,7 @@ impl Repository {
                 out.copy_from_slice(stored);
                 Ok(())
             }
-            PatchCodec::Packed | PatchCodec::PackedV1 => {
+            PatchCodec::Packed | PatchCodec::PackedV1 | PatchCodec::Coded => {
                 let t = self.tet(tet_index)?;
                 unpack_patch(
                     stored,
@@ -486,7 +486,7 @@ impl Repository {
                 self.patch_bytes(tet_index)?;
                 PatchBytes::Mapped
             }
-            PatchCodec::Packed | PatchCodec::PackedV1 => {
+            PatchCodec::Packed | PatchCodec::PackedV1 | PatchCodec::Coded => {
                 let len = self.decoded_patch_bytes(tet_index)?;
                 let mut words = vec![0u64; len.div_ceil(8)];
                 self.read_patch(tet_index, &mut bytemuck::cast_slice_mut(&mut words)[..len])?;

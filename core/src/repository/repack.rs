@@ -32,7 +32,7 @@ fn stored(
             out.resize(at + size, 0);
             source.read_patch(i, &mut out[at..])
         }
-        PatchCodec::Packed | PatchCodec::PackedV1 => {
+        PatchCodec::Packed | PatchCodec::PackedV1 | PatchCodec::Coded => {
             scratch.resize(size, 0);
             source.read_patch(i, scratch)?;
             pack_patch(

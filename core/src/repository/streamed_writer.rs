@@ -14,8 +14,8 @@ use std::path::Path;
 use super::directory_check::BlobSizes;
 use super::format::{
     patch_checksum, DiamondRecord, Header, PatchCodec, SectionEntry, TetRecord, HEADER_SIZE,
-    SECTION_DIAMONDS, SECTION_ENTRY_SIZE, SECTION_IDS, SECTION_PACKED_PATCHES,
-    SECTION_PACKED_STRIPS, SECTION_PATCHES, SECTION_TETS, WRITTEN_SECTIONS,
+    SECTION_CODED_STRIPS, SECTION_DIAMONDS, SECTION_ENTRY_SIZE, SECTION_IDS,
+    SECTION_PACKED_PATCHES, SECTION_PACKED_STRIPS, SECTION_PATCHES, SECTION_TETS, WRITTEN_SECTIONS,
 };
 use super::reader::{corrupt, RepositoryError};
 use super::writer::{lay_out_directory, write_atomically};
@@ -110,7 +110,10 @@ fn write_streamed(
         match entry.kind {
             SECTION_DIAMONDS => out.write_all(bytemuck::cast_slice(&directory.diamonds))?,
             SECTION_TETS => out.write_all(bytemuck::cast_slice(&directory.tets))?,
-            SECTION_PATCHES | SECTION_PACKED_PATCHES | SECTION_PACKED_STRIPS => {
+            SECTION_PATCHES
+            | SECTION_PACKED_PATCHES
+            | SECTION_PACKED_STRIPS
+            | SECTION_CODED_STRIPS => {
                 for (i, t) in directory.tets.iter().enumerate() {
                     buffer.clear();
                     feed.patch(i, &mut buffer)?;

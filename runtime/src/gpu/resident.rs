@@ -355,7 +355,7 @@ fn decoded_ranges(
                 let t = &tets[i];
                 t.patch_offset..t.patch_offset + t.patch_bytes as u64
             }
-            PatchCodec::Packed | PatchCodec::PackedV1 => {
+            PatchCodec::Packed | PatchCodec::PackedV1 | PatchCodec::Coded => {
                 let size = repo.decoded_patch_bytes(i)? as u64;
                 at += size;
                 at - size..at
@@ -382,7 +382,7 @@ fn page_bytes<'a>(
         PatchCodec::Raw => Ok(PageBytes::Mapped(
             &repo.patch_blob()[range.start as usize..range.end as usize],
         )),
-        PatchCodec::Packed | PatchCodec::PackedV1 => {
+        PatchCodec::Packed | PatchCodec::PackedV1 | PatchCodec::Coded => {
             repo.verify_ids()?;
             // 8-aligned words, so each decoded patch is parsed in place.
             let mut words = vec![0u64; len.div_ceil(8)];
