@@ -342,6 +342,11 @@ fn build_in_pool(
         step,
         attributes,
         codec: config.codec,
+        // A staged mesh has one wedge a vertex (its staging refuses seams).
+        vertex_starts: match source {
+            Source::Memory(mesh) => mesh.vertex_starts(),
+            Source::Staged(_) | Source::Resumed => crate::mesh::VertexStarts::identity(),
+        },
     };
     let mut sink =
         |patches: &[(SimplexKey, &LivePatch)]| finished.borrow_mut().add(patches, &encoding);

@@ -29,6 +29,8 @@ pub(crate) fn validate(mesh: &InputMesh) -> Result<([f64; 3], [f64; 3]), BuildEr
             extent: hi[axis] - lo[axis],
         });
     }
+    // Connectivity is by vertex: two wedges of one vertex are one corner (`mesh.rs`).
+    let starts = mesh.vertex_starts();
     for (index, t) in mesh.triangles.iter().enumerate() {
         if let Some(&vertex) = t.iter().find(|&&v| v as usize >= mesh.positions.len()) {
             return Err(BuildError::IndexOutOfRange {
@@ -37,6 +39,7 @@ pub(crate) fn validate(mesh: &InputMesh) -> Result<([f64; 3], [f64; 3]), BuildEr
                 count: mesh.positions.len(),
             });
         }
+        let t = &t.map(|w| starts.canonical(w));
         // Such a triangle has no edge of its own and no strip can hold it: the repository
         // would silently lose it, and τ = 0 would not give back the input. (Triangles of zero
         // area over three distinct vertices, duplicates and coincident vertices are kept.)

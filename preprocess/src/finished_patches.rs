@@ -63,6 +63,9 @@ pub struct PatchEncoding {
     pub attributes: u32,
     /// Raw, or packed as it is encoded (`packed::pack_patch`).
     pub codec: PatchCodec,
+    /// Which wedges start a vertex: a patch vertex's stored global id is its vertex's
+    /// (`canonical`), so two wedges of one vertex share it (`mesh.rs`).
+    pub vertex_starts: crate::mesh::VertexStarts,
 }
 
 /// Every finished patch by simplex, and its encoded bytes.
@@ -297,13 +300,18 @@ impl BlobFeed for Feed<'_> {
 /// The encoding of `live`: its bytes, id stream and record fields.
 fn encode(live: &LivePatch, encoding: &PatchEncoding) -> (Vec<u8>, Vec<u8>, FinishedPatch) {
     let (tris, vertices) = (&live.triangles, &live.vertices);
-    let patch = build_patch(
+    let mut patch = build_patch(
         tris,
         vertices,
         encoding.numbering_table,
         encoding.bbox_min,
         encoding.step,
     );
+    if !encoding.vertex_starts.is_identity() {
+        for g in &mut patch.global_ids {
+            *g = encoding.vertex_starts.canonical(*g);
+        }
+    }
     let mut bytes = Vec::with_capacity(patch_bytes(
         patch.global_ids.len(),
         patch.strip.len(),

@@ -91,7 +91,23 @@ pub fn compute_missing_normals(mesh: &mut InputMesh) -> bool {
     if mesh.normals.is_some() {
         return false;
     }
-    mesh.normals = Some(vertex_normals(&mesh.positions, &mesh.triangles));
+    let starts = mesh.vertex_starts();
+    if starts.is_identity() {
+        mesh.normals = Some(vertex_normals(&mesh.positions, &mesh.triangles));
+        return true;
+    }
+    // Smooth across seams: a vertex's normal from all its wedges' triangles, given to each
+    // of its wedges (a texture seam is no crease).
+    let by_vertex: Vec<[u32; 3]> = mesh
+        .triangles
+        .iter()
+        .map(|t| t.map(|w| starts.canonical(w)))
+        .collect();
+    let mut normals = vertex_normals(&mesh.positions, &by_vertex);
+    for w in 0..normals.len() {
+        normals[w] = normals[starts.canonical(w as u32) as usize];
+    }
+    mesh.normals = Some(normals);
     true
 }
 
@@ -177,5 +193,29 @@ mod tests {
             assert_eq!(mesh.normals, before);
         }
         assert!(mesh.normals.is_some());
+    }
+
+    #[test]
+    fn wedges_of_one_vertex_get_its_normal() {
+        // A square of two triangles whose shared edge is a seam: vertices 1 and 2 each have a
+        // second wedge (ids 2 and 4), used by the second triangle.
+        let mut mesh = InputMesh {
+            positions: vec![
+                [0.0, 0.0, 0.0],
+                [1.0, 0.0, 0.0],
+                [1.0, 0.0, 0.0],
+                [0.0, 1.0, 0.0],
+                [0.0, 1.0, 0.0],
+                [1.0, 1.0, 0.2],
+            ],
+            triangles: vec![[0, 1, 3], [4, 2, 5]],
+            ..Default::default()
+        };
+        assert!(compute_missing_normals(&mut mesh));
+        let n = mesh.normals.unwrap();
+        assert_eq!(n[1], n[2]);
+        assert_eq!(n[3], n[4]);
+        // Both triangles count at the seam: not the first triangle's (0, 0, 1) alone.
+        assert!(n[1][2] < 0.999 && n[1][2] > 0.9, "{:?}", n[1]);
     }
 }

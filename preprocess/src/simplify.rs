@@ -43,6 +43,7 @@ mod local_edges;
 mod partial_level;
 mod positions;
 mod result_spill;
+mod vertices;
 
 use std::borrow::Cow;
 
@@ -68,6 +69,7 @@ pub(crate) use positions::numbering_table;
 use positions::separate_coincident;
 pub use positions::{simplifier_position, ulp_step};
 use result_spill::{Held, Payload, ResultSpill};
+use vertices::ByVertex;
 
 pub use current_mesh::CurrentMesh;
 pub use levels::LevelState;
@@ -234,7 +236,7 @@ pub fn simplify_hierarchy(
         .par_iter()
         .map(|&p| simplifier_position(frame, p))
         .collect();
-    separate_coincident(&mut positions);
+    separate_coincident(&mut positions, current.vertex_starts());
     let leaves: Vec<(SimplexKey, LivePatch)> = hierarchy
         .leaf_triangles
         .par_iter()
@@ -298,18 +300,23 @@ fn simplify_diamond(
     spill: &ResultSpill,
 ) -> std::io::Result<DiamondResult> {
     let (gathered, source, vertices) = gather(diamond, patches)?;
+    // `local` numbers wedges (what meshopt simplifies, what patches draw); `by_vertex` the
+    // vertices where a seam makes them differ, and everything about connectivity is theirs.
     let local = local_mesh(&gathered, ctx.numbering_table);
+    let by_vertex = ByVertex::of(&local, current);
+    let vmesh = by_vertex.as_ref().map_or(&local, |b| &b.mesh);
+    let vertex_of = by_vertex.as_ref().map(|b| &b.vertex_of[..]);
     // Interior vertices: every triangle using them is in the gathered set.
-    let interior: Vec<bool> = local
+    let interior: Vec<bool> = vmesh
         .global_of
         .iter()
-        .zip(&local.uses)
+        .zip(&vmesh.uses)
         .map(|(&g, &n)| n == current.use_count(g))
         .collect();
-    let gathered_edges = LocalEdges::count(interior.len(), &local.indices);
+    let gathered_edges = LocalEdges::count(interior.len(), &vmesh.indices);
     let mut lock = lock_vertices(&gathered_edges, &interior, ctx.settings.keep_borders);
     if !extra_locks.is_empty() {
-        for (l, g) in lock.iter_mut().zip(&local.global_of) {
+        for (l, g) in lock.iter_mut().zip(&vmesh.global_of) {
             *l |= extra_locks.contains(g);
         }
     }
@@ -317,8 +324,8 @@ fn simplify_diamond(
     // locked, meshopt may fold two of the sheets onto each other and drop them both, leaving
     // the edge with one triangle where the input has three.
     if current.may_have_nonmanifold() {
-        for (t, tri) in local.indices.chunks_exact(3).zip(&gathered) {
-            if triangle_edges(tri)
+        for (t, tri) in vmesh.indices.chunks_exact(3).zip(&gathered) {
+            if triangle_edges(&current.starts_of(*tri))
                 .iter()
                 .any(|&(a, b)| current.is_nonmanifold(edge_key(a, b)))
             {
@@ -332,16 +339,24 @@ fn simplify_diamond(
     if ctx.settings.fault_ignore_locks {
         lock.fill(false);
     }
+    // A locked vertex locks all its wedges.
+    let wedge_lock: Vec<bool> = match vertex_of {
+        Some(v) => v.iter().map(|&l| lock[l as usize]).collect(),
+        None => lock,
+    };
     let target = target_triangles(ctx, diamond, local.indices.len() / 3);
     let (mut simplified, estimate) = simplify_locked(
         &local.indices,
         &local.global_of,
-        &lock,
+        &wedge_lock,
         &vertices,
         &ctx.settings,
         target,
     );
-    cancel_coincident_pairs(&mut simplified, &local.indices, interior.len());
+    if let Some(b) = &by_vertex {
+        b.drop_degenerate(&mut simplified);
+    }
+    cancel_coincident_pairs(&mut simplified, &vmesh.indices, interior.len(), vertex_of);
     let error = if own_error_is_bound(ctx, diamond) {
         if simplified.is_empty() {
             // Everything went (a small piece with no vertex shared or locked): no output
@@ -353,7 +368,9 @@ fn simplify_diamond(
         // meshopt's absolute error is in model sizes.
         (estimate as f64 * ctx.frame.model_size()) as f32
     };
-    let output_edges = LocalEdges::count(interior.len(), &simplified);
+    let simplified_vertices = by_vertex.as_ref().map(|b| b.vertices(&simplified));
+    let vsimplified = simplified_vertices.as_deref().unwrap_or(&simplified);
+    let output_edges = LocalEdges::count(interior.len(), vsimplified);
     let check = border_break(
         &gathered_edges,
         &output_edges,
@@ -361,17 +378,17 @@ fn simplify_diamond(
         ctx.settings.keep_borders,
     );
     let global = |b: BorderBreak| BorderBreak {
-        a: local.global_of[b.a as usize],
-        b: local.global_of[b.b as usize],
+        a: vmesh.global_of[b.a as usize],
+        b: vmesh.global_of[b.b as usize],
         ..b
     };
     let patches = distribute(ctx, diamond, &local, &source, &simplified, &vertices);
     let mut effect = merge_effect(
-        &local,
+        vmesh,
         &interior,
         &gathered_edges,
         &output_edges,
-        &simplified,
+        vsimplified,
         current,
     );
     let vertices = std::mem::take(&mut effect.changes.vertices);

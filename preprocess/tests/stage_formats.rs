@@ -60,7 +60,9 @@ fn same_as_load_mesh(path: &Path, budget: usize) -> usize {
 }
 
 /// A grid of `n` × `n` quads over a bump, with a seam of duplicated vertices down the middle
-/// (welding merges them), attributes that vary per vertex, and a degenerate triangle.
+/// (welding merges them), attributes that vary per vertex (the same on both copies of the
+/// seam, `attribute_ids`: different ones would be wedges, which staging refuses), and a
+/// degenerate triangle.
 struct Grid {
     positions: Vec<[f64; 3]>,
     triangles: Vec<[u32; 3]>,
@@ -96,6 +98,14 @@ fn grid(n: usize) -> Grid {
     }
 }
 
+/// For each vertex, the first vertex at its position: what its attributes derive from.
+fn attribute_ids(g: &Grid) -> Vec<usize> {
+    let mut first = std::collections::HashMap::new();
+    (g.positions.iter().enumerate())
+        .map(|(i, p)| *first.entry(p.map(f64::to_bits)).or_insert(i))
+        .collect()
+}
+
 fn write(dir: &Path, name: &str, bytes: &[u8]) -> PathBuf {
     let path = dir.join(name);
     std::fs::write(&path, bytes).unwrap();
@@ -115,7 +125,9 @@ fn off(g: &Grid, prefix: &str) -> String {
         g.positions.len(),
         g.triangles.len()
     );
+    let ids = attribute_ids(g);
     for (i, p) in g.positions.iter().enumerate() {
+        let i = ids[i];
         write!(s, "{} {} {}", p[0], p[1], p[2]).unwrap();
         if prefix.contains('N') {
             write!(s, " 0 {} 1", (i % 7) as f64 / 7.0).unwrap();
@@ -176,7 +188,9 @@ fn gltf(g: &Grid, attributes: bool, external: Option<&str>) -> (Vec<u8>, Vec<u8>
     let n = g.positions.len();
     let stride = if attributes { 28 } else { 12 };
     let mut bin = Vec::new();
+    let ids = attribute_ids(g);
     for (i, p) in g.positions.iter().enumerate() {
+        let i = ids[i];
         bin.extend(p.iter().flat_map(|&x| (x as f32).to_le_bytes()));
         if attributes {
             let normal = [0.0f32, (i % 3) as f32, 1.0];
@@ -242,7 +256,7 @@ enum Corners {
     /// `v//vn`, a normal per vertex, in vertex order.
     Normals,
     /// `v/vt/vn`: texture coordinates shared by four vertices each and listed backwards,
-    /// normals by vertex; a vertex's corners disagree (its first counts).
+    /// normals by vertex; a vertex's corners disagree: wedges in memory, refused staged.
     Both,
     /// `v/vt` on every corner but the last face's: no vertex keeps one.
     MostlyTextured,
@@ -253,15 +267,16 @@ enum Corners {
 fn obj(g: &Grid, colors: Option<bool>, corners: Corners) -> String {
     let mut s = String::from("# grid\no grid\n");
     let n = g.positions.len();
+    let ids = attribute_ids(g);
     for (i, p) in g.positions.iter().enumerate() {
         write!(s, "v {} {} {}", p[0], p[1], p[2]).unwrap();
         let last = i + 1 == n;
         if colors == Some(true) || (colors == Some(false) && !last) {
-            write!(s, " {} 0.5 1", (i % 10) as f64 / 10.0).unwrap();
+            write!(s, " {} 0.5 1", (ids[i] % 10) as f64 / 10.0).unwrap();
         }
         s.push('\n');
         if corners != Corners::Plain {
-            writeln!(s, "vn 0 0 {}", 1.0 + i as f64).unwrap();
+            writeln!(s, "vn 0 0 {}", 1.0 + ids[i] as f64).unwrap();
         }
         if i % 4 == 0 && corners != Corners::Plain {
             writeln!(s, "vt {} 0.25", i as f64 / n as f64).unwrap();
@@ -324,6 +339,20 @@ fn off_stl_and_obj_stage_as_they_load() {
         .collect();
     for (name, bytes) in files.iter().chain(&gz) {
         let path = write(dir.path(), name, bytes);
+        if name.starts_with("both.obj") {
+            // Corners that disagree: wedges in memory, which staging refuses (for now).
+            let wedges = load_mesh(&path).unwrap().mesh;
+            assert!(!wedges.vertex_starts().is_identity());
+            let staging = tempfile::tempdir().unwrap();
+            let refused = stage_mesh(&path, staging.path(), 64 << 10)
+                .err()
+                .expect("refused");
+            assert!(
+                refused.to_string().contains("does not keep wedges"),
+                "{refused}"
+            );
+            continue;
+        }
         // 64 KiB: the weld's sorts spill.
         same_as_load_mesh(&path, 64 << 10);
     }
@@ -361,7 +390,7 @@ fn a_real_scan_streams_as_stl_off_obj_and_glb_within_a_bounded_heap() {
         write(
             dir.path(),
             "dragon.obj",
-            obj(&g, None, Corners::Both).as_bytes(),
+            obj(&g, None, Corners::Normals).as_bytes(),
         ),
     ];
     drop(g);

@@ -1,6 +1,8 @@
 //! A cut as one welded mesh: the triangles of the patches of a set of simplices, their vertices
-//! merged by global vertex id, positions in model units and the stored attributes decoded, for
-//! exporting what a view draws (`tessera view`'s PLY export).
+//! merged by global vertex id and stored attributes (the wedges of one vertex, which share its
+//! id and differ in attributes at a texture seam or a crease, stay apart), positions in model
+//! units and the stored attributes decoded, for exporting what a view draws (`tessera view`'s
+//! PLY export).
 //!
 //! Locked diamond borders share global ids, so a conforming cut of a closed input welds into a
 //! watertight mesh (the tests in `tests/tests/cut_mesh.rs` check it).
@@ -12,7 +14,8 @@ use super::reader::{Repository, RepositoryError};
 use crate::cut::{diamond_rhos, select_stateless};
 use crate::metric::ScreenSpaceMetric;
 
-/// A welded triangle mesh: one vertex per global vertex id of the cut.
+/// A welded triangle mesh: one vertex per wedge of the cut (global vertex id and attributes;
+/// one per global id where the input has no seams).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct CutMesh {
     /// Model-space positions (dequantised, f64).
@@ -37,7 +40,8 @@ impl CutMesh {
     }
 }
 
-/// The triangles of the patches of `tets` (tet indices, each once), welded by global vertex id.
+/// The triangles of the patches of `tets` (tet indices, each once), welded by global vertex id
+/// and stored attributes.
 /// Vertices are numbered in order of first use; the attribute arrays are `Some` iff the
 /// repository's attribute mask has them.
 pub fn cut_mesh(repo: &Repository, tets: &[u32]) -> Result<CutMesh, RepositoryError> {
@@ -56,7 +60,7 @@ pub fn cut_mesh(repo: &Repository, tets: &[u32]) -> Result<CutMesh, RepositoryEr
         .map(|r| r.triangle_count as usize)
         .sum();
     mesh.indices.reserve(3 * triangles);
-    let mut welded: HashMap<u32, u32> = HashMap::new();
+    let mut welded: HashMap<(u32, [u32; 4]), u32> = HashMap::new();
     let mut local: Vec<u32> = Vec::new();
     for &t in tets {
         let patch = repo.patch(t as usize)?;
@@ -64,7 +68,18 @@ pub fn cut_mesh(repo: &Repository, tets: &[u32]) -> Result<CutMesh, RepositoryEr
         local.clear();
         for (v, id) in view.global_ids().enumerate() {
             let next = mesh.positions.len() as u32;
-            let index = *welded.entry(id).or_insert(next);
+            // The stored attributes as they are stored: equal bits, one wedge.
+            let mut wedge = [0u32; 4];
+            if let Some(n) = view.normals() {
+                wedge[0] = (n[v][0] as u16 as u32) << 16 | n[v][1] as u16 as u32;
+            }
+            if let Some(c) = view.colors() {
+                wedge[1] = u32::from_le_bytes(c[v]);
+            }
+            if let Some(uv) = view.uvs() {
+                wedge[2..].copy_from_slice(&uv[v].map(f32::to_bits));
+            }
+            let index = *welded.entry((id, wedge)).or_insert(next);
             if index == next {
                 mesh.positions
                     .push(dequantize_position(view.position(v), bbox_min, step));

@@ -5,6 +5,11 @@
 //! (found with a bit a vertex) to another, and the attributes are joined into vertex order
 //! at the end by two external sorts each: the first corners by attribute index (the values
 //! picked in one pass over their file), the picked values back by vertex.
+//!
+//! The in-memory import keeps a vertex's corners with other indices as wedges (`obj.rs`),
+//! which the out-of-core build does not yet: the other corners are staged too, and a vertex
+//! whose kept attribute's index differs between its corners refuses the staging
+//! (`wedge_check::refused`; an OBJ repeating a value under two indices is refused as well).
 
 use std::io;
 use std::path::{Path, PathBuf};
@@ -25,6 +30,8 @@ pub struct CornerStager {
     /// (vertex, texture coordinate index, normal index) of each vertex's first corner, in the
     /// order they were met.
     firsts: RecordWriter<[u32; 3]>,
+    /// (vertex, texture coordinate index, normal index) of every later corner with either.
+    others: RecordWriter<[u32; 3]>,
     texcoords: RecordWriter<[f32; 2]>,
     normals: RecordWriter<[f32; 3]>,
 }
@@ -35,6 +42,7 @@ impl CornerStager {
             dir: dir.to_path_buf(),
             seen: Vec::new(),
             firsts: RecordFile::create(dir)?,
+            others: RecordFile::create(dir)?,
             texcoords: RecordFile::create(dir)?,
             normals: RecordFile::create(dir)?,
         })
@@ -60,6 +68,8 @@ impl CornerStager {
         if self.seen[word] >> bit & 1 == 0 {
             self.seen[word] |= 1 << bit;
             self.firsts.push(&[v, vt, vn])?;
+        } else if vt != NONE || vn != NONE {
+            self.others.push(&[v, vt, vn])?;
         }
         Ok(())
     }
@@ -79,11 +89,17 @@ impl CornerStager {
             dir,
             seen,
             firsts,
+            others,
             texcoords,
             normals: normal_values,
         } = self;
         drop(seen);
         let firsts = firsts.finish()?;
+        let others = others.finish()?;
+        if uvs || normals {
+            refuse_other_corners(&firsts, &others, [uvs, normals], budget, &dir)?;
+        }
+        drop(others);
         let texcoords = texcoords.finish()?;
         let normal_values = normal_values.finish()?;
         let uvs = match uvs {
@@ -104,6 +120,47 @@ impl CornerStager {
         };
         Ok((uvs, normals))
     }
+}
+
+/// Fails with `wedge_check::refused` where a later corner of a vertex (`others`) has another
+/// index than its first corner (`firsts`) for a kept attribute (`kept`: texture coordinates,
+/// normals): the in-memory import would keep it as a wedge.
+fn refuse_other_corners(
+    firsts: &RecordFile<[u32; 3]>,
+    others: &RecordFile<[u32; 3]>,
+    kept: [bool; 2],
+    budget: usize,
+    dir: &Path,
+) -> io::Result<()> {
+    if others.len() == 0 {
+        return Ok(());
+    }
+    let mut error = None;
+    let firsts = sort_external(ok_values(firsts.read()?, &mut error), budget / 4, dir)?;
+    check(error.take())?;
+    let others = sort_external(ok_values(others.read()?, &mut error), budget / 4, dir)?;
+    check(error.take())?;
+    let mut firsts = firsts.peekable();
+    for other in others {
+        let other = other?;
+        while firsts
+            .peek()
+            .is_some_and(|f| f.as_ref().map_or(true, |f| f[0] < other[0]))
+        {
+            firsts.next().expect("peeked")?;
+        }
+        let Some(first) = firsts.peek() else {
+            return Err(io::Error::other("a corner without a first corner"));
+        };
+        let first = *first
+            .as_ref()
+            .map_err(|e| io::Error::new(e.kind(), e.to_string()))?;
+        let differs = (1..3).any(|k| kept[k - 1] && first[k] != other[k]);
+        if first[0] != other[0] || differs {
+            return Err(super::wedge_check::refused());
+        }
+    }
+    Ok(())
 }
 
 /// `values[first[slot]]` for each vertex's first corner, in vertex order (zero where the
@@ -181,11 +238,10 @@ mod tests {
             s.texcoord([i as f32, 0.5]).unwrap();
             s.normal([0.0, 0.0, i as f32]).unwrap();
         }
-        // Vertex 3 first with (4, 1), then with (0, 0): the first counts. Vertex 1 unused,
-        // vertex 0 without a normal.
+        // Vertex 3 twice with (4, 1). Vertex 1 unused, vertex 0 without a normal.
         s.corner(3, 4, 1).unwrap();
         s.corner(0, 2, NONE).unwrap();
-        s.corner(3, 0, 0).unwrap();
+        s.corner(3, 4, 1).unwrap();
         s.corner(2, 2, 3).unwrap();
         // A budget of 0: the sorts spill a run a record.
         let (uvs, normals) = s.finish(5, true, true, 0).unwrap();
@@ -204,6 +260,32 @@ mod tests {
                 [0.0, 0.0, 1.0],
                 [0.0, 0.0, 0.0]
             ]
+        );
+    }
+
+    /// A vertex whose corners name other values keeps them as wedges in memory: refused here.
+    #[test]
+    fn corners_that_disagree_are_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let stager = || {
+            let mut s = CornerStager::new(dir.path()).unwrap();
+            for i in 0..3 {
+                s.texcoord([i as f32, 0.5]).unwrap();
+                s.normal([0.0, 0.0, i as f32]).unwrap();
+            }
+            s.corner(1, 0, 0).unwrap();
+            s.corner(0, 1, 1).unwrap();
+            s.corner(1, 2, 0).unwrap(); // another texture coordinate, the same normal
+            s
+        };
+        let refused = stager().finish(2, true, true, 0).err().unwrap();
+        assert_eq!(refused.kind(), io::ErrorKind::Unsupported);
+        // Where only the normals are kept, the corners agree.
+        let (uvs, normals) = stager().finish(2, false, true, 0).unwrap();
+        assert!(uvs.is_none());
+        assert_eq!(
+            normals.unwrap().read_all().unwrap(),
+            [[0.0, 0.0, 1.0], [0.0; 3]]
         );
     }
 }

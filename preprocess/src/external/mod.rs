@@ -21,6 +21,7 @@ pub mod staged;
 pub mod temp_usage;
 pub mod varint;
 pub mod vertex_normals;
+pub mod wedge_check;
 pub mod weld;
 mod weld_keys;
 

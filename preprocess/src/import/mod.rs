@@ -33,7 +33,8 @@ use input::Input;
 pub struct ImportReport {
     /// The welded, cleaned mesh.
     pub mesh: InputMesh,
-    /// Vertices in the file.
+    /// Vertices in the file (an OBJ read into memory: and one for each further `vt`/`vn`
+    /// combination of a vertex's face corners whose kept attributes differ, `obj.rs`).
     pub raw_vertices: usize,
     /// Triangles in the file, after fan-triangulating polygons.
     pub raw_triangles: usize,

@@ -3,11 +3,14 @@
 //! into one mesh; polygons fan-triangulated. Other statements (`o`, `g`, `s`, `usemtl`, `mtllib`,
 //! `l`, `p`, ...) are ignored.
 //!
-//! A vertex takes its texture coordinate and normal from the first face corner that uses it
-//! (OBJ indexes them separately); they are kept only if every face corner has them, colours
-//! only if every `v` has them. One reader serves both imports: positions and colours go to a
-//! `MeshSink`, texture coordinates, normals and corners to a [`CornerTracker`] (in memory, or
-//! staged on disk for the out-of-core build and joined into vertex order at the end).
+//! OBJ indexes texture coordinates and normals apart from positions. Read into memory, every
+//! distinct `v/vt/vn` combination a face corner uses is a raw vertex of its own (the weld then
+//! keeps those that differ in value as wedges of one vertex: texture seams and hard edges
+//! survive); staged for the out-of-core build, a vertex takes those of the first face corner
+//! that uses it. They are kept only if every face corner has them, colours only if every `v`
+//! has them. One reader serves both imports: positions and colours go to a `MeshSink`,
+//! texture coordinates, normals and corners to a [`CornerTracker`] (in memory, or staged on
+//! disk and joined into vertex order at the end).
 
 use super::error::{show, ImportErrorKind as K, Location};
 use super::input::{check_finite, fan, parse_float, parse_int, Input};
@@ -61,6 +64,11 @@ pub(crate) fn read(input: &mut Input) -> Result<RawMesh, K> {
     let mut corners = CornerAttributes::default();
     let (mut mesh, facts) = read_into(input, in_memory, &mut corners)?;
     let keep = |all: bool, of: &[u32]| all && facts.triangles && of.iter().any(|&i| i != UNSET);
+    let kept = [
+        keep(facts.all_vt, &corners.vt_of),
+        keep(facts.all_vn, &corners.vn_of),
+    ];
+    corners.add_extra_vertices(&mut mesh, facts.vertices, kept)?;
     mesh.uvs = keep(facts.all_vt, &corners.vt_of).then(|| {
         (corners.vt_of.iter())
             .map(|&i| {
@@ -88,23 +96,88 @@ pub(crate) trait CornerTracker {
     fn vertex(&mut self);
     fn texcoord(&mut self, uv: [f32; 2]) -> Result<(), K>;
     fn normal(&mut self, n: [f32; 3]) -> Result<(), K>;
-    fn corner(&mut self, v: u32, vt: Option<u32>, vn: Option<u32>) -> Result<(), K>;
+    /// A face corner; returns the raw vertex the face uses there.
+    fn corner(&mut self, v: u32, vt: Option<u32>, vn: Option<u32>) -> Result<u32, K>;
 }
 
 /// The texture coordinates and normals an OBJ's face corners give its vertices, in memory:
-/// the `vt` and `vn` values and, per vertex, the index of its first corner's.
+/// the `vt` and `vn` values and, per vertex, the indices of its first corner's; the corners
+/// with other indices get extra vertices (`add_extra_vertices`).
 #[derive(Default)]
 struct CornerAttributes {
     texcoords: Vec<[f32; 2]>,
     normals: Vec<[f32; 3]>,
     vt_of: Vec<u32>,
     vn_of: Vec<u32>,
+    /// Whether a corner used the vertex yet.
+    seen: Vec<bool>,
+    /// (vertex, vt, vn) of each extra vertex, and its number by those.
+    extra: Vec<[u32; 3]>,
+    extra_of: rustc_hash::FxHashMap<[u32; 3], u32>,
+}
+
+/// Where a face names an extra vertex until the file's vertex count is known: `EXTRA | k`.
+const EXTRA: u32 = 1 << 31;
+
+impl CornerAttributes {
+    /// Appends the extra vertices (a copy of their vertex's position and colour, their own
+    /// `vt` and `vn`) after the file's `vertices`, and points the faces at them; an extra
+    /// vertex that differs from its vertex's first corner only in an attribute the mesh does
+    /// not keep (`kept`: texture coordinates, normals) is that vertex.
+    fn add_extra_vertices(
+        &mut self,
+        mesh: &mut RawMesh,
+        vertices: u64,
+        kept: [bool; 2],
+    ) -> Result<(), K> {
+        if self.extra.is_empty() {
+            return Ok(());
+        }
+        let differs = |&[v, vt, vn]: &[u32; 3], this: &Self| {
+            kept[0] && vt != this.vt_of[v as usize] || kept[1] && vn != this.vn_of[v as usize]
+        };
+        let real = self.extra.iter().filter(|e| differs(e, self)).count();
+        if vertices + real as u64 > EXTRA as u64 {
+            return Err(K::TooLarge {
+                at: Location::None,
+                msg: format!(
+                    "{vertices} vertices and {} more for their texture coordinate and normal \
+                     combinations: at most {EXTRA} in memory",
+                    real
+                ),
+            });
+        }
+        let mut id_of = Vec::with_capacity(self.extra.len());
+        for k in 0..self.extra.len() {
+            let [v, vt, vn] = self.extra[k];
+            if !differs(&self.extra[k], self) {
+                id_of.push(v);
+                continue;
+            }
+            id_of.push(mesh.positions.len() as u32);
+            mesh.positions.push(mesh.positions[v as usize]);
+            if let Some(c) = &mut mesh.colors {
+                c.push(c[v as usize]);
+            }
+            self.vt_of.push(vt);
+            self.vn_of.push(vn);
+        }
+        for t in &mut mesh.triangles {
+            for v in t {
+                if *v >= EXTRA {
+                    *v = id_of[(*v - EXTRA) as usize];
+                }
+            }
+        }
+        Ok(())
+    }
 }
 
 impl CornerTracker for CornerAttributes {
     fn vertex(&mut self) {
         self.vt_of.push(UNSET);
         self.vn_of.push(UNSET);
+        self.seen.push(false);
     }
     fn texcoord(&mut self, uv: [f32; 2]) -> Result<(), K> {
         self.texcoords.push(uv);
@@ -114,18 +187,35 @@ impl CornerTracker for CornerAttributes {
         self.normals.push(n);
         Ok(())
     }
-    fn corner(&mut self, v: u32, vt: Option<u32>, vn: Option<u32>) -> Result<(), K> {
-        if let Some(vt) = vt {
-            if self.vt_of[v as usize] == UNSET {
-                self.vt_of[v as usize] = vt;
-            }
+    fn corner(&mut self, v: u32, vt: Option<u32>, vn: Option<u32>) -> Result<u32, K> {
+        let (vt, vn) = (vt.unwrap_or(UNSET), vn.unwrap_or(UNSET));
+        let at = v as usize;
+        if !self.seen[at] {
+            self.seen[at] = true;
+            (self.vt_of[at], self.vn_of[at]) = (vt, vn);
+            return Ok(v);
         }
-        if let Some(vn) = vn {
-            if self.vn_of[v as usize] == UNSET {
-                self.vn_of[v as usize] = vn;
-            }
+        if (self.vt_of[at], self.vn_of[at]) == (vt, vn) {
+            return Ok(v);
         }
-        Ok(())
+        if v >= EXTRA {
+            return Err(K::TooLarge {
+                at: Location::None,
+                msg: format!("vertex {v} with several texture coordinates or normals: at most {EXTRA} vertices in memory"),
+            });
+        }
+        let next = self.extra.len() as u32;
+        let k = *self.extra_of.entry([v, vt, vn]).or_insert(next);
+        if k == next {
+            if next >= EXTRA {
+                return Err(K::TooLarge {
+                    at: Location::None,
+                    msg: format!("more than {EXTRA} texture coordinate and normal combinations"),
+                });
+            }
+            self.extra.push([v, vt, vn]);
+        }
+        Ok(EXTRA | k)
     }
 }
 
@@ -137,9 +227,10 @@ impl CornerTracker for CornerStager {
     fn normal(&mut self, n: [f32; 3]) -> Result<(), K> {
         CornerStager::normal(self, n).map_err(K::Io)
     }
-    fn corner(&mut self, v: u32, vt: Option<u32>, vn: Option<u32>) -> Result<(), K> {
+    fn corner(&mut self, v: u32, vt: Option<u32>, vn: Option<u32>) -> Result<u32, K> {
         let (vt, vn) = (vt.unwrap_or(NONE), vn.unwrap_or(NONE));
-        CornerStager::corner(self, v, vt, vn).map_err(K::Io)
+        CornerStager::corner(self, v, vt, vn).map_err(K::Io)?;
+        Ok(v)
     }
 }
 
@@ -221,8 +312,7 @@ pub(crate) fn read_into<S: MeshSink>(
                     .transpose()?;
                 facts.all_vt &= vt.is_some();
                 facts.all_vn &= vn.is_some();
-                corners.corner(v, vt, vn)?;
-                poly.push(v);
+                poly.push(corners.corner(v, vt, vn)?);
             }
             input.end_line(true)?;
             fanned.clear();

@@ -8,6 +8,11 @@
 //! is the input's own non-manifold edges (more than two triangles), which are few and whose
 //! counts are tracked here, so that every diamond can protect their sheets before simplifying.
 //!
+//! Connectivity is the vertices' (`mesh.rs`): counts, edges and the lock rule are by vertex id
+//! (a wedge's `canonical`), never by wedge, so a texture seam or a crease is an inner edge like
+//! any other, and a locked vertex locks all its wedges. The current mesh keeps the wedges'
+//! `VertexStarts` for the whole build.
+//!
 //! The vertex counts are split into shards by ranges of vertex ids. A merge is a commutative
 //! sum of count changes, so every shard applies the changes that fall in its range
 //! independently and in parallel, and the final counts do not depend on the order or the
@@ -22,7 +27,7 @@ use rustc_hash::FxHashMap as HashMap;
 
 use super::input_edges::{nonmanifold_edges_within, TriangleChunks, TrianglePasses};
 use crate::external::RecordFile;
-use crate::mesh::InputMesh;
+use crate::mesh::{InputMesh, VertexStarts};
 
 /// Ranges of shards the input's use counts are counted in side by side (`count_uses`).
 const USE_COUNT_RANGES: usize = 64;
@@ -69,12 +74,16 @@ pub struct CurrentMesh {
     /// raises an edge's count above two (see `simplify_hierarchy`), so only these can have
     /// more in the current mesh.
     nonmanifold: HashMap<u64, u32>,
+    /// Which wedges start a vertex: every count and edge here is by vertex (`canonical`).
+    starts: VertexStarts,
 }
 
 impl CurrentMesh {
     /// The input mesh's counts.
     pub fn new(mesh: &InputMesh) -> Self {
-        Self::with_edges(mesh, nonmanifold_edges(mesh))
+        let starts = mesh.vertex_starts();
+        let nonmanifold = nonmanifold_edges(&mesh.triangles, &starts);
+        Self::with_edges(mesh, nonmanifold, starts)
     }
 
     /// The input mesh's counts, its non-manifold edges found by sorting its edge keys within
@@ -85,13 +94,14 @@ impl CurrentMesh {
         budget: usize,
         temp_dir: &std::path::Path,
     ) -> std::io::Result<Self> {
+        let starts = mesh.vertex_starts();
         let nonmanifold = nonmanifold_edges_within(
             mesh.positions.len(),
-            &InMemory(&mesh.triangles),
+            &InMemory(&mesh.triangles, &starts),
             budget,
             temp_dir,
         )?;
-        Ok(Self::with_edges(mesh, nonmanifold))
+        Ok(Self::with_edges(mesh, nonmanifold, starts))
     }
 
     /// The counts of a mesh on disk (`new_within`'s, never loading it).
@@ -103,15 +113,45 @@ impl CurrentMesh {
         let vertex_count = staged.positions.len() as usize;
         let nonmanifold =
             nonmanifold_edges_within(vertex_count, &Staged(&staged.triangles), budget, temp_dir)?;
-        let mut current = Self::zeroed(vertex_count, nonmanifold);
+        // A staged mesh has one wedge a vertex (the staging refuses seams).
+        let mut current = Self::zeroed(vertex_count, nonmanifold, VertexStarts::identity());
         current.count_uses(staged.triangles.read()?)?;
         Ok(current)
     }
 
-    fn with_edges(mesh: &InputMesh, nonmanifold: HashMap<u64, u32>) -> Self {
-        let mut current = Self::zeroed(mesh.positions.len(), nonmanifold);
-        let Ok(()) = current.count_uses(mesh.triangles.iter().map(|&t| Ok::<_, Infallible>(t)));
+    fn with_edges(mesh: &InputMesh, nonmanifold: HashMap<u64, u32>, starts: VertexStarts) -> Self {
+        // A copy (a bit a wedge, nothing without seams) to map the corners while counting.
+        let map = starts.clone();
+        let mut current = Self::zeroed(mesh.positions.len(), nonmanifold, starts);
+        let triangles = mesh.triangles.iter();
+        let Ok(()) = current
+            .count_uses(triangles.map(|&t| Ok::<_, Infallible>(t.map(|w| map.canonical(w)))));
         current
+    }
+
+    /// Which wedges start a vertex.
+    pub fn vertex_starts(&self) -> &VertexStarts {
+        &self.starts
+    }
+
+    /// The vertex of wedge `w`.
+    #[inline]
+    pub fn canonical(&self, w: u32) -> u32 {
+        self.starts.canonical(w)
+    }
+
+    /// Triangles of wedges as triangles of vertices (borrowed as they are without seams).
+    pub(super) fn vertex_triangles<'t>(&self, t: Cow<'t, [[u32; 3]]>) -> Cow<'t, [[u32; 3]]> {
+        match self.starts.is_identity() {
+            true => t,
+            false => Cow::Owned(t.iter().map(|&t| self.starts_of(t)).collect()),
+        }
+    }
+
+    /// A triangle of wedges as a triangle of vertices.
+    #[inline]
+    pub fn starts_of(&self, t: [u32; 3]) -> [u32; 3] {
+        t.map(|w| self.starts.canonical(w))
     }
 
     /// Adds a use for each corner of `triangles`, a chunk of triangles at a time: the chunk's
@@ -168,13 +208,14 @@ impl CurrentMesh {
 
     /// Zero counts for `vertex_count` vertices, straight in their shards (never a whole-mesh
     /// array beside them: at 50 M vertices that copy alone was 200 MB).
-    fn zeroed(vertex_count: usize, nonmanifold: HashMap<u64, u32>) -> Self {
+    fn zeroed(vertex_count: usize, nonmanifold: HashMap<u64, u32>, starts: VertexStarts) -> Self {
         let shards = (0..shard_count(vertex_count))
             .map(|i| Shard::zeroed(shard_len(vertex_count, i)))
             .collect();
         CurrentMesh {
             shards,
             nonmanifold,
+            starts,
         }
     }
 
@@ -192,6 +233,7 @@ impl CurrentMesh {
             e.u64(k);
             e.u32(n);
         });
+        e.list(self.starts.words(), |e, &w| e.u64(w));
     }
 
     /// The counts `encode` wrote for `vertex_count` vertices.
@@ -217,9 +259,14 @@ impl CurrentMesh {
             .list(12, |d| Ok((d.u64()?, d.u32()?)))?
             .into_iter()
             .collect();
+        let words = d.list(8, |d| d.u64())?;
+        if !words.is_empty() && words.len() != vertex_count.div_ceil(64) {
+            return Err(damaged());
+        }
         Ok(CurrentMesh {
             shards,
             nonmanifold,
+            starts: VertexStarts::from_words(words),
         })
     }
 
@@ -298,8 +345,17 @@ impl CurrentMesh {
     }
 }
 
-/// An input's triangles in memory, passed over a chunk at a time.
-struct InMemory<'a>(&'a [[u32; 3]]);
+/// An input's triangles in memory, as triangles of vertices, passed over a chunk at a time.
+struct InMemory<'a>(&'a [[u32; 3]], &'a VertexStarts);
+
+impl InMemory<'_> {
+    fn chunk<'c>(&self, c: &'c [[u32; 3]]) -> Cow<'c, [[u32; 3]]> {
+        match self.1.is_identity() {
+            true => Cow::Borrowed(c),
+            false => Cow::Owned(c.iter().map(|t| t.map(|w| self.1.canonical(w))).collect()),
+        }
+    }
+}
 
 impl TrianglePasses for InMemory<'_> {
     fn triangle_count(&self) -> u64 {
@@ -307,7 +363,9 @@ impl TrianglePasses for InMemory<'_> {
     }
 
     fn for_each_chunk(&self, f: &mut dyn FnMut(&[[u32; 3]])) -> std::io::Result<()> {
-        self.0.chunks(EDGE_PASS_TRIANGLES).for_each(f);
+        self.0
+            .chunks(EDGE_PASS_TRIANGLES)
+            .for_each(|c| f(&self.chunk(c)));
         Ok(())
     }
 
@@ -315,7 +373,7 @@ impl TrianglePasses for InMemory<'_> {
         Ok(Box::new(
             self.0
                 .chunks(EDGE_PASS_TRIANGLES)
-                .map(|c| Ok(Cow::Borrowed(c))),
+                .map(|c| Ok(self.chunk(c))),
         ))
     }
 }
@@ -349,13 +407,15 @@ impl TrianglePasses for Staged<'_> {
     }
 }
 
-/// The edges with more than two triangles in `mesh`, with their counts: every edge key
-/// sorted (in parallel) and counted in runs.
-fn nonmanifold_edges(mesh: &InputMesh) -> HashMap<u64, u32> {
-    let mut keys: Vec<u64> = mesh
-        .triangles
+/// The edges (by vertex) with more than two of `triangles` (wedges), with their counts:
+/// every edge key sorted (in parallel) and counted in runs.
+fn nonmanifold_edges(triangles: &[[u32; 3]], starts: &VertexStarts) -> HashMap<u64, u32> {
+    let mut keys: Vec<u64> = triangles
         .par_iter()
-        .flat_map_iter(|t| triangle_edges(t).map(|(a, b)| edge_key(a, b)))
+        .flat_map_iter(|t| {
+            let t = t.map(|w| starts.canonical(w));
+            triangle_edges(&t).map(|(a, b)| edge_key(a, b))
+        })
         .collect();
     keys.par_sort_unstable();
     keys.chunk_by(|a, b| a == b)
@@ -464,7 +524,7 @@ mod tests {
     fn fan(n: u32) -> InputMesh {
         let rim = n + 1 + (1 << SHARD_BITS);
         InputMesh {
-            positions: vec![[0.0; 3]; rim as usize + 1],
+            positions: (0..=rim).map(|i| [i as f64, 0.0, 0.0]).collect(),
             triangles: (0..n).map(|i| [0, i + 1, i + 2]).collect(),
             ..Default::default()
         }

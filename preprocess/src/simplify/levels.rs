@@ -396,8 +396,13 @@ pub(crate) fn simplify_levels(
             // The rest of the mesh's counts of the edges the pending diamonds share with it.
             // Packed (16 B a key, not 32): the level's first list is every live simplex.
             let live_list: Vec<PackedKey> = state.live.iter().copied().collect();
+            // By vertex, not by wedge (`current_mesh.rs`).
+            let current = &state.current;
             let counts = count_edges(&query_edges(&pending), &live_list, &|k| {
-                state.patches.triangles(k)
+                Ok(state
+                    .patches
+                    .triangles(k)?
+                    .map(|t| current.vertex_triangles(t)))
             })?;
             for p in &mut pending {
                 p.result.resolve(&counts);
@@ -462,6 +467,7 @@ pub(crate) fn simplify_levels(
                     let diamond = hierarchy.diamond(d);
                     // Its children are still live: what it gathered is theirs.
                     let (gathered, ..) = gather_patches(&diamond, &state.patches)?;
+                    let gathered = state.current.vertex_triangles(gathered.into());
                     p.lock_more(&blocked, &gathered);
                     let again = simplify_diamond(
                         &ctx,

@@ -7,6 +7,7 @@ use rayon::prelude::*;
 use rustc_hash::FxHashSet as HashSet;
 
 use crate::frame::LatticeFrame;
+use crate::mesh::VertexStarts;
 
 /// `local_mesh`'s table size: the vertex count, or none under a memory budget (a 4-byte entry
 /// per vertex and worker thread would grow with the input).
@@ -45,16 +46,34 @@ impl SimplifierScale {
 }
 
 /// Moves apart, by a few f32 ulps, distinct vertices whose f32 positions coincide (detail
-/// below f32 resolution; the welded input has no two vertices at the same f64 position).
+/// below f32 resolution; the welded input has no two vertices at the same f64 position), and
+/// gives every wedge its vertex's position (`starts`: the wedges of one vertex are one point).
 ///
 /// Why: meshopt identifies vertices by position (attribute "wedges") and drops every triangle
 /// with two corners at one position, even a triangle no collapse touched, so a closed surface
-/// of such detail would come out open — a crack by ids. With every position unique, meshopt
-/// sees only the topology we give it. The nudge (a relative 1e-7 of the model) changes the
-/// simplifier's decisions, not the stored positions, which come from the f64 input.
-pub(super) fn separate_coincident(positions: &mut [[f32; 3]]) {
+/// of such detail would come out open — a crack by ids. With every vertex's position unique,
+/// meshopt sees only the topology we give it, and the wedges of one vertex (bit-identical
+/// positions) as the seam they are: it collapses a seam only along itself. The nudge (a
+/// relative 1e-7 of the model) changes the simplifier's decisions, not the stored positions,
+/// which come from the f64 input.
+pub(super) fn separate_coincident(positions: &mut [[f32; 3]], starts: &VertexStarts) {
+    nudge_vertices(positions, starts);
+    if !starts.is_identity() {
+        for w in 0..positions.len() as u32 {
+            let v = starts.canonical(w);
+            if v != w {
+                positions[w as usize] = positions[v as usize];
+            }
+        }
+    }
+}
+
+/// `separate_coincident`'s nudges, of each vertex's first wedge.
+fn nudge_vertices(positions: &mut [[f32; 3]], starts: &VertexStarts) {
     let key = |p: &[f32; 3]| p.map(f32::to_bits);
-    let mut order: Vec<u32> = (0..positions.len() as u32).collect();
+    let mut order: Vec<u32> = (0..positions.len() as u32)
+        .filter(|&v| starts.canonical(v) == v)
+        .collect();
     order.par_sort_unstable_by_key(|&v| (key(&positions[v as usize]), v));
     let duplicates: Vec<u32> = order
         .chunk_by(|&a, &b| key(&positions[a as usize]) == key(&positions[b as usize]))
