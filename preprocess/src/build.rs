@@ -32,8 +32,8 @@ use crate::simplify::{
 use crate::vertex_table::LivePatch;
 
 pub use crate::build_config::{
-    BuildConfig, BuildError, BuildSummary, Domain, MemoryBudget, DEFAULT_LEAF_TRIANGLES,
-    DEFAULT_LEAF_TRIANGLES_HEIGHT_FIELD, MAX_EXTENT,
+    BuildConfig, BuildError, BuildSummary, Domain, MemoryBudget, COARSEST_SHARE,
+    DEFAULT_LEAF_TRIANGLES, DEFAULT_LEAF_TRIANGLES_HEIGHT_FIELD, MAX_EXTENT,
 };
 
 /// Builds the repository for `mesh` and writes it to `out` (temporary file + rename: a failed

@@ -16,6 +16,10 @@ pub const DEFAULT_LEAF_TRIANGLES: usize = 1024;
 /// sweep in BENCHMARKS.md).
 pub const DEFAULT_LEAF_TRIANGLES_HEIGHT_FIELD: usize = 256;
 
+/// The share of the input the coarsest cut holds at most in a default build (issue 46: ≤ 1 %
+/// of every test scan), reached through the levels above the model's cube (`headroom`).
+pub const COARSEST_SHARE: f32 = 0.01;
+
 /// Largest extent of a model along any axis, in its units.
 pub const MAX_EXTENT: f64 = 1e30;
 
@@ -138,15 +142,16 @@ impl BuildConfig {
             construction: Construction::LeafTriangles(domain.default_leaf_triangles()),
             threads: None,
             lattice_bits: 20,
-            // Off until the streaming tests tuned on small scans are re-tuned to the levels
-            // above their cubes (tests/tests/gpu_streaming.rs); `coarsest_share` with it.
-            headroom: 0,
+            // One doubling: `dim` levels above the model's cube, enough for the coarsest cut of
+            // every test scan to reach `COARSEST_SHARE` (issue 46).
+            headroom: 1,
             domain,
             memory: None,
             codec: PatchCodec::Packed,
             position_bits: POSITION_BITS,
             simplify: SimplifySettings {
                 keep_borders: domain == Domain::Volume,
+                coarsest_share: COARSEST_SHARE,
                 ..SimplifySettings::default()
             },
         }

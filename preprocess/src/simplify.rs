@@ -363,7 +363,13 @@ fn simplify_diamond(
             // would be near it to bound its distance, so the piece stays as it is.
             simplified = local.indices.clone();
         }
-        bounded_error(&local.global_of, &vertices, &local.indices, &simplified)
+        bounded_error(
+            ctx.frame,
+            &local.global_of,
+            &vertices,
+            &local.indices,
+            &simplified,
+        )
     } else {
         // meshopt's absolute error is in model sizes.
         (estimate as f64 * ctx.frame.model_size()) as f32
@@ -464,26 +470,44 @@ fn lock_vertices(gathered_edges: &LocalEdges, interior: &[bool], keep_borders: b
 /// distance between what it gathered and what it keeps, on the input's positions (model
 /// units), rounded up to f32. Saturation adds the children's errors to it, which keeps it a
 /// bound on the distance to the input surface (`saturate.rs`).
-fn bounded_error(global_of: &[u32], vertices: &VertexTable, gathered: &[u32], kept: &[u32]) -> f32 {
-    let first = global_of
-        .first()
-        .map_or([0.0; 3], |&g| vertices.positions[vertices.row(g)]);
-    // Relative to one of the vertices, so that f64 keeps the detail of far-off models.
+///
+/// Computed on the positions snapped to a grid of 1/`BOUND_GRID_STEPS` of a lattice unit, in
+/// grid units: integers that are the same for the model scaled or moved (its lattice
+/// coordinates are, up to their last bits), so the adaptive bound, whose refinement order
+/// follows its values' last bits, makes the same decisions and a scaled model gets the same
+/// errors up to one rounding (`tests/tests/numerical_extremes.rs`). Snapping moves each point
+/// of either surface by at most half a grid cell's diagonal: twice that is added.
+fn bounded_error(
+    frame: &LatticeFrame,
+    global_of: &[u32],
+    vertices: &VertexTable,
+    gathered: &[u32],
+    kept: &[u32],
+) -> f32 {
     let positions: Vec<[f64; 3]> = global_of
         .iter()
         .map(|&g| {
-            let p = vertices.positions[vertices.row(g)];
-            [p[0] - first[0], p[1] - first[1], p[2] - first[2]]
+            let r = frame.relative(vertices.positions[vertices.row(g)]);
+            // Every axis, z too for a height field (whose lattice is the x, y square).
+            [0, 1, 2].map(|i| ((r[i] - frame.origin[i]) / frame.unit * BOUND_GRID_STEPS).round())
         })
         .collect();
     let h = tessera_core::hausdorff::two_sided_bound(&positions, gathered, kept);
-    let rounded = h as f32;
-    if (rounded as f64) < h {
+    let cell = frame.unit / BOUND_GRID_STEPS;
+    // A few f64 roundings (the sum and the products) covered before rounding up to f32.
+    let bound = (h + 3f64.sqrt()) * cell * (1.0 + 8.0 * f64::EPSILON);
+    let rounded = bound as f32;
+    if (rounded as f64) < bound {
         rounded.next_up()
     } else {
         rounded
     }
 }
+
+/// Grid cells per lattice unit of `bounded_error`'s snapped positions: 2^28 across a model's
+/// cube at the default 2^20 lattice, far below any stored error (at least the position step,
+/// 2^-21 of the box).
+const BOUND_GRID_STEPS: f64 = 256.0;
 
 /// Whether D's own error is the bound of `bounded_error` rather than meshopt's estimate: with
 /// `bounded_errors`, and for the diamonds above the model's cube (`BuildConfig::headroom`).

@@ -11,14 +11,24 @@ use tessera_preprocess::{BuildConfig, InputMesh, SimplifySettings};
 use tessera_runtime::geometric_check::{check_cuts, decode_all_patches, CheckConfig};
 use tessera_tests::{build, testdata, Built};
 
-/// The build with the levels above a small model's cube and the top diamond's cap (not the
-/// default yet: `BuildConfig::for_domain` says why).
+/// The default build: the levels above a small model's cube and the top diamond's cap.
 fn with_headroom() -> BuildConfig {
     let default = BuildConfig::default();
+    assert_eq!(
+        (default.headroom, default.simplify.coarsest_share),
+        (1, tessera_preprocess::build::COARSEST_SHARE),
+        "the default build has the levels above the model's cube"
+    );
+    default
+}
+
+/// The build as it was before them: no headroom, no cap.
+fn without_headroom() -> BuildConfig {
+    let default = BuildConfig::default();
     BuildConfig {
-        headroom: 1,
+        headroom: 0,
         simplify: SimplifySettings {
-            coarsest_share: 0.01,
+            coarsest_share: 1.0,
             ..default.simplify
         },
         ..default
@@ -59,7 +69,12 @@ fn patches_by_level(built: &Built, level_shift: u32) -> BTreeMap<(u32, Vec<[u32;
 
 #[test]
 fn the_coarsest_cut_of_small_scans_holds_at_most_one_percent() {
-    for scan in ["mesh/lion-head.off", "mesh/ChineseDragon-10kv.off"] {
+    for scan in [
+        "mesh/lion-head.off",
+        "mesh/ChineseDragon-10kv.off",
+        "mesh/bear.off",
+        "mesh/armadillo.off",
+    ] {
         let mesh = load_mesh(&testdata(scan)).unwrap().mesh;
         let built = build(&mesh, &with_headroom());
         let coarsest = coarsest_triangles(&built, &mesh);
@@ -86,11 +101,7 @@ fn the_coarsest_cut_of_small_scans_holds_at_most_one_percent() {
 fn the_levels_above_the_model_leave_the_finer_levels_as_they_were() {
     let mesh = load_mesh(&testdata("mesh/lion-head.off")).unwrap().mesh;
     let default = with_headroom();
-    let without = BuildConfig::default();
-    assert_eq!(
-        (without.headroom, without.simplify.coarsest_share),
-        (0, 1.0)
-    );
+    let without = without_headroom();
     let (with, without) = (build(&mesh, &default), build(&mesh, &without));
     assert_eq!(
         with.repo.header().lattice_bits,
