@@ -10,6 +10,7 @@ mod build_checks;
 mod build_config;
 mod build_tables;
 pub mod checkpoint;
+pub mod cluster;
 pub mod dem;
 pub mod diamond_square;
 pub mod external;
