@@ -132,7 +132,7 @@ fn refuse_other_corners(
     budget: usize,
     dir: &Path,
 ) -> io::Result<()> {
-    if others.len() == 0 {
+    if others.is_empty() {
         return Ok(());
     }
     let mut error = None;

@@ -1,7 +1,8 @@
 //! Welding and cleaning out of core: the same mesh, vertex ids and triangle order as the
 //! in-memory `import::weld` for inputs without seams (corners at one position always with the
-//! same attributes; one with seams is refused, `wedge_check.rs`), from a `RawStaged` mesh, with memory bounded by a budget (external
-//! sorts and windows over the id maps) whatever the mesh's size and vertex order.
+//! same attributes; one with seams is refused, `wedge_check.rs`), from a `RawStaged` mesh,
+//! with memory bounded by a budget (external sorts and windows over the id maps) whatever the
+//! mesh's size and vertex order.
 //!
 //! 1. Group bit-identical positions (`-0.0` as `0.0`): sort (position bits, index), a window
 //!    of positions (split by a hash of their bits) at a time so the keys stay in memory
