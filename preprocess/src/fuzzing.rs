@@ -44,6 +44,7 @@ pub const TARGETS: &[(&str, Target)] = &[
     ("json_grid", json_grid),
     ("repository", repository),
     ("packed_patch", packed_patch),
+    ("coded_patch", coded_patch),
 ];
 
 /// Largest grid (samples) also turned into a mesh and checked.
@@ -334,5 +335,47 @@ pub fn packed_patch(data: &[u8]) -> bool {
     let mut twice = vec![0u8; out.len()];
     unpack_patch(&again, n, m, attributes, strips, &mut twice).expect("a repacked patch decodes");
     assert!(twice == out, "packing what was decoded changes it");
+    true
+}
+
+/// The coded patch decoder (`SECTION_CODED_STRIPS`) on any bytes: `data` is a vertex count
+/// (u16 LE), a strip index count (u16 LE), an attribute mask (the low 3 bits of a byte) and
+/// the coded patch. A decoded patch must have every coordinate on the grid and every strip
+/// index below the vertex count (or a restart), and code and decode again to the same bytes.
+pub fn coded_patch(data: &[u8]) -> bool {
+    use tessera_core::repository::coded::{code_patch, decode_patch};
+    use tessera_core::repository::format::{unpack_position, POSITION_MAX};
+    use tessera_core::repository::patch::{patch_bytes, strip_byte_offset};
+    if data.len() < 5 {
+        return false;
+    }
+    let n = u16::from_le_bytes([data[0], data[1]]) as usize;
+    let m = u16::from_le_bytes([data[2], data[3]]) as usize;
+    let attributes = (data[4] & 7) as u32;
+    let coded = &data[5..];
+    let mut out = vec![0u8; patch_bytes(n, m, attributes)];
+    if let Err(e) = decode_patch(coded, n, m, attributes, &mut out) {
+        assert!(!e.to_string().trim().is_empty(), "an empty error message");
+        return false;
+    }
+    let word = |b: &[u8]| u32::from_le_bytes([b[0], b[1], b[2], b[3]]);
+    for (k, w) in out[..8 * n].chunks_exact(8).enumerate() {
+        let q = unpack_position([word(&w[..4]), word(&w[4..])]);
+        assert!(q.iter().all(|&c| c <= POSITION_MAX), "vertex {k} at {q:?}");
+    }
+    // n ≤ 65,535 here: u16 indices, restart 0xFFFF.
+    let strip = &out[strip_byte_offset(n, attributes)..];
+    for (k, c) in strip.chunks_exact(2).take(m).enumerate() {
+        let i = u16::from_le_bytes([c[0], c[1]]);
+        assert!(
+            i == u16::MAX || (i as usize) < n,
+            "strip index {k} is {i} of {n}"
+        );
+    }
+    let mut again = Vec::new();
+    code_patch(&out, n, m, attributes, &mut again);
+    let mut twice = vec![0u8; out.len()];
+    decode_patch(&again, n, m, attributes, &mut twice).expect("a recoded patch decodes");
+    assert!(twice == out, "coding what was decoded changes it");
     true
 }

@@ -67,12 +67,24 @@ pub struct BuildArgs {
     /// the default's estimates (ARCHITECTURE.md, "Stored errors")
     #[arg(long)]
     pub bounded_errors: bool,
-    /// Bits per axis of the position grid over the bounding box (1–21, default 21): fewer
-    /// make the repository smaller and every stored error larger by the grid's half-diagonal
-    /// (printed, and `quantisation_error` in `--json`)
-    #[arg(long, value_name = "BITS", default_value_t = POSITION_BITS,
+    /// Bits per axis of the position grid over the bounding box (1–21), applied while
+    /// building instead of the grid chosen from the error: fewer make the repository smaller
+    /// and every stored error larger by the grid's half-diagonal (printed, and
+    /// `quantisation_error` in `--json`)
+    #[arg(long, value_name = "BITS", conflicts_with_all = ["position_step", "lossless"],
           value_parser = clap::value_parser!(u32).range(1..=POSITION_BITS as i64))]
-    pub position_bits: u32,
+    pub position_bits: Option<u32>,
+    /// The position grid's step at most STEP model units (the coarsest power-of-two multiple
+    /// of the full lattice's step that is no coarser), instead of the default chosen from the
+    /// error: Nexus's default step, 2^trunc(log2(0.05 e)) for e the smallest error of the
+    /// first level of diamonds above the leaves. Every stored error grows by the grid's
+    /// half-diagonal
+    #[arg(long, value_name = "STEP", conflicts_with = "lossless",
+          value_parser = positive_step)]
+    pub position_step: Option<f64>,
+    /// Keep the full 2^21 position lattice (no grid chosen from the error)
+    #[arg(long)]
+    pub lossless: bool,
     /// Continue the build of the same input, flags and output that was killed or failed, from
     /// its checkpoint (`.OUT.tessera-build/` beside the output or in `--temp`); the repository
     /// is the same bytes. Needs `--memory`; from standard input (`-`), the same stream piped
@@ -209,6 +221,14 @@ pub fn run(args: BuildArgs) -> anyhow::Result<Outcome> {
         }
         (Err(e), None) => return Err(e),
     };
+    let mut summary = summary;
+    let grid = crate::build_grid::apply(grid_rule(&args), &args.output)?;
+    if let Some(g) = &grid {
+        summary.root_error = g.root_error;
+        summary.position_step = g.position_step;
+        summary.quantisation_error = g.quantisation_error;
+        summary.repository_bytes = g.repository_bytes;
+    }
     stages.finish();
     let stage_peaks = peaks.finish();
     let seconds = start.elapsed().as_secs_f64();
@@ -218,7 +238,9 @@ pub fn run(args: BuildArgs) -> anyhow::Result<Outcome> {
         value["memory_budget_bytes"] = json!(args.memory);
         // Whether the stored errors are bounds (`--bounded-errors`) or estimates.
         value["bounded_errors"] = json!(args.bounded_errors);
-        value["position_bits"] = json!(args.position_bits);
+        value["position_bits"] = json!(args.position_bits.unwrap_or(POSITION_BITS));
+        // The grid chosen from the error (or `--position-step`), applied after the build.
+        value["position_grid"] = grid.as_ref().map_or(json!(null), |g| g.json());
         // The most the out-of-core stages' temporary files held at once (0 without --memory).
         value["temp_bytes_peak"] = json!(tessera_preprocess::external::temp_usage::peak());
         // Which files made that peak (approximately: taken as the peak was reached).
@@ -256,7 +278,15 @@ pub fn run(args: BuildArgs) -> anyhow::Result<Outcome> {
         println!("{value}");
     } else {
         println!("{name}: {}", input.description());
-        print_summary(&summary, args.position_bits, seconds, import_seconds);
+        print_summary(
+            &summary,
+            args.position_bits.unwrap_or(POSITION_BITS),
+            seconds,
+            import_seconds,
+        );
+        if let Some(g) = &grid {
+            g.print();
+        }
         println!("wrote {}", args.output.display());
     }
     Ok(Outcome::Ok)
@@ -275,7 +305,7 @@ fn configure(args: &BuildArgs, domain: Domain, memory: &Option<MemoryBudget>) ->
         ..BuildConfig::for_domain(domain)
     };
     config.simplify.bounded_errors = args.bounded_errors;
-    config.position_bits = args.position_bits;
+    config.position_bits = args.position_bits.unwrap_or(POSITION_BITS);
     if let Some(n) = args.leaf_triangles {
         config.construction = Construction::LeafTriangles(n);
     }
@@ -438,6 +468,27 @@ fn say_how_to_resume_when_interrupted(dir: PathBuf) {
     });
     // Without the handler, an interrupt ends the build as before, only without the hint.
     drop(installed);
+}
+
+/// How the grid is chosen: from the error unless `--lossless` or `--position-bits` (applied
+/// while building) say otherwise, or at most `--position-step`.
+fn grid_rule(args: &BuildArgs) -> crate::build_grid::GridRule {
+    use crate::build_grid::GridRule;
+    match (
+        args.lossless || args.position_bits.is_some(),
+        args.position_step,
+    ) {
+        (true, _) => GridRule::None,
+        (false, Some(step)) => GridRule::AtMost(step),
+        (false, None) => GridRule::FromError,
+    }
+}
+
+fn positive_step(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+        _ => Err(format!("{s}: a positive, finite number of model units")),
+    }
 }
 
 #[cfg(test)]

@@ -11,6 +11,7 @@ mod bench_render_stream;
 mod bench_stream_loops;
 mod bench_stream_plot;
 mod build_checkpoint;
+mod build_grid;
 mod camera_path;
 mod check_errors;
 mod cmd_bench;

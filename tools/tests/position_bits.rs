@@ -24,7 +24,14 @@ fn fewer_position_bits_give_a_smaller_repository_with_larger_errors() {
     let lion = lion.to_str().unwrap();
     let dir = tempfile::tempdir().unwrap();
     let path = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
-    let fine = json(&tessera(&["build", lion, "-o", &path("21.tsr"), "--json"]));
+    let fine = json(&tessera(&[
+        "build",
+        lion,
+        "-o",
+        &path("21.tsr"),
+        "--lossless",
+        "--json",
+    ]));
     let coarse = json(&tessera(&[
         "build",
         lion,

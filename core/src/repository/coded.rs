@@ -90,13 +90,13 @@ fn bucket(z: u32) -> (usize, u32, u32) {
 
 /// The value of bucket `symbol` (< `RESIDUAL_ALPHABET`), its raw bits read from `bits`.
 #[inline(always)]
-fn unbucket(symbol: u32, bits: &mut BitReader) -> Result<u32, String> {
+fn unbucket(symbol: u32, bits: &mut BitReader) -> u32 {
     if symbol < 16 {
-        return Ok(symbol);
+        return symbol;
     }
     let t = symbol - 16;
     let below = 3 + t / 2;
-    Ok((2 | (t & 1)) << below | bits.get(below)?)
+    (2 | (t & 1)) << below | bits.get(below)
 }
 
 /// How vertex v is predicted: a parallelogram a + b − c, one vertex, or zero.
@@ -513,7 +513,7 @@ fn decode_into(
         let guess = predicted(positions, predict(strip, first[v as usize], v));
         let mut q = [0u32; 3];
         for (axis, c) in q.iter_mut().enumerate() {
-            let z = unbucket(decoder.get(table)?, &mut bits)?;
+            let z = unbucket(decoder.get(table), &mut bits);
             *c = guess[axis].wrapping_add(unzigzag(z)) as u32;
             above |= *c;
         }
@@ -533,18 +533,17 @@ fn decode_into(
     for (t, &(count, width)) in lanes.iter().enumerate() {
         let table = &tables[POSITION_TABLE + 1 + t];
         let target = &mut out[to..to + n * count * width];
-        for v in 0..n as u32 {
-            let reference = predict(strip, first[v as usize], v).reference();
-            for l in 0..count {
-                let base = reference.map_or(0, |r| {
-                    let at = (r as usize * count + l) * width;
-                    lane(&target[at..at + width], width)
-                });
-                let z = unbucket(decoder.get(table)?, &mut bits)?;
-                let value = lane_value(z, base, width);
-                let at = (v as usize * count + l) * width;
-                target[at..at + width].copy_from_slice(&value.to_le_bytes()[..width]);
-            }
+        let lanes = Lanes {
+            strip,
+            first,
+            decoder: &mut decoder,
+            table,
+            bits: &mut bits,
+        };
+        match (count, width) {
+            (2, 2) => lanes.decode::<2, 2>(target),
+            (4, 1) => lanes.decode::<4, 1>(target),
+            _ => lanes.decode::<2, 4>(target),
         }
         to += n * count * width;
     }
@@ -564,6 +563,38 @@ fn decode_into(
     bits.finish()
 }
 
+/// What an attribute's lanes decode from.
+struct Lanes<'s, 'd, 'a> {
+    strip: &'s [u32],
+    first: &'s [u32],
+    decoder: &'d mut Decoder<'a>,
+    table: &'s DecodeTable,
+    bits: &'d mut BitReader<'a>,
+}
+
+impl Lanes<'_, '_, '_> {
+    /// Decodes C lanes of W bytes a vertex into `target` (n × C × W bytes), each against the
+    /// same lane of the vertex's reference (written before it).
+    fn decode<const C: usize, const W: usize>(self, target: &mut [u8]) {
+        let n = target.len() / (C * W);
+        for v in 0..n {
+            let reference = predict(self.strip, self.first[v], v as u32).reference();
+            for l in 0..C {
+                let base = reference.map_or(0, |r| {
+                    let at = (r as usize * C + l) * W;
+                    let mut word = [0u8; 4];
+                    word[..W].copy_from_slice(&target[at..at + W]);
+                    u32::from_le_bytes(word)
+                });
+                let z = unbucket(self.decoder.get(self.table), self.bits);
+                let value = lane_value(z, base, W);
+                let at = (v * C + l) * W;
+                target[at..at + W].copy_from_slice(&value.to_le_bytes()[..W]);
+            }
+        }
+    }
+}
+
 /// Decodes the m strip symbols into `strip` (restarts `NONE`), recording each vertex's first
 /// slot in `first`.
 fn decode_strip(
@@ -577,8 +608,9 @@ fn decode_strip(
 ) -> Result<(), String> {
     let n = n as u64;
     let mut next = 0u64;
+    strip.reserve(m);
     for k in 0..m {
-        let symbol = decoder.get(table)?;
+        let symbol = decoder.get(table);
         let index = match symbol {
             RESTART => {
                 strip.push(NONE);
@@ -618,11 +650,11 @@ fn decode_strip(
 }
 
 fn get_long(bits: &mut BitReader) -> Result<u64, String> {
-    let length = bits.get(6)?;
+    let length = bits.get(6);
     if length > 32 {
         return Err(format!("a strip distance of {length} bits"));
     }
-    Ok(bits.get(length)? as u64)
+    Ok(bits.get(length) as u64)
 }
 
 #[cfg(test)]

@@ -204,10 +204,10 @@ fn a_bloated_length_is_refused_without_reading_past_the_patch() {
     let p = grid(6, 0, 4);
     let coded = round_trip(&p, 0);
     let mut out = vec![0; raw_bytes(&p, 0).len()];
-    // The tables' end: the strip table then the position table, each 1 + ⌈a/2⌉ bytes.
+    // The tables' end: the strip table then the position table, each 2 + ⌈used/2⌉ bytes.
     let mut at = 0;
     for _ in 0..2 {
-        at += 1 + (coded[at] as usize).div_ceil(2);
+        at += 2 + (coded[at + 1] as usize).div_ceil(2);
     }
     let mut bad = coded[..at].to_vec();
     write_varint(u32::MAX as u64 * 4, &mut bad);

@@ -14,6 +14,8 @@
 //!   CPU's checks need them, the GPU does not);
 //! - `writer`: `write_repository[_file]` (temporary file, fsync, rename; stale temporaries of
 //!   killed writers removed);
+//! - `grid`: the global position grid chosen from the first level's error, applied after the
+//!   build by `repack::repack_on_grid`;
 //! - `repack`: a repository rewritten with its patches packed or raw, without a rebuild;
 //! - `streamed_writer`: `write_repository_streamed`, the same file with the blobs fed a tet
 //!   at a time (the out-of-core build);
@@ -28,6 +30,7 @@ mod directory_check;
 mod file_layout;
 pub mod format;
 pub mod global_ids;
+pub mod grid;
 pub mod packed;
 pub mod patch;
 mod patch_codec;

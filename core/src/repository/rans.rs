@@ -1,17 +1,19 @@
-//! A small static-model rANS coder (Duda's range asymmetric numeral systems, in the byte-wise
-//! form of Giesen's `rans_byte`) with its frequency tables, for the coded patches
-//! (`coded.rs`): alphabets of at most 256 symbols, probabilities in `PROB_BITS` bits, one 32-bit
-//! state, and a second stream of raw bits beside it (`BitWriter` / `BitReader`).
+//! A small static-model rANS coder (Duda's range asymmetric numeral systems, with a 32-bit
+//! state renormalised by 16-bit words, as Giesen's `rans_word`: at most one word a symbol, read
+//! without a branch) with its frequency tables, for the coded patches (`coded.rs`): alphabets
+//! of at most 256 symbols, probabilities in `PROB_BITS` bits, and a second stream of raw bits
+//! beside it (`BitWriter` / `BitReader`).
 //!
 //! Encoding runs backwards over the symbols (rANS is last in, first out); the bytes are
-//! reversed once at the end, so the decoder reads forward. A table is written as its alphabet
-//! size a (one byte, 1..=255) then a 4-bit weight a symbol (`Table::write`), from which
-//! encoder and decoder compute the same frequencies (`normalise`).
+//! reversed once at the end, so the decoder reads forward. A table is written as the range of
+//! symbols with a weight (two bytes) then a 4-bit weight a symbol of it (`Table::write`), from
+//! which encoder and decoder compute the same frequencies (`normalise`).
 //!
 //! Decoding trusts nothing: any table's weights normalise to 2^`PROB_BITS`, the state starts in
-//! [L, 2^8 L), each symbol reads at most a few bytes and fails past the stream's end, and the
-//! final state must be the encoder's initial one with every byte used: a crafted stream is
-//! an error in time linear in its length and symbol count.
+//! [L, 2^16 L), each symbol reads at most one word, and a read past the stream's end reads
+//! zero and is remembered (so the hot loop has no early exit): `finish` then fails, as it does
+//! unless the final state is the encoder's initial one with every byte used. A crafted stream
+//! is an error in time linear in its length and symbol count.
 
 /// Bits of probability precision: 2^10 slots a table (4 KiB of decoding entries, filled per
 /// patch: fewer slots fill faster, and a patch's few hundred symbols need no finer).
@@ -19,7 +21,7 @@ pub const PROB_BITS: u32 = 10;
 /// The sum of a table's frequencies.
 pub const PROB_SCALE: u32 = 1 << PROB_BITS;
 /// The lower bound of the normalised state.
-const RANS_L: u32 = 1 << 23;
+const RANS_L: u32 = 1 << 16;
 
 /// Normalised frequencies of an alphabet (sum `PROB_SCALE`), with their cumulative starts and
 /// the log-scale weights they were made from (what `write` stores).
@@ -87,11 +89,15 @@ impl Table {
         PROB_BITS as f64 - (self.freq[symbol] as f64).log2()
     }
 
-    /// Appends the table's serialised form: the alphabet size, then the weights, two a byte
+    /// Appends the table's serialised form: the first symbol with a weight, how many symbols
+    /// from it to the last one with a weight (one byte each), then their weights, two a byte
     /// (low half first; an odd count leaves the last high half zero).
     pub fn write(&self, out: &mut Vec<u8>) {
-        out.push(self.weights.len() as u8);
-        for pair in self.weights.chunks(2) {
+        let first = self.weights.iter().position(|&w| w > 0).expect("a symbol");
+        let used = &self.weights[first..];
+        out.push(first as u8);
+        out.push(used.len() as u8);
+        for pair in used.chunks(2) {
             out.push(pair[0] | pair.get(1).map_or(0, |&w| w << 4));
         }
     }
@@ -183,28 +189,29 @@ impl DecodeTable {
         at: &mut usize,
         max_alphabet: usize,
     ) -> Result<(), String> {
-        let Some(&alphabet) = bytes.get(*at) else {
+        let Some(&[first, used]) = bytes.get(*at..*at + 2) else {
             return Err("a table truncated".into());
         };
-        let alphabet = alphabet as usize;
-        if alphabet == 0 || alphabet > max_alphabet {
+        let (first, used) = (first as usize, used as usize);
+        let alphabet = first + used;
+        if used == 0 || alphabet > max_alphabet {
             return Err(format!(
-                "a table of {alphabet} symbols (1..={max_alphabet})"
+                "a table of symbols {first}..{alphabet} (at most {max_alphabet})"
             ));
         }
-        let Some(packed) = bytes.get(*at + 1..*at + 1 + alphabet.div_ceil(2)) else {
+        let Some(packed) = bytes.get(*at + 2..*at + 2 + used.div_ceil(2)) else {
             return Err("a table truncated".into());
         };
-        *at += 1 + packed.len();
+        *at += 2 + packed.len();
         let mut weights = [0u8; 256];
-        for (s, w) in weights[..alphabet].iter_mut().enumerate() {
+        for (s, w) in weights[first..alphabet].iter_mut().enumerate() {
             *w = (packed[s / 2] >> (4 * (s % 2))) & 15;
         }
-        if alphabet % 2 == 1 && packed[alphabet / 2] >> 4 != 0 {
+        if used % 2 == 1 && packed[used / 2] >> 4 != 0 {
             return Err("a table with a non-zero half byte after its weights".into());
         }
-        if weights[alphabet - 1] == 0 {
-            return Err("a table whose last symbol has no weight".into());
+        if weights[first] == 0 || weights[alphabet - 1] == 0 {
+            return Err("a table whose first or last symbol has no weight".into());
         }
         let mut start = 0u32;
         for (symbol, freq) in normalise(&weights[..alphabet]).into_iter().enumerate() {
@@ -250,10 +257,13 @@ impl Encoder {
     pub fn put(&mut self, table: &Table, symbol: usize) {
         let freq = table.freq[symbol];
         assert!(freq > 0, "symbol {symbol} has no frequency");
-        let x_max = ((RANS_L >> PROB_BITS) << 8) * freq;
-        while self.x >= x_max {
+        // 2^32 for a symbol of probability 1: in u64.
+        let x_max = (((RANS_L >> PROB_BITS) as u64) << 16) * freq as u64;
+        if self.x as u64 >= x_max {
+            // Low byte last: reversed, the word reads little-endian.
+            self.reversed.push((self.x >> 8) as u8);
             self.reversed.push(self.x as u8);
-            self.x >>= 8;
+            self.x >>= 16;
         }
         self.x = ((self.x / freq) << PROB_BITS) + self.x % freq + table.start[symbol];
     }
@@ -278,40 +288,55 @@ pub struct Decoder<'a> {
     x: u32,
     stream: &'a [u8],
     at: usize,
+    /// Whether a word was read past the stream's end (as zero).
+    overrun: bool,
 }
 
 impl<'a> Decoder<'a> {
-    /// Starts on `stream` (its first 4 bytes the state, which must lie in [L, 2^8 L)).
+    /// Starts on `stream` (its first 4 bytes the state, which must lie in [L, 2^16 L)).
     pub fn new(stream: &'a [u8]) -> Result<Decoder<'a>, String> {
         let Some(head) = stream.first_chunk::<4>() else {
             return Err(format!("a coded stream of {} bytes", stream.len()));
         };
         let x = u32::from_le_bytes(*head);
-        if !(RANS_L..RANS_L << 8).contains(&x) {
+        if x < RANS_L {
             return Err(format!("a coded stream starting in state {x:#x}"));
         }
-        Ok(Decoder { x, stream, at: 4 })
+        Ok(Decoder {
+            x,
+            stream,
+            at: 4,
+            overrun: false,
+        })
     }
 
-    /// The next symbol of `table`; an error only when the stream ends.
+    /// The next symbol of `table`. Past the stream's end it reads zeros: `finish` says so.
     #[inline(always)]
-    pub fn get(&mut self, table: &DecodeTable) -> Result<u32, String> {
+    pub fn get(&mut self, table: &DecodeTable) -> u32 {
         let slot = self.x & (PROB_SCALE - 1);
         let entry = table.slots[slot as usize];
         let freq = (entry >> 8) & 0xFFF;
-        self.x = freq * (self.x >> PROB_BITS) + (entry >> 20);
-        while self.x < RANS_L {
-            let Some(&b) = self.stream.get(self.at) else {
-                return Err("the coded stream ends early".into());
-            };
-            self.at += 1;
-            self.x = self.x << 8 | b as u32;
-        }
-        Ok(entry & 0xFF)
+        let x = freq * (self.x >> PROB_BITS) + (entry >> 20);
+        // At most one word: x ≥ 1 and 2^16 x ≥ L afterwards.
+        let need = x < RANS_L;
+        let word = match self.stream.get(self.at..self.at + 2) {
+            Some(w) => u16::from_le_bytes([w[0], w[1]]) as u32,
+            None => {
+                self.overrun |= need;
+                0
+            }
+        };
+        self.x = if need { x << 16 | word } else { x };
+        self.at += 2 * need as usize;
+        entry & 0xFF
     }
 
-    /// After the last symbol: the state back at its start and every byte used.
+    /// After the last symbol: no read past the end, the state back at its start and every
+    /// byte used.
     pub fn finish(&self) -> Result<(), String> {
+        if self.overrun {
+            return Err("the coded stream ends early".into());
+        }
         if self.x != RANS_L || self.at != self.stream.len() {
             return Err(format!(
                 "the coded stream ends in state {:#x} with {} of its {} bytes used",
@@ -368,35 +393,27 @@ impl<'a> BitReader<'a> {
         BitReader { bytes, at: 0 }
     }
 
-    /// The next `count` (≤ 32) bits; an error past the end.
+    /// The next `count` (≤ 32) bits. Past the end it reads zeros: `finish` says so.
     #[inline(always)]
-    pub fn get(&mut self, count: u32) -> Result<u32, String> {
-        if count == 0 {
-            return Ok(0);
-        }
-        let end = self.at + count as usize;
-        if end > 8 * self.bytes.len() {
-            return Err("the raw bits end early".into());
-        }
+    pub fn get(&mut self, count: u32) -> u32 {
         let byte = self.at / 8;
         let word = match self.bytes.get(byte..byte + 8) {
             Some(eight) => u64::from_le_bytes(eight.try_into().expect("8 bytes")),
-            None => {
-                let mut eight = [0u8; 8];
-                let tail = &self.bytes[byte..];
-                eight[..tail.len()].copy_from_slice(tail);
-                u64::from_le_bytes(eight)
-            }
+            None => tail_word(self.bytes, byte),
         };
         // At most 7 bits skipped + 32 taken: within the word.
         let value = (word >> (self.at % 8)) & ((1u64 << count) - 1);
-        self.at = end;
-        Ok(value as u32)
+        self.at += count as usize;
+        value as u32
     }
 
-    /// After the last read: every byte used, the last one's unused bits zero.
+    /// After the last read: every byte used (none past the end), the last one's unused bits
+    /// zero.
     pub fn finish(&self) -> Result<(), String> {
         let used = self.at.div_ceil(8);
+        if used > self.bytes.len() {
+            return Err("the raw bits end early".into());
+        }
         if used != self.bytes.len() {
             return Err(format!("{} raw bytes, {used} used", self.bytes.len()));
         }
@@ -405,6 +422,19 @@ impl<'a> BitReader<'a> {
         }
         Ok(())
     }
+}
+
+/// The bytes of `bytes` from `byte` on (fewer than 8; none past the end) as a word, zeros
+/// after them. Apart and cold: the stream's last bytes only.
+#[cold]
+#[inline(never)]
+fn tail_word(bytes: &[u8], byte: usize) -> u64 {
+    let mut eight = [0u8; 8];
+    if byte < bytes.len() {
+        let tail = &bytes[byte..];
+        eight[..tail.len()].copy_from_slice(tail);
+    }
+    u64::from_le_bytes(eight)
 }
 
 #[cfg(test)]

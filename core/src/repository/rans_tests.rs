@@ -45,9 +45,7 @@ fn decode(head: &[u8], stream: &[u8], count: usize) -> Result<Vec<usize>, String
     let mut at = 0;
     table.read(head, &mut at, 255)?;
     let mut decoder = Decoder::new(stream)?;
-    let decoded = (0..count)
-        .map(|_| decoder.get(&table).map(|s| s as usize))
-        .collect::<Result<Vec<_>, _>>()?;
+    let decoded: Vec<usize> = (0..count).map(|_| decoder.get(&table) as usize).collect();
     decoder.finish()?;
     Ok(decoded)
 }
@@ -64,10 +62,10 @@ fn symbols_round_trip_and_cost_near_their_entropy() {
             .filter(|&&k| k > 0)
             .map(|&k| -(k as f64) * (k as f64 / count as f64).log2())
             .sum();
-        // 4 bytes of final state, and the weights' rounding to powers of two: within 8 % +
-        // 6 bytes.
+        // 4 bytes of final state, a word's rounding, and the weights' rounding to powers of
+        // two: within 8 % + 7 bytes.
         assert!(
-            (stream.len() as f64) <= entropy / 8.0 * 1.08 + 6.0,
+            (stream.len() as f64) <= entropy / 8.0 * 1.08 + 7.0,
             "{alphabet} symbols: {} bytes for {:.1} bytes of entropy",
             stream.len(),
             entropy / 8.0
@@ -123,18 +121,21 @@ fn bad_tables_are_errors() {
     for bad in [
         vec![],
         vec![0u8],
-        vec![9u8, 0x11, 0x11, 0x11, 0x11, 0x11],
-        vec![3u8, 0x11],
-        vec![3u8, 0x11, 0x11],
-        vec![2u8, 0x01],
+        vec![0u8, 0],
+        vec![0u8, 9, 0x11, 0x11, 0x11, 0x11, 0x11],
+        vec![6u8, 3, 0x11, 0x01],
+        vec![0u8, 3, 0x11],
+        vec![0u8, 3, 0x11, 0x11],
+        vec![0u8, 2, 0x01],
+        vec![0u8, 2, 0x10],
     ] {
         let mut table = DecodeTable::new();
         assert!(table.read(&bad, &mut 0, 8).is_err(), "{bad:?}");
     }
     let mut table = DecodeTable::new();
     let mut at = 0;
-    table.read(&[3u8, 0x21, 0x01, 0xFF], &mut at, 8).unwrap();
-    assert_eq!((at, table.alphabet()), (3, 3));
+    table.read(&[2u8, 3, 0x21, 0x01, 0xFF], &mut at, 8).unwrap();
+    assert_eq!((at, table.alphabet()), (4, 5));
 }
 
 #[test]
@@ -169,22 +170,28 @@ fn raw_bits_round_trip_and_check_their_end() {
     let bytes = w.finish();
     let mut r = BitReader::new(&bytes);
     for &(v, c) in &values {
-        assert_eq!(r.get(c).unwrap(), v);
+        assert_eq!(r.get(c), v);
     }
     r.finish().unwrap();
-    assert!(r.clone_at_end_get_fails());
+    // One bit more than the bytes hold: past the end, which `finish` refuses.
+    let mut past = BitReader::new(&bytes);
+    for _ in 0..bytes.len() {
+        past.get(8);
+    }
+    past.get(1);
+    assert!(past.finish().is_err(), "a read past the end");
     let mut extra = bytes.clone();
     extra.push(0);
     let mut r = BitReader::new(&extra);
     for &(_, c) in &values {
-        r.get(c).unwrap();
+        r.get(c);
     }
     assert!(r.finish().is_err(), "a byte too many");
     let mut dirty = bytes.clone();
     *dirty.last_mut().unwrap() |= 0x80;
     let mut r = BitReader::new(&dirty);
     for &(_, c) in &values {
-        r.get(c).unwrap();
+        r.get(c);
     }
     let total: u32 = values.iter().map(|v| v.1).sum();
     assert_eq!(
@@ -192,16 +199,6 @@ fn raw_bits_round_trip_and_check_their_end() {
         !total.is_multiple_of(8),
         "padding bits set"
     );
-}
-
-impl BitReader<'_> {
-    fn clone_at_end_get_fails(&self) -> bool {
-        let mut r = BitReader {
-            bytes: self.bytes,
-            at: self.at,
-        };
-        8 * self.bytes.len() - self.at >= 32 || r.get(32).is_err()
-    }
 }
 
 #[test]
