@@ -269,7 +269,16 @@ fn corrupt_repositories_are_rejected_with_exit_two() {
     };
     let (tets, patches) = (
         section(tessera_core::repository::format::SECTION_TETS),
-        section(tessera_core::repository::format::SECTION_PACKED_STRIPS),
+        // The patch blob, whichever codec the default build writes.
+        opened
+            .sections()
+            .iter()
+            .find(|s| {
+                use tessera_core::repository::format::*;
+                [SECTION_CODED_STRIPS, SECTION_PACKED_STRIPS, SECTION_PATCHES].contains(&s.kind)
+            })
+            .unwrap()
+            .offset as usize,
     );
     let cases: Vec<(&str, Vec<u8>)> = vec![
         ("truncated", bytes[..bytes.len() / 2].to_vec()),
