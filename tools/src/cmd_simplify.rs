@@ -27,8 +27,8 @@ pub struct SimplifyArgs {
     /// (written to a temporary file, then renamed); with `--levels`, OUT's stem + `.levelK`.
     #[arg(short, long)]
     pub output: PathBuf,
-    /// Write one mesh of N triangles (within 10 %): the end-node size T is searched (from 4 ×
-    /// input / N, a quarter at a time while the finest level has fewer than N), then a cut
+    /// Write one mesh of N triangles (within 10 %): the end-node size T is searched (from
+    /// (1.83 × input / N)², a quarter at a time while the finest level has fewer than N), then a cut
     /// of the octree picked by splitting the node of largest quadric error first.
     #[arg(long, value_name = "N", conflicts_with = "levels",
           value_parser = clap::value_parser!(u64).range(1..))]
@@ -62,6 +62,16 @@ pub struct SimplifyArgs {
 pub fn run(args: SimplifyArgs) -> anyhow::Result<Outcome> {
     let start = Instant::now();
     let stages = Stages::new("simplify");
+    let peaks = crate::peak_rss::StagePeaks::new(false);
+    let started = std::sync::Mutex::new(Vec::<(String, Instant)>::new());
+    let on_stage = |s: &str| {
+        stages.stage(s);
+        peaks.start(s);
+        started
+            .lock()
+            .unwrap()
+            .push((s.to_string(), Instant::now()));
+    };
     tessera_preprocess::external::temp_usage::reset_peak();
     let extension = args
         .output
@@ -88,7 +98,7 @@ pub fn run(args: SimplifyArgs) -> anyhow::Result<Outcome> {
     })?;
     tessera_preprocess::external::allocator::arenas_for_budget(args.memory);
     let budget = args.memory as usize;
-    stages.stage("import");
+    on_stage("import");
     let staged = tessera_preprocess::import::stage_mesh(&args.input, &temp_dir, budget)?;
     let import_seconds = start.elapsed().as_secs_f64();
     let output = match (args.target_triangles, args.levels) {
@@ -116,11 +126,11 @@ pub fn run(args: SimplifyArgs) -> anyhow::Result<Outcome> {
         temp_dir,
         measure: true,
     };
-    stages.stage("simplify");
-    let summary = cluster::simplify_staged(&staged, &settings)
+    let summary = cluster::simplify_staged(&staged, &settings, &on_stage)
         .with_context(|| format!("simplifying {}", args.input.display()))?;
     drop(staged);
     stages.finish();
+    let stage_peaks = peaks.finish();
     let seconds = start.elapsed().as_secs_f64();
     let peak = crate::peak_rss::peak_rss_bytes();
     if args.json {
@@ -130,6 +140,18 @@ pub fn run(args: SimplifyArgs) -> anyhow::Result<Outcome> {
         value["peak_rss_bytes"] = json!(peak);
         value["memory_budget_bytes"] = json!(args.memory);
         value["temp_bytes_peak"] = json!(tessera_preprocess::external::temp_usage::peak());
+        // The peak resident memory so far at the end of each stage (the stages in order).
+        let started = started.into_inner().unwrap();
+        let end = Instant::now();
+        value["stages"] = stage_peaks
+            .iter()
+            .enumerate()
+            .map(|(i, (stage, peak))| {
+                let until = started.get(i + 1).map_or(end, |s| s.1);
+                let seconds = started.get(i).map(|s| (until - s.1).as_secs_f64());
+                json!({"stage": stage, "seconds": seconds, "peak_rss_bytes": peak})
+            })
+            .collect();
         println!("{value}");
     } else {
         print_summary(&args, &summary, seconds, peak);

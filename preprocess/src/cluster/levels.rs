@@ -32,6 +32,16 @@ pub struct NodeStats {
     pub irregular: u64,
 }
 
+/// What is done with a simplified node: its output recorded, written, and kept for its
+/// parent.
+type Finish<'a, L> = dyn FnMut(
+        usize,
+        node::Simplified<L>,
+        &mut Vec<Vec<<L as Layout>::Rec>>,
+        &mut RecordWriter<<L as Layout>::Rec>,
+    ) -> io::Result<()>
+    + 'a;
+
 /// The simplified tree.
 pub struct Hierarchy<L: Layout> {
     pub octree: Octree,
@@ -111,12 +121,7 @@ pub fn simplify_all<L: Layout>(
     let flush = |batch: &mut Vec<(usize, Vec<L::Rec>)>,
                  waiting: &mut Vec<Vec<L::Rec>>,
                  writer: &mut RecordWriter<L::Rec>,
-                 done: &mut dyn FnMut(
-        usize,
-        node::Simplified<L>,
-        &mut Vec<Vec<L::Rec>>,
-        &mut RecordWriter<L::Rec>,
-    ) -> io::Result<()>|
+                 done: &mut Finish<L>|
      -> io::Result<()> {
         let results: Vec<node::Simplified<L>> = batch
             .par_iter()

@@ -196,24 +196,28 @@ impl<'t> Grid<'t> {
         for r in 0..=largest {
             let lo = [0, 1, 2].map(|k| c[k].saturating_sub(r));
             let hi = [0, 1, 2].map(|k| (c[k] + r).min(self.dims[k] - 1));
+            // Ring r's cells: whole rows where y or z is on the ring, else its two ends in x.
             for z in lo[2]..=hi[2] {
                 for y in lo[1]..=hi[1] {
-                    for x in lo[0]..=hi[0] {
-                        let ring = [x, y, z]
-                            .iter()
-                            .zip(&c)
-                            .map(|(&a, &b)| a.abs_diff(b))
-                            .max()
-                            .unwrap_or(0);
-                        if ring != r {
-                            continue;
-                        }
-                        let cell = (z * self.dims[1] + y) * self.dims[0] + x;
-                        for &t in
-                            &self.items[self.start[cell] as usize..self.start[cell + 1] as usize]
-                        {
+                    let whole = z.abs_diff(c[2]) == r || y.abs_diff(c[1]) == r;
+                    let row = (z * self.dims[1] + y) * self.dims[0];
+                    let mut visit = |x: usize| {
+                        let cell = row + x;
+                        let items =
+                            &self.items[self.start[cell] as usize..self.start[cell + 1] as usize];
+                        for &t in items {
                             best =
                                 best.min(point_triangle_distance(p, &self.triangles[t as usize]));
+                        }
+                    };
+                    if whole {
+                        (lo[0]..=hi[0]).for_each(&mut visit);
+                    } else {
+                        if c[0] >= r {
+                            visit(c[0] - r);
+                        }
+                        if r > 0 && c[0] + r < self.dims[0] {
+                            visit(c[0] + r);
                         }
                     }
                 }

@@ -103,8 +103,8 @@ impl Quadric {
     /// The area-weighted centroid (the plain one where every triangle has zero area).
     pub fn centroid(&self) -> [f64; MAX_DIM] {
         let mut c = [0.0; MAX_DIM];
-        for i in 0..self.n {
-            c[i] = if self.area > 0.0 {
+        for (i, c) in c.iter_mut().enumerate().take(self.n) {
+            *c = if self.area > 0.0 {
                 self.centroid_sum[i] / self.area
             } else {
                 self.plain_sum[i] / self.triangles.max(1) as f64
@@ -138,10 +138,7 @@ impl Quadric {
         let mut sub = [[0.0; MAX_DIM]; MAX_DIM];
         let mut residual = [0.0; MAX_DIM];
         for (i, &fi) in free.iter().enumerate() {
-            let mut av = 0.0;
-            for j in 0..self.n {
-                av += self.a[fi][j] * v[j];
-            }
+            let av: f64 = (0..self.n).map(|j| self.a[fi][j] * v[j]).sum();
             residual[i] = -(self.b[fi] + av);
             for (j, &fj) in free.iter().enumerate() {
                 sub[i][j] = self.a[fi][fj];
@@ -219,16 +216,18 @@ pub fn symmetric_eigen(
                 let t = if theta == 0.0 { 1.0 } else { t };
                 let c = 1.0 / (t * t + 1.0).sqrt();
                 let s = t * c;
-                for k in 0..m {
-                    let (akp, akq) = (a[k][p], a[k][q]);
-                    a[k][p] = c * akp - s * akq;
-                    a[k][q] = s * akp + c * akq;
+                for row in a.iter_mut().take(m) {
+                    let (akp, akq) = (row[p], row[q]);
+                    row[p] = c * akp - s * akq;
+                    row[q] = s * akp + c * akq;
                 }
-                for k in 0..m {
-                    let (apk, aqk) = (a[p][k], a[q][k]);
-                    a[p][k] = c * apk - s * aqk;
-                    a[q][k] = s * apk + c * aqk;
+                let (mut rp, mut rq) = (a[p], a[q]);
+                for (x, y) in rp.iter_mut().zip(rq.iter_mut()).take(m) {
+                    let (apk, aqk) = (*x, *y);
+                    *x = c * apk - s * aqk;
+                    *y = s * apk + c * aqk;
                 }
+                (a[p], a[q]) = (rp, rq);
                 for row in v.iter_mut().take(m) {
                     let (vkp, vkq) = (row[p], row[q]);
                     row[p] = c * vkp - s * vkq;

@@ -99,7 +99,11 @@ pub fn build<L: Layout>(staged: &StagedMesh, budget: usize, dir: &Path) -> io::R
             None
         }
     });
-    let sorted = sort_external(records, budget * 5 / 8, dir)?;
+    // The sort fills its buffer from an iterator of unknown length, so the buffer grows by
+    // doubling: a power of two records is what it then holds, not up to twice that.
+    let record = std::mem::size_of::<L::Rec>();
+    let sort_records = ((budget * 5 / 8 / record).max(2) + 1).next_power_of_two() / 2;
+    let sorted = sort_external(records, sort_records * record, dir)?;
     if let Some(e) = error {
         return Err(e);
     }
