@@ -9,8 +9,10 @@
 //! ([`finish`]). A vertex whose triangles are all degenerate (or that no triangle uses) gets
 //! the zero normal, which the renderer shades with the face normal.
 //!
-//! Creases are not split: a vertex has one normal (wedges, which a crease needs, are the
-//! appearance issue's next step).
+//! With a crease angle below 180° (`compute_missing_normals_creased`, in memory), a vertex's
+//! corners are grouped across the edges whose faces meet at no more than that angle, and each
+//! group is a wedge with its own normal (`mesh.rs`): hard edges stay hard. A texture seam is
+//! no crease: wedges of one vertex are smoothed together where their faces are.
 
 use crate::mesh::InputMesh;
 
@@ -109,6 +111,158 @@ pub fn compute_missing_normals(mesh: &mut InputMesh) -> bool {
     }
     mesh.normals = Some(normals);
     true
+}
+
+/// `compute_missing_normals` with the vertices' corners split into wedges at creases: edges
+/// whose two triangles' normals differ by more than `crease_degrees` (and border and
+/// non-manifold edges) separate the corners around a vertex, and each group of corners gets
+/// its own angle-weighted normal. 180 or more: no crease, `compute_missing_normals` itself;
+/// a mesh without a crease gets exactly its normals too. Says whether normals were computed.
+pub fn compute_missing_normals_creased(mesh: &mut InputMesh, crease_degrees: f64) -> bool {
+    if mesh.normals.is_some() {
+        return false;
+    }
+    if !(crease_degrees < 180.0) {
+        return compute_missing_normals(mesh);
+    }
+    let starts = mesh.vertex_starts();
+    let corners = Corners::grouped(mesh, &starts, crease_degrees.to_radians().cos());
+    if !corners.splits {
+        return compute_missing_normals(mesh);
+    }
+    // Each group's normal: its corners' contributions summed in triangle order.
+    let mut sums = vec![[0.0f32; 3]; corners.group.len()];
+    for (t, tri) in mesh.triangles.iter().enumerate() {
+        let c = corner_contributions(tri.map(|w| mesh.positions[w as usize]));
+        for k in 0..3 {
+            accumulate(&mut sums[corners.group[3 * t + k] as usize], c[k]);
+        }
+    }
+    // The new wedges: the distinct (wedge, group) of every corner, by vertex, wedge, group.
+    let mut order: Vec<(u32, u32, u32)> = (0..corners.group.len())
+        .map(|c| {
+            let w = mesh.triangles[c / 3][c % 3];
+            (w, corners.group[c], c as u32)
+        })
+        .collect();
+    order.sort_unstable();
+    let mut new_of_corner = vec![0u32; order.len()];
+    let mut old_of_new: Vec<u32> = Vec::new();
+    let mut normals: Vec<[f32; 3]> = Vec::new();
+    let mut last = None;
+    for &(w, g, c) in &order {
+        if last != Some((w, g)) {
+            last = Some((w, g));
+            old_of_new.push(w);
+            normals.push(finish(sums[g as usize]));
+        }
+        new_of_corner[c as usize] = old_of_new.len() as u32 - 1;
+    }
+    fn pick<T: Copy>(v: &mut Vec<T>, old_of_new: &[u32]) {
+        *v = old_of_new.iter().map(|&w| v[w as usize]).collect();
+    }
+    pick(&mut mesh.positions, &old_of_new);
+    if let Some(c) = mesh.colors.as_mut() {
+        pick(c, &old_of_new);
+    }
+    if let Some(uv) = mesh.uvs.as_mut() {
+        pick(uv, &old_of_new);
+    }
+    for (t, tri) in mesh.triangles.iter_mut().enumerate() {
+        *tri = [0, 1, 2].map(|k| new_of_corner[3 * t + k]);
+    }
+    mesh.normals = Some(normals);
+    true
+}
+
+/// Every corner's group (`3 t + k`: corner `k` of triangle `t`): the smallest corner of its
+/// vertex joined to it across smooth manifold edges.
+struct Corners {
+    group: Vec<u32>,
+    /// Whether some vertex has more than one group.
+    splits: bool,
+}
+
+impl Corners {
+    fn grouped(mesh: &InputMesh, starts: &crate::mesh::VertexStarts, cos_crease: f64) -> Corners {
+        let tris: Vec<[u32; 3]> = (mesh.triangles.iter())
+            .map(|t| t.map(|w| starts.canonical(w)))
+            .collect();
+        let face: Vec<Option<[f64; 3]>> = tris
+            .iter()
+            .map(|t| unit_normal(t.map(|v| mesh.positions[v as usize])))
+            .collect();
+        // Every directed edge (key, triangle, corner at its start), sorted: an edge's uses
+        // are a run.
+        let mut edges: Vec<(u64, u32, u8)> = Vec::with_capacity(3 * tris.len());
+        for (t, tri) in tris.iter().enumerate() {
+            for k in 0..3 {
+                let (a, b) = (tri[k], tri[(k + 1) % 3]);
+                let key = (a.min(b) as u64) << 32 | a.max(b) as u64;
+                edges.push((key, t as u32, k as u8));
+            }
+        }
+        edges.sort_unstable();
+        let mut parent: Vec<u32> = (0..3 * tris.len() as u32).collect();
+        fn root(parent: &mut [u32], mut c: u32) -> u32 {
+            while parent[c as usize] != c {
+                parent[c as usize] = parent[parent[c as usize] as usize];
+                c = parent[c as usize];
+            }
+            c
+        }
+        let join = |parent: &mut Vec<u32>, x: u32, y: u32| {
+            let (x, y) = (root(parent, x), root(parent, y));
+            // The smaller corner is the root: a group's label is its smallest corner.
+            let (lo, hi) = (x.min(y), x.max(y));
+            parent[hi as usize] = lo;
+        };
+        for run in edges.chunk_by(|a, b| a.0 == b.0) {
+            let [(_, t1, k1), (_, t2, k2)] = run else {
+                continue; // a border or a non-manifold edge
+            };
+            let smooth = match (face[*t1 as usize], face[*t2 as usize]) {
+                (Some(n1), Some(n2)) => n1[0] * n2[0] + n1[1] * n2[1] + n1[2] * n2[2] >= cos_crease,
+                _ => true, // a degenerate triangle splits nothing
+            };
+            if !smooth {
+                continue;
+            }
+            // The edge's two ends in each triangle: its start corner and the next.
+            let corner = |t: u32, k: u8| 3 * t + k as u32;
+            let next = |t: u32, k: u8| 3 * t + (k as u32 + 1) % 3;
+            let (a1, b1) = (corner(*t1, *k1), next(*t1, *k1));
+            let (a2, b2) = (corner(*t2, *k2), next(*t2, *k2));
+            // Opposite directions (a consistently oriented edge): a1 meets b2; else a1 a2.
+            let v = |c: u32| tris[c as usize / 3][c as usize % 3];
+            let (a2, b2) = if v(a1) == v(b2) { (b2, a2) } else { (a2, b2) };
+            join(&mut parent, a1, a2);
+            join(&mut parent, b1, b2);
+        }
+        let group: Vec<u32> = (0..parent.len() as u32)
+            .map(|c| root(&mut parent, c))
+            .collect();
+        // A vertex splits when two of its corners have different groups.
+        let mut first_group = std::collections::HashMap::new();
+        let splits = group.iter().enumerate().any(|(c, &g)| {
+            let v = tris[c / 3][c % 3];
+            *first_group.entry(v).or_insert(g) != g
+        });
+        Corners { group, splits }
+    }
+}
+
+/// The unit normal of the triangle with corners `p`, if it has one.
+fn unit_normal(p: [[f64; 3]; 3]) -> Option<[f64; 3]> {
+    let u = [0, 1, 2].map(|i| p[1][i] - p[0][i]);
+    let v = [0, 1, 2].map(|i| p[2][i] - p[0][i]);
+    let n = [
+        u[1] * v[2] - u[2] * v[1],
+        u[2] * v[0] - u[0] * v[2],
+        u[0] * v[1] - u[1] * v[0],
+    ];
+    let length = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+    (length > 0.0 && length.is_finite()).then(|| n.map(|x| x / length))
 }
 
 #[cfg(test)]
@@ -217,5 +371,69 @@ mod tests {
         assert_eq!(n[3], n[4]);
         // Both triangles count at the seam: not the first triangle's (0, 0, 1) alone.
         assert!(n[1][2] < 0.999 && n[1][2] > 0.9, "{:?}", n[1]);
+    }
+
+    /// A cube of 12 triangles without normals: split at 60° every corner has three wedges,
+    /// one a face, each with its face's normal; at 180° one smooth normal a corner.
+    #[test]
+    fn a_crease_angle_splits_a_cube_s_corners_into_its_faces() {
+        let p = |i: u32| [(i & 1) as f64, (i >> 1 & 1) as f64, (i >> 2 & 1) as f64];
+        let quads = [
+            [0, 2, 3, 1],
+            [4, 5, 7, 6],
+            [0, 1, 5, 4],
+            [2, 6, 7, 3],
+            [0, 4, 6, 2],
+            [1, 3, 7, 5],
+        ];
+        let triangles: Vec<[u32; 3]> = quads
+            .iter()
+            .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
+            .collect();
+        let cube = InputMesh {
+            positions: (0..8).map(p).collect(),
+            triangles,
+            uvs: Some((0..8).map(|i| [i as f32, 0.0]).collect()),
+            ..Default::default()
+        };
+        let mut smooth = cube.clone();
+        assert!(compute_missing_normals_creased(&mut smooth, 180.0));
+        assert_eq!(smooth.positions.len(), 8);
+        let mut hard = cube.clone();
+        assert!(compute_missing_normals_creased(&mut hard, 60.0));
+        assert_eq!(hard.positions.len(), 24, "three wedges a corner");
+        assert_eq!(hard.vertex_starts().vertex_count(24), 8);
+        let normals = hard.normals.as_ref().unwrap();
+        for t in &hard.triangles {
+            let corners = t.map(|w| hard.positions[w as usize]);
+            let face = unit_normal(corners).unwrap();
+            for &w in t {
+                let n = normals[w as usize].map(f64::from);
+                let dot = n[0] * face[0] + n[1] * face[1] + n[2] * face[2];
+                assert!(dot > 0.999999, "wedge {w}: {n:?} on a face {face:?}");
+            }
+        }
+        // The texture coordinates follow their wedges.
+        let uvs = hard.uvs.as_ref().unwrap();
+        for w in 0..24 {
+            let original = (0..8).find(|&i| p(i) == hard.positions[w]).unwrap();
+            assert_eq!(uvs[w], [original as f32, 0.0]);
+        }
+        // At 91° a cube's faces (90° apart) are smooth.
+        let mut ninety = cube.clone();
+        compute_missing_normals_creased(&mut ninety, 91.0);
+        assert_eq!(ninety.positions.len(), 8);
+    }
+
+    /// Without a crease over the angle, the normals are the smooth ones, bit for bit.
+    #[test]
+    fn a_smooth_mesh_gets_the_same_normals_at_any_crease_angle() {
+        let mut mesh = crate::procedural::demo_mesh(4);
+        mesh.normals = None;
+        let mut smooth = mesh.clone();
+        compute_missing_normals(&mut smooth);
+        let mut creased = mesh.clone();
+        assert!(compute_missing_normals_creased(&mut creased, 60.0));
+        assert_eq!(creased, smooth);
     }
 }

@@ -10,6 +10,7 @@ use tessera_core::cut::{diamond_rhos, select_stateless};
 use tessera_core::metric::{eye_local, ScreenSpaceMetric};
 use tessera_core::repository::format::oct_decode_normal;
 use tessera_preprocess::import::{load_mesh, weld, RawMesh};
+use tessera_preprocess::normals::compute_missing_normals_creased;
 use tessera_preprocess::{BuildConfig, Construction, InputMesh};
 use tessera_runtime::geometric_check::{check_cuts, decode_all_patches, CheckConfig};
 use tessera_tests::{build, Built};
@@ -331,4 +332,61 @@ fn corners_differing_only_in_the_sign_of_a_zero_are_one_wedge() {
     let welded = weld(raw).mesh;
     assert_eq!(welded.positions.len(), 4);
     assert!(welded.vertex_starts().is_identity());
+}
+
+/// A cube without normals, its computed normals split at 60°: every stored normal, at every
+/// level, is its triangle's face normal where the cube is flat (hard edges at every cut), and
+/// the cuts are crack-free.
+#[test]
+fn computed_normals_split_at_a_crease_angle_keep_a_cube_s_edges_hard() {
+    let mut mesh = cube(12);
+    mesh.normals = None;
+    mesh.uvs = None;
+    let mesh = weld(RawMesh {
+        positions: mesh.positions,
+        triangles: mesh.triangles,
+        ..Default::default()
+    })
+    .mesh;
+    assert!(mesh.vertex_starts().is_identity());
+    let mut creased = mesh.clone();
+    assert!(compute_missing_normals_creased(&mut creased, 60.0));
+    assert_eq!(creased.positions.len(), 6 * 13 * 13);
+    let built = build(&creased, &small_leaves());
+    let report = check_cuts(
+        &built.repo,
+        &decode_all_patches(&built.repo).unwrap(),
+        &CheckConfig::default(),
+    );
+    assert!(report.is_clean(), "{report:?}");
+    let repo = &built.repo;
+    let h = repo.header();
+    for i in 0..repo.tets().len() {
+        let patch = repo.patch(i).unwrap();
+        let view = patch.view();
+        let normals = view.normals().unwrap();
+        let p = |l: u32| {
+            tessera_core::repository::format::dequantize_position(
+                view.position(l as usize),
+                h.bbox_min,
+                h.position_step,
+            )
+        };
+        for t in view.triangles() {
+            let [a, b, c] = t.map(p);
+            let u = [0, 1, 2].map(|k| b[k] - a[k]);
+            let v = [0, 1, 2].map(|k| c[k] - a[k]);
+            let n = [
+                u[1] * v[2] - u[2] * v[1],
+                u[2] * v[0] - u[0] * v[2],
+                u[0] * v[1] - u[1] * v[0],
+            ];
+            let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+            for l in t {
+                let s = oct_decode_normal(normals[l as usize]);
+                let dot: f64 = (0..3).map(|k| s[k] as f64 * n[k] / len).sum();
+                assert!(dot > 0.999, "tet {i}: stored {s:?}, face {n:?}");
+            }
+        }
+    }
 }

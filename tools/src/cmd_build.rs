@@ -61,6 +61,12 @@ pub struct BuildArgs {
     /// normals computed at build time (within the `--memory` budget where one is given).
     #[arg(long)]
     pub no_computed_normals: bool,
+    /// Split computed normals at creases: around a vertex, faces meeting at more than DEG
+    /// degrees get normals of their own (wedges of the vertex), so hard edges stay hard; 180
+    /// (the default) splits nothing. In memory only: `--memory` refuses an angle below 180
+    /// for an input without normals.
+    #[arg(long, value_name = "DEG", default_value_t = 180.0)]
+    pub crease_angle: f64,
     /// Store errors that are bounds: each diamond's error is an upper bound on the two-sided
     /// (Hausdorff) distance between its patches and the input surface, so a cut drawn at τ
     /// is within τ of the input everywhere. Slower to build, and the errors are larger than
@@ -341,7 +347,7 @@ fn load_or_resume(
     let (mut input, stream) =
         crate::input::load_build_input(&args.input, &args.heightfield, staging)?;
     if !args.no_computed_normals {
-        crate::input::compute_missing_normals(&mut input, staging)?;
+        crate::input::compute_missing_normals(&mut input, staging, args.crease_angle)?;
     }
     if let (Some(c), BuildInput::Staged { staged, .. }) = (checkpoint, &mut input) {
         let at = format!("checkpoint {}", c.dir().display());

@@ -259,15 +259,31 @@ pub fn load_build_input(
 }
 
 /// Gives an input without normals (a mesh, or a height field's mesh) angle-weighted vertex
-/// normals (`normals.rs`): in memory, or out of core within `staging`'s budget for a staged
-/// mesh. A resumed build has the normals its checkpoint staged.
+/// normals (`normals.rs`), split at creases sharper than `crease_degrees` (180: none): in
+/// memory, or out of core within `staging`'s budget for a staged mesh (no creases there: the
+/// out-of-core build keeps no wedges yet). A resumed build has the normals its checkpoint
+/// staged.
 pub fn compute_missing_normals(
     input: &mut BuildInput,
     staging: Option<(&Path, u64)>,
+    crease_degrees: f64,
 ) -> anyhow::Result<()> {
+    if !(crease_degrees > 0.0 && crease_degrees <= 180.0) {
+        bail!("--crease-angle {crease_degrees}: must be above 0 and at most 180 degrees");
+    }
     let computed = match input {
-        BuildInput::Loaded(loaded) => {
-            tessera_preprocess::normals::compute_missing_normals(&mut loaded.mesh)
+        BuildInput::Loaded(loaded) => tessera_preprocess::normals::compute_missing_normals_creased(
+            &mut loaded.mesh,
+            crease_degrees,
+        ),
+        BuildInput::Staged { staged, .. }
+            if staged.attributes.normals.is_none() && crease_degrees < 180.0 =>
+        {
+            bail!(
+                "--crease-angle {crease_degrees}: normals split at creases are wedges, which the \
+                 out-of-core build (--memory) does not keep yet; build without --memory, or with \
+                 --crease-angle 180"
+            )
         }
         BuildInput::Staged { staged, .. } if staged.attributes.normals.is_none() => {
             let (dir, budget) = staging.expect("a staged mesh has a staging budget");

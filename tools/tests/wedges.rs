@@ -133,3 +133,38 @@ fn the_out_of_core_build_refuses_seams_and_builds_the_same_bytes_without() {
     let staged = built("staged.tsr", &["--memory", "64M", "--temp", temp]);
     assert!(in_memory == staged, "the two builds differ");
 }
+
+#[test]
+fn a_crease_angle_splits_computed_normals_in_memory_and_is_refused_out_of_core() {
+    let dir = tempfile::tempdir().unwrap();
+    let temp = dir.path().to_str().unwrap();
+    // No normals: they are computed, split at the cube's edges.
+    let cube = write_cube(dir.path(), "plain.obj", false);
+    let repo = dir.path().join("creased.tsr");
+    let repo = repo.to_str().unwrap();
+    let build = |extra: &[&str]| {
+        let args = [
+            &["build", &cube, "-o", repo, "--leaf-triangles", "64"][..],
+            extra,
+        ]
+        .concat();
+        tessera(&args)
+    };
+    succeeds(&build(&["--crease-angle", "60"]));
+    let smooth = dir.path().join("smooth.tsr");
+    let out = tessera(&["build", &cube, "-o", smooth.to_str().unwrap()]);
+    succeeds(&out);
+    assert!(
+        std::fs::metadata(repo).unwrap().len() > std::fs::metadata(&smooth).unwrap().len(),
+        "the creased cube stores its edges' wedges"
+    );
+    succeeds(&tessera(&["check", repo, "--gpu", "--views", "8"]));
+    // Out of core: refused, naming the flag.
+    let out = build(&["--crease-angle", "60", "--memory", "64M", "--temp", temp]);
+    assert_eq!(out.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("--crease-angle 60"), "{stderr}");
+    // Out of range.
+    let out = build(&["--crease-angle", "0"]);
+    assert_eq!(out.status.code(), Some(2));
+}
