@@ -1,10 +1,10 @@
-//! `tessera simplify INPUT -o OUT.ply (--target-triangles N | --max-triangles-per-node T)`
+//! `tessera simplify INPUT -o OUT.{ply,glb} (--target-triangles N | --max-triangles-per-node T)`
 //! `[--max-depth D] [--levels L] [--memory SIZE] [--temp DIR] [--json]`
 //!
 //! Seed 004's out-of-core simplifier (`tessera_preprocess::cluster`): the mesh staged on
 //! disk, an octree of end nodes, each node's interior collapsed to its generalised quadric's
 //! vertex with its boundary kept, coarser levels from the finer. One mesh of N triangles
-//! (±10 %), or the seed's levels one file each.
+//! (±10 %), or the seed's levels one file each, as PLY or GLB.
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -23,8 +23,9 @@ use crate::Outcome;
 pub struct SimplifyArgs {
     /// Input mesh (PLY, OBJ, OFF, STL, glTF/GLB; .gz accepted).
     pub input: PathBuf,
-    /// Output mesh, binary PLY with the input's normals, colours and texture coordinates
-    /// (written to a temporary file, then renamed); with `--levels`, OUT's stem + `.levelK`.
+    /// Output mesh, binary PLY (`.ply`) or binary glTF (`.glb`), with the input's normals,
+    /// colours and texture coordinates (written to a temporary file, then renamed); with
+    /// `--levels`, OUT's stem + `.levelK`.
     #[arg(short, long)]
     pub output: PathBuf,
     /// Write one mesh of N triangles (within 10 %): the end-node size T is searched (from
@@ -77,9 +78,9 @@ pub fn run(args: SimplifyArgs) -> anyhow::Result<Outcome> {
         .output
         .extension()
         .map(|e| e.to_string_lossy().to_ascii_lowercase());
-    if extension.as_deref() != Some("ply") {
+    if !matches!(extension.as_deref(), Some("ply" | "glb")) {
         bail!(
-            "{}: simplify writes binary PLY: give an output ending in .ply",
+            "{}: simplify writes binary PLY or GLB: give an output ending in .ply or .glb",
             args.output.display()
         );
     }

@@ -9,7 +9,7 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 use cli_support::{json, tessera};
-use tessera_preprocess::import::load_mesh;
+use tessera_preprocess::import::{load_mesh, load_raw};
 
 fn testdata(name: &str) -> PathBuf {
     let path = Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -133,6 +133,13 @@ fn colours_are_kept() {
     let output = dir.path().join("simplified.ply");
     let j = simplify(&input, &output, &["--target-triangles", "4000"]);
     assert_eq!(j["attributes"]["colors"], true, "{j}");
+    // The same mesh as GLB: same triangles, vertices and colours.
+    let glb = dir.path().join("simplified.glb");
+    simplify(&input, &glb, &["--target-triangles", "4000"]);
+    let (ply_mesh, glb_mesh) = (load_raw(&output).unwrap(), load_raw(&glb).unwrap());
+    assert_eq!(glb_mesh.triangles, ply_mesh.triangles);
+    assert_eq!(glb_mesh.colors, ply_mesh.colors);
+    assert_eq!(glb_mesh.positions, ply_mesh.positions);
     let before = load_mesh(&input).unwrap().mesh;
     let after = load_mesh(&output).unwrap().mesh;
     let colours = after.colors.as_ref().expect("the output keeps the colours");
@@ -258,7 +265,7 @@ fn bad_input_is_refused_and_nothing_written() {
         &["--target-triangles", "30000"],
         "cannot make 30000 triangles",
     );
-    refused(&whole, "out.obj", &n, "binary PLY");
+    refused(&whole, "out.obj", &n, "binary PLY or GLB");
     let out = tessera(&["simplify", whole.to_str().unwrap(), "-o", "x.ply"]);
     assert_eq!(out.status.code(), Some(2));
 }

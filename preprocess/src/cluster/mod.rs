@@ -3,7 +3,7 @@
 //!
 //!     staged mesh ─▶ sorted triangle soup (`soup.rs`) ─▶ octree of end nodes (`octree.rs`)
 //!       ─▶ every node simplified bottom-up (`levels.rs`, `node.rs`, `quadric.rs`)
-//!       ─▶ a cut: the seed's level k, or a cut of N triangles ─▶ PLY (`writer.rs`)
+//!       ─▶ a cut: the seed's level k, or a cut of N triangles ─▶ PLY or GLB (`writer.rs`)
 //!       ─▶ its sampled distance to the input (`measure.rs`)
 //!
 //! Out of core: the mesh is staged and welded on disk by the importers (`import::stage_mesh`),
@@ -205,7 +205,7 @@ fn run<L: Layout>(
     let mut written = Vec::new();
     for (path, level, cut) in jobs {
         on_stage("write");
-        let w = writer::write_ply(&hierarchy, &cut, soup.attributes, dir, &path)?;
+        let w = writer::write_mesh(&hierarchy, &cut, soup.attributes, dir, &path)?;
         let distance = if settings.measure {
             on_stage("measure");
             Some(measure::measure(&soup, &hierarchy, &cut, budget / 2)?)
