@@ -1,5 +1,5 @@
 //! `tessera simplify INPUT -o OUT.{ply,glb} (--target-triangles N | --max-triangles-per-node T)`
-//! `[--max-depth D] [--levels L] [--memory SIZE] [--temp DIR] [--json]`
+//! `[--max-depth D] [--levels L] [--memory SIZE] [--temp DIR] [--no-measure] [--json]`
 //!
 //! Seed 004's out-of-core simplifier (`tessera_preprocess::cluster`): the mesh staged on
 //! disk, an octree of end nodes, each node's interior collapsed to its generalised quadric's
@@ -55,6 +55,10 @@ pub struct SimplifyArgs {
     /// names: nothing is left behind.
     #[arg(long, value_name = "DIR")]
     pub temp: Option<PathBuf>,
+    /// Skip measuring the output's distance to the input (`error` is then null): the
+    /// measure reads the input again and is most of the time at coarse targets.
+    #[arg(long)]
+    pub no_measure: bool,
     /// Print one JSON object on stdout.
     #[arg(long)]
     pub json: bool,
@@ -125,7 +129,7 @@ pub fn run(args: SimplifyArgs) -> anyhow::Result<Outcome> {
         output,
         budget,
         temp_dir,
-        measure: true,
+        measure: !args.no_measure,
     };
     let summary = cluster::simplify_staged(&staged, &settings, &on_stage)
         .with_context(|| format!("simplifying {}", args.input.display()))?;
