@@ -460,7 +460,8 @@ fn off_cube_with_comments_and_face_colors() {
     let dir = tempfile::tempdir().unwrap();
     let r = load(&write(dir.path(), "cube.off", cube_off()));
     assert_cube(&r);
-    assert_eq!(r.mesh.colors, None);
+    // Every face red: the corners' colour (wedges where faces around a vertex differ).
+    assert_eq!(r.mesh.colors, Some(vec![[255, 0, 0, 255]; 8]));
     let gz = load(&write(
         dir.path(),
         "cube.off.gz",

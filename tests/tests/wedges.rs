@@ -390,3 +390,43 @@ fn computed_normals_split_at_a_crease_angle_keep_a_cube_s_edges_hard() {
         }
     }
 }
+
+/// Per-face colours (PLY `face` red/green/blue, OFF colours after a face's indices) become
+/// wedges: a square of two triangles coloured differently keeps both colours at its shared
+/// edge's vertices, one vertex (global id) each.
+#[test]
+fn face_colours_are_wedges() {
+    let ply = "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n\
+               property float z\nelement face 2\nproperty list uchar int vertex_indices\n\
+               property uchar red\nproperty uchar green\nproperty uchar blue\nend_header\n\
+               0 0 0\n1 0 0\n1 1 0\n0 1 0\n3 0 1 2 255 0 0\n3 0 2 3 0 0 255\n";
+    let off = "OFF\n4 2 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n3 0 1 2 1.0 0.0 0.0\n3 0 2 3 0 0 255\n";
+    let dir = tempfile::tempdir().unwrap();
+    for (name, text) in [("square.ply", ply), ("square.off", off)] {
+        let path = dir.path().join(name);
+        std::fs::write(&path, text).unwrap();
+        let mesh = load_mesh(&path).unwrap().mesh;
+        // Vertices 0 and 2 have a red and a blue wedge; 1 is red, 3 blue.
+        assert_eq!(mesh.positions.len(), 6, "{name}");
+        assert_eq!(mesh.vertex_starts().vertex_count(6), 4, "{name}");
+        let colors = mesh.colors.as_ref().unwrap();
+        for (t, want) in mesh
+            .triangles
+            .iter()
+            .zip([[255, 0, 0, 255], [0, 0, 255, 255]])
+        {
+            for &w in t {
+                assert_eq!(colors[w as usize], want, "{name}");
+            }
+        }
+        // Staged out of core: refused, never welded to one colour.
+        let staging = tempfile::tempdir().unwrap();
+        let refused = tessera_preprocess::import::stage_mesh(&path, staging.path(), 1 << 20)
+            .err()
+            .expect("refused");
+        assert!(
+            refused.to_string().contains("per-face colours"),
+            "{refused}"
+        );
+    }
+}

@@ -1,10 +1,11 @@
 //! OFF reader (Geomview object file format, ASCII): `OFF` and its `C`/`N`/`ST` variants (vertex
-//! colours, normals, texture coordinates), `#` comments; polygons are fan-triangulated, face
-//! colours ignored.
+//! colours, normals, texture coordinates), `#` comments; polygons are fan-triangulated. A
+//! face's colour (three or four components after its indices) colours its corners as wedges
+//! (`sink::FaceColored`; refused when staged out of core).
 
 use super::error::{show, ImportErrorKind as K, Location};
 use super::input::{check_finite, fan, parse_float, parse_int, Input};
-use super::sink::{at, in_memory, Declared, MeshSink};
+use super::sink::{at, in_memory, Declared, FaceColored, MeshSink};
 use super::RawMesh;
 
 #[derive(Default, Clone, Copy)]
@@ -73,7 +74,7 @@ fn truncated(expected: u64, what: &str, done: u64) -> K {
 
 /// Reads an OFF file into memory.
 pub(crate) fn read(input: &mut Input) -> Result<RawMesh, K> {
-    read_into(input, |d| Ok(in_memory(d)))
+    read_into(input, |d| Ok(FaceColored::new(in_memory(d)))).map(FaceColored::finish)
 }
 
 /// Reads an OFF file into the sink `make_sink` makes once the header is read.
@@ -271,7 +272,30 @@ pub(crate) fn read_into<S: MeshSink>(
         fan(&poly, &mut fanned);
         mesh.triangles(&fanned)?;
         if !input.end_line(true)? {
-            input.skip_line()?; // face colour
+            // A face colour: three or four components (integers 0–255, or reals 0–1); one
+            // value (a colour map index) or anything else is ignored.
+            let mut c = [0.0f64; 5];
+            let mut count = 0;
+            let mut float = false;
+            while let Some(tok) = input.token(true)? {
+                if count < c.len() {
+                    float |= tok.iter().any(|&b| b == b'.' || b == b'e' || b == b'E');
+                    c[count] = parse_float(tok).unwrap_or(f64::NAN);
+                }
+                count += 1;
+            }
+            input.skip_line()?;
+            if (count == 3 || count == 4) && c[..count].iter().all(|x| x.is_finite()) {
+                let channel = |x: f64| match float {
+                    true => (x.clamp(0.0, 1.0) * 255.0).round() as u8,
+                    false => x.clamp(0.0, 255.0) as u8,
+                };
+                let alpha = if count == 4 { channel(c[3]) } else { 255 };
+                let color = [channel(c[0]), channel(c[1]), channel(c[2]), alpha];
+                if !fanned.is_empty() {
+                    mesh.face_color(fanned.len(), color)?;
+                }
+            }
         }
     }
     Ok(mesh)

@@ -1,7 +1,9 @@
 //! Streaming PLY reader: ASCII, binary little- and big-endian. Reads `vertex` (x, y, z; optional
 //! normals, colours, texture coordinates), `face` (list `vertex_indices`/`vertex_index`,
-//! fan-triangulated) and `tristrips` (list `vertex_indices`, -1 restarts); skips every other
-//! property and element.
+//! fan-triangulated, with an optional face colour: `red`, `green`, `blue` [`alpha`], whose
+//! corners become wedges of that colour, `sink::FaceColored`; refused when staged out of core)
+//! and `tristrips` (list `vertex_indices`, -1 restarts); skips every other property and
+//! element.
 
 use super::error::{show, ImportErrorKind as K, Location};
 use super::input::{check_finite, fan, parse_int, Input};
@@ -107,7 +109,10 @@ enum FaceKind {
 
 /// Reads a PLY file into memory.
 pub(crate) fn read(input: &mut Input) -> Result<RawMesh, K> {
-    read_into(input, |d| Ok(super::sink::in_memory(d)))
+    read_into(input, |d| {
+        Ok(super::sink::FaceColored::new(super::sink::in_memory(d)))
+    })
+    .map(super::sink::FaceColored::finish)
 }
 
 /// Reads a PLY file into the sink `make_sink` makes once the header is read.
@@ -401,11 +406,40 @@ impl Reader<'_> {
         let el = self.el;
         let mut poly: Vec<u32> = Vec::new();
         let mut out: Vec<[u32; 3]> = Vec::new();
+        // A face's colour channel of each property (red, green, blue, alpha), and its type.
+        let channel_of: Vec<Option<(usize, Scalar)>> = (el.props.iter())
+            .map(|p| {
+                let channel = match p.name.as_str() {
+                    "red" | "diffuse_red" => 0,
+                    "green" | "diffuse_green" => 1,
+                    "blue" | "diffuse_blue" => 2,
+                    "alpha" | "diffuse_alpha" => 3,
+                    _ => return None,
+                };
+                match p.ty {
+                    PropType::Scalar(ty) if kind == FaceKind::Polygons => Some((channel, ty)),
+                    _ => None,
+                }
+            })
+            .collect();
+        let colored = (0..3).all(|c| channel_of.iter().flatten().any(|&(k, _)| k == c));
         for f in 0..el.count {
             let line = self.start_record(f)?;
+            let mut color = [0u8, 0, 0, 255];
+            let mut triangles = 0;
             for (k, prop) in el.props.iter().enumerate() {
                 let PropType::List { count, item } = prop.ty else {
-                    self.skip_prop(prop, f, line)?;
+                    match channel_of[k] {
+                        Some((c, ty)) if colored => {
+                            let v = self.value(ty, f, line, prop)?;
+                            color[c] = if ty.is_int() {
+                                v.clamp(0.0, 255.0) as u8
+                            } else {
+                                (v.clamp(0.0, 1.0) * 255.0).round() as u8
+                            };
+                        }
+                        _ => self.skip_prop(prop, f, line)?,
+                    }
                     continue;
                 };
                 if k != list {
@@ -449,8 +483,12 @@ impl Reader<'_> {
                     FaceKind::Strips => strips(&poly, &mut out),
                 }
                 sink.triangles(&out)?;
+                triangles += out.len();
             }
             self.end_record(line)?;
+            if colored && triangles > 0 {
+                sink.face_color(triangles, color)?;
+            }
         }
         Ok(())
     }
