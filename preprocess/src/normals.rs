@@ -122,7 +122,8 @@ pub fn compute_missing_normals_creased(mesh: &mut InputMesh, crease_degrees: f64
     if mesh.normals.is_some() {
         return false;
     }
-    if !(crease_degrees < 180.0) {
+    // (NaN too: no crease.)
+    if crease_degrees.partial_cmp(&180.0) != Some(std::cmp::Ordering::Less) {
         return compute_missing_normals(mesh);
     }
     let starts = mesh.vertex_starts();

@@ -15,6 +15,12 @@ use tessera_preprocess::{BuildConfig, Construction, InputMesh};
 use tessera_runtime::geometric_check::{check_cuts, decode_all_patches, CheckConfig};
 use tessera_tests::{build, Built};
 
+/// A cube face: its normal, its u and v axes and its origin.
+type Face = ([f64; 3], [f64; 3], [f64; 3], [f64; 3]);
+
+/// A wedge's normal and texture coordinate.
+type Wedge = ([f32; 3], [f32; 2]);
+
 /// A cube of side 1 as an OBJ, each face an `n` x `n` grid: positions shared along the cube's
 /// edges, each face its own normal (hard edges) and its own texture chart (a seam on every
 /// edge): `f v/vt/vn` corners.
@@ -24,7 +30,7 @@ fn cube_obj(n: usize) -> String {
     let mut vertices = 0;
     let mut texcoords = 0;
     // (normal, u axis, v axis, origin) of each face, counter-clockwise seen from outside.
-    let faces: [([f64; 3], [f64; 3], [f64; 3], [f64; 3]); 6] = [
+    let faces: [Face; 6] = [
         ([1., 0., 0.], [0., 1., 0.], [0., 0., 1.], [1., 0., 0.]),
         ([-1., 0., 0.], [0., 0., 1.], [0., 1., 0.], [0., 0., 0.]),
         ([0., 1., 0.], [0., 0., 1.], [1., 0., 0.], [0., 1., 0.]),
@@ -138,7 +144,7 @@ fn a_cube_with_hard_edges_and_a_seam_on_every_edge_keeps_them_and_has_no_crack()
 
     // Every stored wedge is one of its vertex's input wedges (normal and texture coordinate
     // together), at every level: nothing averaged, nothing taken from the other side of a seam.
-    let mut input: HashMap<u32, Vec<([f32; 3], [f32; 2])>> = HashMap::new();
+    let mut input: HashMap<u32, Vec<Wedge>> = HashMap::new();
     let (normals, uvs) = (mesh.normals.as_ref().unwrap(), mesh.uvs.as_ref().unwrap());
     for w in 0..mesh.positions.len() as u32 {
         let v = starts.canonical(w);

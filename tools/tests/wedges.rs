@@ -10,11 +10,14 @@ use std::path::Path;
 
 use cli_support::{json, tessera};
 
+/// A cube face: its normal, its u and v axes and its origin.
+type Face = ([f64; 3], [f64; 3], [f64; 3], [f64; 3]);
+
 /// A cube of `n` x `n` quads a face as an OBJ: `v` shared along the edges, a `vn` a face (hard
 /// edges) and a texture chart a face (`vt` a corner: a seam on every edge). With `seams` off,
 /// corners name the vertex's own `vt` (one a vertex) and no normal: nothing to keep apart.
 fn cube_obj(n: usize, seams: bool) -> String {
-    let faces: [([f64; 3], [f64; 3], [f64; 3], [f64; 3]); 6] = [
+    let faces: [Face; 6] = [
         ([1., 0., 0.], [0., 1., 0.], [0., 0., 1.], [1., 0., 0.]),
         ([-1., 0., 0.], [0., 0., 1.], [0., 1., 0.], [0., 0., 0.]),
         ([0., 1., 0.], [0., 0., 1.], [1., 0., 0.], [0., 1., 0.]),
