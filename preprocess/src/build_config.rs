@@ -48,8 +48,8 @@ pub struct BuildConfig {
     /// A memory budget (`--memory`): the stages that can work out of core do, with their
     /// temporary files in its directory. The repository is the same bytes with or without it.
     pub memory: Option<MemoryBudget>,
-    /// How the repository stores its patches: packed (the default) or raw (`--no-compress`).
-    /// Either decodes to the same drawn bytes.
+    /// How the repository stores its patches: coded (the default since issue 49), packed (the
+    /// format before it) or raw (`--no-compress`). Each decodes to the same drawn bytes.
     pub codec: PatchCodec,
     /// Bits per axis of the position grid (`--position-bits`, 1..=`POSITION_BITS`): the step
     /// is the bounding box's extent / (2^bits − 1). Fewer bits make packed patches smaller and
@@ -147,7 +147,7 @@ impl BuildConfig {
             headroom: 1,
             domain,
             memory: None,
-            codec: PatchCodec::Packed,
+            codec: PatchCodec::Coded,
             position_bits: POSITION_BITS,
             simplify: SimplifySettings {
                 keep_borders: domain == Domain::Volume,
