@@ -10,7 +10,6 @@
 mod cli_support;
 use cli_support::{build_bunny, bunny, json, tessera};
 
-
 use tessera_core::cut::{diamond_rhos, select_stateless};
 use tessera_core::hausdorff::sampled_directed_weighted;
 use tessera_core::metric::{eye_local, ScreenSpaceMetric};

@@ -6,7 +6,6 @@
 mod cli_support;
 use cli_support::{bunny, tessera};
 
-
 use tessera_core::repository::format::{oct_decode_normal, ATTR_NORMALS, NO_INDEX};
 use tessera_core::repository::Repository;
 
