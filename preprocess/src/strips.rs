@@ -2,9 +2,11 @@
 //! starting at an even strip position (`even_segments`: the renderer knows a triangle's winding
 //! parity from its position alone, `PatchView::parse` checks it), vertices in order of first use
 //! by the strip, positions quantised on the one global grid (so a vertex shared by patches
-//! is bit-identical in all of them), and the attributes the input has.
+//! is bit-identical in all of them), normals on the 10-bit octahedral grid
+//! (`format::oct_encode_normal_grid`, a pure function of the vertex: identical everywhere too), and
+//! the attributes the input has.
 
-use tessera_core::repository::format::{oct_encode_normal, quantize_position};
+use tessera_core::repository::format::{oct_encode_normal_grid, quantize_position};
 use tessera_core::repository::patch::PatchData;
 
 use crate::local_mesh::local_mesh;
@@ -62,7 +64,7 @@ pub fn build_patch(
         normals: vertices
             .normals
             .as_ref()
-            .map(|n| rows.iter().map(|&r| oct_encode_normal(n[r])).collect()),
+            .map(|n| rows.iter().map(|&r| oct_encode_normal_grid(n[r])).collect()),
         colors: vertices
             .colors
             .as_ref()

@@ -6,7 +6,9 @@
 mod cli_support;
 use cli_support::{bunny, tessera};
 
-use tessera_core::repository::format::{oct_decode_normal, ATTR_NORMALS, NO_INDEX};
+use tessera_core::repository::format::{
+    normal_grid_max_angle, oct_decode_normal, ATTR_NORMALS, NO_INDEX,
+};
 use tessera_core::repository::Repository;
 
 fn build(args: &[&str]) {
@@ -101,7 +103,7 @@ fn a_scan_without_normals_stores_angle_weighted_vertex_normals() {
     assert_ne!(repo.header().attributes & ATTR_NORMALS, 0);
     let tets = repo.tets();
     let mut seen = vec![false; want.len()];
-    let mut worst = 0.0f64;
+    let (mut worst, mut sum, mut count) = (0.0f64, 0.0f64, 0usize);
     for t in (0..tets.len()).filter(|&t| tets[t].diamond == NO_INDEX) {
         let patch = repo.patch(t).unwrap();
         let view = patch.view();
@@ -109,14 +111,25 @@ fn a_scan_without_normals_stores_angle_weighted_vertex_normals() {
         for (id, n) in view.global_ids().zip(normals) {
             let id = id as usize;
             seen[id] = true;
-            worst = worst.max(degrees_between(oct_decode_normal(*n), want[id]));
+            let e = degrees_between(oct_decode_normal(*n), want[id]);
+            worst = worst.max(e);
+            sum += e;
+            count += 1;
         }
     }
     let unseen = seen.iter().filter(|s| !**s).count();
     assert_eq!(unseen, 0, "{unseen} input vertices in no leaf");
-    // The encoding's 16-bit octahedral grid is within 0.01° (`format.rs`); the two sums' f32
-    // and f64 rounding far less.
-    assert!(worst < 0.02, "a leaf normal {worst}° from the reference");
+    // Stored normals lie on the 10-bit octahedral grid, within its proven worst case
+    // (`format::normal_grid_max_angle`, 0.24°, issue 49); the two sums' f32 and f64 rounding
+    // add far less than the 0.01° margin. Coarser than 16 bits: the mean shows the grid is used.
+    let mean = sum / count as f64;
+    eprintln!("stored normals vs reference over {count} leaf vertices: max {worst}°, mean {mean}°");
+    let bound = normal_grid_max_angle().to_degrees() + 0.01;
+    assert!(
+        worst < bound,
+        "a leaf normal {worst}° from the reference (bound {bound}°)"
+    );
+    assert!(mean > 0.01 && mean < worst, "mean {mean}°");
 }
 
 #[test]

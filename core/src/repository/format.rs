@@ -444,6 +444,39 @@ pub fn oct_encode_normal(n: [f32; 3]) -> [i16; 2] {
     [x, y].map(|v| (v.clamp(-1.0, 1.0) * 32767.0).round() as i16)
 }
 
+/// Steps per unit of the octahedral grid the build stores normals on (issue 49): 10 bits per
+/// component (2·511 + 1 values each), carried in the same i16 snorm fields, so decoding is
+/// unchanged and a reader cannot tell it from a 16-bit normal.
+pub const NORMAL_GRID_STEPS: i32 = 511;
+
+/// Proven worst-case angle (radians) between a unit normal and its decoded grid normal.
+/// Rounding moves the octahedral point (x, y) by at most h/2 per axis, h = 1/`NORMAL_GRID_STEPS`;
+/// the map to the octahedron |x|+|y|+|z| = 1 is piecewise linear with |Δ3| ≤ √(dx²+dy²+(|dx|+|dy|)²)
+/// ≤ √1.5·h, the octahedron's points are at least 1/√3 from the origin, so the angle is at most
+/// asin(√3·√1.5·h) = asin(3h/√2); the extra i16 rounding and f32 arithmetic add ≤ 1e-4 rad.
+pub fn normal_grid_max_angle() -> f64 {
+    (3.0 / (std::f64::consts::SQRT_2 * NORMAL_GRID_STEPS as f64)).asin() + 1e-4
+}
+
+/// `oct_encode_normal` snapped to the `NORMAL_GRID_STEPS` grid: each component is
+/// round(k · 32767 / 511) for an integer |k| ≤ 511, so its decoding is k/511 to within f32.
+/// Idempotent: re-encoding a decoded grid normal gives the same i16 pair (the decoded
+/// coordinates are within ~1e-6 of the grid, far from a rounding boundary).
+pub fn oct_encode_normal_grid(n: [f32; 3]) -> [i16; 2] {
+    let m = NORMAL_GRID_STEPS;
+    let mut k = oct_encode_normal(n).map(|v| (v as f64 * m as f64 / 32767.0).round() as i32);
+    // On the square's border (|x| = 1 or |y| = 1) the fold loses the other coordinate's sign:
+    // (±1, y) and (±1, −y) decode alike. Keep the sign that re-encoding the decoded normal
+    // gives (positive), so that encoding stays idempotent.
+    if k[0].abs() == m {
+        k[1] = k[1].abs();
+    }
+    if k[1].abs() == m {
+        k[0] = k[0].abs();
+    }
+    k.map(|k| (k as f64 * 32767.0 / m as f64).round() as i16)
+}
+
 /// Inverse of `oct_encode_normal`: a unit vector for every input (−32768 reads as −1).
 pub fn oct_decode_normal(e: [i16; 2]) -> [f32; 3] {
     let mut x = (e[0] as f32 / 32767.0).max(-1.0);
@@ -553,6 +586,57 @@ mod tests {
             let l = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
             assert!((l - 1.0).abs() < 1e-5 && d.iter().all(|x| x.is_finite()));
         }
+    }
+
+    fn angle(n: [f32; 3], d: [f32; 3]) -> f64 {
+        let (n, d) = (n.map(f64::from), d.map(f64::from));
+        let c = [
+            n[1] * d[2] - n[2] * d[1],
+            n[2] * d[0] - n[0] * d[2],
+            n[0] * d[1] - n[1] * d[0],
+        ];
+        let sin = (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
+        sin.atan2(n[0] * d[0] + n[1] * d[1] + n[2] * d[2])
+    }
+
+    #[test]
+    fn grid_normals_within_bound_and_idempotent() {
+        let bound = normal_grid_max_angle();
+        // 0.2379° for 511 steps: what the eye cannot see in shading (issue 49).
+        assert!(bound < 0.0043, "{bound}");
+        let mut worst = 0.0f64;
+        let count = 200_000;
+        for i in 0..count {
+            let z = 1.0 - 2.0 * (i as f32 + 0.5) / count as f32;
+            let r = (1.0 - z * z).sqrt();
+            let phi = i as f32 * 2.399_963;
+            let n = [r * phi.cos(), r * phi.sin(), z];
+            let e = oct_encode_normal_grid(n);
+            // On the grid: every component is round(k · 32767 / 511).
+            for v in e {
+                let k = (v as f64 * 511.0 / 32767.0).round();
+                assert_eq!(v, (k * 32767.0 / 511.0).round() as i16);
+            }
+            let d = oct_decode_normal(e);
+            worst = worst.max(angle(n, d));
+            assert_eq!(oct_encode_normal_grid(d), e, "not idempotent at {n:?}");
+        }
+        // Coarser than the 16-bit grid, and within the proven bound.
+        assert!(
+            worst > 1e-3 && worst <= bound,
+            "worst {worst} bound {bound}"
+        );
+        for n in [
+            [0.0, 0.0, 1.0],
+            [0.0, 0.0, -1.0],
+            [1.0, 0.0, 0.0],
+            [0.0, -1.0, 0.0],
+        ] {
+            let d = oct_decode_normal(oct_encode_normal_grid(n));
+            assert!(angle(n, d) < 1e-4, "{n:?} -> {d:?}");
+        }
+        assert_eq!(oct_encode_normal_grid([0.0; 3]), [0, 0]);
+        assert_eq!(oct_encode_normal_grid([f32::NAN, 0.0, 1.0]), [0, 0]);
     }
 
     #[test]
