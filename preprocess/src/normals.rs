@@ -416,9 +416,9 @@ mod tests {
         }
         // The texture coordinates follow their wedges.
         let uvs = hard.uvs.as_ref().unwrap();
-        for w in 0..24 {
-            let original = (0..8).find(|&i| p(i) == hard.positions[w]).unwrap();
-            assert_eq!(uvs[w], [original as f32, 0.0]);
+        for (uv, position) in uvs.iter().zip(&hard.positions) {
+            let original = (0..8).find(|&i| p(i) == *position).unwrap();
+            assert_eq!(*uv, [original as f32, 0.0]);
         }
         // At 91° a cube's faces (90° apart) are smooth.
         let mut ninety = cube.clone();
