@@ -129,7 +129,7 @@ pub fn weld_external(raw: RawStaged, budget: usize, dir: &Path) -> io::Result<St
         representative.push(&rep)?;
     }
     let representative = representative.finish()?;
-    super::wedge_check::refuse_seams(&representative, &raw_triangle_file, &attributes, half, dir)?;
+    super::wedge_check::refuse_seams(&representative, &attributes, half, dir)?;
 
     // 2. Corners to representatives, a window of the map at a time, in ascending windows (a
     //    corner's representative is at most its index, so a corner mapped in one window is
