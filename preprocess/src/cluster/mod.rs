@@ -1,10 +1,12 @@
 //! `tessera simplify`: seed 004's out-of-core simplification (octree vertex clustering with
 //! generalised quadrics), end to end, one mesh in, one or more smaller meshes out.
 //!
-//!     staged mesh ─▶ sorted triangle soup (`soup.rs`) ─▶ octree of end nodes (`octree.rs`)
-//!       ─▶ every node simplified bottom-up (`levels.rs`, `node.rs`, `quadric.rs`)
-//!       ─▶ a cut: the seed's level k, or a cut of N triangles ─▶ PLY or GLB (`writer.rs`)
-//!       ─▶ its sampled distance to the input (`measure.rs`)
+//! ```text
+//! staged mesh ─▶ sorted triangle soup (soup.rs) ─▶ octree of end nodes (octree.rs)
+//!   ─▶ every node simplified bottom-up (levels.rs, node.rs, quadric.rs)
+//!   ─▶ a cut: the seed's level k, or a cut of N triangles ─▶ PLY or GLB (writer.rs)
+//!   ─▶ its sampled distance to the input (measure.rs)
+//! ```
 //!
 //! Out of core: the mesh is staged and welded on disk by the importers (`import::stage_mesh`),
 //! the soup and the nodes' outputs are record files, and each step holds a budgeted part of
