@@ -10,6 +10,7 @@
 //! - `coded`: the entropy-coded form of a patch (`SECTION_CODED_STRIPS`, the default on disk):
 //!   strip symbols and positions predicted along the strip, coded by `rans` (a static-model
 //!   rANS coder with per-patch 4-bit-weight tables), decoded on load like `packed`;
+//! - `normal_encoding`: the normals' octahedral i16 pairs and the build's 10-bit grid;
 //! - `global_ids`: each patch's global vertex ids, delta + varint coded in their own blob (the
 //!   CPU's checks need them, the GPU does not);
 //! - `writer`: `write_repository[_file]` (temporary file, fsync, rename; stale temporaries of
@@ -31,6 +32,7 @@ mod file_layout;
 pub mod format;
 pub mod global_ids;
 pub mod grid;
+pub mod normal_encoding;
 pub mod packed;
 pub mod patch;
 mod patch_codec;
