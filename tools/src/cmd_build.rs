@@ -128,20 +128,7 @@ pub fn run(args: BuildArgs) -> anyhow::Result<Outcome> {
     let memory = match args.memory {
         None => None,
         Some(bytes) => {
-            let temp_dir = match &args.temp {
-                Some(dir) => dir.clone(),
-                None => match args.output.parent() {
-                    Some(dir) if !dir.as_os_str().is_empty() => dir.to_path_buf(),
-                    _ => PathBuf::from("."),
-                },
-            };
-            // Fail now, with the directory's name, rather than deep in a stage.
-            tempfile::tempfile_in(&temp_dir).with_context(|| {
-                format!(
-                    "cannot make temporary files in {} (--temp)",
-                    temp_dir.display()
-                )
-            })?;
+            let temp_dir = crate::output::temp_dir_for(args.temp.as_deref(), &args.output)?;
             // Few allocator arenas, so what one worker frees another reuses (allocator.rs).
             tessera_preprocess::external::allocator::arenas_for_budget(bytes);
             Some(MemoryBudget { bytes, temp_dir })

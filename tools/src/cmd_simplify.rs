@@ -88,19 +88,7 @@ pub fn run(args: SimplifyArgs) -> anyhow::Result<Outcome> {
             args.output.display()
         );
     }
-    let temp_dir = match &args.temp {
-        Some(dir) => dir.clone(),
-        None => match args.output.parent() {
-            Some(dir) if !dir.as_os_str().is_empty() => dir.to_path_buf(),
-            _ => PathBuf::from("."),
-        },
-    };
-    tempfile::tempfile_in(&temp_dir).with_context(|| {
-        format!(
-            "cannot make temporary files in {} (--temp)",
-            temp_dir.display()
-        )
-    })?;
+    let temp_dir = crate::output::temp_dir_for(args.temp.as_deref(), &args.output)?;
     tessera_preprocess::external::allocator::arenas_for_budget(args.memory);
     let budget = args.memory as usize;
     on_stage("import");

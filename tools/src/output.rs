@@ -81,3 +81,19 @@ pub fn write_bytes(bytes: &[u8], path: &Path) -> anyhow::Result<()> {
         Ok(())
     })
 }
+
+/// The directory an out-of-core command keeps its temporary files in: `--temp`, else the
+/// output's directory; checked now, with its name, rather than deep in a stage.
+pub fn temp_dir_for(temp: Option<&Path>, output: &Path) -> anyhow::Result<std::path::PathBuf> {
+    let dir = match temp {
+        Some(dir) => dir.to_path_buf(),
+        None => output
+            .parent()
+            .filter(|d| !d.as_os_str().is_empty())
+            .unwrap_or(Path::new("."))
+            .to_path_buf(),
+    };
+    tempfile::tempfile_in(&dir)
+        .with_context(|| format!("cannot make temporary files in {} (--temp)", dir.display()))?;
+    Ok(dir)
+}
