@@ -295,9 +295,8 @@ fn check_grid(grid: &HeightGrid) {
 /// patch must have every coordinate on the grid and every strip index below the vertex count
 /// (or a restart), and pack and decode again to the same bytes.
 pub fn packed_patch(data: &[u8]) -> bool {
-    use tessera_core::repository::format::{unpack_position, POSITION_MAX};
     use tessera_core::repository::packed::{pack_patch, unpack_patch, StripCoding};
-    use tessera_core::repository::patch::{patch_bytes, strip_byte_offset};
+    use tessera_core::repository::patch::patch_bytes;
     if data.len() < 5 {
         return false;
     }
@@ -316,20 +315,7 @@ pub fn packed_patch(data: &[u8]) -> bool {
         assert!(!e.to_string().trim().is_empty(), "an empty error message");
         return false;
     }
-    let word = |b: &[u8]| u32::from_le_bytes([b[0], b[1], b[2], b[3]]);
-    for (k, w) in out[..8 * n].chunks_exact(8).enumerate() {
-        let q = unpack_position([word(&w[..4]), word(&w[4..])]);
-        assert!(q.iter().all(|&c| c <= POSITION_MAX), "vertex {k} at {q:?}");
-    }
-    let strip = &out[strip_byte_offset(n, attributes)..];
-    // n ≤ 65,535 here: u16 indices, restart 0xFFFF.
-    for (k, c) in strip.chunks_exact(2).take(m).enumerate() {
-        let i = u16::from_le_bytes([c[0], c[1]]);
-        assert!(
-            i == u16::MAX || (i as usize) < n,
-            "strip index {k} is {i} of {n}"
-        );
-    }
+    assert_decoded_patch(&out, n, m, attributes);
     let mut again = Vec::new();
     pack_patch(&out, n, m, attributes, strips, &mut again);
     let mut twice = vec![0u8; out.len()];
@@ -344,8 +330,7 @@ pub fn packed_patch(data: &[u8]) -> bool {
 /// index below the vertex count (or a restart), and code and decode again to the same bytes.
 pub fn coded_patch(data: &[u8]) -> bool {
     use tessera_core::repository::coded::{code_patch, decode_patch};
-    use tessera_core::repository::format::{unpack_position, POSITION_MAX};
-    use tessera_core::repository::patch::{patch_bytes, strip_byte_offset};
+    use tessera_core::repository::patch::patch_bytes;
     if data.len() < 5 {
         return false;
     }
@@ -358,6 +343,20 @@ pub fn coded_patch(data: &[u8]) -> bool {
         assert!(!e.to_string().trim().is_empty(), "an empty error message");
         return false;
     }
+    assert_decoded_patch(&out, n, m, attributes);
+    let mut again = Vec::new();
+    code_patch(&out, n, m, attributes, &mut again);
+    let mut twice = vec![0u8; out.len()];
+    decode_patch(&again, n, m, attributes, &mut twice).expect("a recoded patch decodes");
+    assert!(twice == out, "coding what was decoded changes it");
+    true
+}
+
+/// What every decoded patch of `n` vertices and `m` strip indices must be, whatever bytes it
+/// came from: every coordinate on the grid, every strip index below `n` or a restart.
+fn assert_decoded_patch(out: &[u8], n: usize, m: usize, attributes: u32) {
+    use tessera_core::repository::format::{unpack_position, POSITION_MAX};
+    use tessera_core::repository::patch::strip_byte_offset;
     let word = |b: &[u8]| u32::from_le_bytes([b[0], b[1], b[2], b[3]]);
     for (k, w) in out[..8 * n].chunks_exact(8).enumerate() {
         let q = unpack_position([word(&w[..4]), word(&w[4..])]);
@@ -372,10 +371,4 @@ pub fn coded_patch(data: &[u8]) -> bool {
             "strip index {k} is {i} of {n}"
         );
     }
-    let mut again = Vec::new();
-    code_patch(&out, n, m, attributes, &mut again);
-    let mut twice = vec![0u8; out.len()];
-    decode_patch(&again, n, m, attributes, &mut twice).expect("a recoded patch decodes");
-    assert!(twice == out, "coding what was decoded changes it");
-    true
 }
