@@ -273,10 +273,7 @@ fn corrupt_repositories_are_rejected_with_exit_two() {
         opened
             .sections()
             .iter()
-            .find(|s| {
-                use tessera_core::repository::format::*;
-                [SECTION_CODED_STRIPS, SECTION_PACKED_STRIPS, SECTION_PATCHES].contains(&s.kind)
-            })
+            .find(|s| tessera_core::repository::format::PATCH_SECTIONS.contains(&s.kind))
             .unwrap()
             .offset as usize,
     );
