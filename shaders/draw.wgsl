@@ -34,9 +34,12 @@ struct PageDraw {
 // from this storage binding; storage loads are not inlined.
 @group(1) @binding(1) var<storage, read> page_draw: PageDraw;
 
+// ShadingMode::code (frame.rs).
 const MODE_LIT: u32 = 0u;
 const MODE_PATCHES: u32 = 1u;
 const MODE_LEVELS: u32 = 2u;
+const MODE_COLOR: u32 = 4u;
+const MODE_NORMALS: u32 = 5u;
 
 // The pixel crack check counts exactly this colour: back faces, seen only through a crack.
 const FLAG_COLOUR: vec4<f32> = vec4<f32>(1.0, 0.0, 1.0, 1.0);
@@ -200,16 +203,23 @@ struct NormalColourIn {
 // The fill's base colour where the model has no colours (as `VertexOut.colour` then is).
 const PLAIN_COLOUR: vec3<f32> = vec3<f32>(0.82, 0.80, 0.76);
 
-// Diffuse shading factor: the stored normal if the model has normals, this one is not zero
-// and the frame does not ask for face normals (`SHADE_FACES`), else the face normal from screen
-// derivatives (`face` = cross(dpdx, dpdy), taken in uniform control flow by the caller).
-fn shade(eye_relative: vec3<f32>, normal: vec3<f32>, face: vec3<f32>) -> f32 {
-    var n = face;
+// The unit normal of a fragment: the stored normal (interpolated, renormalised) if the model
+// has normals, this one is not zero and the frame does not ask for face normals
+// (`SHADE_FACES`), else the face normal from screen derivatives (`face` = cross(dpdx, dpdy),
+// taken in uniform control flow by the caller) turned towards the eye.
+fn fragment_normal(eye_relative: vec3<f32>, normal: vec3<f32>, face: vec3<f32>) -> vec3<f32> {
     let stored = (frame.counts.w & ATTR_NORMALS) != 0u && (frame.counts.y & SHADE_FACES) == 0u;
     if stored && dot(normal, normal) > 0.0 {
-        n = normal;
+        return normalize(normal);
     }
-    n = normalize(n);
+    let n = normalize(face);
+    return select(n, -n, dot(n, -eye_relative) < 0.0);
+}
+
+// Diffuse shading factor with `fragment_normal`, turned towards the eye (a stored normal too:
+// both sides of a face are lit alike).
+fn shade(eye_relative: vec3<f32>, normal: vec3<f32>, face: vec3<f32>) -> f32 {
+    var n = fragment_normal(eye_relative, normal, face);
     if dot(n, -eye_relative) < 0.0 {
         n = -n;
     }
@@ -220,11 +230,25 @@ fn face_of(eye_relative: vec3<f32>) -> vec3<f32> {
     return cross(dpdx(eye_relative), dpdy(eye_relative));
 }
 
-// Every mode (the patch and level colours read the simplex).
+// What the color mode draws where the model has no colours (frame.rs: ALBEDO_GREY).
+const ALBEDO_GREY: vec3<f32> = vec3<f32>(0.8);
+
+// Every mode but the check (the patch and level colours read the simplex). The color and
+// normals modes are unlit: the stored colour (else ALBEDO_GREY), and the normal n as
+// n * 0.5 + 0.5 (model axes: x red, y green, z blue).
 @fragment
 fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
     let face = face_of(in.eye_relative);
     let mode = frame.counts.z;
+    if mode == MODE_COLOR {
+        if (frame.counts.w & ATTR_COLORS) == 0u {
+            return vec4<f32>(ALBEDO_GREY, 1.0);
+        }
+        return vec4<f32>(in.colour, 1.0);
+    }
+    if mode == MODE_NORMALS {
+        return vec4<f32>(fragment_normal(in.eye_relative, in.normal, face) * 0.5 + 0.5, 1.0);
+    }
     var base = in.colour;
     if mode == MODE_PATCHES {
         base = palette(tets[in.simplex].simplex); // the simplex's id: stable across reloads

@@ -1,5 +1,6 @@
 //! `tessera render REPO -o frame.png [--tolerance PX] [--size WxH] [--fov DEG]
-//! [--eye x,y,z --target x,y,z | --orbit AZ,EL,DIST] [--mode lit|patches|levels] [--json]`
+//! [--eye x,y,z --target x,y,z | --orbit AZ,EL,DIST]
+//! [--mode lit|patches|levels|check|color|normals] [--flat] [--json]`
 
 use std::path::PathBuf;
 
@@ -29,18 +30,19 @@ pub struct RenderArgs {
     /// Vertical field of view, degrees.
     #[arg(long, default_value_t = 60.0)]
     pub fov: f64,
-    /// Eye position, model units (with --target).
-    #[arg(long, value_parser = parse_vec3, requires = "target", conflicts_with = "orbit")]
+    /// Eye position, model units (with --target); a leading minus sign needs no `=`.
+    #[arg(long, value_parser = parse_vec3, requires = "target", conflicts_with = "orbit",
+          allow_hyphen_values = true)]
     pub eye: Option<[f64; 3]>,
     /// Point looked at, model units (with --eye).
-    #[arg(long, value_parser = parse_vec3, requires = "eye")]
+    #[arg(long, value_parser = parse_vec3, requires = "eye", allow_hyphen_values = true)]
     pub target: Option<[f64; 3]>,
     /// Azimuth and elevation in degrees around the up axis, and distance in bounding radii from
     /// the centre of the model (default 30,20,2.5).
-    #[arg(long, value_parser = parse_vec3)]
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     pub orbit: Option<[f64; 3]>,
     /// Up direction (default 0,1,0 for meshes, as scans and glTF have it; 0,0,1 for terrains).
-    #[arg(long, value_parser = parse_vec3)]
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     pub up: Option<[f64; 3]>,
     /// Near plane, model units (default 1e-5 of the model's bounding radius).
     #[arg(long)]
@@ -53,7 +55,8 @@ pub struct RenderArgs {
     /// stored normals, colours and texture coordinates.
     #[arg(long, value_name = "FILE")]
     pub export: Option<std::path::PathBuf>,
-    /// Lit mode with face normals: each triangle flat, whatever normals the model stores.
+    /// Face normals in the lit and normals modes: each triangle flat, whatever normals the
+    /// model stores.
     #[arg(long)]
     pub flat: bool,
     /// Overlay the triangle edges (where the adapter has line mode).
@@ -80,6 +83,12 @@ pub enum Mode {
     Levels,
     /// Front faces grey, back faces magenta (what `check --gpu` counts).
     Check,
+    /// Unlit albedo: the stored per-vertex colours, a neutral grey (204) where the model has
+    /// none.
+    Color,
+    /// The normal as a colour, n × 0.5 + 0.5 (x red, y green, z blue): the stored normals,
+    /// else (and with `--flat`) the face normal turned towards the eye.
+    Normals,
 }
 
 impl From<Mode> for ShadingMode {
@@ -89,16 +98,24 @@ impl From<Mode> for ShadingMode {
             Mode::Patches => ShadingMode::Patches,
             Mode::Levels => ShadingMode::Levels,
             Mode::Check => ShadingMode::Check,
+            Mode::Color => ShadingMode::Color,
+            Mode::Normals => ShadingMode::Normals,
         }
     }
 }
 
-/// The shading of `mode`, lit with face normals when `flat` (`--flat`).
+/// The shading of `mode`, with face normals when `flat` (`--flat`; lit and normals only).
 pub fn shading(mode: Mode, flat: bool) -> ShadingMode {
     match (mode, flat) {
         (Mode::Lit, true) => ShadingMode::LitFaces,
+        (Mode::Normals, true) => ShadingMode::NormalsFaces,
         (mode, _) => mode.into(),
     }
+}
+
+/// Whether `--flat` means something in `mode` (it picks the normals lit and normals use).
+pub fn has_normals(mode: Mode) -> bool {
+    matches!(mode, Mode::Lit | Mode::Normals)
 }
 
 /// Adds `extra`'s keys to the object `value`.
@@ -196,10 +213,12 @@ pub fn run(args: RenderArgs) -> anyhow::Result<Outcome> {
         anyhow::bail!("--tolerance {} must be a finite number ≥ 0", args.tolerance);
     }
     // Opened (and its directory validated) once: the streamer shares this map.
-    if args.flat && args.mode != Mode::Lit {
+    if args.flat && !has_normals(args.mode) {
         anyhow::bail!(
-            "--flat shades --mode lit with face normals; --mode {:?} has no shading to flatten",
+            "--flat draws --mode lit or normals with face normals; --mode {} uses no normals",
             args.mode
+                .to_possible_value()
+                .map_or(String::new(), |v| v.get_name().to_string())
         );
     }
     let shared = std::sync::Arc::new(crate::repository_arg::open(&args.repository, "render")?);

@@ -21,6 +21,7 @@ mod cmd_bench_render;
 mod cmd_bench_stream;
 mod cmd_build;
 mod cmd_check;
+mod cmd_compare;
 mod cmd_demo;
 mod cmd_gen;
 mod cmd_gen_mesh;
@@ -67,6 +68,9 @@ enum Command {
     Render(cmd_render::RenderArgs),
     /// Check the cuts of a repository for cracks, non-manifold edges and monotonicity.
     Check(cmd_check::CheckArgs),
+    /// Compare two images of one view over the model's pixels: PSNR, pixel counts, the
+    /// largest channel difference.
+    Compare(cmd_compare::CompareArgs),
     /// Benchmarks with their peers measured in the same run: `bench REPO --source INPUT` (the
     /// trade-off: triangles, frame time and measured error per τ against discrete LODs, a
     /// cluster DAG and the full resolution), `bench build INPUT`, `bench render REPO`.
@@ -109,6 +113,7 @@ fn main() -> ExitCode {
         Command::Repack(args) => cmd_repack::run(args),
         Command::Render(args) => cmd_render::run(args),
         Command::Check(args) => cmd_check::run(args),
+        Command::Compare(args) => cmd_compare::run(args),
         Command::Demo(args) => cmd_demo::run(args),
         Command::Bench(args) => cmd_bench::run(*args),
         Command::Gen(args) => cmd_gen::run(args),

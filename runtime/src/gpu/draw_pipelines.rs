@@ -1,6 +1,7 @@
-//! The draw pipelines of `draw.wgsl`: the fill (lit, or coloured by patch or level), the pixel
-//! check's two passes (and their underside variants) and the wireframe overlay, as triangle
-//! lists: one set for the indexed draw, one for the vertex-pulling draw. The lit fill and the
+//! The draw pipelines of `draw.wgsl`: the fill (lit; or, through `fs_main`, coloured by patch
+//! or level, unlit albedo or normals), the pixel check's two passes (and their underside
+//! variants) and the wireframe overlay, as triangle lists: one set for the indexed draw, one
+//! for the vertex-pulling draw. The lit fill and the
 //! check's front pass read only the attributes the model has (`draw.wgsl`'s fragment inputs).
 
 use std::sync::OnceLock;
@@ -32,10 +33,11 @@ const PASSES: usize = Pass::Wire as usize + 1;
 /// Which draw pipeline.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Pass {
-    /// Every face, coloured by patch or level (`fs_main`; two-sided: the frame culls no patch
-    /// by its normal cone either).
+    /// Every face, coloured by patch or level, by albedo or by normal (`fs_main`, the modes
+    /// other than lit and check; two-sided: the frame culls no patch by its normal cone
+    /// either).
     Fill,
-    /// Front faces only, coloured by patch or level: the default, one face rule for the
+    /// Front faces only, as `Fill`: the default, one face rule for the
     /// rasteriser and the patch cones, so a picture does not depend on τ through which
     /// patches the cones dropped (back faces of kept patches would show where culled
     /// patches' front faces are missing).

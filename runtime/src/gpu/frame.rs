@@ -15,6 +15,14 @@ pub enum ShadingMode {
     Lit,
     /// Lit as `Lit`, with the face normal everywhere, stored normals ignored (`--flat`).
     LitFaces,
+    /// Unlit albedo: the stored per-vertex colour, `ALBEDO_GREY` where the model has none.
+    Color,
+    /// The normal as a colour, n × 0.5 + 0.5 per channel (x red, y green, z blue, model axes):
+    /// the stored normal, interpolated and renormalised, else the face normal turned towards
+    /// the eye.
+    Normals,
+    /// `Normals` with the face normal everywhere, stored normals ignored (`--flat`).
+    NormalsFaces,
     /// One colour per simplex.
     Patches,
     /// One colour per LEB level.
@@ -37,12 +45,20 @@ impl ShadingMode {
         matches!(self, ShadingMode::Check | ShadingMode::CheckUnderside)
     }
 
+    /// One of the modes that use face normals where the model stores normals (`--flat`).
+    pub fn is_flat(self) -> bool {
+        matches!(self, ShadingMode::LitFaces | ShadingMode::NormalsFaces)
+    }
+
+    /// `MODE_*` of `draw.wgsl`.
     fn code(self) -> u32 {
         match self {
             ShadingMode::Lit | ShadingMode::LitFaces => 0,
             ShadingMode::Patches => 1,
             ShadingMode::Levels => 2,
             ShadingMode::Check | ShadingMode::CheckUnderside => 3,
+            ShadingMode::Color => 4,
+            ShadingMode::Normals | ShadingMode::NormalsFaces => 5,
         }
     }
 }
@@ -50,9 +66,14 @@ impl ShadingMode {
 /// The colour the check mode gives back faces (RGBA8), counted by the pixel check.
 pub const FLAG_COLOUR: [u8; 4] = [255, 0, 255, 255];
 
+/// What `ShadingMode::Color` draws on a model without colours (RGBA8; `ALBEDO_GREY` of
+/// `draw.wgsl`, 0.8).
+pub const ALBEDO_GREY: [u8; 4] = [204, 204, 204, 255];
+
 const CULL_FRUSTUM: u32 = 1;
 const CULL_CONES: u32 = 2;
-/// `ShadingMode::LitFaces`: the fragment stage ignores stored normals.
+/// `ShadingMode::LitFaces`, `ShadingMode::NormalsFaces`: the fragment stage ignores stored
+/// normals.
 const SHADE_FACES: u32 = 4;
 
 /// Mirrors `Frame` in `shaders/records.wgsl` (uniform layout: 16-byte rows).
@@ -106,7 +127,7 @@ impl FrameUniforms {
         let light = normalize([0, 1, 2].map(|i| -b.forward[i] + 0.6 * b.up[i] - 0.4 * b.right[i]));
         let flags = (cull.frustum.is_some() as u32 * CULL_FRUSTUM)
             | (cull.cones as u32 * CULL_CONES)
-            | ((mode == ShadingMode::LitFaces) as u32 * SHADE_FACES);
+            | (mode.is_flat() as u32 * SHADE_FACES);
         let v4 = |v: [f32; 3], w: f32| [v[0], v[1], v[2], w];
         FrameUniforms {
             view_proj: draw.view_projection(),

@@ -42,6 +42,6 @@ pub mod timing;
 pub mod traversal;
 
 pub use device::{Backend, DeviceError, DeviceOptions, GpuContext, GpuFailure};
-pub use frame::{ShadingMode, FLAG_COLOUR};
+pub use frame::{ShadingMode, ALBEDO_GREY, FLAG_COLOUR};
 pub use renderer::{Frame, FrameRequest, Readback, RenderError, Renderer, RendererOptions};
 pub use streamer::{GpuStreamStats, GpuStreamer, StreamError, StreamedGpuFrame};

@@ -60,7 +60,8 @@ pub struct ViewArgs {
     /// Display mode at start.
     #[arg(long, value_enum, default_value_t = Mode::Lit)]
     pub mode: Mode,
-    /// Start with lit mode's face normals (each triangle flat) instead of the stored normals.
+    /// Start with face normals in the lit and normals modes (each triangle flat) instead of
+    /// the stored normals.
     #[arg(long)]
     pub flat: bool,
     #[command(flatten)]

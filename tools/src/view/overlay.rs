@@ -49,7 +49,7 @@ pub struct Stats {
 pub struct Controls {
     pub tolerance: f32,
     pub mode: Mode,
-    /// Lit mode with face normals, whatever normals the model stores (`--flat`).
+    /// Face normals in the lit and normals modes, whatever normals the model stores (`--flat`).
     pub flat: bool,
     /// The triangles' edges over the fill.
     pub wireframe: bool,
@@ -207,11 +207,13 @@ pub fn ui(ctx: &egui::Context, stats: &Stats, controls: &mut Controls) {
                     (Mode::Patches, "patches"),
                     (Mode::Levels, "levels"),
                     (Mode::Check, "check"),
+                    (Mode::Color, "color"),
+                    (Mode::Normals, "normals"),
                 ] {
                     ui.radio_value(&mut controls.mode, mode, name);
                 }
                 ui.add_enabled(
-                    controls.mode == Mode::Lit,
+                    crate::cmd_render::has_normals(controls.mode),
                     egui::Checkbox::new(&mut controls.flat, "flat"),
                 );
                 ui.checkbox(&mut controls.wireframe, "wireframe");

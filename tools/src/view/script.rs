@@ -15,7 +15,7 @@ pub enum Action {
     Orbit([f64; 3]),
     /// `{"tolerance": px}`.
     Tolerance(f32),
-    /// `{"mode": "lit"|"patches"|"levels"|"check"}`.
+    /// `{"mode": "lit"|"patches"|"levels"|"check"|"color"|"normals"}`.
     Mode(Mode),
     /// `{"wait_frames": n}`: draw n frames.
     WaitFrames(u32),
@@ -53,7 +53,7 @@ pub enum Action {
     Fly(bool),
     /// `{"wireframe": true|false}`.
     Wireframe(bool),
-    /// `{"flat": true|false}`: lit mode with face normals (`--flat`).
+    /// `{"flat": true|false}`: face normals in the lit and normals modes (`--flat`).
     Flat(bool),
     /// `{"culling": {"frustum": bool, "cones": bool}}` (a missing key keeps its setting).
     Culling(Option<bool>, Option<bool>),
@@ -152,7 +152,7 @@ fn parse_line(line: &str) -> Result<Action, String> {
             let s = arg.as_str().ok_or("\"mode\" takes a string")?;
             Action::Mode(
                 <Mode as clap::ValueEnum>::from_str(s, true)
-                    .map_err(|_| format!("unknown mode {s:?}: lit, patches, levels or check"))?,
+                    .map_err(|_| format!("unknown mode {s:?}: lit, patches, levels, check, color or normals"))?,
             )
         }
         "wait_frames" => Action::WaitFrames(
