@@ -353,6 +353,7 @@ fn trade_off_table(
         },
         origin: h.origin,
         faces: Faces::Front,
+        phases: false,
     };
     let mut ours = Ours::new(repo, renderer, Faces::Front);
     let (rows, _) = measure(

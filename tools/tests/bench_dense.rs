@@ -346,8 +346,66 @@ fn the_bench_measures_every_subject_densely() {
         other["cluster_dag"]["clusters"].as_u64() > v["cluster_dag"]["clusters"].as_u64(),
         "smaller clusters, more of them"
     );
-    // Without the dense pass, no dense figures.
+    // Without the dense pass, no dense figures; without `--phases`, no phases.
     let none = bench("0", &[]);
     assert!(none["dense"].is_null() && none["rows"][0]["dense"].is_null());
     assert_eq!(none["verdict_dense"], serde_json::json!([]));
+    assert!(none["rows"][0]["select_ms"].is_null() && none["rows"][0]["raster_ms"].is_null());
+}
+
+/// `bench --phases`: every subject's frame again with its selection and its raster waited
+/// for apart, both times in every row (the full resolution chooses nothing).
+#[test]
+fn the_bench_times_selection_and_raster_apart() {
+    let dir = tempfile::tempdir().unwrap();
+    let repo = build_bunny(dir.path());
+    let source = bunny();
+    let out = tessera(&[
+        "bench",
+        repo.to_str().unwrap(),
+        "--source",
+        source.to_str().unwrap(),
+        "--views",
+        "1",
+        "--tolerances",
+        "1,4",
+        "--size",
+        "160x120",
+        "--samples",
+        "200",
+        "--frames",
+        "3",
+        "--error-views",
+        "0",
+        "--phases",
+        "--json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v = json(&out);
+    for (name, rows) in [
+        ("ours", &v["rows"]),
+        ("cluster_dag", &v["peers"]["cluster_dag"]),
+        ("discrete_lod", &v["peers"]["discrete_lod"]),
+        ("full_resolution", &v["peers"]["full_resolution"]),
+    ] {
+        for r in rows.as_array().unwrap() {
+            let select = r["select_ms"]
+                .as_f64()
+                .unwrap_or_else(|| panic!("{name}: {r}"));
+            let raster = r["raster_ms"]
+                .as_f64()
+                .unwrap_or_else(|| panic!("{name}: {r}"));
+            assert!(raster > 0.0 && raster.is_finite(), "{name}: {r}");
+            match name {
+                "full_resolution" => assert_eq!(select, 0.0, "{r}"),
+                // Ours waits for a GPU traversal; the DAG for its upload.
+                "ours" | "cluster_dag" => assert!(select > 0.0 && select.is_finite(), "{r}"),
+                _ => assert!(select >= 0.0 && select.is_finite(), "{r}"),
+            }
+        }
+    }
 }

@@ -111,6 +111,15 @@ pub struct Frame {
     pub cpu_ms: f64,
 }
 
+/// A frame's time in two phases (`Renderer::render_phased`), each from its first CPU
+/// instruction to the GPU's idle: choosing what to draw (ours: the GPU traversal, compaction
+/// and expansion; a peer's: its CPU cut and upload) and drawing it.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct FramePhases {
+    pub select_ms: f64,
+    pub raster_ms: f64,
+}
+
 /// What to copy out of a frame for the `read_*` calls.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Readback {

@@ -43,5 +43,7 @@ pub mod traversal;
 
 pub use device::{Backend, DeviceError, DeviceOptions, GpuContext, GpuFailure};
 pub use frame::{ShadingMode, ALBEDO_GREY, FLAG_COLOUR};
-pub use renderer::{Frame, FrameRequest, Readback, RenderError, Renderer, RendererOptions};
+pub use renderer::{
+    Frame, FramePhases, FrameRequest, Readback, RenderError, Renderer, RendererOptions,
+};
 pub use streamer::{GpuStreamStats, GpuStreamer, StreamError, StreamedGpuFrame};

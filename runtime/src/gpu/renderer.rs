@@ -28,7 +28,7 @@ pub(crate) use bindings::page_draw_stride;
 use bindings::{draw_groups, storage_entry, uniform_entry, SelectionBuffers};
 
 pub use super::frame_request::{
-    Frame, FrameRequest, Readback, RenderError, RendererOptions, DEFAULT_BUDGET_BYTES,
+    Frame, FramePhases, FrameRequest, Readback, RenderError, RendererOptions, DEFAULT_BUDGET_BYTES,
 };
 
 /// How a read-back selection (record slots) becomes simplices, and their triangle counts.
@@ -271,6 +271,62 @@ impl Renderer {
     /// submit — not waiting for the GPU). The camera's viewport should match the target.
     pub fn render(&mut self, ctx: &GpuContext, request: &FrameRequest, readback: Readback) -> f64 {
         let start = Instant::now();
+        let mut encoder = self.begin_frame(ctx, request);
+        self.encode_selection(&mut encoder, true);
+        self.encode_draw(&mut encoder, request, true);
+        if let Some(t) = &self.timer {
+            t.resolve(&mut encoder);
+        }
+        if readback.selection {
+            let lists = &self.lists;
+            encoder.copy_buffer_to_buffer(&lists.counts, 0, &lists.counts_read, 0, None);
+            encoder.copy_buffer_to_buffer(&lists.selected, 0, &lists.selected_read, 0, None);
+        }
+        if readback.image {
+            self.target.copy_out(&mut encoder);
+        }
+        ctx.queue.submit([encoder.finish()]);
+        ctx.submitted();
+        self.feedback.after_submit(); // streaming
+        start.elapsed().as_secs_f64() * 1e3
+    }
+
+    /// Renders `request` as `render` does (no read-back, no timestamps), its two phases
+    /// submitted and waited for apart (issue 46: where a frame's time goes): the selection
+    /// (uniforms, traversal, compaction and expansion) and the raster (the draws). Each
+    /// phase's time runs from its first CPU instruction to the GPU's idle; the wait between
+    /// them makes the sum a little more than `render`'s waited frame.
+    pub fn render_phased(
+        &mut self,
+        ctx: &GpuContext,
+        request: &FrameRequest,
+    ) -> Result<FramePhases, GpuFailure> {
+        let start = Instant::now();
+        let mut encoder = self.begin_frame(ctx, request);
+        self.encode_selection(&mut encoder, false);
+        ctx.queue.submit([encoder.finish()]);
+        ctx.submitted();
+        self.feedback.after_submit(); // streaming
+        ctx.wait_idle()?;
+        let select_ms = start.elapsed().as_secs_f64() * 1e3;
+        let raster = Instant::now();
+        let mut encoder = ctx
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("frame's draws"),
+            });
+        self.encode_draw(&mut encoder, request, false);
+        ctx.queue.submit([encoder.finish()]);
+        ctx.submitted();
+        ctx.wait_idle()?;
+        Ok(FramePhases {
+            select_ms,
+            raster_ms: raster.elapsed().as_secs_f64() * 1e3,
+        })
+    }
+
+    /// The frame's uniforms written; its encoder.
+    fn begin_frame(&mut self, ctx: &GpuContext, request: &FrameRequest) -> wgpu::CommandEncoder {
         let uniforms = FrameUniforms::new(
             &request.camera,
             request.drawn_from(),
@@ -282,24 +338,36 @@ impl Renderer {
         );
         ctx.queue
             .write_buffer(&self.uniforms, 0, bytemuck::bytes_of(&uniforms));
-        let mut encoder = ctx
-            .device
+        ctx.device
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                 label: Some("frame"),
-            });
+            })
+    }
+
+    /// The selection: the traversal, compaction and expansion (one compute pass), and the
+    /// streaming feedback's copy; the frame's first timestamp where `timed`.
+    fn encode_selection(&mut self, encoder: &mut wgpu::CommandEncoder, timed: bool) {
         encoder.clear_buffer(&self.lists.counts, 0, None);
-        self.feedback.clear(&mut encoder); // streaming
-        self.traversal.reset(&mut encoder);
+        self.feedback.clear(encoder); // streaming
+        self.traversal.reset(encoder);
         {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("traverse and compact"),
-                timestamp_writes: self.timer.as_ref().map(FrameTimer::compute_start),
+                timestamp_writes: self
+                    .timer
+                    .as_ref()
+                    .filter(|_| timed)
+                    .map(FrameTimer::compute_start),
             });
             self.traversal.dispatch(&mut pass);
             self.compaction.dispatch(&mut pass);
         }
         self.frames_submitted += 1; // streaming: this frame's feedback, numbered
-        self.feedback.copy_out(&mut encoder, self.frames_submitted);
+        self.feedback.copy_out(encoder, self.frames_submitted);
+    }
+
+    /// The draws of the selection (one render pass); the frame's last timestamp where `timed`.
+    fn encode_draw(&self, encoder: &mut wgpu::CommandEncoder, request: &FrameRequest, timed: bool) {
         {
             let background = if request.mode.is_check() {
                 wgpu::Color::BLACK
@@ -307,10 +375,13 @@ impl Renderer {
                 BACKGROUND
             };
             let mut pass = self.target.begin_pass(
-                &mut encoder,
+                encoder,
                 "draw",
                 background,
-                self.timer.as_ref().map(|t| t.render_end(false)),
+                self.timer
+                    .as_ref()
+                    .filter(|_| timed)
+                    .map(|t| t.render_end(false)),
             );
             pass.set_bind_group(0, &self.draw_group, &[]);
             // One face rule (see `FrameRequest::two_sided`).
@@ -371,21 +442,6 @@ impl Renderer {
                 }
             }
         }
-        if let Some(t) = &self.timer {
-            t.resolve(&mut encoder);
-        }
-        if readback.selection {
-            let lists = &self.lists;
-            encoder.copy_buffer_to_buffer(&lists.counts, 0, &lists.counts_read, 0, None);
-            encoder.copy_buffer_to_buffer(&lists.selected, 0, &lists.selected_read, 0, None);
-        }
-        if readback.image {
-            self.target.copy_out(&mut encoder);
-        }
-        ctx.queue.submit([encoder.finish()]);
-        ctx.submitted();
-        self.feedback.after_submit(); // streaming
-        start.elapsed().as_secs_f64() * 1e3
     }
 
     /// Streaming: the feedback of the frames whose lists are readable now, oldest first,

@@ -4,7 +4,7 @@
 use std::time::Instant;
 
 use tessera_runtime::camera::Camera;
-use tessera_runtime::gpu::GpuContext;
+use tessera_runtime::gpu::{FramePhases, GpuContext};
 use tessera_runtime::measure::Surface;
 
 /// The times of one frame, waited for.
@@ -20,6 +20,9 @@ pub struct FrameTimes {
     pub wall_ms: f64,
     /// GPU timestamps, where the adapter has them (on lavapipe they miss compute passes).
     pub gpu_ms: Option<f64>,
+    /// The same view and τ drawn again with its phases waited for apart
+    /// (`Subject::phased_frame`), where asked for.
+    pub phases: Option<FramePhases>,
 }
 
 /// What a measured frame drew.
@@ -40,6 +43,15 @@ pub trait Subject {
     /// Records and submits one frame of `camera` at `tau` and returns the CPU milliseconds it
     /// spent (everything the subject does per frame on the CPU, before waiting).
     fn submit(&mut self, ctx: &GpuContext, camera: &Camera, tau: f32) -> anyhow::Result<f64>;
+
+    /// One frame of `camera` at `tau` with its selection and its raster waited for apart
+    /// (`FramePhases`): where the frame's time goes.
+    fn phased_frame(
+        &mut self,
+        ctx: &GpuContext,
+        camera: &Camera,
+        tau: f32,
+    ) -> anyhow::Result<FramePhases>;
 
     /// GPU milliseconds of the last frame, where the adapter has timestamps.
     fn gpu_ms(&self, ctx: &GpuContext) -> anyhow::Result<Option<f64>>;
@@ -81,5 +93,6 @@ pub fn timed_frame(
         upload_ms,
         wall_ms,
         gpu_ms: subject.gpu_ms(ctx)?,
+        phases: None,
     })
 }

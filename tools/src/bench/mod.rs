@@ -131,6 +131,11 @@ pub struct TradeArgs {
     /// faces culled by every subject, as our default frame draws, and such samples not seen.
     #[arg(long)]
     pub two_sided: bool,
+    /// After each timed frame, draw it again with its selection (ours: the GPU traversal,
+    /// compaction and expansion; the cluster DAG: its CPU cut and upload) and its raster
+    /// waited for apart: the rows' `select_ms` and `raster_ms` (medians over the runs).
+    #[arg(long)]
+    pub phases: bool,
     /// The peers' settings (boxed: `BenchArgs` stays small).
     #[command(flatten)]
     pub peers: Box<PeerArgs>,
@@ -305,6 +310,7 @@ pub fn run(args: TradeArgs) -> anyhow::Result<Outcome> {
         },
         origin: h.origin,
         faces,
+        phases: args.phases,
     };
     let t = Instant::now();
     let mut subjects: [&mut dyn Subject; 3] = [&mut ours, &mut discrete, &mut cluster];

@@ -5,7 +5,7 @@
 use tessera_core::repository::reader::Repository;
 use tessera_runtime::camera::Camera;
 use tessera_runtime::faces::Faces;
-use tessera_runtime::gpu::{FrameRequest, GpuContext, Readback, Renderer};
+use tessera_runtime::gpu::{FramePhases, FrameRequest, GpuContext, Readback, Renderer};
 use tessera_runtime::measure::{drawn_cut, DrawnSurface, Surface};
 
 use tessera_bench::subject::{Drawn, Subject};
@@ -47,6 +47,17 @@ impl Subject for Ours<'_> {
         Ok(self
             .renderer
             .render(ctx, &self.request(camera, tau), Readback::default()))
+    }
+
+    fn phased_frame(
+        &mut self,
+        ctx: &GpuContext,
+        camera: &Camera,
+        tau: f32,
+    ) -> anyhow::Result<FramePhases> {
+        Ok(self
+            .renderer
+            .render_phased(ctx, &self.request(camera, tau))?)
     }
 
     fn gpu_ms(&self, ctx: &GpuContext) -> anyhow::Result<Option<f64>> {

@@ -2,7 +2,8 @@
 //!
 //! Row keys, fixed: `tolerance`, `patches`, `triangles`, `cpu_ms`, `gpu_ms`, `error_max_px`,
 //! `error_p99_px`, `error_mean_px`, `pixels_differing`, `psnr`; added: `wall_ms`, `views`,
-//! `upload_ms` (per-frame uploads, apart from `cpu_ms`: the cluster DAG's), `wall_ms_min`
+//! `upload_ms` (per-frame uploads, apart from `cpu_ms`: the cluster DAG's), `select_ms` and
+//! `raster_ms` (with `--phases`, else null: the frame's two phases waited for apart), `wall_ms_min`
 //! and `wall_ms_max` (the fastest and slowest of `runs` timed runs; the times
 //! are the runs' median), `error_samples`, `error_to_original` and `error_to_cut` (each direction's `max_px`, `p99_px`,
 //! `mean_px`, `samples`; the `error_*` keys pool both), `hidden_samples`, and `level` for a
@@ -27,6 +28,8 @@ pub fn row_json(row: &Row) -> serde_json::Value {
         "cpu_ms": row.cpu_ms,
         "upload_ms": row.upload_ms,
         "gpu_ms": row.gpu_ms,
+        "select_ms": row.select_ms,
+        "raster_ms": row.raster_ms,
         "wall_ms": row.wall_ms,
         "wall_ms_min": row.wall_ms_spread.0,
         "wall_ms_max": row.wall_ms_spread.1,
@@ -104,6 +107,17 @@ pub fn table(title: &str, rows: &[Row]) -> Vec<String> {
             number(r.gpu_ms, 2),
             number(Some(r.cpu_ms), 3),
         ));
+    }
+    // With `--phases`: the two phases, beside the row's wall time.
+    if rows.iter().any(|r| r.select_ms.is_some()) {
+        for (line, r) in lines[2..].iter_mut().zip(rows) {
+            line.push_str(&format!(
+                " {:>9} {:>9}",
+                number(r.select_ms, 2),
+                number(r.raster_ms, 2)
+            ));
+        }
+        lines[1].push_str(&format!(" {:>9} {:>9}", "select ms", "raster ms"));
     }
     lines
 }

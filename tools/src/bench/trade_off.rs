@@ -43,6 +43,9 @@ pub struct Settings {
     pub origin: [f64; 3],
     /// The face rule every subject draws with, and the measurement sees with.
     pub faces: Faces,
+    /// After each timed frame, the same frame again with its selection and raster waited
+    /// for apart (`Subject::phased_frame`): the rows' `select_ms` and `raster_ms`.
+    pub phases: bool,
 }
 
 /// One subject at one τ, averaged over the views.
@@ -66,6 +69,10 @@ pub struct Row {
     pub runs: usize,
     /// `None` where the adapter has no timestamps.
     pub gpu_ms: Option<f64>,
+    /// Medians over runs, as the times above, of the phased frames (`Settings::phases`):
+    /// choosing what to draw, and drawing it; `None` where not asked for.
+    pub select_ms: Option<f64>,
+    pub raster_ms: Option<f64>,
     /// Two-sided: over the samples of all views, both directions pooled; `None` when no
     /// sample was seen.
     pub error: Option<ErrorSummary>,
@@ -103,6 +110,8 @@ struct Tally {
     wall_ms: Vec<f64>,
     gpu_ms: Vec<f64>,
     gpu_missing: bool,
+    select_ms: Vec<f64>,
+    raster_ms: Vec<f64>,
     to_original: Vec<f64>,
     to_cut: Vec<f64>,
     hidden: usize,
@@ -128,6 +137,11 @@ impl Tally {
             add(&mut self.gpu_ms, &mut times.iter().filter_map(|t| t.gpu_ms));
         } else {
             self.gpu_missing = true;
+        }
+        if times.iter().all(|t| t.phases.is_some()) {
+            let phases = || times.iter().filter_map(|t| t.phases);
+            add(&mut self.select_ms, &mut phases().map(|p| p.select_ms));
+            add(&mut self.raster_ms, &mut phases().map(|p| p.raster_ms));
         }
     }
 
@@ -173,6 +187,8 @@ impl Tally {
             },
             runs: self.wall_ms.len(),
             gpu_ms: (!self.gpu_missing && !self.gpu_ms.is_empty()).then(|| median(&self.gpu_ms)),
+            select_ms: (!self.select_ms.is_empty()).then(|| median(&self.select_ms)),
+            raster_ms: (!self.raster_ms.is_empty()).then(|| median(&self.raster_ms)),
             error: ErrorSummary::of(&[&self.to_original[..], &self.to_cut[..]].concat()),
             error_to_original: ErrorSummary::of(&self.to_original),
             error_to_cut: ErrorSummary::of(&self.to_cut),
@@ -265,14 +281,20 @@ pub fn measure(
         for round in 0..=settings.frames {
             for (subject, times) in subjects.iter_mut().zip(&mut times) {
                 for (&tau, times) in taus.iter().zip(times.iter_mut()) {
-                    let t = timed_frame(&mut **subject, ctx, camera, tau)?;
+                    let mut t = timed_frame(&mut **subject, ctx, camera, tau)?;
+                    if settings.phases {
+                        t.phases = Some(subject.phased_frame(ctx, camera, tau)?);
+                    }
                     if round > 0 {
                         times.push(t);
                     }
                 }
             }
             if let Some(f) = full.as_deref_mut() {
-                let t = timed_frame(f, ctx, camera, 0.0)?;
+                let mut t = timed_frame(f, ctx, camera, 0.0)?;
+                if settings.phases {
+                    t.phases = Some(f.phased_frame(ctx, camera, 0.0)?);
+                }
                 if round > 0 {
                     full_times.push(t);
                 }
@@ -328,6 +350,7 @@ mod tests {
                 upload_ms: w / 100.0,
                 wall_ms: w,
                 gpu_ms: None,
+                phases: None,
             })
             .collect()
     }

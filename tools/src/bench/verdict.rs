@@ -302,6 +302,8 @@ mod tests {
                 wall_ms_spread: (0.0, 0.0),
                 runs: 1,
                 gpu_ms: None,
+                select_ms: None,
+                raster_ms: None,
                 error: Some(ErrorSummary {
                     samples: 1,
                     max_px: p99,

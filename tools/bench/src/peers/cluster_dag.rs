@@ -27,7 +27,7 @@ use tessera_core::metric::{center_minus_eye, ScreenSpaceMetric};
 use tessera_runtime::camera::Camera;
 use tessera_runtime::faces::Faces;
 use tessera_runtime::gpu::full_mesh::FullMeshRenderer;
-use tessera_runtime::gpu::GpuContext;
+use tessera_runtime::gpu::{FramePhases, GpuContext};
 use tessera_runtime::measure::Surface;
 
 use super::peer_mesh::PeerMesh;
@@ -388,6 +388,26 @@ impl Subject for ClusterDag<'_> {
         self.last_upload_ms = upload.elapsed().as_secs_f64() * 1e3;
         self.renderer.render(ctx, camera, false);
         Ok(start.elapsed().as_secs_f64() * 1e3)
+    }
+
+    fn phased_frame(
+        &mut self,
+        ctx: &GpuContext,
+        camera: &Camera,
+        tau: f32,
+    ) -> anyhow::Result<FramePhases> {
+        let start = Instant::now();
+        self.select(camera, tau);
+        self.renderer.set_triangles(ctx, &self.selected)?;
+        ctx.wait_idle()?;
+        let select_ms = start.elapsed().as_secs_f64() * 1e3;
+        let raster = Instant::now();
+        self.renderer.render(ctx, camera, false);
+        ctx.wait_idle()?;
+        Ok(FramePhases {
+            select_ms,
+            raster_ms: raster.elapsed().as_secs_f64() * 1e3,
+        })
     }
 
     fn gpu_ms(&self, ctx: &GpuContext) -> anyhow::Result<Option<f64>> {

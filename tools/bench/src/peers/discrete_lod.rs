@@ -19,7 +19,7 @@ use anyhow::Context;
 use tessera_core::metric::{center_minus_eye, ScreenSpaceMetric};
 use tessera_runtime::camera::Camera;
 use tessera_runtime::gpu::full_mesh::FullMeshRenderer;
-use tessera_runtime::gpu::GpuContext;
+use tessera_runtime::gpu::{FramePhases, GpuContext};
 use tessera_runtime::measure::Surface;
 
 use super::peer_mesh::PeerMesh;
@@ -198,6 +198,25 @@ impl Subject for DiscreteLod<'_> {
         self.last = level;
         self.levels[level].1.render(ctx, camera, false);
         Ok(start.elapsed().as_secs_f64() * 1e3)
+    }
+
+    fn phased_frame(
+        &mut self,
+        ctx: &GpuContext,
+        camera: &Camera,
+        tau: f32,
+    ) -> anyhow::Result<FramePhases> {
+        let start = Instant::now();
+        let level = self.level_for(camera, tau);
+        self.last = level;
+        let select_ms = start.elapsed().as_secs_f64() * 1e3;
+        let raster = Instant::now();
+        self.levels[level].1.render(ctx, camera, false);
+        ctx.wait_idle()?;
+        Ok(FramePhases {
+            select_ms,
+            raster_ms: raster.elapsed().as_secs_f64() * 1e3,
+        })
     }
 
     fn gpu_ms(&self, ctx: &GpuContext) -> anyhow::Result<Option<f64>> {

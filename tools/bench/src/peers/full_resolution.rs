@@ -2,9 +2,11 @@
 //! whatever the view and τ. Its frame is the reference picture of every view, its frame time
 //! the baseline, and its error 0 by definition (it draws the original).
 
+use std::time::Instant;
+
 use tessera_runtime::camera::Camera;
 use tessera_runtime::gpu::full_mesh::FullMeshRenderer;
-use tessera_runtime::gpu::GpuContext;
+use tessera_runtime::gpu::{FramePhases, GpuContext};
 use tessera_runtime::measure::Surface;
 
 use super::peer_mesh::PeerMesh;
@@ -29,6 +31,22 @@ impl Subject for FullResolution<'_> {
 
     fn submit(&mut self, ctx: &GpuContext, camera: &Camera, _tau: f32) -> anyhow::Result<f64> {
         Ok(self.renderer.render(ctx, camera, false))
+    }
+
+    fn phased_frame(
+        &mut self,
+        ctx: &GpuContext,
+        camera: &Camera,
+        _tau: f32,
+    ) -> anyhow::Result<FramePhases> {
+        // Nothing to choose: the whole mesh is resident.
+        let raster = Instant::now();
+        self.renderer.render(ctx, camera, false);
+        ctx.wait_idle()?;
+        Ok(FramePhases {
+            select_ms: 0.0,
+            raster_ms: raster.elapsed().as_secs_f64() * 1e3,
+        })
     }
 
     fn gpu_ms(&self, ctx: &GpuContext) -> anyhow::Result<Option<f64>> {
