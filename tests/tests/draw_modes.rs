@@ -3,12 +3,13 @@
 //! entry point per attribute set, `draw.wgsl`) and pipelines are made when first used, so an
 //! entry point whose inputs do not match the vertex stage's outputs would fail only when a
 //! frame first asks for it: each combination is drawn here and the device checked after it.
-//! The lit fill of a coloured model must show its colours, of a plain one the plain colour.
+//! The lit fill of a coloured model must show its colours, of a plain one the plain colour;
+//! the color mode the same unlit, or `ALBEDO_GREY` on every model pixel.
 
 use tessera_preprocess::{BuildConfig, Construction};
 use tessera_runtime::camera::{Camera, Y_UP};
 use tessera_runtime::gpu::{
-    Backend, FrameRequest, Readback, Renderer, RendererOptions, ShadingMode,
+    Backend, FrameRequest, Readback, Renderer, RendererOptions, ShadingMode, ALBEDO_GREY,
 };
 use tessera_tests::{build, gpu_on};
 
@@ -65,6 +66,9 @@ fn every_mode_draws_for_every_attribute_set_on_both_backends() {
                     ShadingMode::Levels,
                     ShadingMode::Check,
                     ShadingMode::CheckUnderside,
+                    ShadingMode::Color,
+                    ShadingMode::Normals,
+                    ShadingMode::NormalsFaces,
                 ];
                 for mode in modes {
                     for (wireframe, two_sided) in [(false, false), (true, true)] {
@@ -88,6 +92,17 @@ fn every_mode_draws_for_every_attribute_set_on_both_backends() {
                             .read_image(&ctx)
                             .unwrap_or_else(|e| panic!("{what}: {e}"));
                         ctx.check().unwrap_or_else(|e| panic!("{what}: {e}"));
+                        if mode == ShadingMode::Color && !wireframe {
+                            // Unlit: the colours themselves, or the grey.
+                            let (model, red) = model_and_red_pixels(&image);
+                            assert!(model > 1000, "{what}: {model} model pixels");
+                            let grey = image.pixels().filter(|p| p.0 == ALBEDO_GREY).count();
+                            if colours {
+                                assert!(red * 2 > model, "{what}: {red} of {model} pixels red");
+                            } else {
+                                assert_eq!(grey, model, "{what}: {grey} of {model} grey");
+                            }
+                        }
                         if mode != ShadingMode::Lit {
                             continue;
                         }
