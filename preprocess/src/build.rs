@@ -342,10 +342,11 @@ fn build_in_pool(
         step,
         attributes,
         codec: config.codec,
-        // A staged mesh has one wedge a vertex (its staging refuses seams).
-        vertex_starts: match source {
-            Source::Memory(mesh) => mesh.vertex_starts(),
-            Source::Staged(_) | Source::Resumed => crate::mesh::VertexStarts::identity(),
+        // The current mesh's (the input's, in memory or staged; a resumed build's state's).
+        vertex_starts: match (&current, &resumed_state) {
+            (Some(current), _) => current.vertex_starts().clone(),
+            (None, Some(state)) => state.vertex_starts().clone(),
+            (None, None) => unreachable!("a build has its counts or its resumed state"),
         },
     };
     let mut sink =
@@ -389,8 +390,13 @@ fn build_in_pool(
             &mut checkpoints,
         ),
         (Source::Staged(staged), Some(memory)) => {
-            let simplifier_of =
-                crate::staged_build::simplifier_positions(staged, &hierarchy.frame, memory)?;
+            let starts = current.as_ref().expect("counted").vertex_starts();
+            let simplifier_of = crate::staged_build::simplifier_positions(
+                staged,
+                starts,
+                &hierarchy.frame,
+                memory,
+            )?;
             let mut groups = LeafGroups::new(
                 staged,
                 lists.expect("a staged build spools its leaves' triangles"),

@@ -254,7 +254,7 @@ impl Corners {
 }
 
 /// The unit normal of the triangle with corners `p`, if it has one.
-fn unit_normal(p: [[f64; 3]; 3]) -> Option<[f64; 3]> {
+pub(crate) fn unit_normal(p: [[f64; 3]; 3]) -> Option<[f64; 3]> {
     let u = [0, 1, 2].map(|i| p[1][i] - p[0][i]);
     let v = [0, 1, 2].map(|i| p[2][i] - p[0][i]);
     let n = [

@@ -11,6 +11,7 @@ use crate::hierarchy::{
     build_hierarchy_bucketed_spooled, BucketBudget, Construction, Hierarchy, LeafCorners,
     SpooledBarycentres,
 };
+use crate::mesh::VertexStarts;
 use crate::simplify::{simplifier_position, CurrentMesh};
 
 fn temporary(memory: &MemoryBudget) -> impl Fn(std::io::Error) -> BuildError + '_ {
@@ -102,7 +103,8 @@ pub(crate) fn hierarchy_and_counts(
     // the sort fits, the counts are counted beside the bucketed hierarchy (which runs on one
     // thread), as the in-memory build does.
     let edges_fit = staged.triangles.len().saturating_mul(3 * 8) <= sort_budget as u64;
-    let counts = || CurrentMesh::from_staged(staged, sort_budget, dir);
+    let starts = staged.vertex_starts().map_err(&io)?;
+    let counts = || CurrentMesh::from_staged(staged, starts.clone(), sort_budget, dir);
     let early = if edges_fit {
         None
     } else {
@@ -137,18 +139,25 @@ pub(crate) fn hierarchy_and_counts(
     Ok((hierarchy, corners, current))
 }
 
-/// The simplifier's position of each vertex as `simplify_hierarchy` computes it in memory
-/// (relative to the model, in model sizes, coincident ones moved apart): `(id, position)` →
-/// f32 position, for `LeafGroups`.
+/// The simplifier's position of each wedge as `simplify_hierarchy` computes it in memory
+/// (relative to the model, in model sizes, coincident vertices moved apart, a wedge at its
+/// vertex's, `starts`): `(id, position)` → f32 position, for `LeafGroups`.
 pub(crate) fn simplifier_positions<'f>(
     staged: &StagedMesh,
+    starts: &VertexStarts,
     frame: &'f LatticeFrame,
     memory: &MemoryBudget,
 ) -> Result<impl Fn(u32, [f64; 3]) -> [f32; 3] + 'f, BuildError> {
     let f32_of = move |p: [f64; 3]| simplifier_position(frame, p);
-    let nudged = coincident_nudges(staged, &f32_of, memory.bytes as usize / 4, &memory.temp_dir)
+    let budget = memory.bytes as usize / 4;
+    let nudged = coincident_nudges(staged, starts, &f32_of, budget, &memory.temp_dir)
         .map_err(temporary(memory))?;
-    Ok(move |v: u32, p: [f64; 3]| nudged.get(&v).copied().unwrap_or_else(|| f32_of(p)))
+    // A copy of the starts only where a vertex was moved (a bit a wedge; none without seams).
+    let starts = (!nudged.is_empty()).then(|| starts.clone());
+    Ok(move |v: u32, p: [f64; 3]| {
+        let v = starts.as_ref().map_or(v, |s| s.canonical(v));
+        nudged.get(&v).copied().unwrap_or_else(|| f32_of(p))
+    })
 }
 
 /// Triangles a group of leaves may hold while it is joined (about 60 bytes a triangle: the

@@ -63,8 +63,7 @@ pub struct BuildArgs {
     pub no_computed_normals: bool,
     /// Split computed normals at creases: around a vertex, faces meeting at more than DEG
     /// degrees get normals of their own (wedges of the vertex), so hard edges stay hard; 180
-    /// (the default) splits nothing. In memory only: `--memory` refuses an angle below 180
-    /// for an input without normals.
+    /// (the default) splits nothing. The same bytes with `--memory`.
     #[arg(long, value_name = "DEG", default_value_t = 180.0)]
     pub crease_angle: f64,
     /// Store errors that are bounds: each diamond's error is an upper bound on the two-sided

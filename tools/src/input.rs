@@ -260,9 +260,8 @@ pub fn load_build_input(
 
 /// Gives an input without normals (a mesh, or a height field's mesh) angle-weighted vertex
 /// normals (`normals.rs`), split at creases sharper than `crease_degrees` (180: none): in
-/// memory, or out of core within `staging`'s budget for a staged mesh (no creases there: the
-/// out-of-core build keeps no wedges yet). A resumed build has the normals its checkpoint
-/// staged.
+/// memory, or out of core within `staging`'s budget for a staged mesh (the same wedges and
+/// normals). A resumed build has the normals its checkpoint staged.
 pub fn compute_missing_normals(
     input: &mut BuildInput,
     staging: Option<(&Path, u64)>,
@@ -279,11 +278,15 @@ pub fn compute_missing_normals(
         BuildInput::Staged { staged, .. }
             if staged.attributes.normals.is_none() && crease_degrees < 180.0 =>
         {
-            bail!(
-                "--crease-angle {crease_degrees}: normals split at creases are wedges, which the \
-                 out-of-core build (--memory) does not keep yet; build without --memory, or with \
-                 --crease-angle 180"
+            let (dir, budget) = staging.expect("a staged mesh has a staging budget");
+            tessera_preprocess::external::creased_normals::stage_creased_normals(
+                staged,
+                crease_degrees,
+                budget as usize,
+                dir,
             )
+            .context("computing the vertex normals split at creases")?;
+            true
         }
         BuildInput::Staged { staged, .. } if staged.attributes.normals.is_none() => {
             let (dir, budget) = staging.expect("a staged mesh has a staging budget");

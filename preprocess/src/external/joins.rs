@@ -202,7 +202,8 @@ struct JoinBuffers {
 
 /// The simplifier's f32 position of each vertex (`f32_of` of its input position) is moved
 /// apart where distinct vertices coincide, exactly as `simplify::separate_coincident` does
-/// over all positions in memory: returns the moved ones (rare: none in most meshes).
+/// over all positions in memory: returns the moved ones (rare: none in most meshes), by
+/// vertex (a wedge takes its vertex's: `starts`, `mesh.rs`).
 ///
 /// One sort by (f32 position, id) finds the duplicates; each walks the same sequence of
 /// one-ulp steps as in memory, its first `steps` candidates checked against every position
@@ -210,6 +211,7 @@ struct JoinBuffers {
 /// with four times the steps.
 pub fn coincident_nudges(
     staged: &StagedMesh,
+    starts: &crate::mesh::VertexStarts,
     f32_of: &(dyn Fn([f64; 3]) -> [f32; 3] + Sync),
     budget: usize,
     temp_dir: &Path,
@@ -218,6 +220,7 @@ pub fn coincident_nudges(
     let mut error = None;
     let records = ok_values(staged.positions.read()?, &mut error)
         .enumerate()
+        .filter(|&(v, _)| starts.canonical(v as u32) == v as u32)
         .map(|(v, p)| {
             let [x, y, z] = key(f32_of(p));
             [x, y, z, v as u32]

@@ -7,6 +7,7 @@ pub mod allocator;
 pub mod bits;
 mod chunk_reader;
 pub mod corner_attributes;
+pub mod creased_normals;
 mod cursor;
 mod fallible;
 pub(crate) mod file_io;
@@ -24,6 +25,7 @@ pub mod vertex_normals;
 pub mod wedge_check;
 pub mod weld;
 mod weld_keys;
+mod weld_wedges;
 
 pub use joins::{coincident_nudges, JoinedBarycentres, LeafGroups};
 pub use leaf_corners::leaf_corners;

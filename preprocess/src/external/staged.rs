@@ -479,6 +479,22 @@ impl StagedMesh {
         })
     }
 
+    /// Which wedges start a vertex (`mesh.rs`: runs of bit-identical positions), in one pass
+    /// over the positions: a bit a wedge in memory, nothing for a mesh without seams.
+    pub fn vertex_starts(&self) -> io::Result<crate::mesh::VertexStarts> {
+        let mut error = None;
+        let mut previous = None;
+        let flags = super::fallible::ok_values(self.positions.read()?, &mut error).map(|p| {
+            let key = p.map(crate::import::weld::canonical_bits);
+            let start = previous != Some(key);
+            previous = Some(key);
+            start
+        });
+        let starts = crate::mesh::VertexStarts::from_flags(self.positions.len() as usize, flags);
+        super::fallible::check(error)?;
+        Ok(starts)
+    }
+
     /// Empties every file (once the build has taken all it needs: their disk space is freed).
     pub fn discard(&self) -> io::Result<()> {
         self.positions.discard()?;

@@ -5,6 +5,8 @@
 //! as half the budget holds; each window is one pass of the triangles with their corners'
 //! positions (`joins::TriangleCorners`, the other half), adding each corner that falls in the
 //! window in triangle order, then written out normalised. A mesh whose sums fit is one pass.
+//! Sums are by vertex (`mesh.rs`): a wedge adds to its vertex's, and every wedge of a vertex
+//! gets its vertex's normal (a texture seam is no crease); windows end at vertices.
 
 use std::io;
 use std::path::Path;
@@ -24,6 +26,7 @@ pub fn stage_vertex_normals(
     dir: &Path,
 ) -> io::Result<RecordFile<[f32; 3]>> {
     let vertices = staged.positions.len();
+    let starts = staged.vertex_starts()?;
     let window = ((budget / 2) / SUM_BYTES).max(1 << 16) as u64;
     let join = TriangleCorners {
         staged,
@@ -33,21 +36,26 @@ pub fn stage_vertex_normals(
     let mut sums: Vec<[f32; 3]> = Vec::new();
     let mut lo = 0u64;
     while lo < vertices {
-        let hi = (lo + window).min(vertices);
+        let mut hi = (lo + window).min(vertices);
+        while hi < vertices && starts.canonical(hi as u32) != hi as u32 {
+            hi += 1; // a window holds whole vertices
+        }
         sums.clear();
         sums.resize((hi - lo) as usize, [0.0; 3]);
         join.for_each(
             &|t, corners| (t, corner_contributions(corners)),
             &mut |_, (t, contributions)| {
                 for k in 0..3 {
-                    let v = t[k] as u64;
+                    let v = starts.canonical(t[k]) as u64;
                     if (lo..hi).contains(&v) {
                         accumulate(&mut sums[(v - lo) as usize], contributions[k]);
                     }
                 }
             },
         )?;
-        let normals: Vec<[f32; 3]> = sums.iter().copied().map(finish).collect();
+        let normals: Vec<[f32; 3]> = (lo..hi)
+            .map(|w| finish(sums[(starts.canonical(w as u32) as u64 - lo) as usize]))
+            .collect();
         out.push_all(&normals)?;
         lo = hi;
     }

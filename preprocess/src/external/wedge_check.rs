@@ -1,7 +1,8 @@
-//! The out-of-core weld keeps no wedges yet (`mesh.rs`): where the in-memory weld would keep
-//! corners at one position apart because their attributes differ (texture seams, creases,
-//! per-face colours), a staged import is refused with [`refused`] rather than welded into
-//! different bytes than `tessera build` without `--memory` gives.
+//! Which staged imports need wedges (`mesh.rs`, `weld_wedges.rs`): [`has_seams`] tells the
+//! out-of-core weld whether corners at one position may differ in attributes; [`refused`] is
+//! what an import says where it still cannot keep wedges out of core (an OBJ's corners with
+//! their own `vt` or `vn` indices, per-face colours) rather than build other bytes than
+//! `tessera build` without `--memory` gives.
 
 use std::io;
 use std::path::Path;
@@ -11,31 +12,32 @@ use super::sort::sort_external;
 use super::staged::{RecordFile, VertexAttributes};
 
 /// What a refused staged import says (exit 2 at the CLI).
-pub const SEAMS_NOT_STAGED: &str = "corners at one position differ in normal, colour or \
-    texture coordinate (texture seams or creases, kept as wedges by the in-memory build): the \
-    out-of-core build (--memory) does not keep wedges yet; build without --memory";
+pub const SEAMS_NOT_STAGED: &str = "an OBJ whose face corners give one vertex other texture \
+    coordinates or normals (texture seams or hard edges, kept as wedges by the in-memory \
+    build): the out-of-core build (--memory) does not stage those corners yet; build without \
+    --memory, or convert the mesh to PLY or glTF";
 
 /// The error of a refused staged import.
 pub fn refused() -> io::Error {
     io::Error::new(io::ErrorKind::Unsupported, SEAMS_NOT_STAGED)
 }
 
-/// Fails with [`refused`] where two raw vertices of one position group (`representative`: each
-/// raw vertex's group's first vertex, in raw order) carry different attributes, used by a
-/// triangle or not: the out-of-core weld keeps the group's first vertex's attributes, the
-/// in-memory weld its first used corner's, so an unused first vertex with other attributes
-/// would give other bytes (a proptest regression seed, `proptest-regressions/`). The check may
-/// refuse what the in-memory weld would weld, never the reverse. One external sort of (group,
-/// attribute bits) of the raw vertices, within about `budget` bytes.
-pub(crate) fn refuse_seams(
+/// Whether two raw vertices of one position group (`representative`: each raw vertex's
+/// group's first vertex, in raw order) carry different attributes, used by a triangle or not:
+/// then the weld numbers wedges (`weld_wedges.rs`), else it welds by position and takes each
+/// group's first vertex's attributes, which are all its vertices' (an unused first vertex with
+/// other attributes would have given other bytes: a proptest regression seed,
+/// `proptest-regressions/`). One external sort of (group, attribute bits) of the raw vertices,
+/// within about `budget` bytes.
+pub(crate) fn has_seams(
     representative: &RecordFile<u32>,
     attributes: &VertexAttributes,
     budget: usize,
     dir: &Path,
-) -> io::Result<()> {
+) -> io::Result<bool> {
     let a = attributes;
     if a.normals.is_none() && a.colors.is_none() && a.uvs.is_none() {
-        return Ok(());
+        return Ok(false);
     }
     let vertices = representative.len() as usize;
     let bits = |x: f32| if x == 0.0 { 0 } else { x.to_bits() };
@@ -74,9 +76,9 @@ pub(crate) fn refuse_seams(
     for record in sorted {
         let record = record?;
         if previous.is_some_and(|p| p[0] == record[0] && p != record) {
-            return Err(refused());
+            return Ok(true);
         }
         previous = Some(record);
     }
-    Ok(())
+    Ok(false)
 }

@@ -1,8 +1,8 @@
-//! Welding and cleaning out of core: the same mesh, vertex ids and triangle order as the
-//! in-memory `import::weld` for inputs without seams (corners at one position always with the
-//! same attributes; one with seams is refused, `wedge_check.rs`), from a `RawStaged` mesh,
-//! with memory bounded by a budget (external sorts and windows over the id maps) whatever the
-//! mesh's size and vertex order.
+//! Welding and cleaning out of core: the same mesh, wedge and vertex ids and triangle order as
+//! the in-memory `import::weld`, from a `RawStaged` mesh, with memory bounded by a budget
+//! (external sorts and windows over the id maps) whatever the mesh's size and vertex order.
+//! Where corners at one position differ in attributes (`wedge_check::has_seams`), step 4 is
+//! `weld_wedges.rs`'s instead, from the raw corners of the triangles steps 2 and 3 kept.
 //!
 //! 1. Group bit-identical positions (`-0.0` as `0.0`): sort (position bits, index), a window
 //!    of positions (split by a hash of their bits) at a time so the keys stay in memory
@@ -32,8 +32,8 @@ use super::position_file::PositionFile;
 use super::sort::sort_external;
 use super::staged::{RawStaged, RecordFile, StagedMesh, VertexAttributes};
 use super::weld_keys::{
-    canonical_f32_bits, least_corner_windows, representatives, DuplicateKey, NarrowPositionKey,
-    PositionKey,
+    canonical_f32_bits, least_corner_windows, referenced_ids, representatives, DuplicateKey,
+    NarrowPositionKey, PositionKey,
 };
 use crate::import::weld::canonical_bits;
 
@@ -77,9 +77,6 @@ pub fn weld_in_memory(raw: RawStaged, dir: &Path) -> io::Result<StagedMesh> {
     };
     drop(raw);
     let report = crate::import::weld(mesh);
-    if !report.mesh.vertex_starts().is_identity() {
-        return Err(super::wedge_check::refused());
-    }
     StagedMesh::from_report(report, dir)
 }
 
@@ -129,7 +126,17 @@ pub fn weld_external(raw: RawStaged, budget: usize, dir: &Path) -> io::Result<St
         representative.push(&rep)?;
     }
     let representative = representative.finish()?;
-    super::wedge_check::refuse_seams(&representative, &attributes, half, dir)?;
+    // Where corners at one position differ in attributes, the kept triangles' raw corners
+    // are wedges (`weld_wedges.rs`): the raw triangles are copied (step 2 consumes them), and
+    // steps 2 and 3 note which they drop.
+    let seams = super::wedge_check::has_seams(&representative, &attributes, half, dir)?;
+    let mut wedge_notes = match seams {
+        true => Some(super::weld_wedges::WedgeNotes::new(
+            &raw_triangle_file,
+            dir,
+        )?),
+        false => None,
+    };
 
     // 2. Corners to representatives, a window of the map at a time, in ascending windows (a
     //    corner's representative is at most its index, so a corner mapped in one window is
@@ -151,6 +158,9 @@ pub fn weld_external(raw: RawStaged, budget: usize, dir: &Path) -> io::Result<St
                     }
                 }
             });
+            if let (true, Some(notes)) = (last, &wedge_notes) {
+                notes.note_degenerate(chunk)?;
+            }
             if last {
                 chunk.retain(|m| m[0] != m[1] && m[1] != m[2] && m[0] != m[2]);
             }
@@ -159,7 +169,6 @@ pub fn weld_external(raw: RawStaged, budget: usize, dir: &Path) -> io::Result<St
         start = end;
     }
     drop(reps);
-    drop(representative);
     let proper = triangles;
     let degenerate = raw_triangles - proper.len();
 
@@ -237,6 +246,9 @@ pub fn weld_external(raw: RawStaged, budget: usize, dir: &Path) -> io::Result<St
             from = d - base + 1;
             dropped.next();
             duplicate += 1;
+            if let Some(notes) = &mut wedge_notes {
+                notes.duplicates.push(&(d as u32))?;
+            }
         }
         kept.push_all(&chunk[from..])?;
     }
@@ -246,42 +258,33 @@ pub fn weld_external(raw: RawStaged, budget: usize, dir: &Path) -> io::Result<St
     let kept = kept.finish()?;
     drop(chunks);
 
-    // 4. Referenced representatives, numbered in order: marked in a bitmap of the raw ids
-    //    where it fits half the budget (a bit a vertex), else by a sort of the corners.
-    let mut referenced = RecordFile::<u32>::create(dir)?;
-    if raw_vertices.div_ceil(8) <= half as u64 {
-        let mut marked = vec![0u64; raw_vertices.div_ceil(64) as usize];
-        let (mut chunks, mut chunk) = (kept.read_chunks(PASS_TRIANGLES)?, Vec::new());
-        while chunks.read_into(&mut chunk)? {
-            for &v in chunk.iter().flatten() {
-                let word = marked.get_mut(v as usize / 64).ok_or_else(|| {
-                    io::Error::other(format!("vertex index {v} past the {raw_vertices} vertices"))
-                })?;
-                *word |= 1 << (v % 64);
-            }
-        }
-        for (w, &bits) in marked.iter().enumerate() {
-            let mut bits = bits;
-            while bits != 0 {
-                referenced.push(&(w as u32 * 64 + bits.trailing_zeros()))?;
-                bits &= bits - 1;
-            }
-        }
-    } else {
-        let mut error = None;
-        let corners = ok_values(kept.read()?, &mut error).flat_map(|t| t.into_iter());
-        let sorted = sort_external(corners, half, dir)?;
-        check(error)?;
-        let mut last = None;
-        for v in sorted {
-            let v = v?;
-            if last != Some(v) {
-                referenced.push(&v)?;
-                last = Some(v);
-            }
-        }
+    if let Some(notes) = wedge_notes {
+        drop(kept);
+        let kept = notes.kept_raw_triangles(dir)?;
+        let w = super::weld_wedges::weld_wedges(
+            &raw_positions,
+            kept,
+            &representative,
+            &attributes,
+            half,
+            dir,
+        )?;
+        return Ok(StagedMesh {
+            positions: w.positions,
+            triangles: w.triangles,
+            attributes: w.attributes,
+            raw_vertices,
+            raw_triangles,
+            welded_vertices: raw_vertices - groups,
+            degenerate_triangles: degenerate,
+            duplicate_triangles: duplicate,
+            unreferenced_vertices: groups - w.vertices,
+        });
     }
-    let referenced = referenced.finish()?;
+    drop(representative);
+
+    // 4. Referenced representatives, numbered in order.
+    let referenced = referenced_ids(&kept, raw_vertices, half, dir)?;
     // Corners to their numbers, a dense window of the id range at a time, ascending (a
     // number is at most its representative: a corner mapped once is never in a later window).
     let window = window.min(raw_vertices as usize).max(1);
@@ -354,7 +357,7 @@ pub(super) const PASS_TRIANGLES: usize = 1 << 16;
 /// A new file of `from`'s triangles, each chunk changed by `map` (in place, in parallel
 /// where it likes; it may drop triangles). `from`'s disk space is given back as it is read,
 /// so the two files together stay about one file's size.
-fn map_triangles(
+pub(super) fn map_triangles(
     from: RecordFile<[u32; 3]>,
     dir: &Path,
     map: impl Fn(&mut Vec<[u32; 3]>) -> io::Result<()>,
@@ -432,17 +435,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let stager = RawStaged::from_raw(raw, dir.path()).unwrap();
         let expected = weld(raw.clone());
-        let seams = !expected.mesh.vertex_starts().is_identity();
-        let staged = match welder(stager, dir.path()) {
-            // Refused: where the in-memory weld keeps wedges always, or where the check cannot
-            // tell (a vertex only degenerate or duplicate triangles use), never otherwise.
-            Err(e) if e.kind() == io::ErrorKind::Unsupported => {
-                assert!(seams || per_vertex_attributes(raw), "refused without seams");
-                return;
-            }
-            result => result.unwrap(),
-        };
-        assert!(!seams, "a mesh with seams staged");
+        let staged = welder(stager, dir.path()).unwrap();
         assert_eq!(staged.load().unwrap(), expected.mesh);
         let counts = |s: &StagedMesh| {
             [
@@ -472,19 +465,14 @@ mod tests {
         );
     }
 
-    /// Whether `raw`'s attributes can differ at one position (`raw_mesh`'s attributes by index).
-    fn per_vertex_attributes(raw: &RawMesh) -> bool {
-        let n = raw.positions.len();
-        n > 1 && raw.uvs.as_ref().is_some_and(|u| u[0] != u[1])
-            || raw.colors.as_ref().is_some_and(|c| c[0] != c[1])
-            || raw.normals.as_ref().is_some_and(|v| v[0] != v[1])
-    }
-
     fn raw_mesh() -> impl Strategy<Value = RawMesh> {
         // Positions from a small pool, so that many coincide; ±0.0 among them. Attributes by
-        // index (so corners at one position differ: seams), or by position (no seams).
+        // index (so corners at one position differ: seams, a wedge a raw vertex), by position
+        // (no seams), from a small pool with ±0.0 (seams whose wedges gather several raw
+        // vertices, told apart by value, not bits), or by position and parity (two wedges at
+        // most a vertex).
         let pool = [0.0, -0.0, 1.0, 2.5, -3.0];
-        (1usize..300, 0usize..600, any::<u64>(), 0u8..16).prop_map(move |(n, t, seed, attrs)| {
+        (1usize..300, 0usize..600, any::<u64>(), 0u8..32).prop_map(move |(n, t, seed, attrs)| {
             let mut state = seed | 1;
             let mut next = move || {
                 state ^= state << 13;
@@ -498,14 +486,17 @@ mod tests {
             let triangles: Vec<[u32; 3]> = (0..t)
                 .map(|_| [0; 3].map(|_| (next() % n as u64) as u32))
                 .collect();
-            let of = |i: usize, p: &[f64; 3]| match attrs & 8 {
-                0 => i as f32,
-                _ => (p[0].abs() + 2.0 * p[1].abs() + 4.0 * p[2].abs()) as f32,
-            };
+            let by_position =
+                |p: &[f64; 3]| (p[0].abs() + 2.0 * p[1].abs() + 4.0 * p[2].abs()) as f32;
             let keys: Vec<f32> = positions
                 .iter()
                 .enumerate()
-                .map(|(i, p)| of(i, p))
+                .map(|(i, p)| match attrs >> 3 {
+                    0 => i as f32,
+                    1 => by_position(p),
+                    2 => [0.0, -0.0, 1.0][next() as usize % 3],
+                    _ => by_position(p) + (i % 2) as f32 * 0.5,
+                })
                 .collect();
             RawMesh {
                 normals: (attrs & 1 != 0).then(|| keys.iter().map(|&x| [x, 0.5, -1.0]).collect()),

@@ -1,6 +1,6 @@
 //! The weld's sorts (`weld.rs`): the keys that group bit-identical positions (step 1) and
 //! find duplicate triangles (step 3), and the windows that keep step 3's keys within the
-//! budget.
+//! budget, and the vertex ids a triangle file uses (step 4).
 
 use std::io;
 use std::path::Path;
@@ -197,6 +197,50 @@ impl<K: GroupKey, F: Fn([f64; 3], u64) -> K> Iterator for WindowPairs<'_, K, F> 
 pub(super) struct DuplicateKey {
     pub(super) corners: [u32; 3],
     pub(super) position: u32,
+}
+
+/// The vertex ids `triangles` use, ascending, each once: marked in a bitmap of the ids (below
+/// `vertices`) where it fits `budget` (a bit a vertex), else found by a sort of the corners.
+pub(super) fn referenced_ids(
+    triangles: &RecordFile<[u32; 3]>,
+    vertices: u64,
+    budget: usize,
+    dir: &Path,
+) -> io::Result<RecordFile<u32>> {
+    let mut referenced = RecordFile::<u32>::create(dir)?;
+    if vertices.div_ceil(8) <= budget as u64 {
+        let mut marked = vec![0u64; vertices.div_ceil(64) as usize];
+        let (mut chunks, mut chunk) = (triangles.read_chunks(PASS_TRIANGLES)?, Vec::new());
+        while chunks.read_into(&mut chunk)? {
+            for &v in chunk.iter().flatten() {
+                let word = marked.get_mut(v as usize / 64).ok_or_else(|| {
+                    io::Error::other(format!("vertex index {v} past the {vertices} vertices"))
+                })?;
+                *word |= 1 << (v % 64);
+            }
+        }
+        for (w, &bits) in marked.iter().enumerate() {
+            let mut bits = bits;
+            while bits != 0 {
+                referenced.push(&(w as u32 * 64 + bits.trailing_zeros()))?;
+                bits &= bits - 1;
+            }
+        }
+    } else {
+        let mut error = None;
+        let corners = ok_values(triangles.read()?, &mut error).flat_map(|t| t.into_iter());
+        let sorted = sort_external(corners, budget, dir)?;
+        check(error)?;
+        let mut last = None;
+        for v in sorted {
+            let v = v?;
+            if last != Some(v) {
+                referenced.push(&v)?;
+                last = Some(v);
+            }
+        }
+    }
+    referenced.finish()
 }
 
 /// Ranges of least corners (of ids below `vertices`) that split `triangles` into windows of

@@ -104,18 +104,21 @@ impl CurrentMesh {
         Ok(Self::with_edges(mesh, nonmanifold, starts))
     }
 
-    /// The counts of a mesh on disk (`new_within`'s, never loading it).
+    /// The counts of a mesh on disk (`new_within`'s, never loading it), whose wedges start
+    /// vertices as `starts` says (`StagedMesh::vertex_starts`).
     pub fn from_staged(
         staged: &crate::external::StagedMesh,
+        starts: VertexStarts,
         budget: usize,
         temp_dir: &std::path::Path,
     ) -> std::io::Result<Self> {
         let vertex_count = staged.positions.len() as usize;
-        let nonmanifold =
-            nonmanifold_edges_within(vertex_count, &Staged(&staged.triangles), budget, temp_dir)?;
-        // A staged mesh has one wedge a vertex (the staging refuses seams).
-        let mut current = Self::zeroed(vertex_count, nonmanifold, VertexStarts::identity());
-        current.count_uses(staged.triangles.read()?)?;
+        let triangles = Staged(&staged.triangles, &starts);
+        let nonmanifold = nonmanifold_edges_within(vertex_count, &triangles, budget, temp_dir)?;
+        let map = starts.clone();
+        let mut current = Self::zeroed(vertex_count, nonmanifold, starts);
+        let by_vertex = |t: std::io::Result<[u32; 3]>| t.map(|t| t.map(|w| map.canonical(w)));
+        current.count_uses(staged.triangles.read()?.map(by_vertex))?;
         Ok(current)
     }
 
@@ -378,8 +381,18 @@ impl TrianglePasses for InMemory<'_> {
     }
 }
 
-/// The staged triangles, read a chunk at a time.
-struct Staged<'a>(&'a RecordFile<[u32; 3]>);
+/// The staged triangles, read a chunk at a time, as triangles of vertices.
+struct Staged<'a>(&'a RecordFile<[u32; 3]>, &'a VertexStarts);
+
+impl Staged<'_> {
+    fn by_vertex(&self, chunk: &mut [[u32; 3]]) {
+        if !self.1.is_identity() {
+            chunk
+                .iter_mut()
+                .for_each(|t| *t = t.map(|w| self.1.canonical(w)));
+        }
+    }
+}
 
 impl TrianglePasses for Staged<'_> {
     fn triangle_count(&self) -> u64 {
@@ -389,6 +402,7 @@ impl TrianglePasses for Staged<'_> {
     fn for_each_chunk(&self, f: &mut dyn FnMut(&[[u32; 3]])) -> std::io::Result<()> {
         let (mut reader, mut chunk) = (self.0.read_chunks(EDGE_PASS_TRIANGLES)?, Vec::new());
         while reader.read_into(&mut chunk)? {
+            self.by_vertex(&mut chunk);
             f(&chunk);
         }
         Ok(())
@@ -399,7 +413,10 @@ impl TrianglePasses for Staged<'_> {
         Ok(Box::new(std::iter::from_fn(move || {
             let mut chunk = Vec::new();
             match reader.read_into(&mut chunk) {
-                Ok(true) => Some(Ok(Cow::Owned(chunk))),
+                Ok(true) => {
+                    self.by_vertex(&mut chunk);
+                    Some(Ok(Cow::Owned(chunk)))
+                }
                 Ok(false) => None,
                 Err(e) => Some(Err(e)),
             }

@@ -111,6 +111,11 @@ impl LevelState {
         self.levels_done
     }
 
+    /// Which wedges start a vertex (the current mesh's, `mesh.rs`).
+    pub fn vertex_starts(&self) -> &crate::mesh::VertexStarts {
+        self.current.vertex_starts()
+    }
+
     /// Whether a checkpoint is due whatever its pacing: the live store holds removed patches,
     /// kept on disk until a commit no longer names them.
     pub fn checkpoint_wanted(&self) -> bool {
