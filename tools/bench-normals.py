@@ -11,17 +11,17 @@
    (tau = 1e-6) lit frame, PSNR over model pixels by `tessera compare` (pixels not the
    background in one frame or the other), with the computed normals; beside it the same pair
    with `--flat` (face normals, the same build), the pair built with `--no-computed-normals`
-   (face normals, the shading before), and two diagnoses: the pair drawn 4 x 4 times larger
-   at tau = 4 (the same cut) and averaged down to the size (16 samples a pixel, so the
-   reference's aliasing of sub-pixel detail is left out), and the pair built with
-   `--bounded-errors` (a finer cut whose errors are bounds).
+   (face normals, the shading before), and two diagnoses: the pair drawn with
+   `render --supersample 4` (the same cuts, 16 samples a pixel, so the reference's aliasing of
+   sub-pixel detail is left out), and the pair built with `--bounded-errors` (a finer cut
+   whose errors are bounds).
 
 Usage: tools/bench-normals.py [--tessera BIN] [--model testdata/mesh/bunny00.off]
        [--orbit 200,10,1.2 ...] [--size 800x800] [--normals-only] [--require]
        [--write BENCHMARKS.md]
 --normals-only: measure 1 alone (one small frame for the export); --require: exit 1 when a
 target is missed (99 % within 1 degree; 38 dB for the computed normals' frame).
-Needs numpy, scipy and trimesh (pip install numpy scipy trimesh; pillow for the frames).
+Needs numpy, scipy and trimesh (pip install numpy scipy trimesh).
 """
 
 import argparse
@@ -72,31 +72,14 @@ def compare(tessera, reference, frame):
     return json.loads(run([tessera, "compare", reference, frame, "--json"]))
 
 
-def box_down(src, dst, k):
-    """`src` averaged over k x k blocks into `dst` (rounded to 8 bits)."""
-    from PIL import Image
-    a = np.asarray(Image.open(src).convert("RGB"), dtype=np.float64)
-    h, w = a.shape[0] // k, a.shape[1] // k
-    a = a[: h * k, : w * k].reshape(h, k, w, k, 3).mean(axis=(1, 3))
-    Image.fromarray(np.round(a).astype(np.uint8)).save(dst)
-
-
 def frame_pair(args, tmp, repo, orbit, name, extra=(), supersample=1):
-    """The tau = 1 frame of `repo` against its tau = 1e-6 frame (`tessera compare --json`);
-    with `supersample` k, both drawn k times wider and taller at tau = k (the same cut) and
-    averaged over k x k pixels first."""
-    w, h = (int(v) for v in args.size.lower().split("x"))
-    k = supersample
+    """The tau = 1 frame of `repo` against its tau = 1e-6 frame (`tessera compare --json`),
+    both drawn with `render --supersample` (1: one sample a pixel)."""
     pngs = {}
     for tau in ("1e-6", "1"):
-        png = tmp / f"{name}-{orbit}-{tau}.png"
-        run([args.tessera, "render", repo, "-o", png, "--orbit", orbit,
-             "--size", f"{w * k}x{h * k}",
-             "--tolerance", tau if tau != "1" else f"{k:g}"] + list(extra))
-        if k > 1:
-            box_down(png, png.with_suffix(".down.png"), k)
-            png = png.with_suffix(".down.png")
-        pngs[tau] = png
+        pngs[tau] = tmp / f"{name}-{orbit}-{tau}.png"
+        run([args.tessera, "render", repo, "-o", pngs[tau], "--orbit", orbit, "--size", args.size,
+             "--tolerance", tau, "--supersample", str(supersample)] + list(extra))
     return compare(args.tessera, pngs["1e-6"], pngs["1"])
 
 

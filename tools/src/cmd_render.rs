@@ -74,6 +74,11 @@ pub struct RenderArgs {
     /// Most frames drawn while the stream settles (the last one is written).
     #[arg(long, default_value_t = 1000)]
     pub max_frames: u32,
+    /// Draw K times wider and taller at τ × K (the cut of τ at --size) and write the mean of
+    /// each K×K block: K² samples a pixel, no aliasing of sub-pixel detail (1 to 8).
+    #[arg(long, value_name = "K", default_value_t = 1,
+          value_parser = clap::value_parser!(u32).range(1..=8))]
+    pub supersample: u32,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -116,6 +121,26 @@ pub fn shading(mode: Mode, flat: bool) -> ShadingMode {
 /// Whether `--flat` means something in `mode` (it picks the normals lit and normals use).
 pub fn has_normals(mode: Mode) -> bool {
     matches!(mode, Mode::Lit | Mode::Normals)
+}
+
+/// `image` with each `k`×`k` block replaced by one pixel, the rounded mean of its channels
+/// (`--supersample`); `image` itself when `k` is 1. The size must be a multiple of `k`.
+pub fn box_average(image: image::RgbaImage, k: u32) -> image::RgbaImage {
+    if k == 1 {
+        return image;
+    }
+    assert!(image.width().is_multiple_of(k) && image.height().is_multiple_of(k));
+    let n = k * k;
+    image::RgbaImage::from_fn(image.width() / k, image.height() / k, |x, y| {
+        let mut sum = [0u32; 4];
+        for (dx, dy) in (0..k).flat_map(|dx| (0..k).map(move |dy| (dx, dy))) {
+            let p = image.get_pixel(x * k + dx, y * k + dy);
+            for (s, c) in sum.iter_mut().zip(p.0) {
+                *s += u32::from(c);
+            }
+        }
+        image::Rgba(sum.map(|s| ((s + n / 2) / n) as u8))
+    })
 }
 
 /// Adds `extra`'s keys to the object `value`.
@@ -223,7 +248,13 @@ pub fn run(args: RenderArgs) -> anyhow::Result<Outcome> {
     }
     let shared = std::sync::Arc::new(crate::repository_arg::open(&args.repository, "render")?);
     let h = *shared.header();
-    let camera = camera_from_args(&args, h.bbox_min, h.bbox_max, h.dimension)?;
+    let mut camera = camera_from_args(&args, h.bbox_min, h.bbox_max, h.dimension)?;
+    // --supersample K: K² samples a pixel; τ × K pixels at K times the size selects the cut τ
+    // selects at the size asked for (the projected error scales with the image's height).
+    let k = args.supersample;
+    let (width, height) = (camera.width, camera.height);
+    (camera.width, camera.height) = (width.saturating_mul(k), height.saturating_mul(k));
+    let tolerance = args.tolerance * k as f32;
     let ctx = args.gpu.context()?;
     let (mut renderer, mut streamer) =
         args.gpu
@@ -231,7 +262,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<Outcome> {
     let mut request = FrameRequest {
         mode: shading(args.mode, args.flat),
         wireframe: args.wireframe,
-        ..FrameRequest::new(camera, args.tolerance)
+        ..FrameRequest::new(camera, tolerance)
     };
     if args.two_sided {
         request = request.two_sided();
@@ -270,7 +301,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<Outcome> {
     // CPU ms of the written frame: recording and submitting it, and the streaming work
     // (landing units, feedback, plan; the CPU reference of this frame included).
     let cpu_ms = started.elapsed().as_secs_f64() * 1e3;
-    let image = renderer.read_image(&ctx)?;
+    let image = box_average(renderer.read_image(&ctx)?, k);
     let selection = &renderer.read_selection(&ctx)?;
     let (triangles, gpu_ms) = (
         renderer.triangles_of(selection),
@@ -289,7 +320,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<Outcome> {
     let exported = match &args.export {
         Some(path) => {
             let (triangles, vertices) =
-                crate::view::export::export_cut(&shared, &camera, args.tolerance, path)
+                crate::view::export::export_cut(&shared, &camera, tolerance, path)
                     .with_context(|| format!("exporting the cut to {}", path.display()))?;
             Some((path, triangles, vertices))
         }
@@ -305,8 +336,9 @@ pub fn run(args: RenderArgs) -> anyhow::Result<Outcome> {
                 "adapter": ctx.adapter_description(),
                 "backend": ctx.backend.name(),
                 "tolerance": args.tolerance,
-                "width": camera.width,
-                "height": camera.height,
+                "width": width,
+                "height": height,
+                "supersample": k,
                 "eye": camera.eye,
                 "target": camera.target,
                 "resident_bytes": gpu.gpu_bytes,

@@ -106,6 +106,61 @@ fn leaf_normals_agree_with_trimesh() {
 }
 
 #[test]
+fn supersample_averages_the_same_cut_drawn_larger() {
+    let dir = tempfile::tempdir().unwrap();
+    let repo = build_bunny(dir.path());
+    let (small, large) = (dir.path().join("small.png"), dir.path().join("large.png"));
+    let triangles = |out: std::process::Output| {
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        json(&out)["triangles"].as_u64().unwrap()
+    };
+    let repo = repo.to_str().unwrap();
+    let view = ["--orbit", "200,10,1.2", "--json"];
+    let mut args = vec![
+        "render",
+        repo,
+        "-o",
+        small.to_str().unwrap(),
+        "--size",
+        "160x120",
+    ];
+    args.extend(["--supersample", "3"].iter().chain(&view));
+    let supersampled = triangles(tessera(&args));
+    let mut args = vec![
+        "render",
+        repo,
+        "-o",
+        large.to_str().unwrap(),
+        "--size",
+        "480x360",
+    ];
+    args.extend(["--tolerance", "3"].iter().chain(&view));
+    assert_eq!(triangles(tessera(&args)), supersampled, "the same cut");
+    // Each pixel the rounded mean of its 3×3 block of the frame drawn 3 times larger.
+    let (small, large) = (
+        image::open(&small).unwrap().to_rgba8(),
+        image::open(&large).unwrap().to_rgba8(),
+    );
+    assert_eq!(small.dimensions(), (160, 120));
+    let mut blended = 0;
+    for (x, y, p) in small.enumerate_pixels() {
+        let block: Vec<_> = (0..9)
+            .map(|i| large.get_pixel(3 * x + i % 3, 3 * y + i / 3))
+            .collect();
+        for c in 0..4 {
+            let sum: u32 = block.iter().map(|q| u32::from(q.0[c])).sum();
+            assert_eq!(u32::from(p.0[c]), (sum + 4) / 9, "pixel ({x}, {y})");
+        }
+        blended += block.iter().any(|q| q != &block[0]) as u32;
+    }
+    assert!(blended > 500, "{blended} pixels average differing samples");
+}
+
+#[test]
 fn compare_exit_codes() {
     let dir = tempfile::tempdir().unwrap();
     let path = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
