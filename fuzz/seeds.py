@@ -249,6 +249,14 @@ def meshes():
     put("obj", "vt-range", "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/1 2/2 3/1\n")
     put("obj", "continuation", "v 0 0 0\nv 1 0 0 \\\n\nv 0 1 0\nf 1 2 3\r\n")
     put("obj", "empty", "")
+    # Materials: the fuzz target reads the OBJ as its own library (newmtl/Kd/d/Tr/map_Kd
+    # are skipped by the OBJ reader, v/f by the MTL one).
+    put("obj", "materials", "mtllib self.mtl\nnewmtl red\nKd 1 0 0\nd 0.5\nnewmtl green\n"
+        "Kd 0 1\nTr 0.25\nmap_Kd -s 1 1 1 .\\tex\\g.png\nnewmtl spectral\nKd spectral x.rfl\n"
+        "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nusemtl red\nf 1 2 3\nusemtl green\nf 1 3 4\n"
+        "usemtl none\nf 2 3 4\nusemtl spectral\nf 1 2 4\n")
+    put("obj", "materials-bad-kd", "mtllib a b\nnewmtl m\nKd 1 nan 0\nv 0 0 0\nv 1 0 0\n"
+        "v 0 1 0\nusemtl m\nf 1 2 3\n")
 
     # PLY.
     with gzip.open(os.path.join(TESTDATA, "mesh", "dragon_vrip_res4.ply.gz")) as fh:
@@ -281,6 +289,18 @@ def meshes():
     put("stl", "binary-count-past-file", b"x" * 80 + struct.pack("<I", 0xFFFFFFFF) + bytes(50))
     put("stl", "ascii-truncated", "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1")
     put("stl", "empty", "")
+    # Facet colours in the attribute bytes: VisCAM/SolidView (bit 15 marks a colour) and
+    # Materialise (the header's COLOR= is the object colour; bit 15 clear: the facet's own).
+    viscam = bytearray(stl_binary(quad_p, quad_f, header=b"viscam colours"))
+    materialise = bytearray(stl_binary(quad_p, quad_f, header=b"COLOR=\x10\x20\x30\xff MATERIAL="))
+    for t, word in enumerate([0x801F, 0x0000, 0xFC00, 0x83E0, 0x7FFF, 0x8000]):
+        at = 84 + 50 * t + 48
+        if at + 2 <= len(viscam):
+            viscam[at:at + 2] = struct.pack("<H", word)
+            materialise[at:at + 2] = struct.pack("<H", word)
+    put("stl", "binary-viscam-colours", bytes(viscam))
+    put("stl", "binary-materialise-colours", bytes(materialise))
+    put("stl", "binary-colour-header-cut", b"COLOR=" + b" " * 74 + struct.pack("<I", 0))
 
     # glTF / GLB.
     doc, buf = gltf_parts(p, f)
@@ -318,6 +338,21 @@ def meshes():
     b11 = bytearray(b2)
     b11[len(quad_p) * 12] = 200  # an index out of range
     put("gltf", "glb-index-range", glb(d2, bytes(b11)))
+    # baseColorFactor: two primitives, two materials, one with COLOR_0.
+    d12 = json.loads(json.dumps(d2))
+    prim = d12["meshes"][0]["primitives"][0]
+    d12["meshes"][0]["primitives"] = [dict(prim, material=0), dict(prim, material=1)]
+    d12["materials"] = [{"pbrMetallicRoughness": {"baseColorFactor": [1, 0.5, 0, 0.5]}},
+                        {"pbrMetallicRoughness": {"baseColorFactor": [2, -1, 0.25, 1]}}]
+    put("gltf", "glb-base-color-factors", glb(d12, b2))
+    b13 = bytes(b2) + bytes([255, 128, 0, 255] * len(quad_p))
+    d13 = json.loads(json.dumps(d12))
+    d13["bufferViews"].append({"buffer": 0, "byteOffset": len(b2), "byteLength": 4 * len(quad_p)})
+    d13["accessors"].append({"bufferView": len(d13["bufferViews"]) - 1, "componentType": 5121,
+                             "normalized": True, "count": len(quad_p), "type": "VEC4"})
+    d13["meshes"][0]["primitives"][0]["attributes"]["COLOR_0"] = len(d13["accessors"]) - 1
+    d13["buffers"][0]["byteLength"] = len(b13)
+    put("gltf", "glb-color-times-factor", glb(d13, b13))
     put("gltf", "empty", "")
 
 

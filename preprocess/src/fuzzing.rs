@@ -54,8 +54,16 @@ pub fn ply(data: &[u8]) -> bool {
     mesh("fuzz.ply", data)
 }
 
+/// The bytes as an OBJ, and as an OBJ whose every `mtllib` is those bytes too (materials:
+/// `newmtl`, `Kd`, `usemtl`; each reader skips the other's statements).
 pub fn obj(data: &[u8]) -> bool {
-    mesh("fuzz.obj", data)
+    let name = "fuzz.obj";
+    let with_library = crate::import::load_obj_bytes_with_library(Path::new(name), data, data);
+    match with_library {
+        Ok(report) => check_mesh(&report.mesh),
+        Err(e) => check_message(name, &e.to_string()),
+    }
+    mesh(name, data)
 }
 
 pub fn off(data: &[u8]) -> bool {

@@ -11,6 +11,7 @@
 mod error;
 mod gltf;
 mod input;
+pub mod mtl;
 mod obj;
 mod off;
 mod ply;
@@ -96,6 +97,21 @@ pub fn load_mesh_bytes(name: &Path, bytes: &[u8]) -> Result<ImportReport, Import
         .map_err(|kind| kind.at_path(name))
 }
 
+/// An OBJ's bytes as [`load_mesh_bytes`] reads them, except that every `mtllib` it names
+/// reads `library` (the fuzz target passes the OBJ itself: `newmtl`/`Kd` lines are skipped by
+/// the OBJ reader, `v`/`f` lines by the MTL one).
+pub(crate) fn load_obj_bytes_with_library(
+    name: &Path,
+    bytes: &[u8],
+    library: &[u8],
+) -> Result<ImportReport, ImportError> {
+    let libraries = obj::Libraries::Bytes(library);
+    obj::read(&mut Input::from_bytes(bytes.to_vec(), false), libraries)
+        .and_then(check_raw)
+        .and_then(finish)
+        .map_err(|kind| kind.at_path(name))
+}
+
 /// Loads a mesh of `format` from `reader` (a pipe, standard input): the same reader and the
 /// same welding as [`load_mesh`] of a file with these bytes, so the same [`ImportReport`].
 /// Errors name the input `name`. glTF (its buffers are read at offsets) and `.gz` are not
@@ -144,7 +160,7 @@ pub fn stage_mesh(
         MeshFormat::Ply => stage_ply(&mut open().map_err(at)?, dir),
         MeshFormat::Off => off::read_into(&mut open().map_err(at)?, stager).and_then(finish),
         MeshFormat::Stl => stl::read_into(&mut open().map_err(at)?, stager).and_then(finish),
-        MeshFormat::Obj => stage_obj(&mut open().map_err(at)?, dir, budget),
+        MeshFormat::Obj => stage_obj(&mut open().map_err(at)?, base_of(path), dir, budget),
         MeshFormat::Gltf if gz => whole(),
         MeshFormat::Gltf => gltf::read_file(path, stager).and_then(finish),
     }
@@ -169,6 +185,7 @@ pub fn stage_ply_from_reader(
 /// and normals through `CornerStager`, joined into vertex order when the file keeps them.
 fn stage_obj(
     input: &mut Input,
+    base: &Path,
     dir: &Path,
     budget: usize,
 ) -> Result<crate::external::RawStaged, ImportErrorKind> {
@@ -176,7 +193,8 @@ fn stage_obj(
     let colored =
         |colors: bool| crate::external::RawStager::new(dir, false, colors, false).map_err(io);
     let mut corners = crate::external::corner_attributes::CornerStager::new(dir).map_err(io)?;
-    let (stager, facts) = obj::read_into(input, colored, &mut corners)?;
+    let libraries = obj::Libraries::Dir(base);
+    let (stager, facts) = obj::read_into(input, libraries, colored, &mut corners)?;
     let mut raw = stager.finish().map_err(io)?;
     let (uvs, normals) = corners
         .finish(
@@ -255,18 +273,29 @@ fn read_raw(path: &Path) -> Result<RawMesh, ImportErrorKind> {
     let raw = match format {
         MeshFormat::Gltf => {
             if gz {
-                let base = match path.parent() {
-                    Some(dir) if !dir.as_os_str().is_empty() => dir,
-                    _ => Path::new("."),
-                };
-                gltf::read(&Input::open(path, true)?.read_to_end()?, Some(base))?
+                gltf::read(
+                    &Input::open(path, true)?.read_to_end()?,
+                    Some(base_of(path)),
+                )?
             } else {
                 gltf::read_file(path, |d| Ok(sink::in_memory(d)))?
             }
         }
+        MeshFormat::Obj => {
+            let libraries = obj::Libraries::Dir(base_of(path));
+            obj::read(&mut Input::open(path, gz)?, libraries)?
+        }
         _ => read_stream(format, &mut Input::open(path, gz)?)?,
     };
     check_raw(raw)
+}
+
+/// The directory of `path`, where the files it names are looked up (`.` for a bare name).
+fn base_of(path: &Path) -> &Path {
+    match path.parent() {
+        Some(dir) if !dir.as_os_str().is_empty() => dir,
+        _ => Path::new("."),
+    }
 }
 
 fn read_raw_bytes(name: &Path, bytes: &[u8]) -> Result<RawMesh, ImportErrorKind> {
@@ -286,7 +315,7 @@ fn read_raw_bytes(name: &Path, bytes: &[u8]) -> Result<RawMesh, ImportErrorKind>
 fn read_stream(format: MeshFormat, input: &mut Input) -> Result<RawMesh, ImportErrorKind> {
     match format {
         MeshFormat::Ply => ply::read(input),
-        MeshFormat::Obj => obj::read(input),
+        MeshFormat::Obj => obj::read(input, obj::Libraries::None),
         MeshFormat::Off => off::read(input),
         MeshFormat::Stl => stl::read(input),
         MeshFormat::Gltf => unreachable!("glTF is read from a file or bytes, not a stream"),

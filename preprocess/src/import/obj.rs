@@ -1,7 +1,10 @@
 //! Wavefront OBJ reader: `v` (with optional `r g b` vertex colours), `vt`, `vn` and `f`
 //! (`v`, `v/vt`, `v//vn`, `v/vt/vn`, negative relative indices), all groups and objects merged
-//! into one mesh; polygons fan-triangulated. Other statements (`o`, `g`, `s`, `usemtl`, `mtllib`,
-//! `l`, `p`, ...) are ignored.
+//! into one mesh; polygons fan-triangulated. `mtllib` and `usemtl`: a face takes the diffuse
+//! colour (`Kd`) of its material as a face colour (its corners become wedges of that colour,
+//! `sink::FaceColored`; refused when staged out of core), when the OBJ is read from a file
+//! (the libraries are found beside it, `mtl.rs`) and its material has a `Kd`. Other statements
+//! (`o`, `g`, `s`, `l`, `p`, ...) are ignored.
 //!
 //! OBJ indexes texture coordinates and normals apart from positions. Read into memory, every
 //! distinct `v/vt/vn` combination a face corner uses is a raw vertex of its own (the weld then
@@ -12,9 +15,12 @@
 //! texture coordinates, normals and corners to a [`CornerTracker`] (in memory, or staged on
 //! disk and joined into vertex order at the end).
 
+use std::path::Path;
+
 use super::error::{show, ImportErrorKind as K, Location};
 use super::input::{check_finite, fan, parse_float, parse_int, Input};
-use super::sink::{at, MeshSink};
+use super::mtl::{self, load_libraries, Material};
+use super::sink::{at, FaceColored, MeshSink};
 use super::RawMesh;
 use crate::external::corner_attributes::{CornerStager, NONE};
 
@@ -23,6 +29,8 @@ enum Keyword {
     Vt,
     Vn,
     F,
+    Mtllib,
+    Usemtl,
     Other,
 }
 
@@ -53,22 +61,34 @@ fn resolve(raw: i64, count: usize, line: u64, what: &str) -> Result<u32, K> {
     Ok(index as u32)
 }
 
-/// Reads an OBJ file into memory.
-pub(crate) fn read(input: &mut Input) -> Result<RawMesh, K> {
+/// Where an OBJ's `mtllib` libraries are read from.
+#[derive(Clone, Copy)]
+pub(crate) enum Libraries<'a> {
+    /// Nowhere: bytes from no directory; materials colour nothing.
+    None,
+    /// Files named relative to this directory (the OBJ's).
+    Dir(&'a Path),
+    /// These bytes, whatever the name (the fuzz target's OBJ is its own library).
+    Bytes(&'a [u8]),
+}
+
+/// Reads an OBJ file into memory, its material libraries from `libraries`.
+pub(crate) fn read(input: &mut Input, libraries: Libraries) -> Result<RawMesh, K> {
     let in_memory = |colors: bool| {
-        Ok(RawMesh {
+        Ok(FaceColored::new(RawMesh {
             colors: colors.then(Vec::new),
             ..Default::default()
-        })
+        }))
     };
     let mut corners = CornerAttributes::default();
-    let (mut mesh, facts) = read_into(input, in_memory, &mut corners)?;
+    let (mut colored, facts) = read_into(input, libraries, in_memory, &mut corners)?;
+    let mesh = &mut colored.mesh;
     let keep = |all: bool, of: &[u32]| all && facts.triangles && of.iter().any(|&i| i != UNSET);
     let kept = [
         keep(facts.all_vt, &corners.vt_of),
         keep(facts.all_vn, &corners.vn_of),
     ];
-    corners.add_extra_vertices(&mut mesh, facts.vertices, kept)?;
+    corners.add_extra_vertices(mesh, facts.vertices, kept)?;
     mesh.uvs = keep(facts.all_vt, &corners.vt_of).then(|| {
         (corners.vt_of.iter())
             .map(|&i| {
@@ -85,7 +105,8 @@ pub(crate) fn read(input: &mut Input) -> Result<RawMesh, K> {
             .map(|&i| corners.normals.get(i as usize).copied().unwrap_or_default())
             .collect()
     });
-    Ok(mesh)
+    // After the extra vertices and their attributes: each face colour's corner copies them.
+    Ok(colored.finish())
 }
 
 /// Where an OBJ reader puts its `vt` and `vn` values and its face corners' indices into them
@@ -246,9 +267,11 @@ pub(crate) struct ObjFacts {
 
 /// Reads an OBJ file into the sink `make_sink(colors)` makes at the first vertex (`colors`:
 /// whether it has a colour; the sink is told to forget them if a later vertex has none), the
-/// texture coordinates, normals and face corners into `corners`.
+/// texture coordinates, normals and face corners into `corners`; the faces of a material with
+/// a `Kd` (libraries read from `libraries`) are given its colour (`MeshSink::face_color`).
 pub(crate) fn read_into<S: MeshSink>(
     input: &mut Input,
+    libraries: Libraries,
     make_sink: impl FnOnce(bool) -> Result<S, K>,
     corners: &mut impl CornerTracker,
 ) -> Result<(S, ObjFacts), K> {
@@ -267,6 +290,9 @@ pub(crate) fn read_into<S: MeshSink>(
     let mut fanned: Vec<[u32; 3]> = Vec::new();
     let mut poly: Vec<u32> = Vec::new();
     let mut vals = [0.0f64; 8];
+    let mut materials: Vec<Material> = Vec::new();
+    // The `Kd` of the material in use.
+    let mut face_color: Option<[u8; 4]> = None;
 
     while input.skip_blank(true)? {
         let line = input.line;
@@ -275,10 +301,35 @@ pub(crate) fn read_into<S: MeshSink>(
             Some(b"vt") => Keyword::Vt,
             Some(b"vn") => Keyword::Vn,
             Some(b"f") => Keyword::F,
+            Some(b"mtllib") => Keyword::Mtllib,
+            Some(b"usemtl") => Keyword::Usemtl,
             _ => Keyword::Other,
         };
         if let Keyword::Other = keyword {
             input.skip_line()?;
+            continue;
+        }
+        if let Keyword::Mtllib | Keyword::Usemtl = keyword {
+            let mut words = Vec::new();
+            while let Some(tok) = input.token(true)? {
+                words.push(String::from_utf8_lossy(tok).into_owned());
+            }
+            input.end_line(true)?;
+            match keyword {
+                // Each word a library (names with spaces are not told apart from two names).
+                Keyword::Mtllib => match libraries {
+                    Libraries::Dir(base) => materials.extend(load_libraries(base, &words)?),
+                    Libraries::Bytes(bytes) => materials.extend(mtl::parse(bytes)?),
+                    Libraries::None => {}
+                },
+                // A name with spaces, as `newmtl` keeps it; the last definition wins.
+                _ => {
+                    let name = words.join(" ");
+                    face_color = (materials.iter().rev())
+                        .find(|m| m.name == name)
+                        .and_then(|m| m.diffuse);
+                }
+            }
             continue;
         }
         if let Keyword::F = keyword {
@@ -320,9 +371,11 @@ pub(crate) fn read_into<S: MeshSink>(
             if !fanned.is_empty() {
                 facts.triangles = true;
                 // A face comes after a vertex it uses, so the sink exists.
-                sink.as_mut()
-                    .expect("a face after its vertices")
-                    .triangles(&fanned)?;
+                let sink = sink.as_mut().expect("a face after its vertices");
+                sink.triangles(&fanned)?;
+                if let Some(color) = face_color {
+                    sink.face_color(fanned.len(), color)?;
+                }
             }
             continue;
         }
@@ -394,7 +447,7 @@ pub(crate) fn read_into<S: MeshSink>(
                 normal_count += 1;
                 corners.normal([vals[0] as f32, vals[1] as f32, vals[2] as f32])?;
             }
-            Keyword::F | Keyword::Other => unreachable!(),
+            Keyword::F | Keyword::Mtllib | Keyword::Usemtl | Keyword::Other => unreachable!(),
         }
     }
     let sink = match (sink, make_sink) {

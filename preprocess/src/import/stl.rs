@@ -1,14 +1,44 @@
-//! STL reader, ASCII and binary. Facet normals and attribute bytes are ignored (the mesh gets
-//! no normals); every facet brings three vertices of its own, which welding merges.
+//! STL reader, ASCII and binary. Facet normals are ignored (the mesh gets no normals); every
+//! facet brings three vertices of its own, which welding merges. A binary facet's attribute
+//! bytes carry its colour in two conventions, read as face colours (the facet's corners become
+//! wedges of that colour, `sink::FaceColored`; refused when staged out of core):
+//!
+//! - Materialise Magics, when the header holds `COLOR=` and four bytes R, G, B, A (the
+//!   object's colour): bit 15 clear, the facet's own colour, red in bits 0-4, green 5-9, blue
+//!   10-14; bit 15 set, the object's colour;
+//! - VisCAM / SolidView otherwise: bit 15 set, the facet's colour, blue in bits 0-4, green
+//!   5-9, red 10-14; bit 15 clear, no colour (the usual zero attribute).
 
 use super::error::{show, ImportErrorKind as K, Location};
 use super::input::{check_finite, parse_float, Input};
-use super::sink::{at, in_memory, Declared, MeshSink};
+use super::sink::{at, in_memory, Declared, FaceColored, MeshSink};
 use super::RawMesh;
 
 /// Reads an STL file into memory, telling ASCII from binary by content.
 pub(crate) fn read(input: &mut Input) -> Result<RawMesh, K> {
-    read_into(input, |d| Ok(in_memory(d)))
+    read_into(input, |d| Ok(FaceColored::new(in_memory(d)))).map(FaceColored::finish)
+}
+
+/// The colour a binary facet's attribute bytes give it, if any (module comment): `object` is
+/// the Materialise header's colour, when the header has one.
+fn facet_color(attribute: u16, object: Option<[u8; 4]>) -> Option<[u8; 4]> {
+    let five = |shift: u16| {
+        let v = ((attribute >> shift) & 31) as u8;
+        (v << 3) | (v >> 2)
+    };
+    let flag = attribute & 0x8000 != 0;
+    match object {
+        Some(object) if flag => Some(object),
+        Some(_) => Some([five(0), five(5), five(10), 255]),
+        None if flag => Some([five(10), five(5), five(0), 255]),
+        None => None,
+    }
+}
+
+/// The Materialise object colour in a binary header: `COLOR=` and the four bytes after it.
+fn header_color(header: &[u8]) -> Option<[u8; 4]> {
+    let at = header[..80].windows(6).position(|w| w == b"COLOR=")? + 6;
+    header.get(at..at + 4).map(|c| [c[0], c[1], c[2], c[3]])
 }
 
 /// Reads an STL file into the sink `make_sink` makes (told the expected size where the file
@@ -105,6 +135,7 @@ fn read_binary<S: MeshSink>(
             ),
         });
     }
+    let object = header_color(header);
     let mut mesh = make_sink(&no_attributes(input.prealloc(count, bounded)))?;
     for t in 0..count {
         let Some(rec) = input.bytes(50)? else {
@@ -127,6 +158,9 @@ fn read_binary<S: MeshSink>(
             mesh.vertex(&at(p))?;
         }
         mesh.triangles(&[[base, base + 1, base + 2]])?;
+        if let Some(color) = facet_color(u16::from_le_bytes([rec[48], rec[49]]), object) {
+            mesh.face_color(1, color)?;
+        }
     }
     Ok(mesh)
 }

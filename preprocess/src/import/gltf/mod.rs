@@ -2,7 +2,9 @@
 //! instance in the default scene (or the first scene; or, with no scenes, every mesh once),
 //! with node transforms applied in f64. Point and line primitives are skipped. Normals
 //! (`NORMAL`), colours (`COLOR_0`) and texture coordinates (`TEXCOORD_0`) are kept only if
-//! every primitive has them.
+//! every primitive has them. A material's `baseColorFactor` multiplies its primitives'
+//! `COLOR_0` (white where they have none): colours are kept too when any primitive's factor is
+//! not white (several materials, several colours, as wedges where they meet).
 //!
 //! The gltf crate parses the JSON document; the buffers are read here, a chunk of elements at
 //! a time (`accessor.rs`), from memory or from the file (`container.rs`), into a
@@ -222,6 +224,8 @@ fn attribute<'d>(prim: &Primitive<'d>, semantic: Semantic) -> Option<::gltf::Acc
 /// kept (those every primitive has), vertices and triangles.
 fn check_primitives(instances: &[(Mesh, Mat4)], lengths: &[u64]) -> Result<Declared, K> {
     let (mut normals, mut colors, mut uvs) = (true, true, true);
+    // Whether a material colours its primitives.
+    let mut factors = false;
     let (mut vertices, mut triangles) = (0u64, 0u64);
     for (mesh, _) in instances {
         for prim in triangle_primitives(mesh) {
@@ -257,13 +261,14 @@ fn check_primitives(instances: &[(Mesh, Mat4)], lengths: &[u64]) -> Result<Decla
             };
             normals &= attribute(&prim, Semantic::Normals).is_some();
             colors &= attribute(&prim, Semantic::Colors(0)).is_some();
+            factors |= base_color_factor(&prim) != [1.0; 4];
             uvs &= attribute(&prim, Semantic::TexCoords(0)).is_some();
         }
     }
     let any = vertices > 0;
     Ok(Declared {
         normals: any && normals,
-        colors: any && colors,
+        colors: any && (colors || factors),
         uvs: any && uvs,
         // Hints, bounded: instancing can repeat a small buffer without end.
         vertex_capacity: vertices.min(1 << 20) as usize,
@@ -353,6 +358,7 @@ fn stream_primitive<S: MeshSink>(
     let mut colors = Attribute::open(prim, Semantic::Colors(0), keep.colors, buffers)?;
     let mut uvs = Attribute::open(prim, Semantic::TexCoords(0), keep.uvs, buffers)?;
     let count = positions.elements.count();
+    let factor = base_color_factor(prim);
     loop {
         let got = positions.fill(CHUNK)?;
         if got == 0 {
@@ -369,8 +375,12 @@ fn stream_primitive<S: MeshSink>(
             if let Some(e) = normals.as_ref().and_then(|a| a.get(k)) {
                 v.normal = transform_normal(accessor::vec3(e), &cof, sign);
             }
-            if let Some((e, a)) = colors.as_ref().and_then(|a| Some((a.get(k)?, a))) {
-                v.color = accessor::color(e, a.ty, a.dims);
+            if keep.colors {
+                let c = match colors.as_ref().and_then(|a| Some((a.get(k)?, a))) {
+                    Some((e, a)) => accessor::color(e, a.ty, a.dims),
+                    None => [255; 4],
+                };
+                v.color = multiply(c, factor);
             }
             if let Some((e, a)) = uvs.as_ref().and_then(|a| Some((a.get(k)?, a))) {
                 v.uv = accessor::tex_coord(e, a.ty);
@@ -424,6 +434,21 @@ fn stream_primitive<S: MeshSink>(
         }
     }
     Ok(first + count as u32)
+}
+
+/// The `baseColorFactor` of `prim`'s material (white for the default material), each
+/// component clamped to 0..1 (NaN as 1).
+fn base_color_factor(prim: &Primitive) -> [f32; 4] {
+    let f = prim.material().pbr_metallic_roughness().base_color_factor();
+    f.map(|x| if x.is_nan() { 1.0 } else { x.clamp(0.0, 1.0) })
+}
+
+/// An 8-bit colour times a factor, rounded; a white factor leaves it as it is.
+fn multiply(c: [u8; 4], factor: [f32; 4]) -> [u8; 4] {
+    if factor == [1.0; 4] {
+        return c;
+    }
+    [0, 1, 2, 3].map(|i| (f32::from(c[i]) * factor[i]).round() as u8)
 }
 
 /// Triangles from a primitive's index sequence, one index at a time.
