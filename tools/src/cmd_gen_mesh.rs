@@ -1,5 +1,5 @@
 //! `tessera gen mesh --triangles N -o OUT.ply [--seed S] [--shuffle-vertices]
-//! [--density-range R] [--colour] [--json]`: a closed, watertight, 2-manifold procedural mesh with the
+//! [--density-range R] [--colour] [--uv] [--json]`: a closed, watertight, 2-manifold procedural mesh with the
 //! demo's relief (`tessera_preprocess::gen_mesh`), streamed as binary little-endian PLY in
 //! constant memory to a file (temporary file + rename) or to standard output (`-o -`).
 //!
@@ -39,6 +39,10 @@ pub struct MeshArgs {
     /// Give every vertex an RGB colour (PLY red, green, blue): a large coloured input.
     #[arg(long)]
     pub colour: bool,
+    /// Give every vertex texture coordinates (PLY s, t): one chart a cube face in a 3 x 2
+    /// atlas, so the cube's edges are seams (their vertices written once a face).
+    #[arg(long)]
+    pub uv: bool,
     /// Print one JSON object (on stderr when the mesh goes to stdout).
     #[arg(long)]
     pub json: bool,
@@ -68,7 +72,8 @@ pub fn run(args: MeshArgs) -> anyhow::Result<Outcome> {
         density_range: args.density_range,
         colour: args.colour,
     })
-    .map_err(anyhow::Error::msg)?;
+    .map_err(anyhow::Error::msg)?
+    .with_uvs(args.uv);
     let to_stdout = args.output.as_os_str() == "-";
     if to_stdout && std::io::stdout().is_terminal() {
         anyhow::bail!("-o -: standard output is a terminal; redirect or pipe the binary PLY");
@@ -122,6 +127,7 @@ pub fn run(args: MeshArgs) -> anyhow::Result<Outcome> {
             "shuffle_vertices": args.shuffle_vertices,
             "density_range": args.density_range,
             "colour": args.colour,
+            "uv": args.uv,
             "bytes": bytes,
             "seconds": seconds,
             "mb_per_s": mb_per_s,

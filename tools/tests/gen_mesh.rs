@@ -216,6 +216,57 @@ fn a_generated_mesh_builds_crack_free() {
     assert!(c["cuts_checked"].as_u64().unwrap() > 0, "{c}");
 }
 
+/// `--uv --colour`: texture coordinates with a chart a cube face, so the cube's edges are seams
+/// (more wedges than vertices), and colours; it builds with both, `check` (and `check --gpu`,
+/// a closed model) is clean, and the generator's memory still does not grow with the size.
+#[test]
+fn a_charted_coloured_mesh_has_seams_and_checks_clean() {
+    let dir = tempfile::tempdir().unwrap();
+    let ply = dir.path().join("uv.ply");
+    let g = gen(&ply, "20000", &["--uv", "--colour", "--shuffle-vertices"]);
+    assert_eq!(
+        (g["uv"].as_bool(), g["colour"].as_bool()),
+        (Some(true), Some(true))
+    );
+    let n = g["grid"].as_u64().unwrap();
+    let mesh = tessera_preprocess::import::load_mesh(&ply).unwrap().mesh;
+    let vertices = mesh.vertex_starts().vertex_count(mesh.positions.len());
+    // A wedge a face at each point of the cube's edges: 12 (n - 1) points twice, 8 corners
+    // thrice.
+    assert_eq!(
+        mesh.positions.len() - vertices,
+        (12 * (n - 1) + 16) as usize
+    );
+    assert!(mesh.uvs.is_some() && mesh.colors.is_some());
+    let repo = dir.path().join("uv.tsr");
+    let repo = repo.to_str().unwrap();
+    ok(&tessera(&["build", ply.to_str().unwrap(), "-o", repo]));
+    let info = json(&ok(&tessera(&["info", repo, "--json"])).stdout);
+    assert_eq!(info["attributes"]["uvs"], true, "{info}");
+    assert_eq!(info["attributes"]["colors"], true, "{info}");
+    let c = json(&ok(&tessera(&["check", repo, "--views", "8", "--json"])).stdout);
+    assert_eq!(c["cracks"], 0, "{c}");
+    let args = [
+        "check", repo, "--gpu", "--views", "4", "--size", "320x180", "--json",
+    ];
+    let c = json(&ok(&tessera(&args)).stdout);
+    assert_eq!(c["gpu"]["flag_pixels"], 0, "{c}");
+    let peak = |triangles: &str| {
+        let out = Command::new(env!("CARGO_BIN_EXE_tessera"))
+            .args(["gen", "mesh", "--triangles", triangles, "-o", "-", "--json"])
+            .args(["--uv", "--colour", "--shuffle-vertices"])
+            .stdout(Stdio::null())
+            .output()
+            .unwrap();
+        json(&ok(&out).stderr)["peak_rss_bytes"].as_u64().unwrap()
+    };
+    let (small, large) = (peak("50000"), peak("3000000"));
+    assert!(
+        large < small + (8 << 20),
+        "peak RSS {small} bytes for 50 K triangles, {large} for 3 M"
+    );
+}
+
 #[test]
 fn bad_arguments_exit_two_with_a_message_and_leave_nothing() {
     let dir = tempfile::tempdir().unwrap();

@@ -15,6 +15,11 @@
 //! triangles never become the smallest ones.
 //! Every triangle is counter-clockwise seen from outside; every edge is shared by exactly two
 //! triangles (tested), so the surface is closed and 2-manifold, genus 0.
+//!
+//! Charted (`gen mesh --uv`): each face is a texture chart of its own, so a point on a cube
+//! edge is one vertex of each face it lies on (same position, other texture coordinates: the
+//! importer welds them into wedges of one vertex). Charted vertices: each face's (n + 1)²
+//! grid points, face by face, u-major, then the split cells' centres; the same triangles.
 
 /// Fewest triangles `gen mesh` makes (n = 4: every extra count fits in the belt).
 pub const MIN_TRIANGLES: u64 = 192;
@@ -206,8 +211,52 @@ impl CubeSphere {
         }
     }
 
+    /// Vertices of the charted numbering (module docs).
+    pub fn charted_vertex_count(&self) -> u64 {
+        6 * (self.n + 1) * (self.n + 1) + self.splits
+    }
+
+    /// Charted vertex `i`: its point, its face and its chart coordinates in [0, 1]² (the
+    /// face's u and v over n).
+    pub fn charted_vertex(&self, i: u64) -> (CubeVertex, u64, [f64; 2]) {
+        let (n, side) = (self.n, self.n + 1);
+        let grid = 6 * side * side;
+        if i < grid {
+            let (f, u, v) = (i / (side * side), i % (side * side) / side, i % side);
+            let chart = [u as f64 / n as f64, v as f64 / n as f64];
+            return (CubeVertex::Lattice(self.face_point(f, u, v)), f, chart);
+        }
+        let c = self.split_cell(i - grid);
+        let (face, u, v) = (c / (n * n), c % (n * n) / n, c % n);
+        let chart = [(u as f64 + 0.5) / n as f64, (v as f64 + 0.5) / n as f64];
+        (CubeVertex::CellCentre { face, u, v }, face, chart)
+    }
+
+    /// Triangle `t`'s charted vertex indices (the same triangle as [`Self::triangle`]).
+    pub fn charted_triangle(&self, t: u64) -> [u64; 3] {
+        let side = self.n + 1;
+        let grid = 6 * side * side;
+        self.triangle_with(t, |f, u, v| f * side * side + u * side + v, |j| grid + j)
+    }
+
     /// Triangle `t`'s vertex indices, counter-clockwise seen from outside.
     pub fn triangle(&self, t: u64) -> [u64; 3] {
+        let lattice = self.lattice_vertices();
+        self.triangle_with(
+            t,
+            |f, u, v| self.lattice_index(self.face_point(f, u, v)),
+            |j| lattice + j,
+        )
+    }
+
+    /// Triangle `t` with the index of grid point (u, v) of face f given by `corner` and that
+    /// of split cell j's centre by `centre`.
+    fn triangle_with(
+        &self,
+        t: u64,
+        corner: impl Fn(u64, u64, u64) -> u64,
+        centre: impl Fn(u64) -> u64,
+    ) -> [u64; 3] {
         let n = self.n;
         let regular = 12 * n * n;
         let (c, part) = if t < regular {
@@ -217,7 +266,7 @@ impl CubeSphere {
             (self.split_cell(j), 2 + (t - regular) % 2)
         };
         let (f, u, v) = (c / (n * n), c % (n * n) / n, c % n);
-        let corner = |du: u64, dv: u64| self.lattice_index(self.face_point(f, u + du, v + dv));
+        let corner = |du: u64, dv: u64| corner(f, u + du, v + dv);
         let (p00, p10, p11, p01) = (corner(0, 0), corner(1, 0), corner(1, 1), corner(0, 1));
         match self.split_of(c) {
             None => {
@@ -228,7 +277,7 @@ impl CubeSphere {
                 }
             }
             Some(j) => {
-                let m = self.lattice_vertices() + j;
+                let m = centre(j);
                 match part {
                     0 => [p00, p10, m],
                     1 => [p10, p11, m],

@@ -7,6 +7,10 @@
 //! same parameters give the same bytes. Counts: exactly the requested number of triangles
 //! when it is even, else one more (a closed triangle mesh has an even count: 3F = 2E); at
 //! least [`MIN_TRIANGLES`].
+//!
+//! With texture coordinates ([`GenMesh::with_uvs`]) every cube face is a chart of its own in
+//! a 3 × 2 atlas (gutters between the charts), so the vertices on the cube's edges are
+//! written once a face: seams, which the importer keeps as wedges of one vertex.
 
 mod cube_sphere;
 mod ply_stream;
@@ -46,7 +50,13 @@ pub struct GenMesh {
     pub topology: CubeSphere,
     pub surface: Surface,
     shuffle: Option<Shuffle>,
+    /// Texture coordinates, one chart a cube face ([`GenMesh::with_uvs`]).
+    uvs: bool,
 }
+
+/// The share of a chart's atlas cell left empty on each side (keeps texels of one chart from
+/// bleeding into the next).
+const GUTTER: f64 = 1.0 / 64.0;
 
 impl GenMesh {
     /// Checks the parameters (a message naming the bad one otherwise).
@@ -67,11 +77,32 @@ impl GenMesh {
             topology,
             surface: Surface::new(params.seed, r),
             shuffle,
+            uvs: false,
         })
     }
 
+    /// The same mesh with texture coordinates (`gen mesh --uv`): one chart a cube face, the
+    /// cube's edges written once a face they bound (module docs). The same positions and
+    /// triangles; more vertices.
+    pub fn with_uvs(mut self, uvs: bool) -> GenMesh {
+        self.uvs = uvs;
+        let p = self.params;
+        self.shuffle = p
+            .shuffle_vertices
+            .then(|| Shuffle::new(self.vertex_count(), p.seed));
+        self
+    }
+
+    /// Whether vertices have texture coordinates.
+    pub fn has_uvs(&self) -> bool {
+        self.uvs
+    }
+
     pub fn vertex_count(&self) -> u64 {
-        self.topology.vertex_count()
+        match self.uvs {
+            true => self.topology.charted_vertex_count(),
+            false => self.topology.vertex_count(),
+        }
     }
 
     pub fn triangle_count(&self) -> u64 {
@@ -81,7 +112,11 @@ impl GenMesh {
     /// The cube point of connectivity vertex `i`, in [−1, 1]³.
     fn cube_point(&self, i: u64) -> [f64; 3] {
         let n = self.topology.n;
-        match self.topology.vertex(i) {
+        let vertex = match self.uvs {
+            true => self.topology.charted_vertex(i).0,
+            false => self.topology.vertex(i),
+        };
+        match vertex {
             CubeVertex::Lattice(p) => p.map(|x| (2 * x) as f64 / n as f64 - 1.0),
             CubeVertex::CellCentre { face, u, v } => {
                 let doubled = CubeSphere {
@@ -94,13 +129,27 @@ impl GenMesh {
         }
     }
 
-    /// The position written in vertex slot `slot` (output order).
-    pub fn position(&self, slot: u64) -> [f32; 3] {
-        let i = match &self.shuffle {
+    /// The connectivity vertex in slot `slot`.
+    fn unshuffled(&self, slot: u64) -> u64 {
+        match &self.shuffle {
             Some(s) => s.inverse(slot),
             None => slot,
-        };
+        }
+    }
+
+    /// The position written in vertex slot `slot` (output order).
+    pub fn position(&self, slot: u64) -> [f32; 3] {
+        let i = self.unshuffled(slot);
         self.surface.position(self.cube_point(i)).map(|x| x as f32)
+    }
+
+    /// The texture coordinates written in vertex slot `slot` (with [`GenMesh::with_uvs`]):
+    /// face f's chart is cell (f mod 3, f div 3) of a 3 × 2 atlas, inset by [`GUTTER`].
+    pub fn uv(&self, slot: u64) -> [f32; 2] {
+        let (_, face, chart) = self.topology.charted_vertex(self.unshuffled(slot));
+        let cell = [(face % 3) as f64, (face / 3) as f64];
+        let cells = [3.0, 2.0];
+        [0, 1].map(|k| ((cell[k] + GUTTER + (1.0 - 2.0 * GUTTER) * chart[k]) / cells[k]) as f32)
     }
 
     /// The colour written in vertex slot `slot` (with [`MeshParams::colour`]): the direction
@@ -121,7 +170,11 @@ impl GenMesh {
 
     /// Triangle `t`'s vertex slots (output order), counter-clockwise from outside.
     pub fn triangle(&self, t: u64) -> [u32; 3] {
-        self.topology.triangle(t).map(|i| {
+        let corners = match self.uvs {
+            true => self.topology.charted_triangle(t),
+            false => self.topology.triangle(t),
+        };
+        corners.map(|i| {
             let slot = match &self.shuffle {
                 Some(s) => s.forward(i),
                 None => i,
@@ -130,8 +183,25 @@ impl GenMesh {
         })
     }
 
-    /// The whole mesh in memory (for tests and small meshes: O(N), unlike [`write_ply`]).
+    /// The whole mesh in memory (for tests and small meshes: O(N), unlike [`write_ply`]);
+    /// with texture coordinates, welded as the importer welds the PLY (wedges).
     pub fn to_input_mesh(&self) -> InputMesh {
+        if self.uvs {
+            let mesh = self.unwelded();
+            return crate::import::weld(crate::import::RawMesh {
+                positions: mesh.positions,
+                triangles: mesh.triangles,
+                normals: mesh.normals,
+                colors: mesh.colors,
+                uvs: mesh.uvs,
+            })
+            .mesh;
+        }
+        self.unwelded()
+    }
+
+    /// Every vertex slot as written.
+    fn unwelded(&self) -> InputMesh {
         InputMesh {
             positions: (0..self.vertex_count())
                 .map(|i| self.position(i).map(f64::from))
@@ -148,7 +218,9 @@ impl GenMesh {
                     })
                     .collect()
             }),
-            uvs: None,
+            uvs: self
+                .uvs
+                .then(|| (0..self.vertex_count()).map(|i| self.uv(i)).collect()),
         }
     }
 }

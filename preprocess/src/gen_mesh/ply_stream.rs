@@ -8,13 +8,10 @@ use rayon::prelude::*;
 
 use super::GenMesh;
 
-/// Bytes of one vertex record: three little-endian f32, then three u8 with colours.
+/// Bytes of one vertex record: three little-endian f32, then two with texture coordinates,
+/// then three u8 with colours.
 pub fn vertex_bytes(mesh: &GenMesh) -> u64 {
-    if mesh.params.colour {
-        15
-    } else {
-        12
-    }
+    12 + 8 * mesh.has_uvs() as u64 + 3 * mesh.params.colour as u64
 }
 /// Bytes of one face record (a u8 count, 3, then three little-endian i32).
 pub const PLY_FACE_BYTES: u64 = 13;
@@ -28,7 +25,7 @@ pub fn header(mesh: &GenMesh) -> String {
     format!(
         "ply\nformat binary_little_endian 1.0\n\
          comment tessera gen mesh: requested {} triangles, seed {}, density range {}{}\n\
-         element vertex {}\nproperty float x\nproperty float y\nproperty float z\n{}\
+         element vertex {}\nproperty float x\nproperty float y\nproperty float z\n{}{}\
          element face {}\nproperty list uchar int vertex_indices\nend_header\n",
         p.triangles,
         p.seed,
@@ -39,6 +36,11 @@ pub fn header(mesh: &GenMesh) -> String {
             ""
         },
         mesh.vertex_count(),
+        if mesh.has_uvs() {
+            "property float s\nproperty float t\n"
+        } else {
+            ""
+        },
         if p.colour {
             "property uchar red\nproperty uchar green\nproperty uchar blue\n"
         } else {
@@ -72,8 +74,15 @@ pub fn write_ply(
                 for (c, x) in rec[..12].chunks_exact_mut(4).zip(p) {
                     c.copy_from_slice(&x.to_le_bytes());
                 }
+                let mut at = 12;
+                if mesh.has_uvs() {
+                    for (c, x) in rec[12..20].chunks_exact_mut(4).zip(mesh.uv(slot)) {
+                        c.copy_from_slice(&x.to_le_bytes());
+                    }
+                    at = 20;
+                }
                 if mesh.params.colour {
-                    rec[12..15].copy_from_slice(&mesh.colour(slot));
+                    rec[at..at + 3].copy_from_slice(&mesh.colour(slot));
                 }
             });
         out.write_all(&buf)?;

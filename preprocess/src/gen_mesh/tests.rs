@@ -278,3 +278,61 @@ fn coloured_meshes_carry_a_colour_a_vertex() {
         import(ply_bytes(&plain)).mesh.positions
     );
 }
+
+/// `with_uvs`: one chart a cube face, so the cube's edges are seams: the importer keeps one
+/// wedge a face at every edge point (more wedges than vertices), the vertices, triangles and
+/// colours are those of the mesh without texture coordinates, and the surface is closed by
+/// vertex.
+#[test]
+fn charted_meshes_have_seams_on_the_cube_edges() {
+    let with = |uvs: bool, shuffle: bool| {
+        GenMesh::new(MeshParams {
+            colour: true,
+            shuffle_vertices: shuffle,
+            ..params(5_000)
+        })
+        .unwrap()
+        .with_uvs(uvs)
+    };
+    let charted = with(true, true);
+    let n = charted.topology.n;
+    assert_eq!(
+        charted.vertex_count(),
+        6 * (n + 1) * (n + 1) + charted.topology.splits
+    );
+    let report = import(ply_bytes(&charted));
+    let mesh = &report.mesh;
+    let plain = import(ply_bytes(&with(false, false))).mesh;
+    let vertices = mesh.vertex_starts().vertex_count(mesh.positions.len());
+    assert_eq!(vertices, plain.positions.len());
+    // A wedge a face at each edge point: 12 (n - 1) edge points twice, 8 corners thrice.
+    assert_eq!(mesh.positions.len() as u64, charted.vertex_count());
+    assert_eq!(
+        mesh.positions.len() - vertices,
+        (12 * (n - 1) + 16) as usize
+    );
+    assert_eq!(*mesh, charted.to_input_mesh());
+    let uvs = mesh.uvs.as_ref().expect("texture coordinates read back");
+    assert!(uvs.iter().flatten().all(|&x| (0.0..=1.0).contains(&x)));
+    // The same triangles over the same positions, with the same colour at each position.
+    let by_position = |m: &InputMesh| {
+        let colour = |w: u32| m.colors.as_ref().unwrap()[w as usize];
+        let mut t: Vec<_> = (m.triangles.iter())
+            .map(|t| t.map(|w| (m.positions[w as usize].map(f64::to_bits), colour(w))))
+            .collect();
+        t.sort();
+        t
+    };
+    assert_eq!(by_position(mesh), by_position(&plain));
+    let starts = mesh.vertex_starts();
+    let by_vertex = ImportReport {
+        mesh: InputMesh {
+            triangles: (mesh.triangles.iter())
+                .map(|t| t.map(|w| starts.canonical(w)))
+                .collect(),
+            ..mesh.clone()
+        },
+        ..report.clone()
+    };
+    assert_closed(&by_vertex, "charted");
+}
