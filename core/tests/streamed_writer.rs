@@ -51,6 +51,7 @@ fn directory(contents: &RepositoryContents) -> RepositoryDirectory {
         diamonds: contents.diamonds.clone(),
         tets,
         codec: contents.codec,
+        attribute_errors: contents.attribute_errors.clone(),
     }
 }
 

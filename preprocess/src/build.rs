@@ -171,6 +171,7 @@ pub fn build_contents(
         diamonds,
         tets,
         codec,
+        attribute_errors,
     } = built.directory;
     let contents = RepositoryContents {
         header,
@@ -179,6 +180,7 @@ pub fn build_contents(
         patch_blob,
         id_blob,
         codec,
+        attribute_errors,
     };
     Ok((contents, built.summary))
 }

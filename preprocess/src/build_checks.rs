@@ -55,16 +55,21 @@ pub(crate) fn validate_config(config: &BuildConfig) -> Result<(), BuildError> {
     let SimplifySettings {
         keep,
         normal_weight,
+        colour_weight,
+        uv_weight,
         coarsest_share,
         ..
     } = config.simplify;
     let keep_ok = keep > 0.0 && keep < 1.0;
-    let weight_ok = normal_weight >= 0.0 && normal_weight.is_finite();
+    let weight_ok = [normal_weight, colour_weight, uv_weight]
+        .iter()
+        .all(|w| *w >= 0.0 && w.is_finite());
     let share_ok = coarsest_share > 0.0 && coarsest_share <= 1.0;
     if !keep_ok || !weight_ok || !share_ok {
         return Err(BuildError::Config(format!(
-            "simplifier keep {keep} must be in (0, 1), normal weight {normal_weight} ≥ 0, \
-             coarsest share {coarsest_share} in (0, 1]"
+            "simplifier keep {keep} must be in (0, 1), normal weight {normal_weight}, colour \
+             weight {colour_weight} and uv weight {uv_weight} finite and ≥ 0, coarsest share \
+             {coarsest_share} in (0, 1]"
         )));
     }
     if !(4..=30).contains(&config.lattice_bits) {

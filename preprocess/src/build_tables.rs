@@ -7,7 +7,9 @@ use std::time::Instant;
 
 use tessera_core::bounds::round_up_f32;
 use tessera_core::leb::{DiamondId, Simplex};
-use tessera_core::repository::format::{DiamondRecord, Header, TetRecord, NO_INDEX};
+use tessera_core::repository::format::{
+    AttributeErrorRecord, DiamondRecord, Header, TetRecord, ATTR_COLORS, ATTR_UVS, NO_INDEX,
+};
 use tessera_core::repository::RepositoryDirectory;
 
 use crate::build_config::{BuildConfig, BuildSummary};
@@ -15,7 +17,9 @@ use crate::checkpoint::InputFacts;
 use crate::finished_patches::FinishedPatches;
 use crate::frame::LatticeFrame;
 use crate::hierarchy::Hierarchy;
-use crate::saturate::{nest_simplex_spheres, saturate, OwnErrors, RADIUS_MARGIN};
+use crate::saturate::{
+    nest_simplex_spheres, saturate, saturate_attribute_errors, OwnErrors, RADIUS_MARGIN,
+};
 use crate::simplify::Simplified;
 
 /// A built repository before it is written: its directory, its tet table's rows in the
@@ -113,6 +117,20 @@ pub(crate) fn assemble(
             }
         })
         .collect();
+    // The attribute error table, for an input with colours or texture coordinates only (one
+    // without keeps its bytes): saturated by the maximum, in table order.
+    let attribute_errors = (attributes & (ATTR_COLORS | ATTR_UVS) != 0).then(|| {
+        let saturated = saturate_attribute_errors(&hierarchy, &simplified.attribute_error);
+        diamond_order
+            .iter()
+            .map(|&i| AttributeErrorRecord {
+                colour: saturated[i].colour,
+                normal_degrees: saturated[i].normal_degrees,
+                uv: saturated[i].uv,
+                reserved: 0.0,
+            })
+            .collect()
+    });
     stage("saturate", t);
 
     // 4. The tet table: each record points into the blobs, laid out in table order.
@@ -178,6 +196,7 @@ pub(crate) fn assemble(
             diamonds,
             tets,
             codec: config.codec,
+            attribute_errors,
         },
         order,
         finished,

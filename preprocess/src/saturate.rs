@@ -26,6 +26,7 @@ use tessera_core::leb::{DiamondId, SimplexKey};
 use tessera_core::repository::format::{TetRecord, NO_INDEX};
 
 use crate::hierarchy::Hierarchy;
+use crate::simplify::AttributeError;
 
 /// Relative growth of the error from child to parent (≫ f32's 6e-8 rounding).
 pub const ERROR_MARGIN: f64 = 1e-5;
@@ -114,6 +115,44 @@ pub fn saturate(
         sphere[i] = s;
     }
     Ok(Saturated { error, sphere })
+}
+
+/// The saturated attribute errors (`simplify/attribute_error.rs`), indexed like
+/// `Hierarchy::diamonds`: attr(D) = max(own(D), attr(C) over D's split children C), field by
+/// field, bottom-up as `saturate`. So a parent's errors are at least each child's (monotone
+/// like the geometric error: a cut whose diamonds' attribute errors are all ≤ x has every
+/// coarser diamond on the way down ≤ x too), and attr(D) bounds the own errors of every
+/// diamond merged to make D's patches from the leaves. The maximum, not a sum: an attribute
+/// error is a sampled maximum over wedges, not a distance that chains add up.
+pub fn saturate_attribute_errors(
+    hierarchy: &Hierarchy,
+    own: &[AttributeError],
+) -> Vec<AttributeError> {
+    assert_eq!(
+        own.len(),
+        hierarchy.diamonds.len(),
+        "one own error a diamond"
+    );
+    let index: HashMap<DiamondId, usize> = hierarchy
+        .diamonds
+        .iter()
+        .enumerate()
+        .map(|(i, d)| (d.id, i))
+        .collect();
+    let mut saturated = own.to_vec();
+    // Children come after their parents, so the reverse order visits children first.
+    for i in (0..own.len()).rev() {
+        for &c in hierarchy
+            .diamond(i)
+            .children
+            .iter()
+            .filter_map(|c| index.get(c))
+        {
+            debug_assert!(c > i, "child diamond split before its parent");
+            saturated[i] = saturated[i].max(saturated[c]);
+        }
+    }
+    saturated
 }
 
 /// Makes every simplex's sphere contain its patch and, grown by `margin` (so containment
@@ -232,5 +271,40 @@ mod tests {
         let floored =
             saturate(&hierarchy, [0.0; 3], bounds(&own), 0.25, &sphere, 5.0, 1.0).unwrap();
         assert!(floored.error.iter().all(|&e| e >= 5.0));
+    }
+
+    #[test]
+    fn attribute_errors_are_the_maximum_down_the_dag() {
+        let frame = LatticeFrame::around_box([0.0; 3], [1.0; 3], 10, 3);
+        let barycenters: Vec<[f64; 3]> = (0..64)
+            .map(|i| [0, 1, 2].map(|k| ((i * (7 + 5 * k) + 3) % 64) as f64 / 64.0 + 0.004))
+            .collect();
+        let hierarchy = build_hierarchy(frame, &barycenters, Construction::Levels(4));
+        let n = hierarchy.diamonds.len();
+        // Own errors that vary against the level, so maxima come from below as well.
+        let own: Vec<AttributeError> = (0..n)
+            .map(|i| AttributeError {
+                colour: ((i * 37) % 11) as f32,
+                normal_degrees: ((i * 13) % 7) as f32,
+                uv: ((i * 5) % 3) as f32 * 0.01,
+            })
+            .collect();
+        let saturated = saturate_attribute_errors(&hierarchy, &own);
+        let mut raised = 0;
+        for i in 0..n {
+            let children: Vec<usize> = hierarchy
+                .diamond(i)
+                .children
+                .iter()
+                .filter_map(|c| hierarchy.diamonds.iter().position(|x| x.id == *c))
+                .collect();
+            let expected = children.iter().fold(own[i], |m, &c| m.max(saturated[c]));
+            assert_eq!(saturated[i], expected, "diamond {i}");
+            raised += (saturated[i] != own[i]) as usize;
+        }
+        assert!(
+            raised > 0,
+            "no diamond took a child's error: the case tests nothing"
+        );
     }
 }

@@ -29,6 +29,7 @@
 //! (`CurrentMesh::merge`), so the result depends neither on the order within a batch nor on
 //! the number of threads.
 
+mod attribute_error;
 mod batches;
 mod coincident;
 mod conformity;
@@ -44,12 +45,12 @@ mod partial_level;
 mod positions;
 mod result_spill;
 mod vertices;
+mod weighed;
 
 use std::borrow::Cow;
 
 use rustc_hash::FxHashSet as HashSet;
 
-use meshopt::{SimplifyOptions, VertexDataAdapter};
 use rayon::prelude::*;
 use tessera_core::leb::{Diamond, SimplexKey};
 
@@ -70,7 +71,9 @@ use positions::separate_coincident;
 pub use positions::{simplifier_position, ulp_step};
 use result_spill::{Held, Payload, ResultSpill};
 use vertices::ByVertex;
+use weighed::{simplify_locked, weighs_more_than_normals, LocalWedges};
 
+pub use attribute_error::AttributeError;
 pub use current_mesh::CurrentMesh;
 pub use levels::LevelState;
 pub(crate) use levels::{simplify_levels, LevelCheckpoints};
@@ -81,6 +84,9 @@ pub struct Simplified {
     /// Object-space error of each diamond's own simplification (model units), indexed like
     /// `Hierarchy::diamonds`.
     pub own_error: Vec<f32>,
+    /// Each diamond's own attribute error (`attribute_error.rs`), indexed like `own_error`;
+    /// all zero where the input has neither colours nor texture coordinates (not measured).
+    pub attribute_error: Vec<AttributeError>,
     /// Vertices locked, summed over all diamonds (a statistic).
     pub locked_vertices: usize,
     /// Simplifications redone because a diamond was held back from its level's batch (a
@@ -95,6 +101,7 @@ struct DiamondResult {
     /// in memory or spilled (`result_spill.rs`).
     payload: Held,
     error: f32,
+    attribute_error: AttributeError,
     locked: usize,
     effect: MergeEffect,
     /// Where the output does not keep the gathered set's border (global ids): the build fails.
@@ -164,8 +171,15 @@ pub struct SimplifySettings {
     /// Weight of unit normals against positions (in model sizes) in meshopt's attribute
     /// metric, where the input has normals: at 0.05 a normal turned by one radian weighs like a
     /// displacement of 5 % of the model — a mild preference for keeping shading, the same for
-    /// every model whatever its units.
+    /// every model whatever its units. 0: normals are not weighed.
     pub normal_weight: f32,
+    /// Weight of colours (R, G, B in [0, 1]) against positions (in model sizes), where the
+    /// input has colours: at 0.2 black against white (a distance of √3) weighs like a
+    /// displacement of 35 % of the model. 0: colours are not weighed.
+    pub colour_weight: f32,
+    /// Weight of texture coordinates (UV units) against positions (in model sizes), where the
+    /// input has them. 0: texture coordinates are not weighed.
+    pub uv_weight: f32,
     /// Keep the input's border edges (hole and outline edges inside a diamond) exactly, or let
     /// meshopt shorten border chains (it collapses a border vertex only along its border).
     /// `BuildConfig::for_domain` keeps them for meshes and frees them for height fields, whose outline otherwise
@@ -198,6 +212,8 @@ impl Default for SimplifySettings {
         SimplifySettings {
             keep: 0.5,
             normal_weight: 0.05,
+            colour_weight: DEFAULT_COLOUR_WEIGHT,
+            uv_weight: DEFAULT_UV_WEIGHT,
             keep_borders: true,
             bounded_errors: false,
             // 1: no cap (off with `BuildConfig::headroom`; 0.01 with it reaches 1 %).
@@ -206,6 +222,17 @@ impl Default for SimplifySettings {
         }
     }
 }
+
+/// `SimplifySettings::colour_weight`'s default. Measured on `testdata/mesh/bunny-astronaut.ply`
+/// (a scan coloured by a projected photograph) at 0, 0.01, 0.05, 0.2 and 1: the finest
+/// simplified level's largest colour error 176, 156, 110, 45 and 23 (8-bit RGB), the root's
+/// geometric error 0.136, 0.132, 0.183, 0.204 and 0.543: 0.2 cuts the colour error 4× for half
+/// again the root's error, where 1 triples it (CHANGELOG.md, 2026-12-07).
+pub const DEFAULT_COLOUR_WEIGHT: f32 = 0.2;
+/// `SimplifySettings::uv_weight`'s default: on a 256² grid with a non-linear UV map and a colour
+/// checker (`tools/tests/attribute_errors.rs`'s input, larger), 0.2 halves the finest level's
+/// UV error against 0.05, and 1 lets the colour checker go at level 8 (CHANGELOG.md).
+pub const DEFAULT_UV_WEIGHT: f32 = 0.2;
 
 /// Simplifies every split diamond of `hierarchy`, finest level first.
 /// Positions go to meshopt relative to the model origin and in model sizes (`LatticeFrame`), in
@@ -345,9 +372,10 @@ fn simplify_diamond(
         None => lock,
     };
     let target = target_triangles(ctx, diamond, local.indices.len() / 3);
+    let wedges = LocalWedges::of(&local.global_of, &vertices);
     let (mut simplified, estimate) = simplify_locked(
         &local.indices,
-        &local.global_of,
+        &wedges,
         &wedge_lock,
         &vertices,
         &ctx.settings,
@@ -373,6 +401,27 @@ fn simplify_diamond(
     } else {
         // meshopt's absolute error is in model sizes.
         (estimate as f64 * ctx.frame.model_size()) as f32
+    };
+    // Measured only where colours or texture coordinates are (what the table is written for).
+    let measured = match vertices.colors.is_some() || vertices.uvs.is_some() {
+        true => attribute_error::measure(
+            &wedges.positions,
+            &wedges.rows,
+            &vertices,
+            &local.indices,
+            &simplified,
+        ),
+        false => attribute_error::Measured::default(),
+    };
+    let error = match (own_error_is_bound(ctx, diamond), measured.distance) {
+        // meshopt's estimate mixes the weighed colours' and UVs' error into the geometric one
+        // (in model sizes, where colour steps would outweigh every fine level's error): the
+        // geometric estimate is then the vertex-sampled distance from what D gathers to what
+        // it keeps.
+        (false, Some(d)) if weighs_more_than_normals(&vertices, &ctx.settings) => {
+            (d * ctx.frame.model_size()) as f32
+        }
+        _ => error,
     };
     let simplified_vertices = by_vertex.as_ref().map(|b| b.vertices(&simplified));
     let vsimplified = simplified_vertices.as_deref().unwrap_or(&simplified);
@@ -402,6 +451,7 @@ fn simplify_diamond(
         diamond: index,
         payload: spill.hold(Payload { patches, vertices })?,
         error,
+        attribute_error: measured.error,
         locked,
         effect,
         border_break: check.broken.map(global),
@@ -536,60 +586,6 @@ fn target_triangles(ctx: &Context, diamond: &Diamond, gathered: usize) -> usize 
         0 => kept.min(ctx.coarsest_triangles),
         _ => kept,
     }
-}
-
-/// meshopt simplification to `target` triangles with the given locks (it stops earlier where
-/// locks leave nothing to collapse); returns local indices and meshopt's error estimate (in
-/// the units of `positions`).
-fn simplify_locked(
-    indices: &[u32],
-    global_of: &[u32],
-    lock: &[bool],
-    vertices: &VertexTable,
-    settings: &SimplifySettings,
-    target: usize,
-) -> (Vec<u32>, f32) {
-    if indices.is_empty() {
-        return (Vec::new(), 0.0);
-    }
-    let index = vertices.row_index();
-    let rows: Vec<usize> = global_of
-        .iter()
-        .map(|&g| index.expect(g) as usize)
-        .collect();
-    let local_positions: Vec<[f32; 3]> = rows.iter().map(|&r| vertices.simplifier[r]).collect();
-    let bytes: &[u8] = bytemuck::cast_slice(&local_positions);
-    let adapter = VertexDataAdapter::new(bytes, 12, 0).expect("tightly packed f32x3 positions");
-    let target = target * 3;
-    let options = SimplifyOptions::ErrorAbsolute;
-    let mut error = 0.0f32;
-    let out = match &vertices.normals {
-        Some(normals) => {
-            let attributes: Vec<f32> = rows.iter().flat_map(|&r| normals[r]).collect();
-            meshopt::simplify_with_attributes_and_locks(
-                indices,
-                &adapter,
-                &attributes,
-                &[settings.normal_weight; 3],
-                12,
-                lock,
-                target,
-                f32::MAX,
-                options,
-                Some(&mut error),
-            )
-        }
-        None => meshopt::simplify_with_locks(
-            indices,
-            &adapter,
-            lock,
-            target,
-            f32::MAX,
-            options,
-            Some(&mut error),
-        ),
-    };
-    (out, error)
 }
 
 /// Diamonds of a batch whose payloads are back in memory at once while they merge.

@@ -16,7 +16,7 @@ use tessera_core::repository::format::{PatchCodec, POSITION_BITS};
 use tessera_preprocess::checkpoint::Checkpoint;
 use tessera_preprocess::{
     build_repository, build_repository_checkpointed, build_repository_staged, BuildConfig,
-    BuildSummary, Construction, Domain, MemoryBudget,
+    BuildSummary, Construction, Domain, MemoryBudget, SimplifySettings,
 };
 
 use crate::progress::Stages;
@@ -72,6 +72,18 @@ pub struct BuildArgs {
     /// the default's estimates (ARCHITECTURE.md, "Stored errors")
     #[arg(long)]
     pub bounded_errors: bool,
+    /// Weight of normals (unit vectors) against positions (model sizes) when diamonds are
+    /// simplified, where the input has normals; 0 weighs them not at all
+    #[arg(long, value_name = "W", default_value_t = SimplifySettings::default().normal_weight)]
+    pub normal_weight: f32,
+    /// Weight of colours (RGB in [0, 1]) against positions (model sizes) when diamonds are
+    /// simplified, where the input has colours; 0 weighs them not at all
+    #[arg(long, value_name = "W", default_value_t = SimplifySettings::default().colour_weight)]
+    pub colour_weight: f32,
+    /// Weight of texture coordinates (UV units) against positions (model sizes) when diamonds
+    /// are simplified, where the input has them; 0 weighs them not at all
+    #[arg(long, value_name = "W", default_value_t = SimplifySettings::default().uv_weight)]
+    pub uv_weight: f32,
     /// Bits per axis of the position grid over the bounding box (1–21), applied while
     /// building instead of the grid chosen from the error: fewer make the repository smaller
     /// and every stored error larger by the grid's half-diagonal (printed, and
@@ -297,6 +309,9 @@ fn configure(args: &BuildArgs, domain: Domain, memory: &Option<MemoryBudget>) ->
         ..BuildConfig::for_domain(domain)
     };
     config.simplify.bounded_errors = args.bounded_errors;
+    config.simplify.normal_weight = args.normal_weight;
+    config.simplify.colour_weight = args.colour_weight;
+    config.simplify.uv_weight = args.uv_weight;
     config.position_bits = args.position_bits.unwrap_or(POSITION_BITS);
     if let Some(n) = args.leaf_triangles {
         config.construction = Construction::LeafTriangles(n);

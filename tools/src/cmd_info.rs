@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use clap::Args;
 use serde_json::json;
-use tessera_core::repository::format::section_name;
+use tessera_core::repository::format::{section_name, AttributeErrorRecord};
 use tessera_core::repository::patch::drawn_patch_bytes;
 
 use crate::Outcome;
@@ -42,6 +42,23 @@ pub fn run(args: InfoArgs) -> anyhow::Result<Outcome> {
         depth = depth.max(t.level);
     });
     let root_error = repo.diamonds().first().map_or(0.0, |d| d.error);
+    // The attribute error table's largest errors, over the repository and per diamond level
+    // (a diamond's level is that of the simplices it splits).
+    let attribute_errors = repo.attribute_errors().map(|table| {
+        let mut per_level: Vec<Option<AttributeErrorRecord>> = vec![None; levels.len()];
+        for (d, r) in repo.diamonds().iter().zip(table) {
+            if let Some(slot) = per_level.get_mut(d.level as usize) {
+                *slot = Some(AttributeErrorRecord::max_of([&slot.unwrap_or_default(), r]));
+            }
+        }
+        (AttributeErrorRecord::max_of(table), per_level)
+    });
+    let errors_json = |r: &AttributeErrorRecord| json!({"colour": r.colour, "normal_degrees": r.normal_degrees, "uv": r.uv});
+    let level_errors = |level: usize| {
+        attribute_errors
+            .as_ref()
+            .and_then(|(_, per_level)| per_level[level].as_ref())
+    };
     let (patch_blob_bytes, id_blob_bytes) = (repo.patch_blob().len(), repo.id_blob().len());
     let sections: Vec<_> = repo
         .sections()
@@ -56,7 +73,8 @@ pub fn run(args: InfoArgs) -> anyhow::Result<Outcome> {
         .enumerate()
         .map(|(level, &(simplices, stored, drawn))| {
             json!({"level": level, "simplices": simplices, "stored_bytes": stored,
-                   "decoded_bytes": drawn})
+                   "decoded_bytes": drawn,
+                   "attribute_errors": level_errors(level).map(errors_json)})
         })
         .collect();
     let codec = repo.codec().name();
@@ -88,6 +106,7 @@ pub fn run(args: InfoArgs) -> anyhow::Result<Outcome> {
         "patch_codec": codec,
         "patch_stored_bytes": stored,
         "patch_decoded_bytes": drawn,
+        "attribute_errors": attribute_errors.as_ref().map(|(all, _)| errors_json(all)),
         "levels": per_level,
         "sections": sections,
     });
@@ -127,14 +146,33 @@ pub fn run(args: InfoArgs) -> anyhow::Result<Outcome> {
             patch_blob_bytes,
             id_blob_bytes
         );
-        println!("  level  simplices      stored     decoded  ratio");
+        if let Some((all, _)) = &attribute_errors {
+            println!(
+                "  attribute errors (largest): colour {:.2} (8-bit RGB), normal {:.2} degrees, \
+                 uv {:.3e}",
+                all.colour, all.normal_degrees, all.uv
+            );
+        }
+        let header = match attribute_errors {
+            Some(_) => "  colour  normal°        uv",
+            None => "",
+        };
+        println!("  level  simplices      stored     decoded  ratio{header}");
         for (level, &(simplices, stored, drawn)) in levels.iter().enumerate() {
             let ratio = if stored > 0 {
                 format!("{:.2}", drawn as f64 / stored as f64)
             } else {
                 "-".into()
             };
-            println!("  {level:>5} {simplices:>10} {stored:>11} {drawn:>11}  {ratio:>5}");
+            let errors = match (&attribute_errors, level_errors(level)) {
+                (None, _) => String::new(),
+                (Some(_), None) => format!("  {:>6} {:>8} {:>9}", "-", "-", "-"),
+                (Some(_), Some(r)) => format!(
+                    "  {:>6.2} {:>8.2} {:>9.2e}",
+                    r.colour, r.normal_degrees, r.uv
+                ),
+            };
+            println!("  {level:>5} {simplices:>10} {stored:>11} {drawn:>11}  {ratio:>5}{errors}");
         }
     }
     Ok(Outcome::Ok)

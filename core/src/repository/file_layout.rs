@@ -6,11 +6,12 @@ use std::ops::Range;
 
 use super::directory_check::check_header_fields;
 use super::format::{
-    compute_checksum, section_name, Header, PatchCodec, SectionEntry, DIAMOND_RECORD_SIZE,
-    FORMAT_VERSION, HEADER_SIZE, MAGIC, MAX_SECTIONS, PATCH_SECTIONS, REQUIRED_SECTIONS,
-    SECTION_CODED_STRIPS, SECTION_DIAMONDS, SECTION_ENTRY_SIZE, SECTION_FLAGS_ALL,
-    SECTION_FLAG_OPTIONAL, SECTION_IDS, SECTION_PACKED_PATCHES, SECTION_PACKED_STRIPS,
-    SECTION_PATCHES, SECTION_TETS, TABLE_ALIGN, TET_RECORD_SIZE, WRITTEN_SECTIONS,
+    compute_checksum, section_name, Header, PatchCodec, SectionEntry, ATTRIBUTE_ERROR_RECORD_SIZE,
+    DIAMOND_RECORD_SIZE, FORMAT_VERSION, HEADER_SIZE, MAGIC, MAX_SECTIONS, PATCH_SECTIONS,
+    REQUIRED_SECTIONS, SECTION_ATTRIBUTE_ERRORS, SECTION_CODED_STRIPS, SECTION_DIAMONDS,
+    SECTION_ENTRY_SIZE, SECTION_FLAGS_ALL, SECTION_FLAG_OPTIONAL, SECTION_IDS,
+    SECTION_PACKED_PATCHES, SECTION_PACKED_STRIPS, SECTION_PATCHES, SECTION_TETS, TABLE_ALIGN,
+    TET_RECORD_SIZE, WRITTEN_SECTIONS,
 };
 use super::reader::{corrupt, RepositoryError, RELEASE_CHUNK};
 
@@ -24,6 +25,8 @@ pub(crate) struct Layout {
     pub id_blob_checksum: u32,
     pub sections: Vec<SectionEntry>,
     pub codec: PatchCodec,
+    /// The attribute error table, where the file has one (its checksum checked).
+    pub attribute_errors: Option<Range<usize>>,
 }
 
 /// Checks the header, its checksum and the section table of `bytes`, then the directory's
@@ -91,10 +94,18 @@ pub(crate) fn check_layout(
         .expect("patch blob checked");
     let (patch_blob, _) = find(codec.section_kind());
     let (id_blob, id_blob_checksum) = find(SECTION_IDS);
-    for (kind, range, stored) in [
+    let attribute_errors = entries
+        .iter()
+        .position(|e| e.kind == SECTION_ATTRIBUTE_ERRORS)
+        .map(|i| (ranges[i].clone(), entries[i].checksum));
+    let mut checksummed = vec![
         (SECTION_DIAMONDS, &diamonds, diamond_sum),
         (SECTION_TETS, &tets, tet_sum),
-    ] {
+    ];
+    if let Some((range, sum)) = &attribute_errors {
+        checksummed.push((SECTION_ATTRIBUTE_ERRORS, range, *sum));
+    }
+    for (kind, range, stored) in checksummed {
         let mut hasher = crc32fast::Hasher::new();
         for start in range.clone().step_by(RELEASE_CHUNK) {
             let chunk = start..(start + RELEASE_CHUNK).min(range.end);
@@ -119,6 +130,7 @@ pub(crate) fn check_layout(
         id_blob_checksum,
         sections: entries,
         codec,
+        attribute_errors: attribute_errors.map(|(range, _)| range),
     })
 }
 
@@ -147,6 +159,7 @@ fn section_ranges(
         let record = match e.kind {
             SECTION_DIAMONDS => Some((h.diamond_count, DIAMOND_RECORD_SIZE)),
             SECTION_TETS => Some((h.tet_count, TET_RECORD_SIZE)),
+            SECTION_ATTRIBUTE_ERRORS => Some((h.diamond_count, ATTRIBUTE_ERROR_RECORD_SIZE)),
             SECTION_PATCHES
             | SECTION_PACKED_PATCHES
             | SECTION_PACKED_STRIPS

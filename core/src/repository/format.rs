@@ -12,6 +12,7 @@
 //!     or SECTION_PACKED_PATCHES, packed with the older strip coding (read, not written)
 //!     or SECTION_CODED_STRIPS, the same patches entropy-coded                (see `coded.rs`)
 //!   SECTION_IDS        id blob                                      (see `global_ids.rs`)
+//!   SECTION_ATTRIBUTE_ERRORS, optional: 16 bytes a diamond     (see `attribute_errors.rs`)
 //! end of file        = the end of the last section
 //! ```
 //!
@@ -98,6 +99,10 @@ pub const SECTION_PACKED_STRIPS: u32 = 6;
 /// Section kind: the patch blob with every patch entropy-coded (`coded.rs`: positions
 /// predicted along the strip, rANS; `PatchCodec::Coded`, the default since issue 49).
 pub const SECTION_CODED_STRIPS: u32 = 7;
+/// Section kind: the attribute error table (`attribute_errors.rs`), one
+/// `AttributeErrorRecord` a diamond in table order, always with `SECTION_FLAG_OPTIONAL`;
+/// written only for an input with colours or texture coordinates.
+pub const SECTION_ATTRIBUTE_ERRORS: u32 = 8;
 /// The kinds of a patch blob: a repository has exactly one of them.
 pub const PATCH_SECTIONS: [u32; 4] = [
     SECTION_PATCHES,
@@ -111,6 +116,7 @@ pub const REQUIRED_SECTIONS: [u32; 3] = [SECTION_DIAMONDS, SECTION_TETS, SECTION
 /// Sections a repository's writer lays out: the required ones and the patch blob.
 pub const WRITTEN_SECTIONS: usize = REQUIRED_SECTIONS.len() + 1;
 
+pub use super::attribute_errors::{AttributeErrorRecord, ATTRIBUTE_ERROR_RECORD_SIZE};
 pub use super::patch_codec::PatchCodec;
 
 /// Section flag: a reader that does not know the section's kind may ignore it.
@@ -356,6 +362,7 @@ pub fn section_name(kind: u32) -> String {
         SECTION_PACKED_STRIPS => "packed patch blob".into(),
         SECTION_CODED_STRIPS => "coded patch blob".into(),
         SECTION_IDS => "id blob".into(),
+        SECTION_ATTRIBUTE_ERRORS => "attribute error table".into(),
         other => format!("section kind {other}"),
     }
 }

@@ -10,6 +10,7 @@
 //! - `coded`: the entropy-coded form of a patch (`SECTION_CODED_STRIPS`, the default on disk):
 //!   strip symbols and positions predicted along the strip, coded by `rans` (a static-model
 //!   rANS coder with per-patch 4-bit-weight tables), decoded on load like `packed`;
+//! - `attribute_errors`: the optional table of each diamond's colour, normal and UV errors;
 //! - `normal_encoding`: the normals' octahedral i16 pairs and the build's 10-bit grid;
 //! - `global_ids`: each patch's global vertex ids, delta + varint coded in their own blob (the
 //!   CPU's checks need them, the GPU does not);
@@ -25,6 +26,7 @@
 //! - `reader`: `Repository::open`, which validates every count, offset and index before use.
 //!   A bad file is an error (`RepositoryError`), never a panic or an out-of-bounds read.
 
+pub mod attribute_errors;
 pub mod coded;
 pub mod cut_mesh;
 mod directory_check;

@@ -19,11 +19,12 @@ use std::sync::OnceLock;
 
 use memmap2::Mmap;
 
+use super::attribute_errors::check_attribute_errors;
 use super::directory_check::{check_tables, BlobSizes};
 use super::file_layout::check_layout;
 use super::format::{
-    patch_checksum, section_name, DiamondRecord, Header, PatchCodec, SectionEntry, TetRecord,
-    HEADER_SIZE, MAGIC, SECTION_IDS, TET_RECORD_SIZE,
+    patch_checksum, section_name, AttributeErrorRecord, DiamondRecord, Header, PatchCodec,
+    SectionEntry, TetRecord, HEADER_SIZE, MAGIC, SECTION_IDS, TET_RECORD_SIZE,
 };
 use super::packed::{unpack_patch, StripCoding};
 use super::patch::{patch_bytes_checked, PatchSource, PatchView};
@@ -198,6 +199,8 @@ pub struct Repository {
     sections: Vec<SectionEntry>,
     /// How the patch blob stores the patches.
     codec: PatchCodec,
+    /// The attribute error table (`attribute_errors.rs`), where the file has one.
+    attribute_errors: Option<Range<usize>>,
     /// Outcome of the one check of the id blob's checksum (the computed value on a mismatch).
     ids_checked: OnceLock<Result<(), u32>>,
     /// One bit per tet: its patch checksum was verified. Relaxed atomics: a race only verifies
@@ -269,6 +272,15 @@ impl Repository {
             release(tets_start + r.start * TET_RECORD_SIZE..tets_start + r.end * TET_RECORD_SIZE)
         };
         check_tables(&layout.header, diamonds, tets, blobs, &release_tets)?;
+        if let Some(range) = &layout.attribute_errors {
+            let records: &[AttributeErrorRecord] = bytemuck::try_cast_slice(&bytes[range.clone()])
+                .map_err(|e| {
+                    corrupt(format!(
+                        "attribute error table cannot be borrowed in place: {e:?}"
+                    ))
+                })?;
+            check_attribute_errors(records, diamonds.len())?;
+        }
         let patch_verified = (0..tets.len().div_ceil(64))
             .map(|_| AtomicU64::new(0))
             .collect();
@@ -281,6 +293,7 @@ impl Repository {
             id_blob_checksum: layout.id_blob_checksum,
             sections: layout.sections,
             codec: layout.codec,
+            attribute_errors: layout.attribute_errors,
             ids_checked: OnceLock::new(),
             patch_verified,
             storage,
@@ -355,6 +368,16 @@ impl Repository {
     pub fn diamonds(&self) -> &[DiamondRecord] {
         // Size and alignment were checked by `validate`.
         bytemuck::cast_slice(&self.storage.bytes()[self.diamonds.clone()])
+    }
+
+    /// The attribute error table (one record a diamond, in table order, saturated: see
+    /// `attribute_errors.rs`), borrowed from the file; `None` where the repository has none
+    /// (an input without colours or texture coordinates, or a repository older than the
+    /// table).
+    pub fn attribute_errors(&self) -> Option<&[AttributeErrorRecord]> {
+        let range = self.attribute_errors.clone()?;
+        // Size and alignment were checked by `validate`.
+        Some(bytemuck::cast_slice(&self.storage.bytes()[range]))
     }
 
     /// The tet table, borrowed from the file.

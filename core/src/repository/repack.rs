@@ -104,6 +104,7 @@ pub fn repack_on_grid(
         diamonds,
         tets,
         codec,
+        attribute_errors: source.attribute_errors().map(<[_]>::to_vec),
     };
     let mut feed = Feed {
         source,

@@ -13,12 +13,13 @@ use std::path::Path;
 
 use super::directory_check::BlobSizes;
 use super::format::{
-    patch_checksum, DiamondRecord, Header, PatchCodec, SectionEntry, TetRecord, HEADER_SIZE,
-    SECTION_CODED_STRIPS, SECTION_DIAMONDS, SECTION_ENTRY_SIZE, SECTION_IDS,
-    SECTION_PACKED_PATCHES, SECTION_PACKED_STRIPS, SECTION_PATCHES, SECTION_TETS, WRITTEN_SECTIONS,
+    patch_checksum, AttributeErrorRecord, DiamondRecord, Header, PatchCodec, SectionEntry,
+    TetRecord, HEADER_SIZE, SECTION_ATTRIBUTE_ERRORS, SECTION_CODED_STRIPS, SECTION_DIAMONDS,
+    SECTION_ENTRY_SIZE, SECTION_IDS, SECTION_PACKED_PATCHES, SECTION_PACKED_STRIPS,
+    SECTION_PATCHES, SECTION_TETS,
 };
 use super::reader::{corrupt, RepositoryError};
-use super::writer::{lay_out_directory, write_atomically};
+use super::writer::{lay_out_directory, write_atomically, Tables};
 
 /// The in-memory part of a repository written by `write_repository_streamed`.
 #[derive(Clone, Debug, PartialEq)]
@@ -31,6 +32,8 @@ pub struct RepositoryDirectory {
     pub tets: Vec<TetRecord>,
     /// How the fed patches are stored (the fed bytes are the stored ones).
     pub codec: PatchCodec,
+    /// As `RepositoryContents::attribute_errors`.
+    pub attribute_errors: Option<Vec<AttributeErrorRecord>>,
 }
 
 /// Gives the writer each tet's bytes, in table order.
@@ -53,15 +56,14 @@ pub fn write_repository_streamed(
     feed: &mut dyn BlobFeed,
 ) -> Result<u64, RepositoryError> {
     let blobs = contiguous_blobs(&directory.tets, directory.codec)?;
-    let (header, entries) = lay_out_directory(
-        &directory.header,
-        &directory.diamonds,
-        &directory.tets,
-        blobs,
-        0,
-    )?;
+    let tables = Tables {
+        diamonds: &directory.diamonds,
+        tets: &directory.tets,
+        attribute_errors: directory.attribute_errors.as_deref(),
+    };
+    let (header, entries) = lay_out_directory(&directory.header, tables, blobs, 0)?;
     write_atomically(path, &mut |file| {
-        write_streamed(file, &header, entries, directory, feed)
+        write_streamed(file, &header, entries.clone(), directory, feed)
     })
 }
 
@@ -93,7 +95,7 @@ fn contiguous_blobs(tets: &[TetRecord], codec: PatchCodec) -> Result<BlobSizes, 
 fn write_streamed(
     file: &mut File,
     header: &Header,
-    mut entries: [SectionEntry; WRITTEN_SECTIONS],
+    mut entries: Vec<SectionEntry>,
     directory: &RepositoryDirectory,
     feed: &mut dyn BlobFeed,
 ) -> io::Result<u64> {
@@ -110,6 +112,9 @@ fn write_streamed(
         match entry.kind {
             SECTION_DIAMONDS => out.write_all(bytemuck::cast_slice(&directory.diamonds))?,
             SECTION_TETS => out.write_all(bytemuck::cast_slice(&directory.tets))?,
+            SECTION_ATTRIBUTE_ERRORS => out.write_all(bytemuck::cast_slice(
+                directory.attribute_errors.as_deref().unwrap_or_default(),
+            ))?,
             SECTION_PATCHES
             | SECTION_PACKED_PATCHES
             | SECTION_PACKED_STRIPS

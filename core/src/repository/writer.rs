@@ -1,5 +1,5 @@
-//! The writer: lays out header, section table, diamond table, tet table, patch blob and id
-//! blob (in that order, each section 8-aligned), fills the header's bookkeeping fields, the
+//! The writer: lays out header, section table, diamond table, tet table, patch blob, id blob
+//! and, when there is one, the attribute error table (in that order, each section 8-aligned), fills the header's bookkeeping fields, the
 //! section table, every patch's checksum and the checksums, and writes the file through a
 //! temporary file, fsync and a rename. Mirrors `reader.rs`: whatever it writes, `Repository`
 //! opens.
@@ -9,11 +9,14 @@ use std::fs::{self, File};
 use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
 
+use super::attribute_errors::check_attribute_errors;
 use super::directory_check::{check_header_fields, check_tables, BlobSizes};
 use super::format::{
-    align8, compute_checksum, patch_checksum, DiamondRecord, Header, PatchCodec, SectionEntry,
-    TetRecord, DIAMOND_RECORD_SIZE, FORMAT_VERSION, HEADER_SIZE, MAGIC, SECTION_DIAMONDS,
-    SECTION_ENTRY_SIZE, SECTION_IDS, SECTION_TETS, TET_RECORD_SIZE, WRITTEN_SECTIONS,
+    align8, compute_checksum, patch_checksum, AttributeErrorRecord, DiamondRecord, Header,
+    PatchCodec, SectionEntry, TetRecord, ATTRIBUTE_ERROR_RECORD_SIZE, DIAMOND_RECORD_SIZE,
+    FORMAT_VERSION, HEADER_SIZE, MAGIC, SECTION_ATTRIBUTE_ERRORS, SECTION_DIAMONDS,
+    SECTION_ENTRY_SIZE, SECTION_FLAG_OPTIONAL, SECTION_IDS, SECTION_TETS, TET_RECORD_SIZE,
+    WRITTEN_SECTIONS,
 };
 use super::reader::RepositoryError;
 
@@ -36,13 +39,16 @@ pub struct RepositoryContents {
     pub codec: PatchCodec,
     /// The global id streams, each at its tet's `id_offset` (see `patch::encode_patch`).
     pub id_blob: Vec<u8>,
+    /// The attribute error table (`attribute_errors.rs`), one record a diamond, or `None`
+    /// (no section: an input without colours or texture coordinates).
+    pub attribute_errors: Option<Vec<AttributeErrorRecord>>,
 }
 
 /// What `lay_out` computed: the header and section table as written, and the tets with their
 /// patch checksums.
 struct Laid {
     header: Header,
-    entries: [SectionEntry; WRITTEN_SECTIONS],
+    entries: Vec<SectionEntry>,
     tets: Vec<TetRecord>,
 }
 
@@ -56,15 +62,20 @@ fn lay_out(contents: &RepositoryContents) -> Result<Laid, RepositoryError> {
         codec: contents.codec,
     };
     // Patch ranges are checked before they are hashed.
-    let (header, _) = lay_out_directory(&contents.header, &contents.diamonds, &tets, blobs, 0)?;
+    let attribute_errors = contents.attribute_errors.as_deref();
+    let tables = |tets| Tables {
+        diamonds: &contents.diamonds,
+        tets,
+        attribute_errors,
+    };
+    let (header, _) = lay_out_directory(&contents.header, tables(&contents.tets), blobs, 0)?;
     for t in &mut tets {
         let start = t.patch_offset as usize;
         t.patch_checksum =
             patch_checksum(&contents.patch_blob[start..start + t.patch_bytes as usize]);
     }
     let ids_checksum = crc32fast::hash(&contents.id_blob);
-    let (header, entries) =
-        lay_out_directory(&header, &contents.diamonds, &tets, blobs, ids_checksum)?;
+    let (header, entries) = lay_out_directory(&header, tables(&tets), blobs, ids_checksum)?;
     Ok(Laid {
         header,
         entries,
@@ -72,27 +83,45 @@ fn lay_out(contents: &RepositoryContents) -> Result<Laid, RepositoryError> {
     })
 }
 
+/// The directory's tables as a writer lays them out.
+#[derive(Clone, Copy)]
+pub(super) struct Tables<'a> {
+    pub diamonds: &'a [DiamondRecord],
+    /// With their patch checksums.
+    pub tets: &'a [TetRecord],
+    /// The optional attribute error table: a section after the id blob when present.
+    pub attribute_errors: Option<&'a [AttributeErrorRecord]>,
+}
+
 /// The header as written (magic, version, counts, checksum filled) and the section table for
-/// these tables and blob sizes, after the reader's header and table checks. `tets` carry their
-/// patch checksums; `ids_checksum` is the id blob's CRC-32.
+/// these tables and blob sizes, after the reader's header and table checks; `ids_checksum` is
+/// the id blob's CRC-32.
 pub(super) fn lay_out_directory(
     header: &Header,
-    diamonds: &[DiamondRecord],
-    tets: &[TetRecord],
+    tables: Tables,
     blobs: BlobSizes,
     ids_checksum: u32,
-) -> Result<(Header, [SectionEntry; WRITTEN_SECTIONS]), RepositoryError> {
+) -> Result<(Header, Vec<SectionEntry>), RepositoryError> {
+    let Tables {
+        diamonds,
+        tets,
+        attribute_errors,
+    } = tables;
     let overflow = || RepositoryError::Corrupt("sections overflow a u64 file offset".into());
+    let section_count = WRITTEN_SECTIONS + attribute_errors.is_some() as usize;
     let mut h = *header;
     h.magic = MAGIC;
     h.version = FORMAT_VERSION;
-    h.section_count = WRITTEN_SECTIONS as u32;
+    h.section_count = section_count as u32;
     h.diamond_count = diamonds.len() as u64;
     h.tet_count = tets.len() as u64;
     h.checksum = 0;
     check_header_fields(&h)?;
     check_tables(&h, diamonds, tets, blobs, &|_| {})?;
-    let sizes = [
+    if let Some(records) = attribute_errors {
+        check_attribute_errors(records, diamonds.len())?;
+    }
+    let mut sizes = vec![
         (
             SECTION_DIAMONDS,
             h.diamond_count * DIAMOND_RECORD_SIZE as u64,
@@ -101,8 +130,12 @@ pub(super) fn lay_out_directory(
         (blobs.codec.section_kind(), blobs.patches),
         (SECTION_IDS, blobs.ids),
     ];
-    let mut at = (HEADER_SIZE + WRITTEN_SECTIONS * SECTION_ENTRY_SIZE) as u64;
-    let mut entries = [SectionEntry::default(); WRITTEN_SECTIONS];
+    if let Some(records) = attribute_errors {
+        let bytes = records.len() as u64 * ATTRIBUTE_ERROR_RECORD_SIZE as u64;
+        sizes.push((SECTION_ATTRIBUTE_ERRORS, bytes));
+    }
+    let mut at = (HEADER_SIZE + section_count * SECTION_ENTRY_SIZE) as u64;
+    let mut entries = vec![SectionEntry::default(); section_count];
     for (entry, (kind, bytes)) in entries.iter_mut().zip(sizes) {
         let offset = align8(at).ok_or_else(overflow)?;
         at = offset.checked_add(bytes).ok_or_else(overflow)?;
@@ -110,11 +143,18 @@ pub(super) fn lay_out_directory(
             SECTION_DIAMONDS => crc32fast::hash(bytemuck::cast_slice(diamonds)),
             SECTION_TETS => crc32fast::hash(bytemuck::cast_slice(tets)),
             SECTION_IDS => ids_checksum,
+            SECTION_ATTRIBUTE_ERRORS => {
+                crc32fast::hash(bytemuck::cast_slice(attribute_errors.unwrap_or_default()))
+            }
+            _ => 0,
+        };
+        let flags = match kind {
+            SECTION_ATTRIBUTE_ERRORS => SECTION_FLAG_OPTIONAL,
             _ => 0,
         };
         *entry = SectionEntry {
             kind,
-            flags: 0,
+            flags,
             offset,
             bytes,
             checksum,
@@ -142,6 +182,9 @@ fn write_laid_out<W: Write>(
             SECTION_DIAMONDS => bytemuck::cast_slice(&contents.diamonds),
             SECTION_TETS => bytemuck::cast_slice(&laid.tets),
             SECTION_IDS => &contents.id_blob,
+            SECTION_ATTRIBUTE_ERRORS => {
+                bytemuck::cast_slice(contents.attribute_errors.as_deref().unwrap_or_default())
+            }
             _ => &contents.patch_blob,
         };
         w.write_all(&ZEROS[..(entry.offset - at) as usize])?;

@@ -159,6 +159,7 @@ pub fn contents(
         patch_blob: blob,
         id_blob: ids,
         codec: PatchCodec::Raw,
+        attribute_errors: None,
     };
     (contents, patches)
 }

@@ -11,8 +11,9 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 /// Version of the checkpoint's files: a build of another version never resumes from them.
-/// 3: the use counts in a level's state are varints (they were u32s).
-pub const CHECKPOINT_FORMAT: u32 = 3;
+/// 3: the use counts in a level's state are varints (they were u32s). 4: a level's state and
+/// its parts carry each diamond's attribute error (`simplify/attribute_error.rs`).
+pub const CHECKPOINT_FORMAT: u32 = 4;
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Manifest {

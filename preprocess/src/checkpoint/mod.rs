@@ -120,6 +120,8 @@ pub fn manifest_for(input: Fingerprint, config: &BuildConfig) -> Manifest {
     let s = &config.simplify;
     flag("simplify.keep", s.keep.to_string());
     flag("simplify.normal_weight", s.normal_weight.to_string());
+    flag("simplify.colour_weight", s.colour_weight.to_string());
+    flag("simplify.uv_weight", s.uv_weight.to_string());
     flag("simplify.keep_borders", s.keep_borders.to_string());
     flag("simplify.bounded_errors", s.bounded_errors.to_string());
     flag(

@@ -8,6 +8,7 @@ use rayon::prelude::*;
 use rustc_hash::FxHashSet as HashSet;
 use tessera_core::leb::SimplexKey;
 
+use super::attribute_error::AttributeError;
 use super::batches::{query_edges, split_batch, Pending};
 use super::edge_census::count_edges;
 use super::live_store::{LiveStore, StoreCheckpoint};
@@ -43,6 +44,8 @@ pub struct LevelState {
     live: HashSet<PackedKey>,
     current: CurrentMesh,
     own_error: Vec<f32>,
+    /// Indexed like `own_error` (`Simplified::attribute_error`).
+    attribute_error: Vec<AttributeError>,
     locked_vertices: usize,
     resimplified: usize,
     /// Levels merged so far.
@@ -84,6 +87,7 @@ impl LevelState {
             live,
             current,
             own_error: Vec::new(),
+            attribute_error: Vec::new(),
             locked_vertices: 0,
             resimplified: 0,
             levels_done: 0,
@@ -141,6 +145,11 @@ impl LevelState {
         e.u64(self.locked_vertices as u64);
         e.u64(self.resimplified as u64);
         e.list(&self.own_error, |e, &x| e.f32(x));
+        e.list(&self.attribute_error, |e, a| {
+            e.f32(a.colour);
+            e.f32(a.normal_degrees);
+            e.f32(a.uv);
+        });
         let mut live: Vec<PackedKey> = self.live.iter().copied().collect();
         live.sort_unstable();
         e.list(&live, |e, &k| e.key(k.key()));
@@ -173,6 +182,13 @@ impl LevelState {
         let locked_vertices = d.u64()? as usize;
         let resimplified = d.u64()? as usize;
         let own_error = d.list(4, |d| d.f32())?;
+        let attribute_error = d.list(12, |d| {
+            Ok(AttributeError {
+                colour: d.f32()?,
+                normal_degrees: d.f32()?,
+                uv: d.f32()?,
+            })
+        })?;
         let live = d.list(21, |d| d.key().and_then(packed_or_invalid))?;
         let live = live.into_iter().collect();
         let end = d.u64()?;
@@ -199,6 +215,7 @@ impl LevelState {
             live,
             current,
             own_error,
+            attribute_error,
             locked_vertices,
             resimplified,
             levels_done,
@@ -304,8 +321,11 @@ pub(crate) fn simplify_levels(
     }
     if state.own_error.is_empty() {
         state.own_error = vec![0.0f32; hierarchy.diamonds.len()];
+        state.attribute_error = vec![AttributeError::default(); hierarchy.diamonds.len()];
     }
-    if state.own_error.len() != hierarchy.diamonds.len() {
+    if state.own_error.len() != hierarchy.diamonds.len()
+        || state.attribute_error.len() != hierarchy.diamonds.len()
+    {
         return Err(SimplifyError::Finished(std::io::Error::new(
             std::io::ErrorKind::InvalidData,
             "the simplification's state is not this hierarchy's",
@@ -450,6 +470,7 @@ pub(crate) fn simplify_levels(
                 let mut all_made = Vec::new();
                 for (r, made) in merged {
                     state.own_error[r.diamond] = r.error;
+                    state.attribute_error[r.diamond] = r.attribute_error;
                     state.locked_vertices += r.locked;
                     for s in &hierarchy.diamond(r.diamond).simplices {
                         for c in s.children() {
@@ -496,6 +517,7 @@ pub(crate) fn simplify_levels(
     }
     Ok(Simplified {
         own_error: state.own_error,
+        attribute_error: state.attribute_error,
         locked_vertices: state.locked_vertices,
         resimplified: state.resimplified,
     })

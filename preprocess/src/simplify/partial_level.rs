@@ -16,6 +16,7 @@ use std::io::{self, BufReader, Read};
 use std::path::Path;
 use std::sync::Arc;
 
+use super::attribute_error::AttributeError;
 use super::batches::MergeEffect;
 use super::conformity::BorderBreak;
 use super::current_mesh::CountChanges;
@@ -39,6 +40,13 @@ pub(super) fn encode_results(
         spans.push((e.position(), payload.len() as u64));
         e.bytes(&payload);
         e.f32(r.error);
+        for x in [
+            r.attribute_error.colour,
+            r.attribute_error.normal_degrees,
+            r.attribute_error.uv,
+        ] {
+            e.f32(x);
+        }
         e.u64(r.locked as u64);
         let effect = &r.effect;
         e.list(&effect.changes.tracked_edges, |e, &(k, d)| {
@@ -153,7 +161,7 @@ pub(super) fn decode_results(path: &Path) -> io::Result<Vec<DiamondResult>> {
     };
     // A result takes at least 76 bytes (its fixed fields and empty lists).
     let n = r.u64()?;
-    if n.saturating_mul(76) > len {
+    if n.saturating_mul(88) > len {
         return Err(invalid("more results than bytes"));
     }
     let mut results = Vec::with_capacity(n as usize);
@@ -167,6 +175,11 @@ pub(super) fn decode_results(path: &Path) -> io::Result<Vec<DiamondResult>> {
         };
         r.skip(bytes)?;
         let error = r.f32()?;
+        let attribute_error = AttributeError {
+            colour: r.f32()?,
+            normal_degrees: r.f32()?,
+            uv: r.f32()?,
+        };
         let locked = r.u64()? as usize;
         let tracked_edges = r.list(12, |r| Ok((r.u64()?, r.i32()?)))?;
         let local_conflicts = r.list(8, |r| r.u64())?;
@@ -181,6 +194,7 @@ pub(super) fn decode_results(path: &Path) -> io::Result<Vec<DiamondResult>> {
             diamond,
             payload,
             error,
+            attribute_error,
             locked,
             effect: MergeEffect {
                 changes: CountChanges {
@@ -243,6 +257,11 @@ mod tests {
             diamond,
             payload,
             error: 0.25 * diamond as f32,
+            attribute_error: AttributeError {
+                colour: diamond as f32,
+                normal_degrees: 0.5,
+                uv: 0.125 * diamond as f32,
+            },
             locked: 3 * diamond,
             effect: MergeEffect {
                 changes: CountChanges {
@@ -262,9 +281,10 @@ mod tests {
     fn fields(r: &DiamondResult) -> String {
         let e = &r.effect;
         format!(
-            "{} {} {} {:?} {:?} {:?} {:?} {:?} {:?}",
+            "{} {} {:?} {} {:?} {:?} {:?} {:?} {:?} {:?}",
             r.diamond,
             r.error,
+            r.attribute_error,
             r.locked,
             e.changes.tracked_edges,
             e.local_conflicts,

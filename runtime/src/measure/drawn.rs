@@ -117,6 +117,7 @@ mod tests {
             patch_blob: blob,
             id_blob: ids,
             codec: tessera_core::repository::PatchCodec::Raw,
+            attribute_errors: None,
         };
         let mut bytes = Vec::new();
         write_repository(&mut bytes, &contents).unwrap();
