@@ -30,7 +30,10 @@
 //!
 //! Cost: a uniform grid over the kept triangles (about 4 cells a triangle at most), each
 //! removed wedge searching rings of cells outwards until the ring is farther than the best
-//! distance found.
+//! distance found, bounded by the rings' box plus `p`'s distance to its own cell's faces (so
+//! most searches end with `p`'s cell). On `bunny-astronaut.ply` (75,408 triangles), the build's
+//! simplify stage, back to back on a loaded machine: 0.64 s for the same scan without colours,
+//! 0.72-0.75 s with them (1.18-1.20 s when the bound was the rings' alone).
 
 use crate::vertex_table::VertexTable;
 
@@ -333,6 +336,13 @@ impl Grid {
     ) -> f64 {
         candidates.clear();
         let c = self.cell_of(p);
+        // How far `p` is from the faces of its own cell (rounding may put it a hair outside).
+        let inside = (0..3)
+            .map(|k| {
+                let lo = self.min[k] + c[k] as f64 * self.cell;
+                (p[k] - lo).min(lo + self.cell - p[k]).max(0.0)
+            })
+            .fold(f64::INFINITY, f64::min);
         let mut best = f64::INFINITY;
         let widest = self.dims.iter().copied().max().expect("three axes");
         for r in 0..widest {
@@ -356,8 +366,9 @@ impl Grid {
                     }
                 }
             }
-            // Any triangle in no cell looked at is farther than `r` cells from `p`'s cell.
-            if best + TIE < r as f64 * self.cell {
+            // Any triangle in no cell looked at lies outside the box of the cells within `r`
+            // of `p`'s cell, which holds the ball of radius `r` cells + `inside` around `p`.
+            if best + TIE < r as f64 * self.cell + inside {
                 break;
             }
         }
