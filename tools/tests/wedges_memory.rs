@@ -133,6 +133,29 @@ fn cube_ply(n: usize, normals: bool) -> String {
     ply
 }
 
+/// `ply` (ASCII, triangles) with a face colour on every face, in bands of 37 faces.
+fn with_face_colours(ply: &str) -> String {
+    let (header, body) = ply.split_once("end_header\n").unwrap();
+    let header = header.replace(
+        "property list uchar int vertex_indices\n",
+        "property list uchar int vertex_indices\nproperty uchar red\nproperty uchar green\n\
+         property uchar blue\n",
+    );
+    let mut face = 0;
+    let body: Vec<String> = body
+        .lines()
+        .map(|l| match l.starts_with("3 ") && l.split(' ').count() == 4 {
+            true => {
+                face += 1;
+                let band = (face / 37 % 4) as u8;
+                format!("{l} {} {} 90", 60 * band, 255 - 60 * band)
+            }
+            false => l.to_string(),
+        })
+        .collect();
+    format!("{header}end_header\n{}\n", body.join("\n"))
+}
+
 fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
     let path = dir.join(name);
     std::fs::write(&path, text).unwrap();
@@ -196,6 +219,11 @@ fn seamed_inputs_build_the_same_bytes_out_of_core() {
     // Normal and colour seams.
     let cube = write(dir.path(), "cube.ply", &cube_ply(8, true));
     check_same_bytes(&cube, dir.path(), &leaves);
+    // Face colours: a face's corners take its colour, kept apart where faces differ.
+    let colored = with_face_colours(&sphere_ply(24, 48, false));
+    let colored = write(dir.path(), "faces.ply", &colored);
+    let faces = check_same_bytes(&colored, dir.path(), &leaves);
+    assert!(faces != built(&plain, dir.path(), "plain.tsr", &leaves));
 }
 
 #[test]

@@ -9,6 +9,7 @@ mod chunk_reader;
 pub mod corner_attributes;
 pub mod creased_normals;
 mod cursor;
+pub mod face_colors;
 mod fallible;
 pub(crate) mod file_io;
 pub mod holes;

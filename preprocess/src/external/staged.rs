@@ -318,6 +318,9 @@ pub struct RawStaged {
     pub positions: PositionFile,
     pub triangles: RecordFile<[u32; 3]>,
     pub attributes: VertexAttributes,
+    /// (triangle, colour as `u32::from_le_bytes`) of every triangle with a face colour,
+    /// ascending; the weld first puts them on corners of their own (`face_colors.rs`).
+    pub face_colors: Option<RecordFile<[u32; 2]>>,
 }
 
 impl RawStaged {
@@ -353,6 +356,8 @@ pub struct RawStager {
     normals: Option<RecordWriter<[f32; 3]>>,
     colors: Option<RecordWriter<[u8; 4]>>,
     uvs: Option<RecordWriter<[f32; 2]>>,
+    /// (triangle, colour) of the triangles with a face colour, once one has.
+    face_colors: Option<RecordWriter<[u32; 2]>>,
 }
 
 /// One vertex as an importer reads it.
@@ -375,6 +380,7 @@ impl RawStager {
             normals: normals.then(|| RecordFile::create(dir)).transpose()?,
             colors: colors.then(|| RecordFile::create(dir)).transpose()?,
             uvs: uvs.then(|| RecordFile::create(dir)).transpose()?,
+            face_colors: None,
         })
     }
 
@@ -401,6 +407,21 @@ impl RawStager {
         self.triangles.push_all(t)
     }
 
+    /// The last `triangles` triangles (one face's) have the face colour `color`: their corners
+    /// become vertices of that colour when the mesh is welded (`face_colors.rs`).
+    pub fn face_color(&mut self, triangles: usize, color: [u8; 4]) -> io::Result<()> {
+        let dir = &self.dir;
+        let file = match &mut self.face_colors {
+            Some(file) => file,
+            None => self.face_colors.insert(RecordFile::create(dir)?),
+        };
+        let end = self.triangles.len();
+        for t in end.saturating_sub(triangles as u64)..end {
+            file.push(&[t as u32, u32::from_le_bytes(color)])?;
+        }
+        Ok(())
+    }
+
     /// Drops the colours staged so far and stages no more (their file goes).
     pub fn forget_colors(&mut self) {
         self.colors = None;
@@ -420,6 +441,7 @@ impl RawStager {
                 colors: self.colors.map(RecordWriter::finish).transpose()?,
                 uvs: self.uvs.map(RecordWriter::finish).transpose()?,
             },
+            face_colors: self.face_colors.map(RecordWriter::finish).transpose()?,
         })
     }
 }

@@ -1,8 +1,9 @@
 //! Which staged imports need wedges (`mesh.rs`, `weld_wedges.rs`): [`has_seams`] tells the
 //! out-of-core weld whether corners at one position may differ in attributes; [`refused`] is
 //! what an import says where it still cannot keep wedges out of core (an OBJ's corners with
-//! their own `vt` or `vn` indices, per-face colours) rather than build other bytes than
-//! `tessera build` without `--memory` gives.
+//! their own `vt` or `vn` indices) rather than build other bytes than `tessera build` without
+//! `--memory` gives. Per-face colours are put on corners of their own before the weld
+//! (`face_colors.rs`).
 
 use std::io;
 use std::path::Path;

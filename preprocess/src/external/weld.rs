@@ -45,6 +45,7 @@ const MIN_WINDOW: usize = if cfg!(test) { 16 } else { 1 << 16 };
 /// budget, by external sorts otherwise. The same mesh, ids and counts either way; the
 /// in-memory weld skips five sorts and as many rewrites of the triangle file.
 pub fn weld_within_budget(raw: RawStaged, budget: usize, dir: &Path) -> io::Result<StagedMesh> {
+    let raw = face_colored(raw, budget / 2, dir)?;
     if in_memory_weld_bytes(&raw) <= budget as u64 {
         weld_in_memory(raw, dir)
     } else {
@@ -67,6 +68,8 @@ pub fn in_memory_weld_bytes(raw: &RawStaged) -> u64 {
 /// Welds `raw` in memory with `import::weld` and writes the result as a [`StagedMesh`] in
 /// `dir` (the raw files are freed first).
 pub fn weld_in_memory(raw: RawStaged, dir: &Path) -> io::Result<StagedMesh> {
+    // (Its sorts then stay in memory: the mesh is read whole anyway.)
+    let raw = face_colored(raw, 1 << 30, dir)?;
     let (normals, colors, uvs) = raw.attributes.read_all()?;
     let mesh = crate::import::RawMesh {
         positions: raw.positions.read_all()?,
@@ -84,6 +87,7 @@ pub fn weld_in_memory(raw: RawStaged, dir: &Path) -> io::Result<StagedMesh> {
 /// `dir`.
 pub fn weld_external(raw: RawStaged, budget: usize, dir: &Path) -> io::Result<StagedMesh> {
     let half = budget / 2;
+    let raw = face_colored(raw, half, dir)?;
     let raw_vertices = raw.positions.len();
     let raw_triangles = raw.triangles.len();
     // The raw triangles are consumed by the first mapping pass (freed then); the positions
@@ -92,6 +96,7 @@ pub fn weld_external(raw: RawStaged, budget: usize, dir: &Path) -> io::Result<St
         positions: raw_positions,
         triangles: raw_triangle_file,
         attributes,
+        face_colors: _,
     } = raw;
     if raw_vertices > u32::MAX as u64 {
         return Err(io::Error::other(format!(
@@ -349,6 +354,14 @@ pub fn weld_external(raw: RawStaged, budget: usize, dir: &Path) -> io::Result<St
         duplicate_triangles: duplicate,
         unreferenced_vertices: groups - referenced.len(),
     })
+}
+
+/// `raw` with its face colours on corners of their own (`face_colors.rs`), where it has any.
+fn face_colored(mut raw: RawStaged, budget: usize, dir: &Path) -> io::Result<RawStaged> {
+    match raw.face_colors.take() {
+        Some(colors) => super::face_colors::apply(raw, colors, budget, dir),
+        None => Ok(raw),
+    }
 }
 
 /// Triangles a pass reads and maps at once (768 KiB).

@@ -149,6 +149,10 @@ impl MeshSink for RawStager {
     fn forget_colors(&mut self) {
         RawStager::forget_colors(self);
     }
+
+    fn face_color(&mut self, triangles: usize, color: [u8; 4]) -> Result<(), K> {
+        RawStager::face_color(self, triangles, color).map_err(K::Io)
+    }
 }
 
 /// The attributes a file's vertices carry, and how many vertices and face-like records its
