@@ -294,8 +294,9 @@ impl Renderer {
     /// Renders `request` as `render` does (no read-back, no timestamps), its two phases
     /// submitted and waited for apart (issue 46: where a frame's time goes): the selection
     /// (uniforms, traversal, compaction and expansion) and the raster (the draws). Each
-    /// phase's time runs from its first CPU instruction to the GPU's idle; the wait between
-    /// them makes the sum a little more than `render`'s waited frame.
+    /// phase's time runs from its first CPU instruction to the GPU's idle. Their sum is not
+    /// `render`'s waited frame (an extra wait between them, and a frame drawn warm right after
+    /// the same one): compare phases with phases.
     pub fn render_phased(
         &mut self,
         ctx: &GpuContext,
