@@ -396,7 +396,7 @@ fn pick<T: Pod>(
 }
 
 /// `pick` of positions.
-fn pick_positions(
+pub(super) fn pick_positions(
     from: &PositionFile,
     indices: &RecordFile<u32>,
     dir: &Path,
@@ -406,7 +406,8 @@ fn pick_positions(
     out.finish()
 }
 
-/// Hands `push` the records of `from` at `indices` (ascending), in order.
+/// Hands `push` the records of `from` at `indices` (ascending, repeats allowed: a record
+/// once an index), in order.
 fn pick_each<T>(
     from: impl Iterator<Item = io::Result<T>>,
     indices: &RecordFile<u32>,
@@ -415,13 +416,15 @@ fn pick_each<T>(
     let mut wanted = indices.read()?.peekable();
     for (i, record) in from.enumerate() {
         let record = record?;
-        match wanted.peek() {
-            Some(Ok(w)) if *w as usize == i => {
-                push(&record)?;
-                wanted.next();
+        loop {
+            match wanted.peek() {
+                Some(Ok(w)) if *w as usize == i => {
+                    push(&record)?;
+                    wanted.next();
+                }
+                Some(Err(_)) => return Err(wanted.next().expect("peeked").expect_err("an error")),
+                _ => break,
             }
-            Some(Err(_)) => return Err(wanted.next().expect("peeked").expect_err("an error")),
-            _ => {}
         }
     }
     Ok(())

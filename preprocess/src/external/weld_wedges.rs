@@ -26,11 +26,11 @@ use rayon::prelude::*;
 
 use super::cursor::Cursor;
 use super::fallible::{check, ok_values};
-use super::position_file::{PositionBlocks, PositionCursor, PositionFile};
+use super::position_file::PositionFile;
 use super::sort::sort_external;
 use super::staged::RecordWriter;
 use super::staged::{RecordFile, VertexAttributes};
-use super::weld::{map_triangles, PASS_TRIANGLES};
+use super::weld::{map_triangles, pick_positions, PASS_TRIANGLES};
 use super::weld_keys::referenced_ids;
 
 /// The mark of a corner already mapped to its wedge (wedge numbers stay below it).
@@ -203,21 +203,6 @@ fn sorted_keys(
         check(e)?;
     }
     Ok(sorted)
-}
-
-/// The positions of `raw` at `indices` (ascending, with repeats).
-fn pick_positions(
-    raw: &PositionFile,
-    indices: &RecordFile<u32>,
-    dir: &Path,
-) -> io::Result<PositionFile> {
-    let mut out = PositionFile::create(dir)?;
-    let mut cursor = PositionCursor::new(raw)?;
-    for i in indices.read()? {
-        out.push(&cursor.at(i?))?;
-    }
-    cursor.finish(&mut PositionBlocks::default())?;
-    out.finish()
 }
 
 /// Each wedge's attributes: its first raw vertex's (`firsts`: (first raw vertex, wedge), a
