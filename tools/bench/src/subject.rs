@@ -76,6 +76,17 @@ pub trait Subject {
     fn surface(&self) -> Surface<'_>;
 }
 
+/// Milliseconds from the first CPU instruction of `work` to the GPU's idle after it.
+pub fn waited_ms(
+    ctx: &GpuContext,
+    work: impl FnOnce() -> anyhow::Result<()>,
+) -> anyhow::Result<f64> {
+    let start = Instant::now();
+    work()?;
+    ctx.wait_idle()?;
+    Ok(start.elapsed().as_secs_f64() * 1e3)
+}
+
 /// One frame of `subject`, waited for, with its times.
 pub fn timed_frame(
     subject: &mut dyn Subject,
@@ -83,10 +94,11 @@ pub fn timed_frame(
     camera: &Camera,
     tau: f32,
 ) -> anyhow::Result<FrameTimes> {
-    let start = Instant::now();
-    let cpu_ms = subject.submit(ctx, camera, tau)?;
-    ctx.wait_idle()?;
-    let wall_ms = start.elapsed().as_secs_f64() * 1e3;
+    let mut cpu_ms = 0.0;
+    let wall_ms = waited_ms(ctx, || {
+        cpu_ms = subject.submit(ctx, camera, tau)?;
+        Ok(())
+    })?;
     let upload_ms = subject.upload_ms();
     Ok(FrameTimes {
         cpu_ms: cpu_ms - upload_ms,

@@ -31,7 +31,7 @@ use tessera_runtime::gpu::{FramePhases, GpuContext};
 use tessera_runtime::measure::Surface;
 
 use super::peer_mesh::PeerMesh;
-use crate::subject::{Drawn, Subject};
+use crate::subject::{waited_ms, Drawn, Subject};
 
 /// The settings of `clod_build` the bench may change (`tessera bench --dag`); every other
 /// field of `clodConfig` is `clod_default_config`'s. `Default` is the setting that drew the
@@ -396,17 +396,17 @@ impl Subject for ClusterDag<'_> {
         camera: &Camera,
         tau: f32,
     ) -> anyhow::Result<FramePhases> {
-        let start = Instant::now();
-        self.select(camera, tau);
-        self.renderer.set_triangles(ctx, &self.selected)?;
-        ctx.wait_idle()?;
-        let select_ms = start.elapsed().as_secs_f64() * 1e3;
-        let raster = Instant::now();
-        self.renderer.render(ctx, camera, false);
-        ctx.wait_idle()?;
+        let select_ms = waited_ms(ctx, || {
+            self.select(camera, tau);
+            Ok(self.renderer.set_triangles(ctx, &self.selected)?)
+        })?;
+        let raster_ms = waited_ms(ctx, || {
+            self.renderer.render(ctx, camera, false);
+            Ok(())
+        })?;
         Ok(FramePhases {
             select_ms,
-            raster_ms: raster.elapsed().as_secs_f64() * 1e3,
+            raster_ms,
         })
     }
 

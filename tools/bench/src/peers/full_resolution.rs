@@ -2,15 +2,13 @@
 //! whatever the view and τ. Its frame is the reference picture of every view, its frame time
 //! the baseline, and its error 0 by definition (it draws the original).
 
-use std::time::Instant;
-
 use tessera_runtime::camera::Camera;
 use tessera_runtime::gpu::full_mesh::FullMeshRenderer;
 use tessera_runtime::gpu::{FramePhases, GpuContext};
 use tessera_runtime::measure::Surface;
 
 use super::peer_mesh::PeerMesh;
-use crate::subject::{Drawn, Subject};
+use crate::subject::{waited_ms, Drawn, Subject};
 
 pub struct FullResolution<'m> {
     mesh: &'m PeerMesh,
@@ -40,12 +38,13 @@ impl Subject for FullResolution<'_> {
         _tau: f32,
     ) -> anyhow::Result<FramePhases> {
         // Nothing to choose: the whole mesh is resident.
-        let raster = Instant::now();
-        self.renderer.render(ctx, camera, false);
-        ctx.wait_idle()?;
+        let raster_ms = waited_ms(ctx, || {
+            self.renderer.render(ctx, camera, false);
+            Ok(())
+        })?;
         Ok(FramePhases {
             select_ms: 0.0,
-            raster_ms: raster.elapsed().as_secs_f64() * 1e3,
+            raster_ms,
         })
     }
 
