@@ -65,12 +65,7 @@ pub fn saturate(
     error_floor: f64,
     model_size: f64,
 ) -> std::io::Result<Saturated> {
-    let index: HashMap<DiamondId, usize> = hierarchy
-        .diamonds
-        .iter()
-        .enumerate()
-        .map(|(i, d)| (d.id, i))
-        .collect();
+    let index = diamond_positions(hierarchy);
     let n = hierarchy.diamonds.len();
     let mut error = vec![0.0f64; n];
     let mut chain = vec![0.0f64; n];
@@ -117,6 +112,16 @@ pub fn saturate(
     Ok(Saturated { error, sphere })
 }
 
+/// Each diamond's position in `Hierarchy::diamonds`, by id (children are named by id).
+fn diamond_positions(hierarchy: &Hierarchy) -> HashMap<DiamondId, usize> {
+    hierarchy
+        .diamonds
+        .iter()
+        .enumerate()
+        .map(|(i, d)| (d.id, i))
+        .collect()
+}
+
 /// The saturated attribute errors (`simplify/attribute_error.rs`), indexed like
 /// `Hierarchy::diamonds`: attr(D) = max(own(D), attr(C) over D's split children C), field by
 /// field, bottom-up as `saturate`. So a parent's errors are at least each child's (monotone
@@ -133,12 +138,7 @@ pub fn saturate_attribute_errors(
         hierarchy.diamonds.len(),
         "one own error a diamond"
     );
-    let index: HashMap<DiamondId, usize> = hierarchy
-        .diamonds
-        .iter()
-        .enumerate()
-        .map(|(i, d)| (d.id, i))
-        .collect();
+    let index = diamond_positions(hierarchy);
     let mut saturated = own.to_vec();
     // Children come after their parents, so the reverse order visits children first.
     for i in (0..own.len()).rev() {
@@ -211,13 +211,29 @@ mod tests {
     use crate::frame::LatticeFrame;
     use crate::hierarchy::{build_hierarchy, Construction};
 
-    #[test]
-    fn own_errors_add_up_along_chains_and_the_quantisation_error_is_added_once() {
+    /// A four-level hierarchy over 64 scattered points.
+    fn four_levels() -> Hierarchy {
         let frame = LatticeFrame::around_box([0.0; 3], [1.0; 3], 10, 3);
         let barycenters: Vec<[f64; 3]> = (0..64)
             .map(|i| [0, 1, 2].map(|k| ((i * (7 + 5 * k) + 3) % 64) as f64 / 64.0 + 0.004))
             .collect();
-        let hierarchy = build_hierarchy(frame, &barycenters, Construction::Levels(4));
+        build_hierarchy(frame, &barycenters, Construction::Levels(4))
+    }
+
+    /// Diamond `i`'s split children, as positions (found by search: independent of
+    /// `diamond_positions`).
+    fn children_of(hierarchy: &Hierarchy, i: usize) -> Vec<usize> {
+        hierarchy
+            .diamond(i)
+            .children
+            .iter()
+            .filter_map(|c| hierarchy.diamonds.iter().position(|x| x.id == *c))
+            .collect()
+    }
+
+    #[test]
+    fn own_errors_add_up_along_chains_and_the_quantisation_error_is_added_once() {
+        let hierarchy = four_levels();
         let n = hierarchy.diamonds.len();
         assert!(n > 4);
         let own = vec![1.0f32; n];
@@ -251,12 +267,7 @@ mod tests {
         // Own errors add up along chains: a diamond k levels above the deepest split ones
         // has err = k + 1 (own 1 each).
         for i in 0..n {
-            let children: Vec<usize> = hierarchy
-                .diamond(i)
-                .children
-                .iter()
-                .filter_map(|c| hierarchy.diamonds.iter().position(|x| x.id == *c))
-                .collect();
+            let children = children_of(&hierarchy, i);
             let below = children
                 .iter()
                 .map(|&c| without.error[c])
@@ -275,11 +286,7 @@ mod tests {
 
     #[test]
     fn attribute_errors_are_the_maximum_down_the_dag() {
-        let frame = LatticeFrame::around_box([0.0; 3], [1.0; 3], 10, 3);
-        let barycenters: Vec<[f64; 3]> = (0..64)
-            .map(|i| [0, 1, 2].map(|k| ((i * (7 + 5 * k) + 3) % 64) as f64 / 64.0 + 0.004))
-            .collect();
-        let hierarchy = build_hierarchy(frame, &barycenters, Construction::Levels(4));
+        let hierarchy = four_levels();
         let n = hierarchy.diamonds.len();
         // Own errors that vary against the level, so maxima come from below as well.
         let own: Vec<AttributeError> = (0..n)
@@ -292,12 +299,7 @@ mod tests {
         let saturated = saturate_attribute_errors(&hierarchy, &own);
         let mut raised = 0;
         for i in 0..n {
-            let children: Vec<usize> = hierarchy
-                .diamond(i)
-                .children
-                .iter()
-                .filter_map(|c| hierarchy.diamonds.iter().position(|x| x.id == *c))
-                .collect();
+            let children = children_of(&hierarchy, i);
             let expected = children.iter().fold(own[i], |m, &c| m.max(saturated[c]));
             assert_eq!(saturated[i], expected, "diamond {i}");
             raised += (saturated[i] != own[i]) as usize;
