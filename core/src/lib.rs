@@ -11,4 +11,5 @@ pub mod hausdorff;
 pub mod leb;
 pub mod metric;
 pub mod repository;
+pub mod texture;
 pub mod vec3;
