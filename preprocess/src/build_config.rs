@@ -55,6 +55,9 @@ pub struct BuildConfig {
     /// is the bounding box's extent / (2^bits − 1). Fewer bits make packed patches smaller and
     /// the quantisation error (counted in every stored error) larger.
     pub position_bits: u32,
+    /// The input's textures and bands (`texture_input.rs`), written into the repository as
+    /// pages (`tessera_core::texture`); `None` for an input without textures.
+    pub textures: Option<crate::texture_input::MeshTextures>,
 }
 
 /// How much memory the out-of-core stages may use, and where their temporary files go (all
@@ -149,6 +152,7 @@ impl BuildConfig {
             memory: None,
             codec: PatchCodec::Coded,
             position_bits: POSITION_BITS,
+            textures: None,
             simplify: SimplifySettings {
                 keep_borders: domain == Domain::Volume,
                 coarsest_share: COARSEST_SHARE,

@@ -3,6 +3,10 @@
 //! `comment TextureFile`) and the *bands* that tell which wedge samples which texture
 //! (`tessera_core::texture`). An input with no texture has none of this
 //! (`ImportReport::textures` = `None`), and its repository is what it was before textures.
+//!
+//! A stored `v` grows down the image, row 0 at `v = 0` (glTF's convention): importers of
+//! v-up formats (OBJ, PLY) store `−v` before shifting it into its band, and only for an input
+//! with textures (an input whose coordinates name no image keeps them as they are).
 
 use std::path::PathBuf;
 
