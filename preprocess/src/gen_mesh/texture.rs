@@ -38,7 +38,7 @@ pub fn texel(x: u32, y: u32, n: u32) -> [u8; 3] {
         };
     }
     let fine = (n / 128).max(8);
-    if x % fine == 0 || y % fine == 0 {
+    if x.is_multiple_of(fine) || y.is_multiple_of(fine) {
         rgb = rgb.map(|c| c / 2);
     }
     rgb.map(|c| c as u8)

@@ -13,6 +13,7 @@ mod gltf;
 mod input;
 pub mod mtl;
 mod obj;
+mod obj_textures;
 mod off;
 mod ply;
 mod ply_header;

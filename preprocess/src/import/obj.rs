@@ -6,6 +6,11 @@
 //! (the libraries are found beside it, `mtl.rs`) and its material has a `Kd`. Other statements
 //! (`o`, `g`, `s`, `l`, `p`, ...) are ignored.
 //!
+//! Textures (`obj_textures.rs`): read into memory from a file, the faces of a material whose
+//! `map_Kd` file exists are textured, each material's corners moved into a band of `v`; a
+//! `map_Kd` file that does not exist is reported and its material drawn untextured. Staged
+//! out of core, a face of a textured material is refused (one coordinate a vertex there).
+//!
 //! OBJ indexes texture coordinates and normals apart from positions. Read into memory, every
 //! distinct `v/vt/vn` combination a face corner uses is a raw vertex of its own (the weld then
 //! keeps those that differ in value as wedges of one vertex: texture seams and hard edges
@@ -20,14 +25,12 @@ use std::path::Path;
 use super::error::{show, ImportErrorKind as K, Location};
 use super::input::{check_finite, fan, parse_float, parse_int, Input};
 use super::mtl::{self, load_libraries, Material};
+use super::obj_textures::place_obj_textures;
+pub(crate) use super::obj_textures::{ObjTextures, NO_MATERIAL};
 use super::sink::{at, FaceColored, MeshSink};
-use super::textures::{
-    file_name, grow, place_corners, place_materials, texture_index, FoundTextures, Orientation,
-};
+use super::textures::FoundTextures;
 use super::RawMesh;
 use crate::external::corner_attributes::{CornerStager, NONE};
-use crate::texture_input::{MeshTextures, TextureInput, TextureSource};
-use tessera_core::texture::Wrap;
 
 enum Keyword {
     V,
@@ -142,65 +145,6 @@ pub(crate) fn read(
     }
     Ok((mesh, found))
 }
-
-/// The textures of an OBJ's materials and its corners moved into their bands: one band a
-/// used material with an existing `map_Kd` (wrap repeat both ways), in the order of the
-/// materials, one shared by the faces of the others. `material_of`: each triangle's material
-/// (an index into `materials`, `NO_MATERIAL` for none).
-fn place_obj_textures(
-    mesh: &mut RawMesh,
-    materials: &[(Material, bool)],
-    material_of: &[u32],
-) -> Result<MeshTextures, K> {
-    let mut used: Vec<u32> = material_of.to_vec();
-    used.sort_unstable();
-    used.dedup();
-    let group = |m: u32| used.binary_search(&m).expect("a used material") as u32;
-    let uvs = mesh.uvs.as_ref().expect("textured OBJs keep coordinates");
-    let mut ranges = vec![None; used.len()];
-    for (t, &m) in mesh.triangles.iter().zip(material_of) {
-        for &v in t {
-            grow(&mut ranges[group(m) as usize], uvs[v as usize][1]);
-        }
-    }
-    let mut textures = Vec::new();
-    let groups: Vec<_> = (used.iter().zip(ranges))
-        .map(|(&m, range)| {
-            let texture = materials.get(m as usize).and_then(|(material, exists)| {
-                let path = material.diffuse_map.as_ref().filter(|_| *exists)?;
-                Some(texture_index(
-                    &mut textures,
-                    TextureInput {
-                        name: file_name(path),
-                        source: TextureSource::File(path.clone()),
-                        wrap_u: Wrap::Repeat,
-                        wrap_v: Wrap::Repeat,
-                    },
-                ))
-            });
-            (texture, range)
-        })
-        .collect();
-    let (bands, placements) = place_materials(&groups, Orientation::Up)?;
-    let group_of: Vec<u32> = material_of.iter().map(|&m| group(m)).collect();
-    place_corners(mesh, &group_of, &placements)?;
-    Ok(MeshTextures { textures, bands })
-}
-
-/// What an OBJ reader does with its materials' textures.
-pub(crate) enum ObjTextures<'a> {
-    /// Nothing: coordinates as read.
-    Ignore,
-    /// Each triangle's material (an index into `ObjFacts::materials`, `NO_MATERIAL` for
-    /// none) pushed here.
-    Track(&'a mut Vec<u32>),
-    /// A face of a textured material is an error (the out-of-core import keeps one
-    /// coordinate a vertex, and a textured OBJ needs a band a material).
-    Refuse,
-}
-
-/// A triangle's material when no `usemtl` named a known one.
-pub(crate) const NO_MATERIAL: u32 = u32::MAX;
 
 /// Where an OBJ reader puts its `vt` and `vn` values and its face corners' indices into them
 /// (checked against the values read so far): in memory ([`CornerAttributes`]) or on disk

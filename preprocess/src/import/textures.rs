@@ -79,12 +79,16 @@ pub(crate) fn grow(range: &mut Option<(f32, f32)>, v: f32) {
     });
 }
 
+/// A material's texture (an index into the textures, or `None`) and the range of its input
+/// `v` (`None`: no corner).
+pub(crate) type MaterialRange = (Option<u32>, Option<(f32, f32)>);
+
 /// The bands of materials, in order: `materials[m]` is the material's texture (an index into
 /// the textures, or `None`) and the range of its input `v` (`None`: no corner, a band
 /// anyway). Textured materials take consecutive bands from 0, the untextured ones share one
 /// after them. An error if a band would not fit i32.
 pub(crate) fn place_materials(
-    materials: &[(Option<u32>, Option<(f32, f32)>)],
+    materials: &[MaterialRange],
     orientation: Orientation,
 ) -> Result<(Vec<Band>, Vec<Placement>), K> {
     let too_large = || K::TooLarge {

@@ -155,10 +155,15 @@ pub(super) fn find(
             if groups.iter().any(|(k, _)| *k == key) {
                 continue;
             }
-            if !by_material.contains_key(&key.0) {
+            if let std::collections::hash_map::Entry::Vacant(e) = by_material.entry(key.0) {
                 let material = prim.material();
-                let found = material_texture(document, &material, buffers, base, &mut missing)?;
-                by_material.insert(key.0, found);
+                e.insert(material_texture(
+                    document,
+                    &material,
+                    buffers,
+                    base,
+                    &mut missing,
+                )?);
             }
             let texture = (by_material[&key.0].clone())
                 .filter(|_| key.1)
