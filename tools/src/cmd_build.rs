@@ -347,23 +347,38 @@ fn load_or_resume(
 ) -> anyhow::Result<BuildInput> {
     use tessera_preprocess::checkpoint::{open_staged, save_staged};
     let domain = crate::input::mesh_domain(&args.heightfield);
+    let import = tessera_preprocess::import::ImportOptions {
+        textures: !args.no_textures,
+    };
+    // A checkpoint keeps the staged mesh, not its textures: found in the input again (standard
+    // input, a PLY without a directory, has none).
+    let textures_again = || -> anyhow::Result<_> {
+        if crate::input::is_stdin(&args.input) {
+            return Ok((None, Vec::new()));
+        }
+        Ok(tessera_preprocess::import::find_textures(
+            &args.input,
+            &import,
+        )?)
+    };
     if let Some(c) = &checkpoint {
         if let Some(stage) = c
             .last_stage()
             .filter(|s| s.name != "staged" && s.name != "hierarchy")
         {
+            let (textures, missing_textures) = textures_again()?;
             return Ok(BuildInput::Resumed {
                 domain,
                 description: format!("mesh (resumed after stage {})", stage.name),
+                textures,
+                missing_textures,
             });
         }
-        if let Some(staged) = open_staged(c).context("opening the checkpoint's staged mesh")? {
+        if let Some(mut staged) = open_staged(c).context("opening the checkpoint's staged mesh")? {
+            (staged.textures, staged.missing_textures) = textures_again()?;
             return Ok(crate::input::staged_input(staged, &args.heightfield));
         }
     }
-    let import = tessera_preprocess::import::ImportOptions {
-        textures: !args.no_textures,
-    };
     let (mut input, stream) =
         crate::input::load_build_input(&args.input, &args.heightfield, staging, &import)?;
     if !args.no_computed_normals {

@@ -178,10 +178,13 @@ pub enum BuildInput {
         grid: Option<GridFacts>,
         description: String,
     },
-    /// Nothing read: the build continues from its checkpoint's simplification state.
+    /// Nothing read: the build continues from its checkpoint's simplification state (the
+    /// input's textures found again, `import::find_textures`).
     Resumed {
         domain: Domain,
         description: String,
+        textures: Option<MeshTextures>,
+        missing_textures: Vec<String>,
     },
 }
 
@@ -201,13 +204,12 @@ impl BuildInput {
         }
     }
 
-    /// The input's textures (`None` without, and for a resumed build: its checkpoint keeps
-    /// none).
+    /// The input's textures (`None` without).
     pub fn textures(&self) -> Option<&MeshTextures> {
         match self {
             BuildInput::Loaded(input) => input.textures.as_ref(),
             BuildInput::Staged { staged, .. } => staged.textures.as_ref(),
-            BuildInput::Resumed { .. } => None,
+            BuildInput::Resumed { textures, .. } => textures.as_ref(),
         }
     }
 
@@ -216,7 +218,9 @@ impl BuildInput {
         match self {
             BuildInput::Loaded(input) => &input.missing_textures,
             BuildInput::Staged { staged, .. } => &staged.missing_textures,
-            BuildInput::Resumed { .. } => &[],
+            BuildInput::Resumed {
+                missing_textures, ..
+            } => missing_textures,
         }
     }
 

@@ -119,3 +119,44 @@ fn gen_mesh_texture_needs_coordinates_and_a_file() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("--texture 0"));
     assert!(!mesh.exists() && !dir.path().join("m.png").exists());
 }
+
+/// A checkpoint keeps the staged mesh, not its textures: a resumed build finds them in the
+/// input again, from the staged mesh or from a later stage, and writes the bytes of a build
+/// never stopped.
+#[test]
+fn a_resumed_build_keeps_the_inputs_textures() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = dir.path().join("relief.ply");
+    ok(tessera(&[
+        "gen",
+        "mesh",
+        "--triangles",
+        "20000",
+        "--uv",
+        "--texture",
+        "32",
+        "-o",
+        mesh.to_str().unwrap(),
+        "--json",
+    ]));
+    let memory = ["--memory", "64M", "--leaf-triangles", "256"];
+    let whole = dir.path().join("whole.tsr");
+    assert_eq!(build(&mesh, &whole, &memory)["textures"], 1);
+    let repo = dir.path().join("resumed.tsr");
+    for stage in ["staged", "leaves"] {
+        let resume: &[&str] = if stage == "staged" {
+            &[]
+        } else {
+            &["--resume"]
+        };
+        let stopped = build(
+            &mesh,
+            &repo,
+            &[&memory[..], resume, &["--stop-after", stage]].concat(),
+        );
+        assert_eq!(stopped["stopped_after"], stage, "{stopped}");
+    }
+    let report = build(&mesh, &repo, &[&memory[..], &["--resume"]].concat());
+    assert_eq!(report["textures"], 1, "{report}");
+    assert!(std::fs::read(&repo).unwrap() == std::fs::read(&whole).unwrap());
+}

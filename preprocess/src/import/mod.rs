@@ -221,7 +221,7 @@ pub fn stage_mesh_with(
             .and_then(none),
         MeshFormat::Obj => {
             let base = base_of(path);
-            stage_obj(&mut open().map_err(at)?, base, dir, budget, textures).and_then(none)
+            stage_obj(&mut open().map_err(at)?, base, dir, budget, textures)
         }
         MeshFormat::Gltf if gz => whole(),
         MeshFormat::Gltf => gltf::read_file(path, stager, textures)
@@ -254,14 +254,15 @@ pub fn stage_ply_from_reader(
 }
 
 /// An OBJ streamed to disk: positions and colours through the stager, texture coordinates
-/// and normals through `CornerStager`, joined into vertex order when the file keeps them.
+/// and normals through `CornerStager`, joined into vertex order when the file keeps them;
+/// the `map_Kd` files its faces' materials name that do not exist (a textured face refused).
 fn stage_obj(
     input: &mut Input,
     base: &Path,
     dir: &Path,
     budget: usize,
     textures: bool,
-) -> Result<crate::external::RawStaged, ImportErrorKind> {
+) -> Result<(crate::external::RawStaged, FoundTextures), ImportErrorKind> {
     let io = ImportErrorKind::Io;
     let colored =
         |colors: bool| crate::external::RawStager::new(dir, false, colors, false).map_err(io);
@@ -283,7 +284,11 @@ fn stage_obj(
         .map_err(io)?;
     raw.attributes.uvs = uvs;
     raw.attributes.normals = normals;
-    Ok(raw)
+    let found = FoundTextures {
+        textures: None,
+        missing: facts.missing,
+    };
+    Ok((raw, found))
 }
 
 fn weld_staged(
@@ -301,6 +306,51 @@ fn weld_staged(
         });
     }
     Ok(staged)
+}
+
+/// The textures [`stage_mesh_with`] reports for the file at `path`, without staging it (a
+/// resumed out-of-core build's: its checkpoint keeps the staged mesh, not its textures). An
+/// OBJ's: `None` and its missing `map_Kd` files (a textured one: the error staging gives).
+pub fn find_textures(
+    path: &Path,
+    options: &ImportOptions,
+) -> Result<(Option<MeshTextures>, Vec<String>), ImportError> {
+    let at = |kind: ImportErrorKind| kind.at_path(path);
+    let (format, gz) = format_of(path).map_err(at)?;
+    if !options.textures {
+        return Ok((None, Vec::new()));
+    }
+    let open = || Input::open(path, gz);
+    let base = base_of(path);
+    let found = match format {
+        MeshFormat::Ply => ply_texture::find(open, base),
+        MeshFormat::Gltf if gz => read_raw(path, options).map(|(_, found)| found),
+        MeshFormat::Gltf => {
+            let sink = |_: &sink::Declared| Ok(textures::VRange::default());
+            gltf::read_file(path, sink, true).map(|(_, found)| found)
+        }
+        MeshFormat::Obj => {
+            let libraries = obj::Libraries::Dir(base);
+            let sink = |_| Ok(textures::VRange::default());
+            let mut corners = obj::NoCorners;
+            (open().and_then(|mut input| {
+                obj::read_into(
+                    &mut input,
+                    libraries,
+                    sink,
+                    &mut corners,
+                    obj::ObjTextures::Refuse,
+                )
+            }))
+            .map(|(_, facts)| FoundTextures {
+                textures: None,
+                missing: facts.missing,
+            })
+        }
+        MeshFormat::Off | MeshFormat::Stl => Ok(FoundTextures::default()),
+    }
+    .map_err(at)?;
+    Ok((found.textures, found.missing))
 }
 
 /// Welds and cleans; a mesh with no triangles left is an error.

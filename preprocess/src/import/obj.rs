@@ -277,6 +277,22 @@ impl CornerTracker for CornerAttributes {
     }
 }
 
+/// Corners checked and forgotten (`import::find_textures` reads an OBJ for its materials).
+pub(crate) struct NoCorners;
+
+impl CornerTracker for NoCorners {
+    fn vertex(&mut self) {}
+    fn texcoord(&mut self, _: [f32; 2]) -> Result<(), K> {
+        Ok(())
+    }
+    fn normal(&mut self, _: [f32; 3]) -> Result<(), K> {
+        Ok(())
+    }
+    fn corner(&mut self, v: u32, _: Option<u32>, _: Option<u32>) -> Result<u32, K> {
+        Ok(v)
+    }
+}
+
 impl CornerTracker for CornerStager {
     fn vertex(&mut self) {}
     fn texcoord(&mut self, uv: [f32; 2]) -> Result<(), K> {

@@ -14,7 +14,7 @@ use tessera_core::texture::Wrap;
 use super::error::ImportErrorKind as K;
 use super::input::Input;
 use super::sink::MeshSink;
-use super::textures::{grow, place_materials, FoundTextures, Orientation, Placement};
+use super::textures::{grow, place_materials, FoundTextures, Orientation, Placement, VRange};
 use super::{ply, RawMesh};
 use crate::external::{RawStaged, RawStager, RawVertex};
 use crate::texture_input::{MeshTextures, TextureInput, TextureSource};
@@ -82,26 +82,6 @@ pub(crate) fn read(
     Ok((mesh, found))
 }
 
-/// Counts the range of the vertices' `v`, keeping nothing.
-#[derive(Default)]
-struct RangeSink {
-    range: Option<(f32, f32)>,
-}
-
-impl MeshSink for RangeSink {
-    fn vertex(&mut self, v: &RawVertex) -> Result<(), K> {
-        grow(&mut self.range, v.uv[1]);
-        Ok(())
-    }
-    fn triangles(&mut self, _: &[[u32; 3]]) -> Result<(), K> {
-        Ok(())
-    }
-    fn forget_colors(&mut self) {}
-    fn face_color(&mut self, _: usize, _: [u8; 4]) -> Result<(), K> {
-        Ok(())
-    }
-}
-
 /// Stages vertices with their coordinates moved into a band.
 struct PlacedSink {
     inner: RawStager,
@@ -139,7 +119,7 @@ pub(crate) fn stage(
     // The header alone first: a PLY naming no texture is read once.
     let named = textures && super::ply_header::parse_header(&mut open()?)?.2.is_some();
     let name = if named {
-        ply::read_into(&mut open()?, |_| Ok(RangeSink::default()))
+        ply::read_into(&mut open()?, |_| Ok(VRange::default()))
             .map(|(sink, name)| name.map(|name| (name, sink.range)))?
     } else {
         None
@@ -166,4 +146,23 @@ pub(crate) fn stage(
         })
     })?;
     Ok((finish(sink.inner)?, found))
+}
+
+/// The textures [`stage`] finds, without staging: the header, then a pass for the range of
+/// `v` when the texture it names exists (a resumed build's, whose checkpoint keeps none).
+pub(crate) fn find(open: impl Fn() -> Result<Input, K>, base: &Path) -> Result<FoundTextures, K> {
+    if super::ply_header::parse_header(&mut open()?)?.2.is_none() {
+        return Ok(FoundTextures::default());
+    }
+    let (sink, name) = ply::read_into(&mut open()?, |_| Ok(VRange::default()))?;
+    let Some(name) = name else {
+        return Ok(FoundTextures::default());
+    };
+    match resolve(&name, base) {
+        Ok(texture) => Ok(placed(texture, sink.range)?.0),
+        Err(missing) => Ok(FoundTextures {
+            textures: None,
+            missing: vec![missing],
+        }),
+    }
 }

@@ -14,7 +14,9 @@ use rustc_hash::FxHashMap;
 use tessera_core::texture::{Band, NO_TEXTURE};
 
 use super::error::{ImportErrorKind as K, Location};
+use super::sink::MeshSink;
 use super::RawMesh;
+use crate::external::RawVertex;
 use crate::texture_input::{MeshTextures, TextureInput};
 
 /// What an importer found of an input's textures.
@@ -193,6 +195,26 @@ pub(crate) fn place_corners(
         }
     }
     Ok(())
+}
+
+/// A sink that keeps only the range of its vertices' `v` (a first pass over a file).
+#[derive(Default)]
+pub(crate) struct VRange {
+    pub range: Option<(f32, f32)>,
+}
+
+impl MeshSink for VRange {
+    fn vertex(&mut self, v: &RawVertex) -> Result<(), K> {
+        grow(&mut self.range, v.uv[1]);
+        Ok(())
+    }
+    fn triangles(&mut self, _: &[[u32; 3]]) -> Result<(), K> {
+        Ok(())
+    }
+    fn forget_colors(&mut self) {}
+    fn face_color(&mut self, _: usize, _: [u8; 4]) -> Result<(), K> {
+        Ok(())
+    }
 }
 
 /// Textures listed once each: the index of `texture` among `list`, appended if new (two
