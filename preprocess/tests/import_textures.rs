@@ -5,7 +5,8 @@ use std::path::{Path, PathBuf};
 
 use tessera_core::texture::{band_of, bands_valid, Band, Wrap, NO_TEXTURE};
 use tessera_preprocess::import::{
-    load_mesh, load_mesh_with, stage_mesh, stage_mesh_with, ImportOptions, ImportReport,
+    find_textures, load_mesh, load_mesh_with, stage_mesh, stage_mesh_with, ImportOptions,
+    ImportReport,
 };
 use tessera_preprocess::mesh::InputMesh;
 use tessera_preprocess::texture_input::{MeshTextures, TextureSource};
@@ -204,6 +205,10 @@ fn box_textured_glb_has_its_embedded_png_and_v_unchanged() {
     let staged = stage_mesh(&path, dir.path(), 1 << 20).unwrap();
     assert_eq!(staged.textures, textured.textures);
     assert_eq!(staged.load().unwrap(), textured.mesh);
+    // Found again without staging (a resumed build's).
+    let again = find_textures(&path, &ImportOptions::default()).unwrap();
+    assert_eq!(again, (textured.textures.clone(), Vec::new()));
+    assert_eq!(find_textures(&path, &WITHOUT).unwrap(), (None, Vec::new()));
 }
 
 /// A glTF of two quads (data-URI buffer), the first textured by `tex.png` beside it with a
@@ -297,6 +302,26 @@ fn gltf_materials_take_bands_and_samplers_their_wrap() {
         [dir.path().join("gone.png").display().to_string()]
     );
     assert_eq!(report.mesh, load(&path, &WITHOUT).mesh);
+
+    // The image in a data URI: its bytes, with the MIME type the URI declares.
+    let path = two_material_gltf(dir.path(), "data:image/png;base64,iVBORw0KGgo=");
+    let report = load(&path, &ImportOptions::default());
+    let t = report.textures.as_ref().unwrap();
+    let want = TextureSource::Encoded {
+        bytes: b"\x89PNG\r\n\x1a\n".to_vec(),
+        mime: Some("image/png".into()),
+    };
+    assert_eq!(t.textures[0].source, want);
+    assert_eq!(t.bands, textured.textures.as_ref().unwrap().bands);
+
+    // A texture read through another coordinate set: untextured, coordinates as read.
+    let json = std::fs::read_to_string(&path).unwrap();
+    let other_set = json.replace(r#"{"index":0}"#, r#"{"index":0,"texCoord":1}"#);
+    assert_ne!(json, other_set);
+    let path = write(dir.path(), "set1.gltf", other_set);
+    let report = load(&path, &ImportOptions::default());
+    assert_eq!((report.textures, report.missing_textures.len()), (None, 0));
+    assert_eq!(report.mesh, load(&path, &WITHOUT).mesh);
 }
 
 const TEXTURED_PLY: &str = "ply\nformat ascii 1.0\ncomment made by hand\n\
@@ -339,6 +364,8 @@ fn ply_texture_file_in_memory_and_staged_give_the_same_wedges() {
         assert_eq!(staged.textures, None);
         assert_eq!(staged.load().unwrap(), plain.mesh);
     }
+    let again = find_textures(&path, &ImportOptions::default()).unwrap();
+    assert_eq!(again, (textured.textures.clone(), Vec::new()));
     // Its texture missing: reported, the mesh untextured as read.
     std::fs::remove_file(dir.path().join("checker board.png")).unwrap();
     let report = load(&path, &ImportOptions::default());
@@ -349,6 +376,8 @@ fn ply_texture_file_in_memory_and_staged_give_the_same_wedges() {
     let temp = tempfile::tempdir().unwrap();
     let staged = stage_mesh(&path, temp.path(), 0).unwrap();
     assert_eq!(staged.missing_textures, report.missing_textures);
+    let again = find_textures(&path, &ImportOptions::default()).unwrap();
+    assert_eq!(again, (None, report.missing_textures.clone()));
 }
 
 const TWO_MATERIAL_OBJ: &str = "mtllib lib.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 2 0 0\n\
