@@ -97,9 +97,9 @@ pub(crate) fn read(
         }))
     };
     let mut corners = CornerAttributes::default();
-    let mut material_of = Vec::new();
+    let mut runs = Vec::new();
     let mode = if textures {
-        ObjTextures::Track(&mut material_of)
+        ObjTextures::Track(&mut runs)
     } else {
         ObjTextures::Ignore
     };
@@ -137,13 +137,23 @@ pub(crate) fn read(
         missing: facts.missing,
     };
     if facts.textured && mesh.uvs.is_some() {
-        found.textures = Some(place_obj_textures(
-            &mut mesh,
-            &facts.materials,
-            &material_of,
-        )?);
+        let material_of = expand_runs(&runs, mesh.triangles.len());
+        let placed = place_obj_textures(&mut mesh, &facts.materials, &material_of)?;
+        found.textures = Some(placed);
     }
     Ok((mesh, found))
+}
+
+/// Each of `triangles` triangles' material, from the runs of one material `ObjTextures::Track`
+/// records (first triangle, material).
+fn expand_runs(runs: &[(usize, u32)], triangles: usize) -> Vec<u32> {
+    let mut out = Vec::with_capacity(triangles);
+    for (k, &(first, material)) in runs.iter().enumerate() {
+        let end = runs.get(k + 1).map_or(triangles, |&(next, _)| next);
+        debug_assert_eq!(out.len(), first);
+        out.extend(std::iter::repeat_n(material, end - first));
+    }
+    out
 }
 
 /// Where an OBJ reader puts its `vt` and `vn` values and its face corners' indices into them
@@ -363,6 +373,7 @@ pub(crate) fn read_into<S: MeshSink>(
     let mut material = NO_MATERIAL;
     let mut face_color: Option<[u8; 4]> = None;
     let mut textured = false;
+    let mut triangle_count = 0usize;
 
     while input.skip_blank(true)? {
         let line = input.line;
@@ -478,9 +489,12 @@ pub(crate) fn read_into<S: MeshSink>(
                     facts.textured = true;
                     facts.all_vt_textured &= face_all_vt;
                 }
-                if let ObjTextures::Track(material_of) = &mut textures {
-                    material_of.extend(std::iter::repeat_n(material, fanned.len()));
+                if let ObjTextures::Track(runs) = &mut textures {
+                    if runs.last().is_none_or(|&(_, m)| m != material) {
+                        runs.push((triangle_count, material));
+                    }
                 }
+                triangle_count += fanned.len();
                 // A face comes after a vertex it uses, so the sink exists.
                 let sink = sink.as_mut().expect("a face after its vertices");
                 sink.triangles(&fanned)?;

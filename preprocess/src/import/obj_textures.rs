@@ -61,9 +61,10 @@ pub(super) fn place_obj_textures(
 pub(crate) enum ObjTextures<'a> {
     /// Nothing: coordinates as read.
     Ignore,
-    /// Each triangle's material (an index into `ObjFacts::materials`, `NO_MATERIAL` for
-    /// none) pushed here.
-    Track(&'a mut Vec<u32>),
+    /// The triangles' materials (indices into `ObjFacts::materials`, `NO_MATERIAL` for
+    /// none) as runs of one material, (first triangle, material): a few bytes a `usemtl`,
+    /// not four a triangle.
+    Track(&'a mut Vec<(usize, u32)>),
     /// A face of a textured material is an error (the out-of-core import keeps one
     /// coordinate a vertex, and a textured OBJ needs a band a material).
     Refuse,
