@@ -120,6 +120,10 @@ pub struct BuildArgs {
     /// Print one JSON object on stdout.
     #[arg(long)]
     pub json: bool,
+    /// Ignore the textures the input names (OBJ `map_Kd`, glTF `baseColorTexture`, PLY
+    /// `comment TextureFile`): no texture section, texture coordinates as the file has them.
+    #[arg(long)]
+    pub no_textures: bool,
     /// Report each stage's own peak resident memory in `--json` (Linux: resets the kernel's
     /// peak at each stage, so `/usr/bin/time` then reports only the last stage's peak; without
     /// this flag each stage's figure is the peak so far and external tools see the true peak).
@@ -162,6 +166,8 @@ pub fn run(args: BuildArgs) -> anyhow::Result<Outcome> {
             "input, else computed"
         };
         manifest.flags.insert("normals".into(), normals.into());
+        let textures = if args.no_textures { "ignored" } else { "read" };
+        manifest.flags.insert("textures".into(), textures.into());
         manifest
     };
     let prepared = crate::build_checkpoint::prepare(
@@ -187,7 +193,8 @@ pub fn run(args: BuildArgs) -> anyhow::Result<Outcome> {
             return Err(e);
         }
     };
-    let config = configure(&args, input.domain(), &memory);
+    let mut config = configure(&args, input.domain(), &memory);
+    config.textures = input.textures().cloned();
     let import_seconds = start.elapsed().as_secs_f64();
     let name = if crate::input::is_stdin(&args.input) {
         "standard input".to_string()
@@ -279,9 +286,18 @@ pub fn run(args: BuildArgs) -> anyhow::Result<Outcome> {
             tessera_preprocess::Domain::HeightField => "heightfield",
         });
         value["grid"] = crate::input::grid_json(input.grid());
+        // Textures read (0 without), and texture files named but not found.
+        value["textures"] = json!(input.textures().map_or(0, |t| t.textures.len()));
+        value["missing_textures"] = json!(input.missing_textures());
         println!("{value}");
     } else {
         println!("{name}: {}", input.description());
+        if let Some(t) = input.textures() {
+            println!("textures: {} ({} bands)", t.textures.len(), t.bands.len());
+        }
+        for missing in input.missing_textures() {
+            println!("texture not found, drawn untextured: {missing}");
+        }
         print_summary(
             &summary,
             args.position_bits.unwrap_or(POSITION_BITS),
@@ -331,22 +347,40 @@ fn load_or_resume(
 ) -> anyhow::Result<BuildInput> {
     use tessera_preprocess::checkpoint::{open_staged, save_staged};
     let domain = crate::input::mesh_domain(&args.heightfield);
+    let import = tessera_preprocess::import::ImportOptions {
+        textures: !args.no_textures,
+    };
+    // A checkpoint keeps the staged mesh, not its textures: found in the input again (standard
+    // input, a PLY without a directory, has none).
+    let textures_again = || -> anyhow::Result<_> {
+        if crate::input::is_stdin(&args.input) {
+            return Ok((None, Vec::new()));
+        }
+        Ok(tessera_preprocess::import::find_textures(
+            &args.input,
+            &import,
+        )?)
+    };
     if let Some(c) = &checkpoint {
         if let Some(stage) = c
             .last_stage()
             .filter(|s| s.name != "staged" && s.name != "hierarchy")
         {
+            let (textures, missing_textures) = textures_again()?;
             return Ok(BuildInput::Resumed {
                 domain,
                 description: format!("mesh (resumed after stage {})", stage.name),
+                textures,
+                missing_textures,
             });
         }
-        if let Some(staged) = open_staged(c).context("opening the checkpoint's staged mesh")? {
+        if let Some(mut staged) = open_staged(c).context("opening the checkpoint's staged mesh")? {
+            (staged.textures, staged.missing_textures) = textures_again()?;
             return Ok(crate::input::staged_input(staged, &args.heightfield));
         }
     }
     let (mut input, stream) =
-        crate::input::load_build_input(&args.input, &args.heightfield, staging)?;
+        crate::input::load_build_input(&args.input, &args.heightfield, staging, &import)?;
     if !args.no_computed_normals {
         crate::input::compute_missing_normals(&mut input, staging, args.crease_angle)?;
     }

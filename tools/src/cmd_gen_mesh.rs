@@ -1,5 +1,5 @@
 //! `tessera gen mesh --triangles N -o OUT.ply [--seed S] [--shuffle-vertices]
-//! [--density-range R] [--colour] [--uv] [--json]`: a closed, watertight, 2-manifold procedural mesh with the
+//! [--density-range R] [--colour] [--uv [--texture N]] [--json]`: a closed, watertight, 2-manifold procedural mesh with the
 //! demo's relief (`tessera_preprocess::gen_mesh`), streamed as binary little-endian PLY in
 //! constant memory to a file (temporary file + rename) or to standard output (`-o -`).
 //!
@@ -13,7 +13,7 @@ use anyhow::Context;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
-use tessera_preprocess::gen_mesh::{write_ply, GenMesh, MeshParams};
+use tessera_preprocess::gen_mesh::{texture, write_ply, GenMesh, MeshParams};
 
 use crate::Outcome;
 
@@ -43,6 +43,12 @@ pub struct MeshArgs {
     /// atlas, so the cube's edges are seams (their vertices written once a face).
     #[arg(long)]
     pub uv: bool,
+    /// Also write an N × N procedural PNG beside the mesh (OUT with the extension `.png`:
+    /// a checkerboard over gradients, grid lines and a glyph a cell) and name it in the PLY
+    /// header (`comment TextureFile`), so `build` reads a textured input. Streamed a row at a
+    /// time; N from 1 to 65536 (4096: a 64 MiB RGBA texture).
+    #[arg(long, value_name = "N", requires = "uv")]
+    pub texture: Option<u32>,
     /// Print one JSON object (on stderr when the mesh goes to stdout).
     #[arg(long)]
     pub json: bool,
@@ -78,6 +84,44 @@ pub fn run(args: MeshArgs) -> anyhow::Result<Outcome> {
     if to_stdout && std::io::stdout().is_terminal() {
         anyhow::bail!("-o -: standard output is a terminal; redirect or pipe the binary PLY");
     }
+    let texture = match args.texture {
+        None => None,
+        Some(_) if to_stdout => {
+            anyhow::bail!("--texture writes a PNG beside the mesh: give -o a file, not -")
+        }
+        Some(n) if !(1..=texture::MAX_SIDE).contains(&n) => {
+            anyhow::bail!("--texture {n}: the side must be 1 to {}", texture::MAX_SIDE)
+        }
+        Some(n) => {
+            let path = args.output.with_extension("png");
+            if path == args.output {
+                anyhow::bail!(
+                    "-o {}: the texture would overwrite the mesh",
+                    path.display()
+                );
+            }
+            let name = path
+                .file_name()
+                .and_then(|n| n.to_str())
+                .filter(|n| !n.contains('\n'))
+                .with_context(|| format!("{}: not a one-line UTF-8 name", path.display()))?
+                .to_string();
+            Some((n, path, name))
+        }
+    };
+    let mesh = mesh.with_texture_file(texture.as_ref().map(|(_, _, name)| name.clone()));
+    let texture_bytes = match &texture {
+        Some((n, path, _)) => {
+            let mut bytes = 0;
+            crate::output::write_atomically(path, |_, file| {
+                bytes = texture::write_texture_png(*n, file)?;
+                Ok(())
+            })
+            .with_context(|| format!("writing the texture {}", path.display()))?;
+            Some(bytes)
+        }
+        None => None,
+    };
     let exact = mesh.triangle_count() == args.triangles;
     if !exact {
         eprintln!(
@@ -128,6 +172,9 @@ pub fn run(args: MeshArgs) -> anyhow::Result<Outcome> {
             "density_range": args.density_range,
             "colour": args.colour,
             "uv": args.uv,
+            "texture": texture.as_ref().map(|(_, path, _)| path.display().to_string()),
+            "texture_side": args.texture,
+            "texture_bytes": texture_bytes,
             "bytes": bytes,
             "seconds": seconds,
             "mb_per_s": mb_per_s,
@@ -141,7 +188,9 @@ pub fn run(args: MeshArgs) -> anyhow::Result<Outcome> {
             mesh.triangle_count(),
             if exact { "" } else { " (rounded up to even)" },
             mesh.vertex_count(),
-        )
+        ) + &texture.as_ref().map_or(String::new(), |(n, path, _)| {
+            format!("; texture {} ({n} × {n})", path.display())
+        })
     };
     if to_stdout {
         eprintln!("{report}");

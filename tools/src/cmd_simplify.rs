@@ -92,7 +92,11 @@ pub fn run(args: SimplifyArgs) -> anyhow::Result<Outcome> {
     tessera_preprocess::external::allocator::arenas_for_budget(args.memory);
     let budget = args.memory as usize;
     on_stage("import");
-    let staged = tessera_preprocess::import::stage_mesh(&args.input, &temp_dir, budget)?;
+    // Its outputs carry no texture: texture coordinates as the input has them (not moved
+    // into bands, `texture_input.rs`).
+    let no_textures = tessera_preprocess::import::ImportOptions { textures: false };
+    let staged =
+        tessera_preprocess::import::stage_mesh_with(&args.input, &temp_dir, budget, &no_textures)?;
     let import_seconds = start.elapsed().as_secs_f64();
     let output = match (args.target_triangles, args.levels) {
         (Some(n), _) => Outputs::Target {

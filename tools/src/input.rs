@@ -12,8 +12,10 @@ use tessera_preprocess::dem::{
     load_dem, stage_dem_by_rows, DemFormat, DemOptions, HeightGrid, TerrainOptions,
 };
 use tessera_preprocess::import::{
-    load_mesh, load_mesh_from_reader, ImportError, ImportErrorKind, ImportReport, MeshFormat,
+    load_mesh_from_reader, load_mesh_with, ImportError, ImportErrorKind, ImportOptions,
+    ImportReport, MeshFormat,
 };
+use tessera_preprocess::texture_input::MeshTextures;
 use tessera_preprocess::{Domain, InputMesh};
 
 /// Height-field options of the commands that read an input.
@@ -55,6 +57,10 @@ pub struct LoadedInput {
     pub grid: Option<GridFacts>,
     /// One line about what was read.
     pub description: String,
+    /// The mesh's textures (`ImportReport::textures`); `None` for a height field.
+    pub textures: Option<MeshTextures>,
+    /// Texture files the mesh names that do not exist.
+    pub missing_textures: Vec<String>,
 }
 
 impl HeightFieldArgs {
@@ -103,6 +109,16 @@ pub fn load_input_staged(
     args: &HeightFieldArgs,
     staging: Option<(&Path, u64)>,
 ) -> anyhow::Result<LoadedInput> {
+    load_input_with(path, args, staging, &ImportOptions::default())
+}
+
+/// [`load_input_staged`] with the importers' `import` options (textures or not).
+pub fn load_input_with(
+    path: &Path,
+    args: &HeightFieldArgs,
+    staging: Option<(&Path, u64)>,
+    import: &ImportOptions,
+) -> anyhow::Result<LoadedInput> {
     let options = args.terrain_options()?;
     if DemFormat::from_path(path).is_some() {
         let grid = args.load_grid(path)?;
@@ -114,6 +130,8 @@ pub fn load_input_staged(
             domain: Domain::HeightField,
             grid: Some(facts),
             description,
+            textures: None,
+            missing_textures: Vec::new(),
         });
     }
     if args.raw_size.is_some() || args.variable.is_some() || args.spacing.is_some() {
@@ -126,7 +144,7 @@ pub fn load_input_staged(
     if is_stdin(path) && std::io::stdin().is_terminal() {
         bail!("standard input is a terminal: pipe a PLY mesh into `-`");
     }
-    let report = read_mesh(path, staging).map_err(import_error)?;
+    let report = read_mesh(path, staging, import).map_err(import_error)?;
     let domain = mesh_domain(args);
     let mut mesh = report.mesh;
     if options.vertical_exaggeration != 1.0 {
@@ -144,6 +162,8 @@ pub fn load_input_staged(
         domain,
         grid: None,
         description,
+        textures: report.textures,
+        missing_textures: report.missing_textures,
     })
 }
 
@@ -158,10 +178,13 @@ pub enum BuildInput {
         grid: Option<GridFacts>,
         description: String,
     },
-    /// Nothing read: the build continues from its checkpoint's simplification state.
+    /// Nothing read: the build continues from its checkpoint's simplification state (the
+    /// input's textures found again, `import::find_textures`).
     Resumed {
         domain: Domain,
         description: String,
+        textures: Option<MeshTextures>,
+        missing_textures: Vec<String>,
     },
 }
 
@@ -178,6 +201,26 @@ impl BuildInput {
             BuildInput::Loaded(input) => input.grid.as_ref(),
             BuildInput::Staged { grid, .. } => grid.as_ref(),
             BuildInput::Resumed { .. } => None,
+        }
+    }
+
+    /// The input's textures (`None` without).
+    pub fn textures(&self) -> Option<&MeshTextures> {
+        match self {
+            BuildInput::Loaded(input) => input.textures.as_ref(),
+            BuildInput::Staged { staged, .. } => staged.textures.as_ref(),
+            BuildInput::Resumed { textures, .. } => textures.as_ref(),
+        }
+    }
+
+    /// Texture files the input names that do not exist.
+    pub fn missing_textures(&self) -> &[String] {
+        match self {
+            BuildInput::Loaded(input) => &input.missing_textures,
+            BuildInput::Staged { staged, .. } => &staged.missing_textures,
+            BuildInput::Resumed {
+                missing_textures, ..
+            } => missing_textures,
         }
     }
 
@@ -199,6 +242,7 @@ pub fn load_build_input(
     path: &Path,
     args: &HeightFieldArgs,
     staging: Option<(&Path, u64)>,
+    import: &ImportOptions,
 ) -> anyhow::Result<(BuildInput, Option<Fingerprint>)> {
     // A height field under a budget: its mesh staged row by row as it is made (48 bytes a
     // sample in memory otherwise); a `.npy` or a raw f32 file read by rows too, any other grid
@@ -231,7 +275,7 @@ pub fn load_build_input(
     let plain_mesh = is_plain_mesh(path, args)?;
     let Some((dir, budget)) = staging.filter(|_| plain_mesh) else {
         return Ok((
-            BuildInput::Loaded(load_input_staged(path, args, staging)?),
+            BuildInput::Loaded(load_input_with(path, args, staging, import)?),
             None,
         ));
     };
@@ -251,8 +295,9 @@ pub fn load_build_input(
             .context("reading standard input")?;
         (staged, Some(stream.fingerprint()))
     } else {
-        let staged = tessera_preprocess::import::stage_mesh(path, dir, budget as usize)
-            .map_err(import_error)?;
+        let staged =
+            tessera_preprocess::import::stage_mesh_with(path, dir, budget as usize, import)
+                .map_err(import_error)?;
         (staged, None)
     };
     Ok((staged_input(staged, args), fingerprint))
@@ -370,14 +415,18 @@ pub fn is_stdin(path: &Path) -> bool {
 
 /// A mesh file, or a PLY (ASCII or binary) on standard input for `-`: the same reader and
 /// welding either way, so the same mesh.
-fn read_mesh(path: &Path, staging: Option<(&Path, u64)>) -> Result<ImportReport, ImportError> {
+fn read_mesh(
+    path: &Path,
+    staging: Option<(&Path, u64)>,
+    import: &ImportOptions,
+) -> Result<ImportReport, ImportError> {
     if is_stdin(path) {
         return load_mesh_from_reader(std::io::stdin(), MeshFormat::Ply, "standard input");
     }
     let Some((dir, budget)) = staging else {
-        return load_mesh(path);
+        return load_mesh_with(path, import);
     };
-    let staged = tessera_preprocess::import::stage_mesh(path, dir, budget as usize)?;
+    let staged = tessera_preprocess::import::stage_mesh_with(path, dir, budget as usize, import)?;
     let mesh = staged
         .load()
         .map_err(|e| tessera_preprocess::import::ImportErrorKind::Io(e).at_path(path))?;
@@ -389,6 +438,8 @@ fn read_mesh(path: &Path, staging: Option<(&Path, u64)>) -> Result<ImportReport,
         degenerate_triangles: staged.degenerate_triangles as usize,
         duplicate_triangles: staged.duplicate_triangles as usize,
         unreferenced_vertices: staged.unreferenced_vertices as usize,
+        textures: staged.textures,
+        missing_textures: staged.missing_textures,
     })
 }
 

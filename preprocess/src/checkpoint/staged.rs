@@ -141,5 +141,7 @@ pub fn open_staged(checkpoint: &Checkpoint) -> io::Result<Option<StagedMesh>> {
         degenerate_triangles: count(COUNTS[3])?,
         duplicate_triangles: count(COUNTS[4])?,
         unreferenced_vertices: count(COUNTS[5])?,
+        textures: None,
+        missing_textures: Vec::new(),
     }))
 }

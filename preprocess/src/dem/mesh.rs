@@ -77,6 +77,8 @@ fn unwelded(positions: PositionFile, triangles: RecordFile<[u32; 3]>) -> StagedM
         degenerate_triangles: 0,
         duplicate_triangles: 0,
         unreferenced_vertices: 0,
+        textures: None,
+        missing_textures: Vec::new(),
         positions,
         triangles,
         attributes: VertexAttributes {

@@ -345,6 +345,8 @@ mod tests {
                 degenerate_triangles: 0,
                 duplicate_triangles: 0,
                 unreferenced_vertices: 0,
+                textures: None,
+                missing_textures: Vec::new(),
             };
             let mut staged = StagedMesh::from_report(report, dir.path()).unwrap();
             stage_creased_normals(&mut staged, crease_degrees, budget, dir.path()).unwrap();

@@ -459,6 +459,12 @@ pub struct StagedMesh {
     pub degenerate_triangles: u64,
     pub duplicate_triangles: u64,
     pub unreferenced_vertices: u64,
+    /// The input's textures and bands, as `import::ImportReport::textures` (the import
+    /// fills them in; `None` for an input without textures).
+    pub textures: Option<crate::texture_input::MeshTextures>,
+    /// Texture files the input names that do not exist, as
+    /// `import::ImportReport::missing_textures`.
+    pub missing_textures: Vec<String>,
 }
 
 impl StagedMesh {
@@ -486,6 +492,8 @@ impl StagedMesh {
             degenerate_triangles: report.degenerate_triangles as u64,
             duplicate_triangles: report.duplicate_triangles as u64,
             unreferenced_vertices: report.unreferenced_vertices as u64,
+            textures: report.textures,
+            missing_textures: report.missing_textures,
         })
     }
 

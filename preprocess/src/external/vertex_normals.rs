@@ -93,6 +93,8 @@ mod tests {
             degenerate_triangles: 0,
             duplicate_triangles: 0,
             unreferenced_vertices: 0,
+            textures: None,
+            missing_textures: Vec::new(),
         };
         let staged = StagedMesh::from_report(report, dir.path()).unwrap();
         // In one window with the positions read whole, and in several windows of chunks.

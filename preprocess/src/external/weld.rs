@@ -284,6 +284,8 @@ pub fn weld_external(raw: RawStaged, budget: usize, dir: &Path) -> io::Result<St
             degenerate_triangles: degenerate,
             duplicate_triangles: duplicate,
             unreferenced_vertices: groups - w.vertices,
+            textures: None,
+            missing_textures: Vec::new(),
         });
     }
     drop(representative);
@@ -353,6 +355,8 @@ pub fn weld_external(raw: RawStaged, budget: usize, dir: &Path) -> io::Result<St
         degenerate_triangles: degenerate,
         duplicate_triangles: duplicate,
         unreferenced_vertices: groups - referenced.len(),
+        textures: None,
+        missing_textures: Vec::new(),
     })
 }
 

@@ -10,12 +10,15 @@
 //!
 //! With texture coordinates ([`GenMesh::with_uvs`]) every cube face is a chart of its own in
 //! a 3 × 2 atlas (gutters between the charts), so the vertices on the cube's edges are
-//! written once a face: seams, which the importer keeps as wedges of one vertex.
+//! written once a face: seams, which the importer keeps as wedges of one vertex. `gen mesh
+//! --texture N` writes an N × N procedural PNG beside the mesh (`texture.rs`, streamed a row
+//! at a time) and names it in the PLY header (`comment TextureFile`, MeshLab's convention).
 
 mod cube_sphere;
 mod ply_stream;
 mod shuffle;
 mod surface;
+pub mod texture;
 
 pub use cube_sphere::{CubeSphere, CubeVertex, MAX_TRIANGLES, MIN_TRIANGLES};
 pub use ply_stream::{vertex_bytes, write_ply, PLY_FACE_BYTES};
@@ -52,6 +55,9 @@ pub struct GenMesh {
     shuffle: Option<Shuffle>,
     /// Texture coordinates, one chart a cube face ([`GenMesh::with_uvs`]).
     uvs: bool,
+    /// The texture file the PLY header names (`comment TextureFile`), beside the PLY
+    /// ([`GenMesh::with_texture_file`]).
+    texture_file: Option<String>,
 }
 
 /// The share of a chart's atlas cell left empty on each side (keeps texels of one chart from
@@ -78,6 +84,7 @@ impl GenMesh {
             surface: Surface::new(params.seed, r),
             shuffle,
             uvs: false,
+            texture_file: None,
         })
     }
 
@@ -91,6 +98,23 @@ impl GenMesh {
             .shuffle_vertices
             .then(|| Shuffle::new(self.vertex_count(), p.seed));
         self
+    }
+
+    /// The same mesh whose PLY header names the texture `file` (`comment TextureFile`, a
+    /// name relative to the PLY's directory, on one line), as `gen mesh --texture` writes it
+    /// beside the mesh (`texture.rs`).
+    pub fn with_texture_file(mut self, file: Option<String>) -> GenMesh {
+        assert!(
+            file.as_ref().is_none_or(|f| !f.contains('\n')),
+            "a texture file name on one line"
+        );
+        self.texture_file = file;
+        self
+    }
+
+    /// The texture file the PLY header names.
+    pub fn texture_file(&self) -> Option<&str> {
+        self.texture_file.as_deref()
     }
 
     /// Whether vertices have texture coordinates.

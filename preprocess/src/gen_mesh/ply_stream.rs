@@ -24,7 +24,7 @@ pub fn header(mesh: &GenMesh) -> String {
     let p = &mesh.params;
     format!(
         "ply\nformat binary_little_endian 1.0\n\
-         comment tessera gen mesh: requested {} triangles, seed {}, density range {}{}\n\
+         comment tessera gen mesh: requested {} triangles, seed {}, density range {}{}\n{}\
          element vertex {}\nproperty float x\nproperty float y\nproperty float z\n{}{}\
          element face {}\nproperty list uchar int vertex_indices\nend_header\n",
         p.triangles,
@@ -34,6 +34,10 @@ pub fn header(mesh: &GenMesh) -> String {
             ", shuffled vertices"
         } else {
             ""
+        },
+        match mesh.texture_file() {
+            Some(name) => format!("comment TextureFile {name}\n"),
+            None => String::new(),
         },
         mesh.vertex_count(),
         if mesh.has_uvs() {

@@ -336,3 +336,40 @@ fn charted_meshes_have_seams_on_the_cube_edges() {
     };
     assert_closed(&by_vertex, "charted");
 }
+
+/// `--texture`: the header names the PNG written beside the mesh, and the importer reads it
+/// as the mesh's one texture, every `v` moved into its band (`shift − v`); without the file
+/// the same bytes but the comment.
+#[test]
+fn a_textured_mesh_names_its_png_and_imports_with_one_band() {
+    let mesh = GenMesh::new(params(3000)).unwrap().with_uvs(true);
+    let named = mesh.clone().with_texture_file(Some("relief.png".into()));
+    let (plain, textured) = (ply_bytes(&mesh), ply_bytes(&named));
+    let comment = b"comment TextureFile relief.png\n";
+    assert_eq!(textured.len(), plain.len() + comment.len());
+    assert!(textured.windows(comment.len()).any(|w| w == comment));
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("relief.ply");
+    std::fs::write(&path, &textured).unwrap();
+    let mut png = std::fs::File::create(dir.path().join("relief.png")).unwrap();
+    texture::write_texture_png(16, &mut png).unwrap();
+    let report = crate::import::load_mesh(&path).unwrap();
+    let t = report.textures.as_ref().expect("a texture");
+    assert_eq!(t.textures.len(), 1);
+    assert_eq!(t.textures[0].name, "relief.png");
+    // The atlas's v lies in (0, 1): −v in (−1, 0), shifted by 1.
+    assert_eq!(
+        (t.bands[0].start, t.bands[0].span, t.bands[0].shift),
+        (0, 1, 1)
+    );
+    let plain_report = import(plain);
+    let (a, b) = (report.mesh.uvs.unwrap(), plain_report.mesh.uvs.unwrap());
+    assert_eq!(a.len(), b.len());
+    for (got, input) in a.iter().zip(&b) {
+        assert_eq!(got[0], input[0]);
+        assert!(
+            (got[1] - (1.0 - input[1])).abs() < 1e-6,
+            "{got:?} {input:?}"
+        );
+    }
+}

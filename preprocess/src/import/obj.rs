@@ -6,6 +6,11 @@
 //! (the libraries are found beside it, `mtl.rs`) and its material has a `Kd`. Other statements
 //! (`o`, `g`, `s`, `l`, `p`, ...) are ignored.
 //!
+//! Textures (`obj_textures.rs`): read into memory from a file, the faces of a material whose
+//! `map_Kd` file exists are textured, each material's corners moved into a band of `v`; a
+//! `map_Kd` file that does not exist is reported and its material drawn untextured. Staged
+//! out of core, a face of a textured material is refused (one coordinate a vertex there).
+//!
 //! OBJ indexes texture coordinates and normals apart from positions. Read into memory, every
 //! distinct `v/vt/vn` combination a face corner uses is a raw vertex of its own (the weld then
 //! keeps those that differ in value as wedges of one vertex: texture seams and hard edges
@@ -20,7 +25,10 @@ use std::path::Path;
 use super::error::{show, ImportErrorKind as K, Location};
 use super::input::{check_finite, fan, parse_float, parse_int, Input};
 use super::mtl::{self, load_libraries, Material};
+use super::obj_textures::place_obj_textures;
+pub(crate) use super::obj_textures::{ObjTextures, NO_MATERIAL};
 use super::sink::{at, FaceColored, MeshSink};
+use super::textures::FoundTextures;
 use super::RawMesh;
 use crate::external::corner_attributes::{CornerStager, NONE};
 
@@ -72,8 +80,16 @@ pub(crate) enum Libraries<'a> {
     Bytes(&'a [u8]),
 }
 
-/// Reads an OBJ file into memory, its material libraries from `libraries`.
-pub(crate) fn read(input: &mut Input, libraries: Libraries) -> Result<RawMesh, K> {
+/// Reads an OBJ file into memory, its material libraries from `libraries`. With `textures`
+/// (and libraries read from a directory), the faces of materials whose `map_Kd` file exists
+/// are textured: their corners' `v` moved into one band a material (`textures.rs`), the
+/// corners of the other faces into a band without texture, and the textures returned; an
+/// OBJ with no such face keeps its coordinates as read.
+pub(crate) fn read(
+    input: &mut Input,
+    libraries: Libraries,
+    textures: bool,
+) -> Result<(RawMesh, FoundTextures), K> {
     let in_memory = |colors: bool| {
         Ok(FaceColored::new(RawMesh {
             colors: colors.then(Vec::new),
@@ -81,15 +97,24 @@ pub(crate) fn read(input: &mut Input, libraries: Libraries) -> Result<RawMesh, K
         }))
     };
     let mut corners = CornerAttributes::default();
-    let (mut colored, facts) = read_into(input, libraries, in_memory, &mut corners)?;
+    let mut runs = Vec::new();
+    let mode = if textures {
+        ObjTextures::Track(&mut runs)
+    } else {
+        ObjTextures::Ignore
+    };
+    let (mut colored, facts) = read_into(input, libraries, in_memory, &mut corners, mode)?;
     let mesh = &mut colored.mesh;
+    // A textured OBJ needs `vt` on the corners of its textured faces only: the others take a
+    // coordinate of their band.
+    let all_vt = facts.all_vt || facts.textured && facts.all_vt_textured;
     let keep = |all: bool, of: &[u32]| all && facts.triangles && of.iter().any(|&i| i != UNSET);
     let kept = [
-        keep(facts.all_vt, &corners.vt_of),
+        keep(all_vt, &corners.vt_of),
         keep(facts.all_vn, &corners.vn_of),
     ];
     corners.add_extra_vertices(mesh, facts.vertices, kept)?;
-    mesh.uvs = keep(facts.all_vt, &corners.vt_of).then(|| {
+    mesh.uvs = keep(all_vt, &corners.vt_of).then(|| {
         (corners.vt_of.iter())
             .map(|&i| {
                 corners
@@ -106,7 +131,29 @@ pub(crate) fn read(input: &mut Input, libraries: Libraries) -> Result<RawMesh, K
             .collect()
     });
     // After the extra vertices and their attributes: each face colour's corner copies them.
-    Ok(colored.finish())
+    let mut mesh = colored.finish();
+    let mut found = FoundTextures {
+        textures: None,
+        missing: facts.missing,
+    };
+    if facts.textured && mesh.uvs.is_some() {
+        let material_of = expand_runs(&runs, mesh.triangles.len());
+        let placed = place_obj_textures(&mut mesh, &facts.materials, &material_of)?;
+        found.textures = Some(placed);
+    }
+    Ok((mesh, found))
+}
+
+/// Each of `triangles` triangles' material, from the runs of one material `ObjTextures::Track`
+/// records (first triangle, material).
+fn expand_runs(runs: &[(usize, u32)], triangles: usize) -> Vec<u32> {
+    let mut out = Vec::with_capacity(triangles);
+    for (k, &(first, material)) in runs.iter().enumerate() {
+        let end = runs.get(k + 1).map_or(triangles, |&(next, _)| next);
+        debug_assert_eq!(out.len(), first);
+        out.extend(std::iter::repeat_n(material, end - first));
+    }
+    out
 }
 
 /// Where an OBJ reader puts its `vt` and `vn` values and its face corners' indices into them
@@ -240,6 +287,22 @@ impl CornerTracker for CornerAttributes {
     }
 }
 
+/// Corners checked and forgotten (`import::find_textures` reads an OBJ for its materials).
+pub(crate) struct NoCorners;
+
+impl CornerTracker for NoCorners {
+    fn vertex(&mut self) {}
+    fn texcoord(&mut self, _: [f32; 2]) -> Result<(), K> {
+        Ok(())
+    }
+    fn normal(&mut self, _: [f32; 3]) -> Result<(), K> {
+        Ok(())
+    }
+    fn corner(&mut self, v: u32, _: Option<u32>, _: Option<u32>) -> Result<u32, K> {
+        Ok(v)
+    }
+}
+
 impl CornerTracker for CornerStager {
     fn vertex(&mut self) {}
     fn texcoord(&mut self, uv: [f32; 2]) -> Result<(), K> {
@@ -263,6 +326,15 @@ pub(crate) struct ObjFacts {
     pub all_vn: bool,
     pub triangles: bool,
     pub vertices: u64,
+    /// The materials of the libraries read, each with whether its `map_Kd` file exists
+    /// (only looked up with `ObjTextures::Track` or `Refuse` and libraries in a directory).
+    pub materials: Vec<(Material, bool)>,
+    /// Whether a face's material has an existing `map_Kd` (tracked or refused textures).
+    pub textured: bool,
+    /// Whether every corner of those faces has a `vt`.
+    pub all_vt_textured: bool,
+    /// `map_Kd` files a face's material names that do not exist, once each.
+    pub missing: Vec<String>,
 }
 
 /// Reads an OBJ file into the sink `make_sink(colors)` makes at the first vertex (`colors`:
@@ -274,6 +346,7 @@ pub(crate) fn read_into<S: MeshSink>(
     libraries: Libraries,
     make_sink: impl FnOnce(bool) -> Result<S, K>,
     corners: &mut impl CornerTracker,
+    mut textures: ObjTextures,
 ) -> Result<(S, ObjFacts), K> {
     let mut make_sink = Some(make_sink);
     let mut sink: Option<S> = None;
@@ -284,15 +357,23 @@ pub(crate) fn read_into<S: MeshSink>(
         all_vn: true,
         triangles: false,
         vertices: 0,
+        materials: Vec::new(),
+        textured: false,
+        all_vt_textured: true,
+        missing: Vec::new(),
     };
+    let look_up_maps = !matches!(textures, ObjTextures::Ignore);
     // `vt` and `vn` statements read so far (the range their indices are checked against).
     let (mut texcoord_count, mut normal_count) = (0usize, 0usize);
     let mut fanned: Vec<[u32; 3]> = Vec::new();
     let mut poly: Vec<u32> = Vec::new();
     let mut vals = [0.0f64; 8];
-    let mut materials: Vec<Material> = Vec::new();
-    // The `Kd` of the material in use.
+    // The material in use (an index into `facts.materials`), its `Kd` and whether its
+    // `map_Kd` file exists.
+    let mut material = NO_MATERIAL;
     let mut face_color: Option<[u8; 4]> = None;
+    let mut textured = false;
+    let mut triangle_count = 0usize;
 
     while input.skip_blank(true)? {
         let line = input.line;
@@ -318,22 +399,46 @@ pub(crate) fn read_into<S: MeshSink>(
             match keyword {
                 // Each word a library (names with spaces are not told apart from two names).
                 Keyword::Mtllib => match libraries {
-                    Libraries::Dir(base) => materials.extend(load_libraries(base, &words)?),
-                    Libraries::Bytes(bytes) => materials.extend(mtl::parse(bytes)?),
+                    Libraries::Dir(base) => {
+                        let found = load_libraries(base, &words)?.into_iter().map(|m| {
+                            let exists =
+                                look_up_maps && m.diffuse_map.as_ref().is_some_and(|p| p.is_file());
+                            (m, exists)
+                        });
+                        facts.materials.extend(found);
+                    }
+                    Libraries::Bytes(bytes) => {
+                        let found = mtl::parse(bytes)?.into_iter().map(|m| (m, false));
+                        facts.materials.extend(found);
+                    }
                     Libraries::None => {}
                 },
                 // A name with spaces, as `newmtl` keeps it; the last definition wins.
                 _ => {
                     let name = words.join(" ");
-                    face_color = (materials.iter().rev())
-                        .find(|m| m.name == name)
-                        .and_then(|m| m.diffuse);
+                    let found = facts.materials.iter().rposition(|(m, _)| m.name == name);
+                    material = found.map_or(NO_MATERIAL, |i| i as u32);
+                    let (m, exists) = match found {
+                        Some(i) => (Some(&facts.materials[i].0), facts.materials[i].1),
+                        None => (None, false),
+                    };
+                    face_color = m.and_then(|m| m.diffuse);
+                    textured = exists;
+                    if let (Some(map), false, true) =
+                        (m.and_then(|m| m.diffuse_map.as_ref()), exists, look_up_maps)
+                    {
+                        let map = map.display().to_string();
+                        if matches!(libraries, Libraries::Dir(_)) && !facts.missing.contains(&map) {
+                            facts.missing.push(map);
+                        }
+                    }
                 }
             }
             continue;
         }
         if let Keyword::F = keyword {
             poly.clear();
+            let mut face_all_vt = true;
             while let Some(tok) = input.token(true)? {
                 let mut parts = tok.split(|&c| c == b'/');
                 let index = |part: Option<&[u8]>| -> Result<Option<i64>, K> {
@@ -362,6 +467,7 @@ pub(crate) fn read_into<S: MeshSink>(
                     .map(|vn| resolve(vn, normal_count, line, "normal"))
                     .transpose()?;
                 facts.all_vt &= vt.is_some();
+                face_all_vt &= vt.is_some();
                 facts.all_vn &= vn.is_some();
                 poly.push(corners.corner(v, vt, vn)?);
             }
@@ -370,6 +476,25 @@ pub(crate) fn read_into<S: MeshSink>(
             fan(&poly, &mut fanned);
             if !fanned.is_empty() {
                 facts.triangles = true;
+                if textured {
+                    if let ObjTextures::Refuse = textures {
+                        return Err(K::Unsupported {
+                            at: Location::Line(line),
+                            what: "a textured OBJ in the out-of-core build (--memory keeps one \
+                                   texture coordinate a vertex; build without --memory, or \
+                                   with --no-textures)"
+                                .into(),
+                        });
+                    }
+                    facts.textured = true;
+                    facts.all_vt_textured &= face_all_vt;
+                }
+                if let ObjTextures::Track(runs) = &mut textures {
+                    if runs.last().is_none_or(|&(_, m)| m != material) {
+                        runs.push((triangle_count, material));
+                    }
+                }
+                triangle_count += fanned.len();
                 // A face comes after a vertex it uses, so the sink exists.
                 let sink = sink.as_mut().expect("a face after its vertices");
                 sink.triangles(&fanned)?;

@@ -107,20 +107,22 @@ enum FaceKind {
     Strips,
 }
 
-/// Reads a PLY file into memory.
-pub(crate) fn read(input: &mut Input) -> Result<RawMesh, K> {
+/// Reads a PLY file into memory; the texture file its header names (`comment TextureFile`)
+/// when its vertices have texture coordinates.
+pub(crate) fn read(input: &mut Input) -> Result<(RawMesh, Option<String>), K> {
     read_into(input, |d| {
         Ok(super::sink::FaceColored::new(super::sink::in_memory(d)))
     })
-    .map(super::sink::FaceColored::finish)
+    .map(|(mesh, texture)| (mesh.finish(), texture))
 }
 
-/// Reads a PLY file into the sink `make_sink` makes once the header is read.
+/// Reads a PLY file into the sink `make_sink` makes once the header is read; the texture
+/// file its header names (`comment TextureFile`) when its vertices have texture coordinates.
 pub(crate) fn read_into<S: MeshSink>(
     input: &mut Input,
     make_sink: impl FnOnce(&Declared) -> Result<S, K>,
-) -> Result<S, K> {
-    let (format, elements) = parse_header(input)?;
+) -> Result<(S, Option<String>), K> {
+    let (format, elements, texture_file) = parse_header(input)?;
 
     let mut vertex_el = None;
     for (i, el) in elements.iter().enumerate() {
@@ -234,7 +236,7 @@ pub(crate) fn read_into<S: MeshSink>(
             reader.skip()?;
         }
     }
-    Ok(mesh)
+    Ok((mesh, texture_file.filter(|_| layout.uvs)))
 }
 
 /// Reads the records of one element.

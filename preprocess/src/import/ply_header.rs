@@ -174,7 +174,9 @@ pub(super) fn header_err(line: u64, msg: impl Into<String>) -> K {
     }
 }
 
-pub(super) fn parse_header(input: &mut Input) -> Result<(Format, Vec<Element>), K> {
+/// The header's format, elements and the texture file of its first `comment TextureFile
+/// NAME` (MeshLab's convention: NAME relative to the PLY's directory, spaces kept).
+pub(super) fn parse_header(input: &mut Input) -> Result<(Format, Vec<Element>, Option<String>), K> {
     match input.read_line(MAX_HEADER_LINE)? {
         Some(l) if l.trim_ascii() == b"ply" => {}
         Some(l) => {
@@ -187,6 +189,7 @@ pub(super) fn parse_header(input: &mut Input) -> Result<(Format, Vec<Element>), 
     }
     let mut format = None;
     let mut elements: Vec<Element> = Vec::new();
+    let mut texture_file = None;
     loop {
         let line_no = input.line;
         let Some(bytes) = input.read_line(MAX_HEADER_LINE)? else {
@@ -199,6 +202,12 @@ pub(super) fn parse_header(input: &mut Input) -> Result<(Format, Vec<Element>), 
             what,
         };
         match words.first().copied() {
+            Some("comment") if words.get(1) == Some(&"TextureFile") && words.len() > 2 => {
+                if texture_file.is_none() {
+                    let rest = text.trim_start()["comment".len()..].trim_start();
+                    texture_file = Some(rest["TextureFile".len()..].trim().to_string());
+                }
+            }
             None | Some("comment") | Some("obj_info") => {}
             Some("format") => {
                 if words.len() != 3 {
@@ -269,5 +278,5 @@ pub(super) fn parse_header(input: &mut Input) -> Result<(Format, Vec<Element>), 
         }
     }
     let format = format.ok_or_else(|| header_err(1, "no format line"))?;
-    Ok((format, elements))
+    Ok((format, elements, texture_file))
 }

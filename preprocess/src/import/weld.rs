@@ -101,6 +101,8 @@ pub fn weld(raw: RawMesh) -> ImportReport {
         duplicate_triangles: duplicate,
         unreferenced_vertices: groups - wedges.vertices,
         mesh,
+        textures: None,
+        missing_textures: Vec::new(),
     }
 }
 

@@ -260,7 +260,7 @@ pub(super) fn open_buffer_files(
 }
 
 /// Decodes %XX escapes in a relative URI.
-fn percent_decode(uri: &str) -> String {
+pub(super) fn percent_decode(uri: &str) -> String {
     let bytes = uri.as_bytes();
     let mut out = Vec::with_capacity(bytes.len());
     let mut i = 0;

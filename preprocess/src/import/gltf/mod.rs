@@ -14,6 +14,7 @@
 
 mod accessor;
 mod container;
+mod textures;
 
 use std::borrow::Cow;
 use std::fs::File;
@@ -27,6 +28,7 @@ use self::accessor::{check_accessor, readable, Elements, Want};
 use self::container::Bytes;
 use super::error::{ImportErrorKind as K, Location};
 use super::sink::{self, in_memory, Declared, MeshSink};
+use super::textures::{FoundTextures, Placement};
 use super::RawMesh;
 
 type Mat4 = [[f64; 4]; 4]; // column-major, m[column][row]
@@ -52,11 +54,19 @@ fn err(at: Location, msg: impl Into<String>) -> K {
 }
 
 /// Reads a .gltf or .glb file's bytes held in memory; external buffers are looked up
-/// relative to `base`, and refused without one (bytes that come from no directory).
-pub(crate) fn read(bytes: &[u8], base: Option<&Path>) -> Result<RawMesh, K> {
-    read_into(&Bytes::Memory(Cow::Borrowed(bytes)), base, |d| {
-        Ok(in_memory(d))
-    })
+/// relative to `base`, and refused without one (bytes that come from no directory). With
+/// `textures`, its base-colour textures and bands (`textures.rs`).
+pub(crate) fn read(
+    bytes: &[u8],
+    base: Option<&Path>,
+    textures: bool,
+) -> Result<(RawMesh, FoundTextures), K> {
+    read_into(
+        &Bytes::Memory(Cow::Borrowed(bytes)),
+        base,
+        |d| Ok(in_memory(d)),
+        textures,
+    )
 }
 
 /// Reads the .gltf or .glb file at `path` into the sink `make_sink` makes: a GLB's binary
@@ -64,7 +74,8 @@ pub(crate) fn read(bytes: &[u8], base: Option<&Path>) -> Result<RawMesh, K> {
 pub(crate) fn read_file<S: MeshSink>(
     path: &Path,
     make_sink: impl FnOnce(&Declared) -> Result<S, K>,
-) -> Result<S, K> {
+    textures: bool,
+) -> Result<(S, FoundTextures), K> {
     let file = File::open(path).map_err(K::Io)?;
     let len = file.metadata().map_err(K::Io)?.len();
     let base = match path.parent() {
@@ -76,14 +87,15 @@ pub(crate) fn read_file<S: MeshSink>(
         start: 0,
         len,
     };
-    read_into(&all, Some(base), make_sink)
+    read_into(&all, Some(base), make_sink, textures)
 }
 
 fn read_into<S: MeshSink>(
     all: &Bytes,
     base: Option<&Path>,
     make_sink: impl FnOnce(&Declared) -> Result<S, K>,
-) -> Result<S, K> {
+    textures: bool,
+) -> Result<(S, FoundTextures), K> {
     let container = container::open(all)?;
     let document = parse_document(&container.json)?;
     let cannot_load = |e: String| err(Location::None, format!("cannot load buffers: {e}"));
@@ -93,26 +105,35 @@ fn read_into<S: MeshSink>(
     let lengths: Vec<u64> = buffers.iter().map(Bytes::len).collect();
 
     let instances = instances(&document)?;
-    let declared = check_primitives(&instances, &lengths)?;
+    let mut declared = check_primitives(&instances, &lengths)?;
+    let (found, placements) = match textures {
+        true => textures::find(&document, &instances, &buffers, base)?,
+        false => (FoundTextures::default(), None),
+    };
+    // Every vertex of a textured file has a coordinate in its band.
+    declared.uvs |= placements.is_some();
     let mut sink = make_sink(&declared)?;
     let mut vertices = 0u32;
     for (mesh, m) in &instances {
         for prim in triangle_primitives(mesh) {
             let at =
                 || Location::Other(format!("mesh {} primitive {}", mesh.index(), prim.index()));
-            vertices = stream_primitive(&mut sink, &prim, m, &declared, &buffers, vertices)
-                .map_err(|e| match e {
-                    Streamed::Io(e) => err(at(), format!("cannot read: {e}")),
-                    Streamed::Index { index, count } => K::IndexOutOfRange {
-                        at: at(),
-                        index: index as i64,
-                        count: count as u64,
-                    },
-                    Streamed::Sink(kind) => kind,
-                })?;
+            let placement = placements.as_ref().and_then(|p| p.of(&prim));
+            vertices = stream_primitive(
+                &mut sink, &prim, m, &declared, &buffers, vertices, placement,
+            )
+            .map_err(|e| match e {
+                Streamed::Io(e) => err(at(), format!("cannot read: {e}")),
+                Streamed::Index { index, count } => K::IndexOutOfRange {
+                    at: at(),
+                    index: index as i64,
+                    count: count as u64,
+                },
+                Streamed::Sink(kind) => kind,
+            })?;
         }
     }
-    Ok(sink)
+    Ok((sink, found))
 }
 
 /// The document, validated: every check the gltf crate makes, and the ones it makes too
@@ -338,7 +359,8 @@ impl<'a> Attribute<'a> {
 
 /// Streams one primitive's vertices (transformed by `m`; normals by its cofactor matrix and
 /// renormalised) then its triangles (numbered from `first`, flipped back to
-/// counter-clockwise where `m` mirrors) into `sink`; the vertex count after it.
+/// counter-clockwise where `m` mirrors) into `sink`, texture coordinates moved into the
+/// primitive's band (`placement`, a textured file's); the vertex count after it.
 fn stream_primitive<S: MeshSink>(
     sink: &mut S,
     prim: &Primitive,
@@ -346,6 +368,7 @@ fn stream_primitive<S: MeshSink>(
     keep: &Declared,
     buffers: &[Bytes],
     first: u32,
+    placement: Option<&Placement>,
 ) -> Result<u32, Streamed> {
     let a = [0, 1, 2].map(|c| [m[c][0], m[c][1], m[c][2]]);
     let cof = [cross(a[1], a[2]), cross(a[2], a[0]), cross(a[0], a[1])];
@@ -384,6 +407,9 @@ fn stream_primitive<S: MeshSink>(
             }
             if let Some((e, a)) = uvs.as_ref().and_then(|a| Some((a.get(k)?, a))) {
                 v.uv = accessor::tex_coord(e, a.ty);
+            }
+            if let Some(placement) = placement {
+                v.uv = placement.place(v.uv);
             }
             sink.vertex(&v).map_err(Streamed::Sink)?;
         }

@@ -243,7 +243,7 @@ fn chunked_reading_gives_what_the_gltf_crate_reads() {
         prim(zeros, nor, col16, uv8, None, 4),
     ];
     let bytes = b.gltf(&primitives);
-    let read = read(&bytes, None).unwrap();
+    let read = read(&bytes, None, false).unwrap().0;
     let expected = reference(&bytes);
     same("positions", &read.positions, &expected.positions);
     same(
