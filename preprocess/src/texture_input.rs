@@ -19,7 +19,10 @@ pub enum TextureSource {
     File(PathBuf),
     /// Bytes the mesh file holds itself (a GLB buffer view, a data URI), with the MIME type
     /// it declares, if any.
-    Encoded { bytes: Vec<u8>, mime: Option<String> },
+    Encoded {
+        bytes: Vec<u8>,
+        mime: Option<String>,
+    },
 }
 
 /// One texture of the input.
