@@ -30,6 +30,7 @@ use crate::simplify::{
     LevelState, SimplifyError,
 };
 use crate::texture::{PageMaker, WithPages};
+use crate::texture_input::MeshTextures;
 use crate::vertex_table::LivePatch;
 
 pub use crate::build_config::{
@@ -138,6 +139,9 @@ fn write_built(
     let plan = textures
         .map(|t| crate::texture::plan(t, config.memory.as_ref()))
         .transpose()?;
+    if let Some(textures) = textures {
+        check_wedges_in_bands(source, textures)?;
+    }
     let mut built = build_parts(source, config, on_stage, resume)?;
     on_stage("write");
     let t = Instant::now();
@@ -155,6 +159,28 @@ fn write_built(
         .push(("write", t.elapsed().as_secs_f64()));
     built.summary.seconds = start.elapsed().as_secs_f64();
     Ok(built.summary)
+}
+
+/// `texture::check_wedges_in_bands` over the mesh's coordinates, in memory or staged (a
+/// resumed build's were checked when it began: its manifest holds the input and the bands).
+fn check_wedges_in_bands(source: Source, textures: &MeshTextures) -> Result<(), BuildError> {
+    let bands = &textures.bands;
+    match source {
+        Source::Memory(mesh) => {
+            let mut uvs = mesh.uvs.as_ref().map(|u| u.iter().map(|&uv| Ok(uv)));
+            let uvs = uvs.as_mut().map(|u| u as &mut dyn Iterator<Item = _>);
+            crate::texture::check_wedges_in_bands(uvs, bands)
+        }
+        Source::Staged(staged) => {
+            let file = staged.attributes.uvs.as_ref();
+            let mut uvs = file.map(|f| f.read()).transpose().map_err(|e| {
+                BuildError::Config(format!("reading the staged texture coordinates: {e}"))
+            })?;
+            let uvs = uvs.as_mut().map(|u| u as &mut dyn Iterator<Item = _>);
+            crate::texture::check_wedges_in_bands(uvs, bands)
+        }
+        Source::Resumed => Ok(()),
+    }
 }
 
 /// Builds the repository image in memory (the same bytes `build_repository` writes) of an

@@ -16,7 +16,7 @@ pub mod pyramid;
 use std::io;
 
 use tessera_core::repository::{BlobFeed, TextureDirectory};
-use tessera_core::texture::{bands_valid, TextureShape};
+use tessera_core::texture::{bands_valid, Band, TextureShape};
 
 use crate::build_config::{BuildError, MemoryBudget};
 use crate::texture_input::{MeshTextures, TextureInput};
@@ -86,6 +86,41 @@ pub fn plan(
             bands: textures.bands.clone(),
         },
     })
+}
+
+/// Checks that every wedge's `v` lies in one of `bands` (the invariant `MeshTextures` states),
+/// `uvs` being the wedges' coordinates in order (`None`: the input has none, which textures
+/// cannot be sampled without). The first wedge outside every band stops the build. Cost: one
+/// pass, a binary search a wedge.
+pub fn check_wedges_in_bands(
+    uvs: Option<&mut dyn Iterator<Item = io::Result<[f32; 2]>>>,
+    bands: &[Band],
+) -> Result<(), BuildError> {
+    let bands_error = |reason: String| BuildError::Texture {
+        name: "(bands)".into(),
+        reason,
+    };
+    let Some(uvs) = uvs else {
+        return Err(bands_error(
+            "the input has textures but no texture coordinates".into(),
+        ));
+    };
+    // Disjoint (checked by `plan`): sorted by start, the candidate is the last starting at or
+    // before floor(v).
+    let mut sorted = bands.to_vec();
+    sorted.sort_unstable_by_key(|b| b.start);
+    for (wedge, uv) in uvs.enumerate() {
+        let v = uv.map_err(|e| bands_error(format!("reading the texture coordinates: {e}")))?[1];
+        let floor = f64::from(v).floor();
+        let at = sorted.partition_point(|b| f64::from(b.start) <= floor);
+        if at == 0 || !sorted[at - 1].contains(v) {
+            return Err(bands_error(format!(
+                "wedge {wedge} has v = {v}, in none of the {} bands",
+                bands.len()
+            )));
+        }
+    }
+    Ok(())
 }
 
 /// Makes the pages of planned textures in global order, a texture's levels one after the
@@ -217,7 +252,7 @@ pub fn fingerprint(textures: &MeshTextures) -> String {
 mod tests {
     use super::*;
     use crate::texture_input::TextureSource;
-    use tessera_core::texture::{Band, Wrap};
+    use tessera_core::texture::{Wrap, NO_TEXTURE};
 
     fn png(width: u32, height: u32) -> Vec<u8> {
         let texels: Vec<u8> = (0..width * height * 4)
@@ -286,6 +321,25 @@ mod tests {
         };
         let message = refusal(&textures(good), Some(&budget));
         assert!(message.contains("memory budget of 1000 bytes"), "{message}");
+    }
+
+    #[test]
+    fn every_wedge_lies_in_a_band() {
+        let bands = [
+            Band::covering(3, 0.0, 0.5, 0).unwrap(),
+            Band::covering(0, -1.0, 1.5, NO_TEXTURE).unwrap(),
+        ];
+        let check = |vs: &[f32]| {
+            let mut uvs = vs.iter().map(|&v| Ok([0.25, v]));
+            check_wedges_in_bands(Some(&mut uvs), &bands)
+        };
+        check(&[0.0, 1.99, 2.5, 3.0, 3.999]).unwrap();
+        let message = check(&[0.5, 4.0]).unwrap_err().to_string();
+        assert!(message.contains("wedge 1 has v = 4"), "{message}");
+        assert!(check(&[-0.1]).is_err());
+        assert!(check(&[f32::NAN]).is_err());
+        let message = check_wedges_in_bands(None, &bands).unwrap_err().to_string();
+        assert!(message.contains("no texture coordinates"), "{message}");
     }
 
     #[test]
