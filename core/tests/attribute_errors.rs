@@ -139,6 +139,7 @@ fn the_table_round_trips_through_both_writers() {
         tets,
         codec: c.codec,
         attribute_errors: c.attribute_errors.clone(),
+        textures: None,
     };
     let streamed = dir.path().join("streamed.tsr");
     write_repository_streamed(&streamed, &directory, &mut Feed(&c)).unwrap();

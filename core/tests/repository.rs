@@ -426,13 +426,13 @@ fn structural_corruption_is_caught_behind_a_valid_checksum() {
         "section 3: a second diamond table",
     );
     check(
-        |b| edit_section(b, SECTION_IDS, |e| e.kind = 9),
-        "kind 9, which this build does not know and may not skip",
+        |b| edit_section(b, SECTION_IDS, |e| e.kind = 10),
+        "kind 10, which this build does not know and may not skip",
     );
     check(
         |b| {
             edit_section(b, SECTION_IDS, |e| {
-                e.kind = 9;
+                e.kind = 10;
                 e.flags = SECTION_FLAG_OPTIONAL;
             })
         },

@@ -52,6 +52,7 @@ fn directory(contents: &RepositoryContents) -> RepositoryDirectory {
         tets,
         codec: contents.codec,
         attribute_errors: contents.attribute_errors.clone(),
+        textures: None,
     }
 }
 

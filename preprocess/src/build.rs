@@ -29,6 +29,8 @@ use crate::simplify::{
     simplify_from_leaves, simplify_hierarchy, simplify_levels, CurrentMesh, LevelCheckpoints,
     LevelState, SimplifyError,
 };
+use crate::texture::{PageMaker, WithPages};
+use crate::texture_input::MeshTextures;
 use crate::vertex_table::LivePatch;
 
 pub use crate::build_config::{
@@ -131,10 +133,25 @@ fn write_built(
     resume: Option<Resume>,
 ) -> Result<BuildSummary, BuildError> {
     let start = Instant::now();
+    // The textures are checked (each decoded once) before the geometry's expensive work; their
+    // pages are made while the writer writes their section, the file's last.
+    let textures = config.textures.as_ref();
+    let plan = textures
+        .map(|t| crate::texture::plan(t, config.memory.as_ref()))
+        .transpose()?;
+    if let Some(textures) = textures {
+        check_wedges_in_bands(source, textures)?;
+    }
     let mut built = build_parts(source, config, on_stage, resume)?;
     on_stage("write");
     let t = Instant::now();
-    let mut feed = built.finished.feed(&built.order);
+    built.directory.textures = plan.as_ref().map(|p| p.directory.clone());
+    let mut feed = WithPages {
+        blobs: built.finished.feed(&built.order),
+        pages: textures
+            .zip(plan.as_ref())
+            .map(|(t, p)| PageMaker::new(t, p)),
+    };
     built.summary.repository_bytes = write_repository_streamed(out, &built.directory, &mut feed)?;
     built
         .summary
@@ -144,12 +161,43 @@ fn write_built(
     Ok(built.summary)
 }
 
-/// Builds the repository image in memory (the same bytes `build_repository` writes).
+/// `texture::check_wedges_in_bands` over the mesh's coordinates, in memory or staged (a
+/// resumed build's were checked when it began: its manifest holds the input and the bands).
+fn check_wedges_in_bands(source: Source, textures: &MeshTextures) -> Result<(), BuildError> {
+    let bands = &textures.bands;
+    match source {
+        Source::Memory(mesh) => {
+            let mut uvs = mesh.uvs.as_ref().map(|u| u.iter().map(|&uv| Ok(uv)));
+            let uvs = uvs.as_mut().map(|u| u as &mut dyn Iterator<Item = _>);
+            crate::texture::check_wedges_in_bands(uvs, bands)
+        }
+        Source::Staged(staged) => {
+            let file = staged.attributes.uvs.as_ref();
+            let mut uvs = file.map(|f| f.read()).transpose().map_err(|e| {
+                BuildError::Config(format!("reading the staged texture coordinates: {e}"))
+            })?;
+            let uvs = uvs.as_mut().map(|u| u as &mut dyn Iterator<Item = _>);
+            crate::texture::check_wedges_in_bands(uvs, bands)
+        }
+        Source::Resumed => Ok(()),
+    }
+}
+
+/// Builds the repository image in memory (the same bytes `build_repository` writes) of an
+/// input without textures: a textured one is refused (its pages are made while the file is
+/// written: `build_repository`).
 pub fn build_contents(
     mesh: &InputMesh,
     config: &BuildConfig,
     on_stage: &(dyn Fn(&str) + Sync),
 ) -> Result<(RepositoryContents, BuildSummary), BuildError> {
+    if config.textures.is_some() {
+        return Err(BuildError::Config(
+            "build_contents holds no texture pages: build a textured input with \
+             build_repository"
+                .into(),
+        ));
+    }
     let mut built = build_parts(Source::Memory(mesh), config, on_stage, None)?;
     let mut feed = built.finished.feed(&built.order);
     let mut patch_blob = Vec::new();
@@ -172,6 +220,7 @@ pub fn build_contents(
         tets,
         codec,
         attribute_errors,
+        textures: _,
     } = built.directory;
     let contents = RepositoryContents {
         header,

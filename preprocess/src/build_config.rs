@@ -199,6 +199,10 @@ pub enum BuildError {
     Conformity(#[from] crate::simplify::ConformityError),
     #[error(transparent)]
     Checkpoint(#[from] crate::checkpoint::CheckpointError),
+    /// A texture of the input that cannot be made into pages (unreadable, not PNG or JPEG,
+    /// corrupt, too large), or bands that do not fit the textures.
+    #[error("texture {name:?}: {reason}")]
+    Texture { name: String, reason: String },
     #[error("temporary files in {dir}: {source}")]
     Temporary {
         dir: std::path::PathBuf,

@@ -197,6 +197,8 @@ pub(crate) fn assemble(
             tets,
             codec: config.codec,
             attribute_errors,
+            // Added by the writing step (`texture/`), independent of the geometry.
+            textures: None,
         },
         order,
         finished,

@@ -29,6 +29,7 @@ pub mod saturate;
 pub mod simplify;
 mod staged_build;
 pub mod strips;
+pub mod texture;
 pub mod texture_input;
 pub mod vertex_table;
 

@@ -6,6 +6,7 @@ use clap::Args;
 use serde_json::json;
 use tessera_core::repository::format::{section_name, AttributeErrorRecord};
 use tessera_core::repository::patch::drawn_patch_bytes;
+use tessera_core::texture::PAGE_BYTES;
 
 use crate::Outcome;
 
@@ -77,6 +78,20 @@ pub fn run(args: InfoArgs) -> anyhow::Result<Outcome> {
                    "attribute_errors": level_errors(level).map(errors_json)})
         })
         .collect();
+    // Each texture: size, levels, pages and stored bytes (pages × PAGE_BYTES).
+    let textures = repo.textures().map(|table| {
+        let list: Vec<_> = table
+            .shapes()
+            .iter()
+            .map(|s| {
+                let pages = s.page_count();
+                json!({"width": s.width, "height": s.height, "levels": s.levels(),
+                       "pages": pages, "bytes": pages as u64 * PAGE_BYTES as u64})
+            })
+            .collect();
+        json!({"count": list.len(), "bands": table.bands().len(), "pages": table.page_count(),
+               "textures": list})
+    });
     let codec = repo.codec().name();
     let bits = position_bits(h);
     let value = json!({
@@ -107,6 +122,7 @@ pub fn run(args: InfoArgs) -> anyhow::Result<Outcome> {
         "patch_stored_bytes": stored,
         "patch_decoded_bytes": drawn,
         "attribute_errors": attribute_errors.as_ref().map(|(all, _)| errors_json(all)),
+        "textures": textures,
         "levels": per_level,
         "sections": sections,
     });
@@ -152,6 +168,18 @@ pub fn run(args: InfoArgs) -> anyhow::Result<Outcome> {
                  uv {:.3e}",
                 all.colour, all.normal_degrees, all.uv
             );
+        }
+        if let Some(t) = &textures {
+            println!(
+                "  textures: {} ({} pages of {PAGE_BYTES} bytes, {} bands)",
+                t["count"], t["pages"], t["bands"]
+            );
+            for (i, s) in t["textures"].as_array().into_iter().flatten().enumerate() {
+                println!(
+                    "    {i}: {} × {}, {} levels, {} pages, {} bytes",
+                    s["width"], s["height"], s["levels"], s["pages"], s["bytes"]
+                );
+            }
         }
         let header = match attribute_errors {
             Some(_) => "  colour  normal°        uv",

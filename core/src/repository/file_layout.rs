@@ -10,8 +10,8 @@ use super::format::{
     DIAMOND_RECORD_SIZE, FORMAT_VERSION, HEADER_SIZE, MAGIC, MAX_SECTIONS, PATCH_SECTIONS,
     REQUIRED_SECTIONS, SECTION_ATTRIBUTE_ERRORS, SECTION_CODED_STRIPS, SECTION_DIAMONDS,
     SECTION_ENTRY_SIZE, SECTION_FLAGS_ALL, SECTION_FLAG_OPTIONAL, SECTION_IDS,
-    SECTION_PACKED_PATCHES, SECTION_PACKED_STRIPS, SECTION_PATCHES, SECTION_TETS, TABLE_ALIGN,
-    TET_RECORD_SIZE, WRITTEN_SECTIONS,
+    SECTION_PACKED_PATCHES, SECTION_PACKED_STRIPS, SECTION_PATCHES, SECTION_TETS, SECTION_TEXTURES,
+    TABLE_ALIGN, TET_RECORD_SIZE, WRITTEN_SECTIONS,
 };
 use super::reader::{corrupt, RepositoryError, RELEASE_CHUNK};
 
@@ -27,6 +27,9 @@ pub(crate) struct Layout {
     pub codec: PatchCodec,
     /// The attribute error table, where the file has one (its checksum checked).
     pub attribute_errors: Option<Range<usize>>,
+    /// The texture section and its section-table checksum (of its tables: `textures.rs`
+    /// checks it), where the file has one.
+    pub textures: Option<(Range<usize>, u32)>,
 }
 
 /// Checks the header, its checksum and the section table of `bytes`, then the directory's
@@ -98,6 +101,10 @@ pub(crate) fn check_layout(
         .iter()
         .position(|e| e.kind == SECTION_ATTRIBUTE_ERRORS)
         .map(|i| (ranges[i].clone(), entries[i].checksum));
+    let textures = entries
+        .iter()
+        .position(|e| e.kind == SECTION_TEXTURES)
+        .map(|i| (ranges[i].clone(), entries[i].checksum));
     let mut checksummed = vec![
         (SECTION_DIAMONDS, &diamonds, diamond_sum),
         (SECTION_TETS, &tets, tet_sum),
@@ -131,6 +138,7 @@ pub(crate) fn check_layout(
         sections: entries,
         codec,
         attribute_errors: attribute_errors.map(|(range, _)| range),
+        textures,
     })
 }
 
@@ -164,7 +172,8 @@ fn section_ranges(
             | SECTION_PACKED_PATCHES
             | SECTION_PACKED_STRIPS
             | SECTION_CODED_STRIPS
-            | SECTION_IDS => None,
+            | SECTION_IDS
+            | SECTION_TEXTURES => None,
             _ if e.flags & SECTION_FLAG_OPTIONAL != 0 => None,
             _ => {
                 return Err(corrupt(format!(

@@ -13,6 +13,7 @@
 //!     or SECTION_CODED_STRIPS, the same patches entropy-coded                (see `coded.rs`)
 //!   SECTION_IDS        id blob                                      (see `global_ids.rs`)
 //!   SECTION_ATTRIBUTE_ERRORS, optional: 16 bytes a diamond     (see `attribute_errors.rs`)
+//!   SECTION_TEXTURES, optional: tables, then the texture pages   (see `textures.rs`)
 //! end of file        = the end of the last section
 //! ```
 //!
@@ -103,6 +104,10 @@ pub const SECTION_CODED_STRIPS: u32 = 7;
 /// `AttributeErrorRecord` a diamond in table order, always with `SECTION_FLAG_OPTIONAL`;
 /// written only for an input with colours or texture coordinates.
 pub const SECTION_ATTRIBUTE_ERRORS: u32 = 8;
+/// Section kind: the textures (`textures.rs`): their shapes, the bands of `v` naming them and
+/// their pages (`tessera_core::texture`), always with `SECTION_FLAG_OPTIONAL`; written only
+/// for an input with textures.
+pub const SECTION_TEXTURES: u32 = 9;
 /// The kinds of a patch blob: a repository has exactly one of them.
 pub const PATCH_SECTIONS: [u32; 4] = [
     SECTION_PATCHES,
@@ -363,6 +368,7 @@ pub fn section_name(kind: u32) -> String {
         SECTION_CODED_STRIPS => "coded patch blob".into(),
         SECTION_IDS => "id blob".into(),
         SECTION_ATTRIBUTE_ERRORS => "attribute error table".into(),
+        SECTION_TEXTURES => "texture section".into(),
         other => format!("section kind {other}"),
     }
 }

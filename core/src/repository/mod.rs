@@ -11,6 +11,7 @@
 //!   strip symbols and positions predicted along the strip, coded by `rans` (a static-model
 //!   rANS coder with per-patch 4-bit-weight tables), decoded on load like `packed`;
 //! - `attribute_errors`: the optional table of each diamond's colour, normal and UV errors;
+//! - `textures`: the optional texture section: shapes, bands and pages (`crate::texture`);
 //! - `normal_encoding`: the normals' octahedral i16 pairs and the build's 10-bit grid;
 //! - `global_ids`: each patch's global vertex ids, delta + varint coded in their own blob (the
 //!   CPU's checks need them, the GPU does not);
@@ -45,6 +46,7 @@ pub mod streamed_writer;
 pub mod strip;
 pub mod strip_codec;
 pub mod surface;
+pub mod textures;
 pub mod writer;
 
 pub use format::PatchCodec;
@@ -55,6 +57,7 @@ pub use patch::{
 };
 pub use reader::{Patch, Repository, RepositoryError};
 pub use streamed_writer::{write_repository_streamed, BlobFeed, RepositoryDirectory};
+pub use textures::{TextureContents, TextureDirectory, TextureTable};
 pub use writer::{
     remove_stale_temporaries, write_repository, write_repository_file, RepositoryContents,
 };

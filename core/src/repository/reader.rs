@@ -28,6 +28,7 @@ use super::format::{
 };
 use super::packed::{unpack_patch, StripCoding};
 use super::patch::{patch_bytes_checked, PatchSource, PatchView};
+use super::textures::{check_texture_section, TextureLayout, TextureTable};
 
 /// A validated patch (`Repository::patch`): borrowed from the map, or decoded from a packed
 /// repository; `view` gives its arrays.
@@ -129,6 +130,18 @@ pub enum RepositoryError {
     /// Structurally invalid (the message names the record and the problem).
     #[error("corrupt repository: {0}")]
     Corrupt(String),
+    /// One texture page changed since it was written; the other pages may still be drawn.
+    #[error(
+        "texture page {page} is damaged: checksum {stored:#010x} stored, {computed:#010x} computed"
+    )]
+    PageChecksumMismatch {
+        page: u32,
+        stored: u32,
+        computed: u32,
+    },
+    /// `TextureTable::page` called with an index past the last page.
+    #[error("texture page {index} does not exist: the repository has {count} pages")]
+    NoSuchPage { index: u32, count: u32 },
     /// `Repository::patch` called with an index past the tet table.
     #[error("tet {index} does not exist: the repository has {count} tets")]
     NoSuchTet { index: usize, count: usize },
@@ -201,6 +214,8 @@ pub struct Repository {
     codec: PatchCodec,
     /// The attribute error table (`attribute_errors.rs`), where the file has one.
     attribute_errors: Option<Range<usize>>,
+    /// The texture section (`textures.rs`), its tables checked, where the file has one.
+    textures: Option<TextureLayout>,
     /// Outcome of the one check of the id blob's checksum (the computed value on a mismatch).
     ids_checked: OnceLock<Result<(), u32>>,
     /// One bit per tet: its patch checksum was verified. Relaxed atomics: a race only verifies
@@ -281,6 +296,10 @@ impl Repository {
                 })?;
             check_attribute_errors(records, diamonds.len())?;
         }
+        let textures = match layout.textures {
+            Some((range, checksum)) => Some(check_texture_section(bytes, range, checksum)?),
+            None => None,
+        };
         let patch_verified = (0..tets.len().div_ceil(64))
             .map(|_| AtomicU64::new(0))
             .collect();
@@ -294,6 +313,7 @@ impl Repository {
             sections: layout.sections,
             codec: layout.codec,
             attribute_errors: layout.attribute_errors,
+            textures,
             ids_checked: OnceLock::new(),
             patch_verified,
             storage,
@@ -537,6 +557,13 @@ impl Repository {
     /// both blobs.
     pub fn validate_patches(&self) -> Result<(), RepositoryError> {
         (0..self.tets().len()).try_for_each(|i| self.patch(i).map(drop))
+    }
+
+    /// The repository's textures (`textures.rs`): shapes and bands checked on open, each page
+    /// checked on first read; `None` where the repository has no texture section.
+    pub fn textures(&self) -> Option<TextureTable<'_>> {
+        let layout = self.textures.as_ref()?;
+        Some(TextureTable::new(self.storage.bytes(), layout))
     }
 
     /// Size of the file in bytes.

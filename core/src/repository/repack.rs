@@ -17,6 +17,7 @@ use super::grid::{coarsen_patch, coarsened_directory};
 use super::packed::{pack_patch, StripCoding};
 use super::reader::{Repository, RepositoryError};
 use super::streamed_writer::{write_repository_streamed, BlobFeed, RepositoryDirectory};
+use super::textures::TextureDirectory;
 
 /// The stored bytes of tet `i`'s patch under `codec`, its positions on the grid `shifts`
 /// coarser (`grid.rs`), appended to `out`.
@@ -105,6 +106,11 @@ pub fn repack_on_grid(
         tets,
         codec,
         attribute_errors: source.attribute_errors().map(<[_]>::to_vec),
+        // The textures are carried as they are, each page checked as it is copied.
+        textures: source.textures().map(|t| TextureDirectory {
+            shapes: t.shapes(),
+            bands: t.bands(),
+        }),
     };
     let mut feed = Feed {
         source,
@@ -140,6 +146,17 @@ impl BlobFeed for Feed<'_> {
         // In range: the reader checked every id range against the id blob.
         let start = t.id_offset as usize;
         out.extend_from_slice(&self.source.id_blob()[start..start + t.id_bytes as usize]);
+        Ok(())
+    }
+
+    fn texture_page(&mut self, global: u32, out: &mut Vec<u8>) -> io::Result<()> {
+        let textures = self.source.textures().ok_or_else(|| {
+            io::Error::other("texture page asked of a repository without textures")
+        })?;
+        let page = textures
+            .page(global)
+            .map_err(|e| io::Error::new(io::ErrorKind::InvalidData, e))?;
+        out.extend_from_slice(page);
         Ok(())
     }
 }

@@ -16,10 +16,12 @@ use super::format::{
     patch_checksum, AttributeErrorRecord, DiamondRecord, Header, PatchCodec, SectionEntry,
     TetRecord, HEADER_SIZE, SECTION_ATTRIBUTE_ERRORS, SECTION_CODED_STRIPS, SECTION_DIAMONDS,
     SECTION_ENTRY_SIZE, SECTION_IDS, SECTION_PACKED_PATCHES, SECTION_PACKED_STRIPS,
-    SECTION_PATCHES, SECTION_TETS,
+    SECTION_PATCHES, SECTION_TETS, SECTION_TEXTURES,
 };
 use super::reader::{corrupt, RepositoryError};
+use super::textures::{page_checksum, TextureDirectory};
 use super::writer::{lay_out_directory, write_atomically, Tables};
+use crate::texture::PAGE_BYTES;
 
 /// The in-memory part of a repository written by `write_repository_streamed`.
 #[derive(Clone, Debug, PartialEq)]
@@ -34,6 +36,9 @@ pub struct RepositoryDirectory {
     pub codec: PatchCodec,
     /// As `RepositoryContents::attribute_errors`.
     pub attribute_errors: Option<Vec<AttributeErrorRecord>>,
+    /// The textures' shapes and bands, whose pages are fed (`BlobFeed::texture_page`) into a
+    /// texture section after every other section; `None`: no texture section.
+    pub textures: Option<TextureDirectory>,
 }
 
 /// Gives the writer each tet's bytes, in table order.
@@ -42,6 +47,14 @@ pub trait BlobFeed {
     fn patch(&mut self, tet: usize, out: &mut Vec<u8>) -> io::Result<()>;
     /// Appends tet `tet`'s global id stream (its `id_bytes` bytes) to `out`.
     fn ids(&mut self, tet: usize, out: &mut Vec<u8>) -> io::Result<()>;
+    /// Appends texture page `global` (`PAGE_BYTES` bytes) to `out`; asked in page order, once
+    /// each, only of a directory with textures (a feed without pages need not say more).
+    fn texture_page(&mut self, global: u32, out: &mut Vec<u8>) -> io::Result<()> {
+        let _ = out;
+        Err(io::Error::other(format!(
+            "texture page {global} asked of a feed that has no texture pages"
+        )))
+    }
 }
 
 /// Writes a repository to `path` atomically (temporary name, fsync, rename, as
@@ -60,8 +73,9 @@ pub fn write_repository_streamed(
         diamonds: &directory.diamonds,
         tets: &directory.tets,
         attribute_errors: directory.attribute_errors.as_deref(),
+        textures: directory.textures.as_ref(),
     };
-    let (header, entries) = lay_out_directory(&directory.header, tables, blobs, 0)?;
+    let (header, entries) = lay_out_directory(&directory.header, tables, blobs, [0; 2])?;
     write_atomically(path, &mut |file| {
         write_streamed(file, &header, entries.clone(), directory, feed)
     })
@@ -106,6 +120,7 @@ fn write_streamed(
     out.write_all(&vec![0u8; directory_bytes])?;
     let mut at = directory_bytes as u64;
     let mut ids_hash = crc32fast::Hasher::new();
+    let mut textures_checksum = 0;
     let mut buffer = Vec::new();
     for entry in &entries {
         out.write_all(&ZEROS[..(entry.offset - at) as usize])?;
@@ -152,6 +167,10 @@ fn write_streamed(
                     out.write_all(&buffer)?;
                 }
             }
+            SECTION_TEXTURES => {
+                let textures = directory.textures.as_ref().expect("laid out with textures");
+                textures_checksum = write_pages(&mut out, entry.offset, textures, feed)?;
+            }
             kind => unreachable!("section kind {kind} is not laid out"),
         }
         at = entry.offset + entry.bytes;
@@ -160,8 +179,12 @@ fn write_streamed(
     drop(out);
     let ids_checksum = ids_hash.finalize();
     let mut header = *header;
-    if let Some(ids) = entries.iter_mut().find(|e| e.kind == SECTION_IDS) {
-        ids.checksum = ids_checksum;
+    for e in entries.iter_mut() {
+        match e.kind {
+            SECTION_IDS => e.checksum = ids_checksum,
+            SECTION_TEXTURES => e.checksum = textures_checksum,
+            _ => {}
+        }
     }
     header.checksum = 0;
     let mut head = bytemuck::bytes_of(&header).to_vec();
@@ -171,6 +194,40 @@ fn write_streamed(
     file.seek(SeekFrom::Start(0))?;
     file.write_all(&head)?;
     Ok(at)
+}
+
+/// Writes the texture section at file offset `offset`: its tables with the checksums left 0,
+/// each fed page, then (seeking back) the page checksums. Returns the CRC-32 of the tables.
+/// One page is held at a time.
+fn write_pages(
+    out: &mut BufWriter<&mut File>,
+    offset: u64,
+    textures: &TextureDirectory,
+    feed: &mut dyn BlobFeed,
+) -> io::Result<u32> {
+    let pages = textures.page_count() as u32;
+    let mut checksums = vec![0u32; pages as usize];
+    let tables = textures.tables(&checksums);
+    out.write_all(&tables)?;
+    let mut page = Vec::with_capacity(PAGE_BYTES);
+    for (global, checksum) in checksums.iter_mut().enumerate() {
+        page.clear();
+        feed.texture_page(global as u32, &mut page)?;
+        if page.len() != PAGE_BYTES {
+            return Err(mismatch(format!(
+                "texture page {global}: {} bytes fed, a page is {PAGE_BYTES}",
+                page.len()
+            )));
+        }
+        *checksum = page_checksum(&page);
+        out.write_all(&page)?;
+    }
+    let tables = textures.tables(&checksums);
+    let end = out.stream_position()?;
+    out.seek(SeekFrom::Start(offset))?;
+    out.write_all(&tables)?;
+    out.seek(SeekFrom::Start(end))?;
+    Ok(crc32fast::hash(&tables))
 }
 
 fn mismatch(what: String) -> io::Error {

@@ -1,5 +1,5 @@
 //! The writer: lays out header, section table, diamond table, tet table, patch blob, id blob
-//! and, when there is one, the attribute error table (in that order, each section 8-aligned), fills the header's bookkeeping fields, the
+//! and, when there are, the attribute error table and the texture section (in that order, each section 8-aligned), fills the header's bookkeeping fields, the
 //! section table, every patch's checksum and the checksums, and writes the file through a
 //! temporary file, fsync and a rename. Mirrors `reader.rs`: whatever it writes, `Repository`
 //! opens.
@@ -15,10 +15,11 @@ use super::format::{
     align8, compute_checksum, patch_checksum, AttributeErrorRecord, DiamondRecord, Header,
     PatchCodec, SectionEntry, TetRecord, ATTRIBUTE_ERROR_RECORD_SIZE, DIAMOND_RECORD_SIZE,
     FORMAT_VERSION, HEADER_SIZE, MAGIC, SECTION_ATTRIBUTE_ERRORS, SECTION_DIAMONDS,
-    SECTION_ENTRY_SIZE, SECTION_FLAG_OPTIONAL, SECTION_IDS, SECTION_TETS, TET_RECORD_SIZE,
-    WRITTEN_SECTIONS,
+    SECTION_ENTRY_SIZE, SECTION_FLAG_OPTIONAL, SECTION_IDS, SECTION_TETS, SECTION_TEXTURES,
+    TET_RECORD_SIZE, WRITTEN_SECTIONS,
 };
 use super::reader::RepositoryError;
+use super::textures::{TextureContents, TextureDirectory};
 
 /// Everything a repository holds.
 #[derive(Clone, Debug, PartialEq)]
@@ -44,17 +45,22 @@ pub struct RepositoryContents {
     pub attribute_errors: Option<Vec<AttributeErrorRecord>>,
 }
 
-/// What `lay_out` computed: the header and section table as written, and the tets with their
-/// patch checksums.
+/// What `lay_out` computed: the header and section table as written, the tets with their
+/// patch checksums and the texture section's bytes.
 struct Laid {
     header: Header,
     entries: Vec<SectionEntry>,
     tets: Vec<TetRecord>,
+    textures: Option<Vec<u8>>,
 }
 
 /// Fills the writer's header fields, the section table and the patch checksums, and validates
 /// the contents as the reader would, so an invalid repository is never written.
-fn lay_out(contents: &RepositoryContents) -> Result<Laid, RepositoryError> {
+fn lay_out(
+    contents: &RepositoryContents,
+    textures: Option<&TextureContents>,
+) -> Result<Laid, RepositoryError> {
+    let section = textures.map(TextureContents::section).transpose()?;
     let mut tets = contents.tets.clone();
     let blobs = BlobSizes {
         patches: contents.patch_blob.len() as u64,
@@ -67,19 +73,30 @@ fn lay_out(contents: &RepositoryContents) -> Result<Laid, RepositoryError> {
         diamonds: &contents.diamonds,
         tets,
         attribute_errors,
+        textures: textures.map(|t| &t.directory),
     };
-    let (header, _) = lay_out_directory(&contents.header, tables(&contents.tets), blobs, 0)?;
+    let (header, _) = lay_out_directory(&contents.header, tables(&contents.tets), blobs, [0; 2])?;
     for t in &mut tets {
         let start = t.patch_offset as usize;
         t.patch_checksum =
             patch_checksum(&contents.patch_blob[start..start + t.patch_bytes as usize]);
     }
     let ids_checksum = crc32fast::hash(&contents.id_blob);
-    let (header, entries) = lay_out_directory(&header, tables(&tets), blobs, ids_checksum)?;
+    // The texture section's checksum covers its tables, the bytes before its pages.
+    let textures_checksum = match (&section, textures) {
+        (Some(bytes), Some(t)) => {
+            let pages = t.directory.page_count() as usize * crate::texture::PAGE_BYTES;
+            crc32fast::hash(&bytes[..bytes.len() - pages])
+        }
+        _ => 0,
+    };
+    let checksums = [ids_checksum, textures_checksum];
+    let (header, entries) = lay_out_directory(&header, tables(&tets), blobs, checksums)?;
     Ok(Laid {
         header,
         entries,
         tets,
+        textures: section,
     })
 }
 
@@ -91,24 +108,28 @@ pub(super) struct Tables<'a> {
     pub tets: &'a [TetRecord],
     /// The optional attribute error table: a section after the id blob when present.
     pub attribute_errors: Option<&'a [AttributeErrorRecord]>,
+    /// The optional texture section: the last section when present.
+    pub textures: Option<&'a TextureDirectory>,
 }
 
 /// The header as written (magic, version, counts, checksum filled) and the section table for
-/// these tables and blob sizes, after the reader's header and table checks; `ids_checksum` is
-/// the id blob's CRC-32.
+/// these tables and blob sizes, after the reader's header and table checks; `checksums` are
+/// the id blob's CRC-32 and the texture section's (of its tables; 0 without one).
 pub(super) fn lay_out_directory(
     header: &Header,
     tables: Tables,
     blobs: BlobSizes,
-    ids_checksum: u32,
+    [ids_checksum, textures_checksum]: [u32; 2],
 ) -> Result<(Header, Vec<SectionEntry>), RepositoryError> {
     let Tables {
         diamonds,
         tets,
         attribute_errors,
+        textures,
     } = tables;
     let overflow = || RepositoryError::Corrupt("sections overflow a u64 file offset".into());
-    let section_count = WRITTEN_SECTIONS + attribute_errors.is_some() as usize;
+    let section_count =
+        WRITTEN_SECTIONS + attribute_errors.is_some() as usize + textures.is_some() as usize;
     let mut h = *header;
     h.magic = MAGIC;
     h.version = FORMAT_VERSION;
@@ -134,6 +155,10 @@ pub(super) fn lay_out_directory(
         let bytes = records.len() as u64 * ATTRIBUTE_ERROR_RECORD_SIZE as u64;
         sizes.push((SECTION_ATTRIBUTE_ERRORS, bytes));
     }
+    if let Some(textures) = textures {
+        textures.check()?;
+        sizes.push((SECTION_TEXTURES, textures.section_bytes()));
+    }
     let mut at = (HEADER_SIZE + section_count * SECTION_ENTRY_SIZE) as u64;
     let mut entries = vec![SectionEntry::default(); section_count];
     for (entry, (kind, bytes)) in entries.iter_mut().zip(sizes) {
@@ -143,13 +168,14 @@ pub(super) fn lay_out_directory(
             SECTION_DIAMONDS => crc32fast::hash(bytemuck::cast_slice(diamonds)),
             SECTION_TETS => crc32fast::hash(bytemuck::cast_slice(tets)),
             SECTION_IDS => ids_checksum,
+            SECTION_TEXTURES => textures_checksum,
             SECTION_ATTRIBUTE_ERRORS => {
                 crc32fast::hash(bytemuck::cast_slice(attribute_errors.unwrap_or_default()))
             }
             _ => 0,
         };
         let flags = match kind {
-            SECTION_ATTRIBUTE_ERRORS => SECTION_FLAG_OPTIONAL,
+            SECTION_ATTRIBUTE_ERRORS | SECTION_TEXTURES => SECTION_FLAG_OPTIONAL,
             _ => 0,
         };
         *entry = SectionEntry {
@@ -185,6 +211,7 @@ fn write_laid_out<W: Write>(
             SECTION_ATTRIBUTE_ERRORS => {
                 bytemuck::cast_slice(contents.attribute_errors.as_deref().unwrap_or_default())
             }
+            SECTION_TEXTURES => laid.textures.as_deref().unwrap_or_default(),
             _ => &contents.patch_blob,
         };
         w.write_all(&ZEROS[..(entry.offset - at) as usize])?;
@@ -204,7 +231,20 @@ fn write_laid_out<W: Write>(
 /// `RepositoryError`, before anything is written. Patch strips and id streams are not
 /// re-checked (`encode_patch` writes them correctly by construction).
 pub fn write_repository<W: Write>(w: W, contents: &RepositoryContents) -> io::Result<u64> {
-    let laid = lay_out(contents).map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e))?;
+    write_repository_textured(w, contents, None)
+}
+
+/// `write_repository` with a texture section (`textures.rs`) after the other sections when
+/// `textures` is given: its page checksums computed, its tables checked as the reader would
+/// (shapes, page counts, bands) before anything is written. The pages are held whole: a
+/// build streams them instead (`write_repository_streamed`).
+pub fn write_repository_textured<W: Write>(
+    w: W,
+    contents: &RepositoryContents,
+    textures: Option<&TextureContents>,
+) -> io::Result<u64> {
+    let laid =
+        lay_out(contents, textures).map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e))?;
     write_laid_out(w, &laid, contents)
 }
 
@@ -287,7 +327,7 @@ pub fn write_repository_file(
     path: &Path,
     contents: &RepositoryContents,
 ) -> Result<u64, RepositoryError> {
-    let laid = lay_out(contents)?;
+    let laid = lay_out(contents, None)?;
     write_atomically(path, &mut |file| {
         let mut out = BufWriter::new(file);
         let bytes = write_laid_out(&mut out, &laid, contents)?;

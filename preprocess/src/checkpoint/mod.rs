@@ -117,6 +117,11 @@ pub fn manifest_for(input: Fingerprint, config: &BuildConfig) -> Manifest {
     // The finished patches in the checkpoint are stored as this codec says.
     flag("codec", format!("{:?}", config.codec));
     flag("position_bits", config.position_bits.to_string());
+    // The pages are made from the textures' bytes when the file is written: a resume with
+    // other textures would not give the bytes its checkpoint's build began.
+    if let Some(textures) = &config.textures {
+        flag("textures", crate::texture::fingerprint(textures));
+    }
     let s = &config.simplify;
     flag("simplify.keep", s.keep.to_string());
     flag("simplify.normal_weight", s.normal_weight.to_string());
