@@ -12,6 +12,12 @@
 //!   busy keeps its bits for the next), mapped without waiting like the streaming feedback
 //!   (`feedback.rs`); `update` reads what has arrived, a frame or two late.
 //!
+//! On wgpu's GL backend a layer is never reused: a page written into a layer that an earlier
+//! frame had sampled did not show on llvmpipe GL (the frame kept sampling the old page; by
+//! `queue.write_texture` and by a buffer copy alike, the page table right; cause not found),
+//! so there the pool fills once and requests beyond it are refused: those pixels draw the
+//! finest resident coarser level (correct, blurrier) instead of a wrong page.
+//!
 //! Budget rule (`layers_for`): with a GPU budget, the pool, table, info and request buffers
 //! take at most a quarter of it (the rest is the geometry's), at most every page, at least the
 //! pinned pages plus `MIN_FREE_LAYERS` (or every page, if fewer), else `BudgetTooSmall` names
@@ -22,7 +28,7 @@ use std::sync::Arc;
 
 use tessera_core::texture::PAGE_SIDE;
 
-use super::device::{GpuContext, GpuFailure};
+use super::device::{Backend, GpuContext, GpuFailure};
 use super::texture_pages::{
     page_mips, PageSource, TextureError, TextureLayout, LAYER_BYTES, PAGE_MIPS,
 };
@@ -129,6 +135,46 @@ pub fn layers_for(
     Ok(layers.min(limit))
 }
 
+/// The textures' bind group (texture.wgsl's group 2) over a new view of the pool.
+fn bind(
+    device: &wgpu::Device,
+    layout: &wgpu::BindGroupLayout,
+    pool: &wgpu::Texture,
+    sampler: &wgpu::Sampler,
+    [info, table, requests]: [&wgpu::Buffer; 3],
+) -> wgpu::BindGroup {
+    let view = pool.create_view(&wgpu::TextureViewDescriptor {
+        dimension: Some(wgpu::TextureViewDimension::D2Array),
+        ..Default::default()
+    });
+    device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("textures"),
+        layout,
+        entries: &[
+            wgpu::BindGroupEntry {
+                binding: 0,
+                resource: wgpu::BindingResource::TextureView(&view),
+            },
+            wgpu::BindGroupEntry {
+                binding: 1,
+                resource: wgpu::BindingResource::Sampler(sampler),
+            },
+            wgpu::BindGroupEntry {
+                binding: 2,
+                resource: info.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 3,
+                resource: table.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 4,
+                resource: requests.as_entire_binding(),
+            },
+        ],
+    })
+}
+
 /// Ok, or what the adapter lacks to draw textures.
 fn check_device(ctx: &GpuContext, layout: &TextureLayout) -> Result<(), TextureError> {
     let flags = ctx.adapter.get_downlevel_capabilities().flags;
@@ -144,7 +190,7 @@ fn check_device(ctx: &GpuContext, layout: &TextureLayout) -> Result<(), TextureE
         )));
     }
     let bytes = table_bytes(layout);
-    let limit = ctx.limits.max_storage_buffer_binding_size as u64;
+    let limit = ctx.limits.max_storage_buffer_binding_size;
     if bytes > limit {
         return Err(TextureError::OverBindingLimit { bytes, limit });
     }
@@ -223,10 +269,6 @@ impl TextureCache {
             mipmap_filter: wgpu::MipmapFilterMode::Linear,
             ..Default::default()
         });
-        let view = pool.create_view(&wgpu::TextureViewDescriptor {
-            dimension: Some(wgpu::TextureViewDimension::D2Array),
-            ..Default::default()
-        });
         let fragment = wgpu::ShaderStages::FRAGMENT;
         let storage = |binding, read_only| wgpu::BindGroupLayoutEntry {
             binding,
@@ -262,32 +304,13 @@ impl TextureCache {
                 storage(4, false),
             ],
         });
-        let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("textures"),
-            layout: &group_layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: wgpu::BindingResource::TextureView(&view),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: wgpu::BindingResource::Sampler(&sampler),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: info.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 3,
-                    resource: table.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 4,
-                    resource: requests.as_entire_binding(),
-                },
-            ],
-        });
+        let group = bind(
+            device,
+            &group_layout,
+            &pool,
+            &sampler,
+            [&info, &table, &requests],
+        );
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(GpuFailure(format!(
                 "allocating {} bytes of texture pages: {e}",
@@ -296,7 +319,8 @@ impl TextureCache {
             .into());
         }
         let cache = TextureCache {
-            residency: PageResidency::new(layers, &pinned),
+            // GL: see the module's note on reuse.
+            residency: PageResidency::new(layers, &pinned, ctx.backend != Backend::Gl),
             source,
             layout,
             pool,
@@ -345,9 +369,44 @@ impl TextureCache {
                 ),
             });
         }
-        for (mip, bytes) in page_mips(&texels).iter().enumerate() {
+        // Through a buffer copy, rows padded to the copy alignment.
+        use wgpu::util::DeviceExt;
+        let mips = page_mips(&texels);
+        let row = |side: u32| (side * 4).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
+        let mut staged = Vec::new();
+        let mut offsets = Vec::new();
+        for (mip, bytes) in mips.iter().enumerate() {
             let side = PAGE_SIDE >> mip;
-            ctx.queue.write_texture(
+            offsets.push(staged.len() as u64);
+            for r in 0..side as usize {
+                let line = &bytes[r * side as usize * 4..][..side as usize * 4];
+                staged.extend_from_slice(line);
+                staged.resize(staged.len() + (row(side) - side * 4) as usize, 0);
+            }
+        }
+        let buffer = ctx
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("texture page upload"),
+                contents: &staged,
+                usage: wgpu::BufferUsages::COPY_SRC,
+            });
+        let mut encoder = ctx
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("texture page upload"),
+            });
+        for (mip, &offset) in offsets.iter().enumerate() {
+            let side = PAGE_SIDE >> mip;
+            encoder.copy_buffer_to_texture(
+                wgpu::TexelCopyBufferInfo {
+                    buffer: &buffer,
+                    layout: wgpu::TexelCopyBufferLayout {
+                        offset,
+                        bytes_per_row: Some(row(side)),
+                        rows_per_image: Some(side),
+                    },
+                },
                 wgpu::TexelCopyTextureInfo {
                     texture: &self.pool,
                     mip_level: mip as u32,
@@ -358,12 +417,6 @@ impl TextureCache {
                     },
                     aspect: wgpu::TextureAspect::All,
                 },
-                bytes,
-                wgpu::TexelCopyBufferLayout {
-                    offset: 0,
-                    bytes_per_row: Some(side * 4),
-                    rows_per_image: Some(side),
-                },
                 wgpu::Extent3d {
                     width: side,
                     height: side,
@@ -371,6 +424,7 @@ impl TextureCache {
                 },
             );
         }
+        ctx.queue.submit([encoder.finish()]);
         ctx.queue.write_buffer(
             &self.table,
             page as u64 * 4,

@@ -175,7 +175,8 @@ impl TextureLayout {
         let b = [ddy[0] * w, ddy[1] * h];
         let rho2 = (a[0] * a[0] + a[1] * a[1]).max(b[0] * b[0] + b[1] * b[1]);
         let lod = 0.5 * rho2.log2();
-        if !(lod >= 1.0) {
+        // lod < 1, and NaN (ρ² = 0 gives −∞), draw level 0; texture.wgsl: !(lod >= 1.0).
+        if lod.partial_cmp(&1.0).is_none_or(|o| o.is_lt()) {
             return 0;
         }
         (lod.floor() as u32).min(s.levels() - 1)
@@ -268,9 +269,7 @@ pub fn halve(texels: &[u8], w: u32, h: u32) -> (Vec<u8>, u32, u32) {
                 }
                 sum[3] += texels[at + 3] as f32 / 255.0;
             }
-            for c in 0..3 {
-                out.push(linear_to_srgb(sum[c] / 4.0));
-            }
+            out.extend(sum[..3].iter().map(|&c| linear_to_srgb(c / 4.0)));
             out.push((sum[3] / 4.0 * 255.0 + 0.5) as u8);
         }
     }
