@@ -411,3 +411,104 @@ fn bands_without_texture_draw_as_without_textures() {
         ctx.check().unwrap();
     }
 }
+
+/// (e) Streaming under `--gpu-budget`: the texture cache takes at most a quarter of the
+/// budget (`layers_for`), a budget too small for the pinned pages and 16 more is refused
+/// naming it, and the streamed frames draw the expected texels once settled.
+#[test]
+fn streaming_under_a_budget_counts_the_pages() {
+    use tessera_runtime::gpu::texture_cache::cache_bytes;
+    use tessera_runtime::gpu::texture_pages::TextureError;
+    use tessera_runtime::gpu::{GpuStreamer, Readback, StreamError};
+    let mut mesh = InputMesh::default();
+    square(&mut mesh, [0.0, 1.0, 0.0, 1.0], 64, |x, y| {
+        [(0.3 + x * 0.25) as f32, (0.3 + (1.0 - y) * 0.25) as f32]
+    });
+    let built = built(&mesh);
+    let repo = Arc::new(
+        tessera_core::repository::reader::Repository::open(built.dir.path().join("model.tsr"))
+            .unwrap(),
+    );
+    let band = Band {
+        start: 0,
+        span: 1,
+        shift: 0,
+        texture: 0,
+    };
+    let pages: Arc<dyn PageSource> =
+        Arc::new(MemoryPages::new(&[blocks(4, 1024, Wrap::Repeat)], &[band]).unwrap());
+    let layout = TextureLayout::new(pages.shapes(), pages.bands()).unwrap();
+    let options = |budget| RendererOptions {
+        width: SIZE,
+        height: SIZE,
+        budget_bytes: budget,
+        ..Default::default()
+    };
+    for backend in BACKENDS {
+        let ctx = gpu_on(backend);
+        for budget in [8u64 << 20, 64 << 20] {
+            let layers = layers_for(&ctx, &layout, Some(budget)).unwrap();
+            assert!(
+                cache_bytes(&layout, layers) <= budget / 4 && layers >= 17,
+                "{budget}: {layers}"
+            );
+        }
+        assert_eq!(
+            layers_for(&ctx, &layout, Some(64 << 20)).unwrap(),
+            layout.total_pages()
+        );
+        let small = GpuStreamer::with_textures(
+            &ctx,
+            repo.clone(),
+            options(1 << 20),
+            256 << 10,
+            Some(pages.clone()),
+        );
+        match small {
+            Err(StreamError::Textures(e @ TextureError::BudgetTooSmall { budget, .. })) => {
+                assert_eq!(budget, 1 << 20);
+                assert!(
+                    e.to_string().contains("--gpu-budget of 1048576 bytes"),
+                    "{e}"
+                );
+            }
+            Err(e) => panic!("{backend:?}: {e}"),
+            Ok(_) => panic!("{backend:?}: a 1 MiB budget was accepted"),
+        }
+        let (mut renderer, mut streamer) = GpuStreamer::with_textures(
+            &ctx,
+            repo.clone(),
+            options(32 << 20),
+            256 << 10,
+            Some(pages.clone()),
+        )
+        .unwrap();
+        let readback = Readback {
+            image: true,
+            selection: false,
+        };
+        for _ in 0..40 {
+            streamer
+                .frame(&ctx, &mut renderer, &request(ShadingMode::Color), readback)
+                .unwrap();
+            ctx.wait_idle().unwrap();
+        }
+        let image = renderer.read_image(&ctx).unwrap();
+        let what = format!("{backend:?} streamed");
+        let checked = check_texels(&image, &what, |x, y| {
+            expected(
+                4,
+                1024,
+                Wrap::Repeat,
+                0.3 + x * 0.25,
+                0.3 + (1.0 - y) * 0.25,
+            )
+        });
+        assert!(checked > 10_000, "{what}: {checked} pixels checked");
+        assert!(
+            renderer.textures().unwrap().resident() > 1,
+            "{what}: pages were loaded"
+        );
+        ctx.check().unwrap();
+    }
+}
