@@ -50,6 +50,7 @@ struct VertexOut {
     @location(1) normal: vec3<f32>,
     @location(2) colour: vec3<f32>,
     @location(3) @interpolate(flat) simplex: u32,
+    @location(4) uv: vec2<f32>,   // shifted texture coordinate (texture.wgsl); 0 without
 }
 
 // tessera_core::repository::format::oct_decode_normal.
@@ -108,6 +109,7 @@ fn vs_main(@builtin(vertex_index) vertex: u32) -> VertexOut {
     out.simplex = simplex;
     out.normal = vec3<f32>(0.0);
     out.colour = PLAIN_COLOUR;
+    out.uv = vec2<f32>(0.0);
     if a == NO_INDEX || b == NO_INDEX || c == NO_INDEX || a == b || b == c || a == c {
         // Nothing to draw: all three corners at one point, a zero-area triangle. The point is
         // inside the clip volume (on the far plane): a vertex outside it would send the whole
@@ -131,6 +133,7 @@ fn pull_vertex(out: ptr<function, VertexOut>, base_vertex: u32, n: u32, local_in
     (*out).eye_relative = eye_relative;
     (*out).normal = vec3<f32>(0.0);
     (*out).colour = PLAIN_COLOUR;
+    (*out).uv = vec2<f32>(0.0);
     // The attribute arrays follow the positions, one u32 per vertex each (patch.rs).
     var word = 2u * (base_vertex + n) + local_index;
     let attributes = page_draw.attributes; // not frame.counts.w: see `page_draw`
@@ -140,6 +143,12 @@ fn pull_vertex(out: ptr<function, VertexOut>, base_vertex: u32, n: u32, local_in
     }
     if (attributes & ATTR_COLORS) != 0u {
         (*out).colour = unpack4x8unorm(page[word]).rgb;
+        word += n;
+    }
+    if (attributes & ATTR_UVS) != 0u {
+        // Two words a vertex: the array starts at word - local_index.
+        let at = word + local_index;
+        (*out).uv = vec2<f32>(bitcast<f32>(page[at]), bitcast<f32>(page[at + 1u]));
     }
 }
 
@@ -338,6 +347,7 @@ fn vs_skirt(@location(0) q: vec3<i32>) -> VertexOut {
     out.normal = vec3<f32>(0.0);
     out.colour = PLAIN_COLOUR;
     out.simplex = 0u;
+    out.uv = vec2<f32>(0.0);
     return out;
 }
 

@@ -121,3 +121,4 @@ const CULL_CONES: u32 = 2u;
 const SHADE_FACES: u32 = 4u;  // frame.counts.y: lit with face normals only (`--flat`)
 const ATTR_NORMALS: u32 = 1u;
 const ATTR_COLORS: u32 = 2u;
+const ATTR_UVS: u32 = 4u;

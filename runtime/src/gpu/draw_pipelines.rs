@@ -24,6 +24,8 @@ pub struct DrawPipelines {
     /// attributes.
     lit: &'static str,
     check_front: &'static str,
+    /// The color mode's fragment entry point: `fs_main`, or the textured one.
+    colour: &'static str,
     wireframe: bool,
     made: [OnceLock<wgpu::RenderPipeline>; PASSES],
 }
@@ -45,6 +47,10 @@ pub enum Pass {
     /// `Fill` and `FillFront` in the lit mode, reading only the model's attributes.
     FillLit,
     FillFrontLit,
+    /// `Fill` and `FillFront` in the color mode: `fs_main` (as `Fill`), or with textures the
+    /// textured albedo.
+    FillColour,
+    FillFrontColour,
     /// The check's first pass: front faces only, grey.
     CheckFront,
     /// The check's second pass: back faces only, flag colour where no front face is.
@@ -68,24 +74,36 @@ impl DrawPipelines {
 }
 
 impl DrawPipelines {
-    /// `layouts`: group 0 (frame, tables, selection lists) and group 1 (page); `module`:
-    /// draw.wgsl; `vertex`: its vertex entry point (`vs_indexed` for the indexed draw,
-    /// `vs_main` for vertex pulling); `attributes`: the model's (`ATTR_*`); `wireframe`: the
-    /// adapter has line polygon mode.
+    /// `layouts`: group 0 (frame, tables, selection lists), group 1 (page) and, textured,
+    /// group 2 (`texture_cache.rs`); `module`: draw.wgsl (textured: with texture.wgsl);
+    /// `vertex`: its vertex entry point (`vs_indexed` for the indexed draw, `vs_main` for
+    /// vertex pulling); `attributes`: the model's (`ATTR_*`); `wireframe`: the adapter has
+    /// line polygon mode. Three layouts make the lit and color fills textured.
     pub fn new(
         device: &wgpu::Device,
-        layouts: &[&wgpu::BindGroupLayout; 2],
+        layouts: &[&wgpu::BindGroupLayout],
         module: &wgpu::ShaderModule,
         vertex: &'static str,
         attributes: u32,
         wireframe: bool,
     ) -> DrawPipelines {
         let normals = attributes & ATTR_NORMALS != 0;
-        let lit = match (normals, attributes & ATTR_COLORS != 0) {
-            (false, false) => "fs_lit",
-            (true, false) => "fs_lit_normals",
-            (false, true) => "fs_lit_colours",
-            (true, true) => "fs_lit_normals_colours",
+        let colours = attributes & ATTR_COLORS != 0;
+        let textured = layouts.len() == 3;
+        let lit = match (normals, colours, textured) {
+            (false, false, false) => "fs_lit",
+            (true, false, false) => "fs_lit_normals",
+            (false, true, false) => "fs_lit_colours",
+            (true, true, false) => "fs_lit_normals_colours",
+            (false, false, true) => "fs_lit_textured",
+            (true, false, true) => "fs_lit_normals_textured",
+            (false, true, true) => "fs_lit_colours_textured",
+            (true, true, true) => "fs_lit_normals_colours_textured",
+        };
+        let colour = match (colours, textured) {
+            (_, false) => "fs_main",
+            (false, true) => "fs_colour_textured",
+            (true, true) => "fs_colour_colours_textured",
         };
         let check_front = if normals {
             "fs_check_front_normals"
@@ -94,7 +112,7 @@ impl DrawPipelines {
         };
         let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("draw"),
-            bind_group_layouts: &[Some(layouts[0]), Some(layouts[1])],
+            bind_group_layouts: &layouts.iter().map(|&l| Some(l)).collect::<Vec<_>>(),
             immediate_size: 0,
         });
         DrawPipelines {
@@ -104,13 +122,14 @@ impl DrawPipelines {
             vertex,
             lit,
             check_front,
+            colour,
             wireframe,
             made: Default::default(),
         }
     }
 
     fn make(&self, pass: Pass) -> wgpu::RenderPipeline {
-        let (lit, check_front) = (self.lit, self.check_front);
+        let (lit, check_front, colour) = (self.lit, self.check_front, self.colour);
         let (device, layout, module, vertex) =
             (&self.device, &self.layout, &self.module, self.vertex);
         let (entry_point, cull_mode, depth_write, depth_compare) = match pass {
@@ -125,6 +144,13 @@ impl DrawPipelines {
             Pass::FillLit => (lit, None, true, wgpu::CompareFunction::GreaterEqual),
             Pass::FillFrontLit => (
                 lit,
+                Some(wgpu::Face::Back),
+                true,
+                wgpu::CompareFunction::GreaterEqual,
+            ),
+            Pass::FillColour => (colour, None, true, wgpu::CompareFunction::GreaterEqual),
+            Pass::FillFrontColour => (
+                colour,
                 Some(wgpu::Face::Back),
                 true,
                 wgpu::CompareFunction::GreaterEqual,

@@ -17,7 +17,11 @@
 //! - streaming (GPU memory as a cache of the mapped repository): `stream_pool` (the page pool
 //!   and its allocator), `stream_budget` (every allocation counted, the pool the budget buys),
 //!   `feedback` (the traversal's refined and wanted lists, read back through a ring),
-//!   `streamer` (the per-frame loop: land loads, flags, render, feedback, plan).
+//!   `streamer` (the per-frame loop: land loads, flags, render, feedback, plan);
+//! - textures as pages (virtual texturing): `texture_pages` (`PageSource`, the tables and the
+//!   CPU mirror of texture.wgsl), `texture_residency` (which pages are in the pool),
+//!   `texture_cache` (pool, page table, request bits and their read-back, the budget rule),
+//!   `texture_memory` (a `PageSource` in memory).
 
 pub mod compact;
 pub mod device;
@@ -38,12 +42,17 @@ pub mod stream_pool;
 pub mod stream_report;
 pub mod streamer;
 pub mod target;
+pub mod texture_cache;
+pub mod texture_memory;
+pub mod texture_pages;
+pub mod texture_residency;
 pub mod timing;
 pub mod traversal;
 
 pub use device::{Backend, DeviceError, DeviceOptions, GpuContext, GpuFailure};
 pub use frame::{ShadingMode, ALBEDO_GREY, FLAG_COLOUR};
 pub use renderer::{
-    Frame, FramePhases, FrameRequest, Readback, RenderError, Renderer, RendererOptions,
+    Frame, FramePhases, FrameRequest, Readback, RenderError, Renderer, RendererOptions, Settled,
 };
 pub use streamer::{GpuStreamStats, GpuStreamer, StreamError, StreamedGpuFrame};
+pub use texture_pages::{PageSource, TextureError};

@@ -23,6 +23,8 @@ use super::timing::FrameTimer;
 use super::traversal::Traversal;
 
 mod bindings;
+mod textures;
+pub use textures::Settled;
 
 pub(crate) use bindings::page_draw_stride;
 use bindings::{draw_groups, storage_entry, uniform_entry, SelectionBuffers};
@@ -67,6 +69,8 @@ pub struct Renderer {
     /// and the frames submitted (numbers the feedback).
     feedback: Feedback,
     frames_submitted: u64,
+    /// Textures streamed as pages (`set_textures`); `None`: drawn as without.
+    textures: Option<super::texture_cache::TextureCache>,
 }
 
 impl Renderer {
@@ -181,6 +185,7 @@ impl Renderer {
             skirts,
             feedback,
             frames_submitted: 0,
+            textures: None,
         })
     }
 
@@ -285,9 +290,15 @@ impl Renderer {
         if readback.image {
             self.target.copy_out(&mut encoder);
         }
+        if let Some(textures) = &mut self.textures {
+            textures.copy_out(&mut encoder);
+        }
         ctx.queue.submit([encoder.finish()]);
         ctx.submitted();
         self.feedback.after_submit(); // streaming
+        if let Some(textures) = &mut self.textures {
+            textures.after_submit();
+        }
         start.elapsed().as_secs_f64() * 1e3
     }
 
@@ -385,12 +396,18 @@ impl Renderer {
                     .map(|t| t.render_end(false)),
             );
             pass.set_bind_group(0, &self.draw_group, &[]);
+            if let Some(textures) = &self.textures {
+                pass.set_bind_group(2, &textures.group, &[]);
+            }
             // One face rule (see `FrameRequest::two_sided`).
-            let fill = match (request.two_sided, request.mode.is_lit()) {
-                (true, false) => Pass::Fill,
-                (false, false) => Pass::FillFront,
-                (true, true) => Pass::FillLit,
-                (false, true) => Pass::FillFrontLit,
+            let colour = request.mode == ShadingMode::Color;
+            let fill = match (request.two_sided, request.mode.is_lit(), colour) {
+                (true, _, true) => Pass::FillColour,
+                (false, _, true) => Pass::FillFrontColour,
+                (true, false, false) => Pass::Fill,
+                (false, false, false) => Pass::FillFront,
+                (true, true, false) => Pass::FillLit,
+                (false, true, false) => Pass::FillFrontLit,
             };
             let fill_and_wire = [fill, Pass::Wire];
             let passes: &[Pass] = match (request.mode, request.wireframe) {
@@ -437,6 +454,8 @@ impl Renderer {
                     }
                     Pass::Fill
                     | Pass::FillFront
+                    | Pass::FillColour
+                    | Pass::FillFrontColour
                     | Pass::FillLit
                     | Pass::FillFrontLit
                     | Pass::Wire => {}

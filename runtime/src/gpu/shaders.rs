@@ -41,6 +41,16 @@ pub fn draw_source() -> String {
     )
 }
 
+/// The draw pass with textures (`texture.wgsl` appended: the textured fill's `fs_lit*_textured`
+/// and `fs_colour*_textured` entries, their bind group 2).
+pub fn draw_textured_source() -> String {
+    format!(
+        "{}\n{}",
+        draw_source(),
+        include_str!("../../../shaders/texture.wgsl")
+    )
+}
+
 /// The position probe (`probe`): the draw pass's position functions over given positions
 /// (`position_probe`).
 pub fn position_probe_source() -> String {
@@ -69,6 +79,7 @@ mod tests {
             ("compact", super::compact_source()),
             ("expand", super::expand_source()),
             ("draw", super::draw_source()),
+            ("draw textured", super::draw_textured_source()),
             ("position probe", super::position_probe_source()),
         ] {
             let module = naga::front::wgsl::parse_str(&source)

@@ -21,6 +21,10 @@
 //! slots at first, a page at a time and slots doubling after, with the per-page fixed part
 //! following the pages (`FixedBytes::allocated`); so the roots alone cost about the same on
 //! every model whatever the budget.
+//!
+//! Textures (`GpuStreamer::with_textures`) come off the top: their cache takes at most a
+//! quarter of the budget (`texture_cache::layers_for`, which states the rule), and what is
+//! counted here is sized from the rest.
 
 use tessera_core::repository::patch::drawn_patch_bytes;
 use tessera_core::repository::reader::Repository;

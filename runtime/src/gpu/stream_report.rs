@@ -26,10 +26,23 @@ pub enum StreamError {
     Roots(tessera_core::repository::RepositoryError),
     #[error(transparent)]
     Render(#[from] RenderError),
+    /// The textures cannot be drawn (budget, adapter, a page that cannot be read).
+    #[error(transparent)]
+    Textures(super::texture_pages::TextureError),
     /// The device failed (lost, out of memory, a failed read-back): nothing more can be
     /// drawn.
     #[error("{0}")]
     Device(#[from] super::device::GpuFailure),
+}
+
+impl From<super::texture_pages::TextureError> for StreamError {
+    /// A device failure stays one (exit 3).
+    fn from(e: super::texture_pages::TextureError) -> StreamError {
+        match e {
+            super::texture_pages::TextureError::Device(failure) => StreamError::Device(failure),
+            other => StreamError::Textures(other),
+        }
+    }
 }
 
 /// What one streamed frame did.

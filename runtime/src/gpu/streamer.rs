@@ -35,6 +35,8 @@ use super::renderer::{FrameRequest, Readback, RenderError, Renderer, RendererOpt
 use super::resident::ResidentModel;
 use super::stream_budget::{fixed_bytes, largest_unit_bytes, FixedBytes};
 use super::stream_pool::{pool_model, Placement, PoolAllocator};
+use super::texture_cache::{cache_bytes, layers_for};
+use super::texture_pages::{PageSource, TextureLayout};
 use crate::stream::loader::read_unit;
 use crate::stream::{stream_frame, LoadedUnit, Loader, Residency, StreamFrame, UnitTable};
 use tessera_core::repository::format::NO_INDEX;
@@ -129,6 +131,44 @@ impl GpuStreamer {
     /// counted), the roots placed and pinned, every diamond kept from refining until its unit
     /// lands.
     pub fn new(
+        ctx: &GpuContext,
+        repo: Arc<Repository>,
+        options: RendererOptions,
+        upload_bytes_per_frame: u64,
+    ) -> Result<(Renderer, GpuStreamer), StreamError> {
+        Self::with_textures(ctx, repo, options, upload_bytes_per_frame, None)
+    }
+
+    /// `new`, the renderer drawing `textures` (`Renderer::set_textures`) when given: their
+    /// page pool, tables and request bits take their share of `options.budget_bytes`
+    /// (`texture_cache::layers_for`: at most a quarter) and the geometry the rest; each
+    /// `frame` loads the pages the frames asked for.
+    pub fn with_textures(
+        ctx: &GpuContext,
+        repo: Arc<Repository>,
+        options: RendererOptions,
+        upload_bytes_per_frame: u64,
+        textures: Option<Arc<dyn PageSource>>,
+    ) -> Result<(Renderer, GpuStreamer), StreamError> {
+        let Some(source) = textures else {
+            return Self::geometry(ctx, repo, options, upload_bytes_per_frame);
+        };
+        let layout = TextureLayout::new(source.shapes(), source.bands())?;
+        let layers = layers_for(ctx, &layout, Some(options.budget_bytes))?;
+        let bytes = cache_bytes(&layout, layers);
+        let geometry = RendererOptions {
+            budget_bytes: options.budget_bytes - bytes,
+            ..options
+        };
+        let (mut renderer, mut streamer) =
+            Self::geometry(ctx, repo, geometry, upload_bytes_per_frame)?;
+        renderer.set_textures(ctx, source, layers)?;
+        streamer.stats.max_gpu_bytes += bytes;
+        Ok((renderer, streamer))
+    }
+
+    /// `new` without textures.
+    fn geometry(
         ctx: &GpuContext,
         repo: Arc<Repository>,
         options: RendererOptions,
@@ -418,6 +458,8 @@ impl GpuStreamer {
         let uploads = self.land(ctx, renderer)?;
         renderer.render(ctx, request, readback);
         ctx.check()?;
+        // Texture pages the frames before asked for (their read-backs, a frame or two late).
+        renderer.update_textures(ctx)?;
         self.submitted += 1;
         let (frame, completed) = (self.submitted, self.completed.clone());
         ctx.queue.on_submitted_work_done(move || {
