@@ -68,8 +68,8 @@ pub fn next_level(level: &Level) -> Level {
                     sum[3] += f32::from(t[3]);
                 }
             }
-            for c in 0..3 {
-                texels.push(linear_to_srgb(sum[c] / 4.0));
+            for &channel in &sum[..3] {
+                texels.push(linear_to_srgb(channel / 4.0));
             }
             texels.push((sum[3] / 4.0 + 0.5).floor() as u8);
         }
