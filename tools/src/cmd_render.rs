@@ -233,6 +233,9 @@ pub fn camera_from_args(
     Ok(camera)
 }
 
+/// Still frames a texture cache may take to settle before the written frame.
+const TEXTURE_SETTLE_STEPS: u32 = 16;
+
 pub fn run(args: RenderArgs) -> anyhow::Result<Outcome> {
     if !(args.tolerance >= 0.0 && args.tolerance.is_finite()) {
         anyhow::bail!("--tolerance {} must be a finite number ≥ 0", args.tolerance);
@@ -284,6 +287,19 @@ pub fn run(args: RenderArgs) -> anyhow::Result<Outcome> {
             break;
         }
     }
+    // Texture pages: still frames until one asks for no page that is not resident (the
+    // geometry's flags as the streamer left them), so the written frame samples each texel
+    // at the level its pixels want.
+    let textures = match renderer.textures().is_some() {
+        true => Some(
+            renderer
+                .render_settled(&ctx, &request, TEXTURE_SETTLE_STEPS)
+                .map_err(|e| anyhow::anyhow!("drawing the textures: {e}"))?
+                .1,
+        ),
+        false => None,
+    };
+    anon_peak.sample();
     // The written frame also runs the CPU reference (its max ρ/τ for the report).
     streamer.set_cpu_reference(true);
     let started = std::time::Instant::now();
@@ -363,6 +379,17 @@ pub fn run(args: RenderArgs) -> anyhow::Result<Outcome> {
             &mut value,
             crate::peak_rss::MemoryNow::json(memory, anon_peak.bytes()),
         );
+        if let Some(t) = &textures {
+            let cache = renderer.textures().expect("textures drawn");
+            value["textures"] = json!({
+                "settle_steps": t.steps,
+                "settled": t.settled,
+                "page_loads": t.loads,
+                "pages_refused": t.refused,
+                "pool_layers": cache.capacity(),
+                "resident_pages": cache.resident(),
+            });
+        }
         if let Some((path, triangles, vertices)) = exported {
             value["export"] = json!({
                 "path": path.display().to_string(),

@@ -4,6 +4,7 @@ use clap::Args;
 use std::sync::Arc;
 use tessera_core::repository::reader::Repository;
 
+use tessera_runtime::gpu::repository_pages::RepositoryPages;
 use tessera_runtime::gpu::{
     Backend, DeviceOptions, GpuContext, GpuStreamer, RenderError, Renderer, RendererOptions,
     StreamError,
@@ -111,7 +112,11 @@ impl GpuArgs {
             budget_bytes: self.budget_bytes(ctx),
             ..Default::default()
         };
-        GpuStreamer::new(ctx, repo, options, UPLOAD_BYTES_PER_FRAME).map_err(device_failure)
+        // A textured repository draws its textures (lit and color modes), their page cache
+        // taking its share of the budget (`texture_cache::layers_for`).
+        let textures = RepositoryPages::source(repo.clone());
+        GpuStreamer::with_textures(ctx, repo, options, UPLOAD_BYTES_PER_FRAME, textures)
+            .map_err(device_failure)
     }
 }
 

@@ -34,6 +34,7 @@ pub mod pool_space;
 pub mod position_probe;
 pub mod records;
 pub mod renderer;
+pub mod repository_pages;
 pub mod resident;
 pub mod shaders;
 pub mod skirts;

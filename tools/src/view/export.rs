@@ -2,7 +2,9 @@
 //! resolution (the stateless rule for the camera's eye and τ, no culling), welded by global
 //! vertex id (`repository::cut_mesh`), with its attributes, as binary little-endian PLY with
 //! double-precision positions. Written through a temporary file and a rename
-//! (`output::write_atomically`), so a failed export leaves nothing behind.
+//! (`output::write_atomically`), so a failed export leaves nothing behind. A textured
+//! repository's textures go beside a PLY as PNG files named by `comment TextureFile` lines
+//! (MeshLab's convention), its coordinates out of their bands with `v` growing up the image.
 
 use std::io::Write;
 use std::path::Path;
@@ -11,13 +13,17 @@ use tessera_core::repository::cut_mesh::{cut_mesh, unculled_cut, CutMesh};
 use tessera_core::repository::reader::Repository;
 use tessera_runtime::camera::Camera;
 
+use super::export_textures::{export_textures, unbanded_v, ExportTextures};
 use crate::output::write_atomically;
 
 /// The PLY header of `mesh`: `element vertex` with double x, y, z, then float nx, ny, nz,
 /// uchar red, green, blue, alpha and float s, t as the mesh has them; `element face` with a
 /// `list uchar uint vertex_indices`.
-fn ply_header(mesh: &CutMesh) -> String {
+fn ply_header(mesh: &CutMesh, texture_files: &[String]) -> String {
     let mut h = String::from("ply\nformat binary_little_endian 1.0\ncomment tessera cut\n");
+    for name in texture_files {
+        h += &format!("comment TextureFile {name}\n");
+    }
     h += &format!("element vertex {}\n", mesh.vertex_count());
     h += "property double x\nproperty double y\nproperty double z\n";
     if mesh.normals.is_some() {
@@ -36,7 +42,11 @@ fn ply_header(mesh: &CutMesh) -> String {
 }
 
 /// Writes `mesh` to `w` as a binary little-endian PLY.
-fn write_ply_to(mesh: &CutMesh, w: &mut impl Write) -> std::io::Result<()> {
+fn write_ply_to(
+    mesh: &CutMesh,
+    texture_files: &[String],
+    w: &mut impl Write,
+) -> std::io::Result<()> {
     let n = mesh.vertex_count();
     for (name, len) in [
         ("normals", mesh.normals.as_ref().map(Vec::len)),
@@ -50,7 +60,7 @@ fn write_ply_to(mesh: &CutMesh, w: &mut impl Write) -> std::io::Result<()> {
             ));
         }
     }
-    w.write_all(ply_header(mesh).as_bytes())?;
+    w.write_all(ply_header(mesh, texture_files).as_bytes())?;
     let mut record = Vec::with_capacity(24 + 12 + 4 + 8);
     for v in 0..n {
         record.clear();
@@ -86,9 +96,14 @@ fn write_ply_to(mesh: &CutMesh, w: &mut impl Write) -> std::io::Result<()> {
 /// Writes `mesh` as a binary little-endian PLY at `path`, through a temporary file in the same
 /// directory renamed into place once complete.
 pub fn write_ply(mesh: &CutMesh, path: &Path) -> anyhow::Result<()> {
+    write_ply_naming(mesh, &[], path)
+}
+
+/// `write_ply`, naming `texture_files` in `comment TextureFile` lines.
+fn write_ply_naming(mesh: &CutMesh, texture_files: &[String], path: &Path) -> anyhow::Result<()> {
     write_atomically(path, |_, file| {
         let mut w = std::io::BufWriter::new(file);
-        write_ply_to(mesh, &mut w)?;
+        write_ply_to(mesh, texture_files, &mut w)?;
         w.into_inner().map_err(|e| e.into_error())?.sync_all()?;
         Ok(())
     })
@@ -106,12 +121,46 @@ pub fn export_cut(
     let tets = unculled_cut(repo, eye, &camera.metric(), tau);
     let mesh = cut_mesh(repo, &tets)?;
     let glb = (path.extension()).is_some_and(|e| e.eq_ignore_ascii_case("glb"));
+    let textures = export_textures(repo)?;
     if glb {
-        super::export_glb::write_glb(&mesh, path)?;
+        super::export_glb::write_glb(&mesh, textures.as_ref(), path)?;
+    } else if let Some(textures) = &textures {
+        write_textured_ply(mesh.clone(), textures, path)?;
     } else {
         write_ply(&mesh, path)?;
     }
     Ok((mesh.triangle_count(), mesh.vertex_count()))
+}
+
+/// A textured cut as PLY: each texture written beside it as `STEM.texI.png`, the mesh's `v`
+/// out of its band and flipped to grow up the image (`1 − v`, the same texel row).
+/// A PLY names textures but no texture a face samples: with several, only GLB keeps which.
+fn write_textured_ply(
+    mut mesh: CutMesh,
+    textures: &ExportTextures,
+    path: &Path,
+) -> anyhow::Result<()> {
+    let stem = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "cut".into());
+    let dir = path.parent().unwrap_or(Path::new(""));
+    let mut names = Vec::new();
+    for (i, texture) in textures.textures.iter().enumerate() {
+        let name = format!("{stem}.tex{i}.png");
+        write_atomically(&dir.join(&name), |_, file| {
+            file.write_all(&texture.png)?;
+            file.sync_all()?;
+            Ok(())
+        })?;
+        names.push(name);
+    }
+    if let Some(uvs) = mesh.uvs.as_mut() {
+        for uv in uvs {
+            uv[1] = 1.0 - unbanded_v(&textures.bands, uv[1]);
+        }
+    }
+    write_ply_naming(&mesh, &names, path)
 }
 
 #[cfg(test)]
@@ -156,7 +205,7 @@ mod tests {
         let end = b"end_header\n";
         let at = bytes.windows(end.len()).position(|w| w == end).unwrap() + end.len();
         let header = std::str::from_utf8(&bytes[..at]).unwrap();
-        assert_eq!(header, ply_header(&mesh));
+        assert_eq!(header, ply_header(&mesh, &[]));
         assert!(header.contains("comment tessera cut\n"));
         assert!(header.contains("element vertex 4\nproperty double x\n"));
         assert!(header.contains("property uchar alpha\nproperty float s\nproperty float t\n"));

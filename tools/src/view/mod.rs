@@ -16,6 +16,7 @@ mod app;
 mod blit;
 pub mod export;
 mod export_glb;
+mod export_textures;
 mod graph;
 mod input;
 mod model_frame;
