@@ -1,0 +1,45 @@
+#!/bin/bash
+# Issue 47's texture figures (BENCHMARKS.md, "Textures as pages"): a 2 M-triangle mesh with a
+# 4096² texture (64 MiB of texels) against the same geometry without attributes, built under
+# --memory 256M (ROUNDS rounds alternating), then drawn at 1280x720 from three close views on
+# Vulkan (lavapipe) and GL (llvmpipe) with and without --gpu-budget 32, each budgeted frame
+# compared with the unbudgeted one.
+#
+#   tools/bench-textures.sh [TESSERA] [WORKDIR]
+set -euo pipefail
+T=${1:-target/release/tessera}
+T=$(realpath "$T")
+dir=${2:-$(mktemp -d)}
+testdata=$(realpath "$(dirname "$0")/../testdata")
+cd "$dir"
+rounds=${ROUNDS:-2}
+$T gen mesh --triangles 2000000 --uv --texture 4096 -o g2m_tex.ply --json > /dev/null
+$T gen mesh --triangles 2000000 -o g2m_plain.ply --json > /dev/null
+for r in $(seq "$rounds"); do
+  for m in plain tex; do
+    /usr/bin/time -v "$T" build g2m_$m.ply -o g2m_$m.tsr --memory 256M --json > /dev/null 2> time.txt
+    echo "build round $r $m wall $(grep 'Elapsed' time.txt | awk '{print $NF}')" \
+      "rss_kB $(grep 'Maximum resident' time.txt | awk '{print $NF}') bytes $(stat -c %s g2m_$m.tsr)"
+  done
+done
+[ -f bunny.tsr ] || "$T" build "$testdata/mesh/bunny00.off" -o bunny.tsr > /dev/null
+for be in vulkan gl; do
+  base=$("$T" render bunny.tsr -o b.png --size 1280x720 --tolerance 1e9 --backend $be --json |
+    python3 -c "import json,sys; print(json.load(sys.stdin)['rss_anon_peak_sampled_bytes'])")
+  for view in 30,20,0.6 120,10,0.9 200,-10,0.7; do
+    for b in none 32; do
+      opt=()
+      [ $b != none ] && opt=(--gpu-budget $b)
+      "$T" render g2m_tex.tsr -o "v_${be}_${view}_$b.png" --size 1280x720 --orbit $view \
+        --mode color --tolerance 1 --backend $be "${opt[@]}" --json > v.json
+      python3 -c "
+import json; d = json.load(open('v.json')); t = d['textures']
+print('$be view $view budget $b triangles', d['triangles'], 'gpu_bytes', d['resident_bytes'],
+      'max_gpu_bytes', d['max_resident_bytes'], 'budget', d['budget_bytes'],
+      'over_base_MiB %.1f' % ((d['rss_anon_peak_sampled_bytes'] - $base) / 2**20),
+      'layers', t['pool_layers'], 'pages', t['resident_pages'], 'settled', t['settled'],
+      'refused', t['pages_refused'])"
+    done
+    echo "$be $view: $("$T" compare "v_${be}_${view}_none.png" "v_${be}_${view}_32.png")"
+  done
+done
