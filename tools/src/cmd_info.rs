@@ -54,7 +54,16 @@ pub fn run(args: InfoArgs) -> anyhow::Result<Outcome> {
         }
         (AttributeErrorRecord::max_of(table), per_level)
     });
-    let errors_json = |r: &AttributeErrorRecord| json!({"colour": r.colour, "normal_degrees": r.normal_degrees, "uv": r.uv});
+    // The UV error in texels: times the largest texture side, a bound for every texture (a
+    // wedge's texture is not in the table). `None` without textures.
+    let largest_side = repo
+        .textures()
+        .and_then(|table| (table.shapes().iter()).map(|s| s.width.max(s.height)).max());
+    let uv_texels = |uv: f32| largest_side.map(|side| uv * side as f32);
+    let errors_json = |r: &AttributeErrorRecord| {
+        json!({"colour": r.colour, "normal_degrees": r.normal_degrees, "uv": r.uv,
+               "uv_texels": uv_texels(r.uv)})
+    };
     let level_errors = |level: usize| {
         attribute_errors
             .as_ref()
@@ -163,9 +172,10 @@ pub fn run(args: InfoArgs) -> anyhow::Result<Outcome> {
             id_blob_bytes
         );
         if let Some((all, _)) = &attribute_errors {
+            let texels = uv_texels(all.uv).map_or(String::new(), |t| format!(" ({t:.2} texels)"));
             println!(
                 "  attribute errors (largest): colour {:.2} (8-bit RGB), normal {:.2} degrees, \
-                 uv {:.3e}",
+                 uv {:.3e}{texels}",
                 all.colour, all.normal_degrees, all.uv
             );
         }

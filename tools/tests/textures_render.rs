@@ -129,6 +129,15 @@ fn a_single_texture_survives_a_ply_export() {
         "--json",
     ]);
     run(&["build", s(&mesh), "-o", s(&p("relief.tsr")), "--json"]);
+    // The UV error in texels: the stored UV error times the texture's 512 texels.
+    let info = run(&["info", s(&p("relief.tsr")), "--json"]);
+    let errors = &info["attribute_errors"];
+    let (uv, texels) = (
+        errors["uv"].as_f64().unwrap(),
+        errors["uv_texels"].as_f64().unwrap(),
+    );
+    assert!(uv > 0.0, "{info}");
+    assert!((texels - 512.0 * uv).abs() <= 1e-3 * texels, "{info}");
     color_frame(
         &p("relief.tsr"),
         &p("relief.png"),
