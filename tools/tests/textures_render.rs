@@ -67,6 +67,24 @@ fn psnr(a: &Path, b: &Path) -> f64 {
     compare(a, b)["psnr_db"].as_f64().unwrap()
 }
 
+/// `relief.tsr` in `dir`: `gen mesh`'s 20,000-triangle relief with UVs and a `side`² texture,
+/// built.
+fn textured_relief(dir: &Path, side: u32) {
+    let (mesh, side) = (dir.join("relief.ply"), side.to_string());
+    let args = [
+        "--triangles",
+        "20000",
+        "--uv",
+        "--texture",
+        &side,
+        "-o",
+        s(&mesh),
+    ];
+    run(&[&["gen", "mesh"][..], &args, &["--json"]].concat());
+    let repo = dir.join("relief.tsr");
+    run(&["build", s(&mesh), "-o", s(&repo), "--json"]);
+}
+
 #[test]
 fn spider_draws_its_textures_and_exports_them() {
     let dir = tempfile::tempdir().unwrap();
@@ -115,20 +133,7 @@ fn spider_draws_its_textures_and_exports_them() {
 fn a_single_texture_survives_a_ply_export() {
     let dir = tempfile::tempdir().unwrap();
     let p = |name: &str| dir.path().join(name);
-    let mesh = p("relief.ply");
-    run(&[
-        "gen",
-        "mesh",
-        "--triangles",
-        "20000",
-        "--uv",
-        "--texture",
-        "512",
-        "-o",
-        s(&mesh),
-        "--json",
-    ]);
-    run(&["build", s(&mesh), "-o", s(&p("relief.tsr")), "--json"]);
+    textured_relief(dir.path(), 512);
     // The UV error in texels: the stored UV error times the texture's 512 texels.
     let info = run(&["info", s(&p("relief.tsr")), "--json"]);
     let errors = &info["attribute_errors"];
@@ -158,21 +163,9 @@ fn a_single_texture_survives_a_ply_export() {
 fn a_budget_smaller_than_the_texture_settles_to_the_unbudgeted_frame() {
     let dir = tempfile::tempdir().unwrap();
     let p = |name: &str| dir.path().join(name);
-    let mesh = p("relief.ply");
-    // 2048² texels: 16 MiB of level 0, 341 pages; a 28 MiB budget gives the cache a quarter, about 72 layers.
-    run(&[
-        "gen",
-        "mesh",
-        "--triangles",
-        "20000",
-        "--uv",
-        "--texture",
-        "2048",
-        "-o",
-        s(&mesh),
-        "--json",
-    ]);
-    run(&["build", s(&mesh), "-o", s(&p("relief.tsr")), "--json"]);
+    // 2048² texels: 16 MiB of level 0, 341 pages; a 28 MiB budget gives the cache a quarter,
+    // about 72 layers.
+    textured_relief(dir.path(), 2048);
     let view = ["--size", "320x240"];
     let full = color_frame(&p("relief.tsr"), &p("full.png"), &view);
     let mut budgeted = view.to_vec();
