@@ -123,7 +123,7 @@ pub fn json_grid(data: &[u8]) -> bool {
 }
 
 /// The repository reader (`Repository::from_bytes`, the checks `open` runs on a mapped file),
-/// then every patch, the id blob, and the cut at a few tolerances from a few eyes, by the flat
+/// then every patch, the id blob, every texture page, and the cut at a few tolerances from a few eyes, by the flat
 /// rule and by descent from the roots. A refused file must be refused with a message; an
 /// accepted one must not panic anywhere, and every selected simplex exists.
 pub fn repository(data: &[u8]) -> bool {
@@ -154,6 +154,33 @@ pub fn repository(data: &[u8]) -> bool {
         }
     }
     let _ = repo.verify_ids();
+    // The texture section: tables checked on open, every page read (its CRC checked) as the
+    // renderer would, by global index, and one index past the end refused.
+    if let Some(textures) = repo.textures() {
+        let shapes = textures.shapes();
+        let bands = textures.bands();
+        assert!(tessera_core::texture::bands_valid(
+            &bands,
+            shapes.len() as u32
+        ));
+        let mut first = 0u32;
+        for (t, shape) in shapes.iter().enumerate() {
+            assert_eq!(
+                textures.first_page(t as u32),
+                first,
+                "texture {t}'s first page"
+            );
+            first += shape.page_count();
+        }
+        assert_eq!(first, textures.page_count());
+        for page in 0..textures.page_count() {
+            match textures.page(page) {
+                Ok(texels) => assert_eq!(texels.len(), tessera_core::texture::PAGE_BYTES),
+                Err(e) => assert!(!e.to_string().trim().is_empty()),
+            }
+        }
+        assert!(textures.page(textures.page_count()).is_err());
+    }
     let header = repo.header();
     let (lo, hi) = (header.bbox_min, header.bbox_max);
     let centre = [0, 1, 2].map(|k| 0.5 * (lo[k] + hi[k]));
