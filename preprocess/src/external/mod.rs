@@ -20,6 +20,7 @@ pub mod position_file;
 pub mod prefetch;
 pub mod sort;
 pub mod staged;
+mod staged_mesh;
 pub mod temp_usage;
 pub mod varint;
 pub mod vertex_normals;
