@@ -386,6 +386,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<Outcome> {
                 "settled": t.settled,
                 "page_loads": t.loads,
                 "pages_refused": t.refused,
+                "pages_wanted": t.wanted,
                 "pool_layers": cache.capacity(),
                 "resident_pages": cache.resident(),
             });

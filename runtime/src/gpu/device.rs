@@ -183,6 +183,10 @@ pub struct Capabilities {
     pub timestamps: bool,
     /// Line polygon mode (wireframe overlay).
     pub wireframe: bool,
+    /// `@early_depth_test(force)` in fragment shaders: the textured fill's page requests
+    /// then come from visible fragments only (a fragment with side effects otherwise runs
+    /// before the depth test).
+    pub early_depth_test: bool,
 }
 
 /// A device and queue, with what they can do.
@@ -295,7 +299,9 @@ impl GpuContext {
         })?;
         let backend = backend.expect("usable() accepts the four native backends only");
         let features = adapter.features();
-        let optional = wgpu::Features::TIMESTAMP_QUERY | wgpu::Features::POLYGON_MODE_LINE;
+        let optional = wgpu::Features::TIMESTAMP_QUERY
+            | wgpu::Features::POLYGON_MODE_LINE
+            | wgpu::Features::SHADER_EARLY_DEPTH_TEST;
         let limits = options.limits.clone().unwrap_or_else(|| adapter.limits());
         required_limits(&limits).map_err(|missing| DeviceError::Unsupported {
             adapter: info.name.clone(),
@@ -352,6 +358,7 @@ impl GpuContext {
             capabilities: Capabilities {
                 timestamps: features.contains(wgpu::Features::TIMESTAMP_QUERY),
                 wireframe: features.contains(wgpu::Features::POLYGON_MODE_LINE),
+                early_depth_test: features.contains(wgpu::Features::SHADER_EARLY_DEPTH_TEST),
             },
             info,
             backend,

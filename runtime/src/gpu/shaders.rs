@@ -43,12 +43,16 @@ pub fn draw_source() -> String {
 
 /// The draw pass with textures (`texture.wgsl` appended: the textured fill's `fs_lit*_textured`
 /// and `fs_colour*_textured` entries, their bind group 2).
-pub fn draw_textured_source() -> String {
-    format!(
-        "{}\n{}",
-        draw_source(),
-        include_str!("../../../shaders/texture.wgsl")
-    )
+/// With `early_depth_test`, its fragment entries run after the depth test
+/// (`@early_depth_test(force)`), so that hidden fragments request no page.
+pub fn draw_textured_source(early_depth_test: bool) -> String {
+    let textured = include_str!("../../../shaders/texture.wgsl");
+    let textured = if early_depth_test {
+        textured.replace("@fragment\n", "@fragment @early_depth_test(force)\n")
+    } else {
+        textured.to_string()
+    };
+    format!("{}\n{textured}", draw_source())
 }
 
 /// The position probe (`probe`): the draw pass's position functions over given positions
@@ -79,7 +83,11 @@ mod tests {
             ("compact", super::compact_source()),
             ("expand", super::expand_source()),
             ("draw", super::draw_source()),
-            ("draw textured", super::draw_textured_source()),
+            ("draw textured", super::draw_textured_source(false)),
+            (
+                "draw textured, early depth",
+                super::draw_textured_source(true),
+            ),
             ("position probe", super::position_probe_source()),
         ] {
             let module = naga::front::wgsl::parse_str(&source)

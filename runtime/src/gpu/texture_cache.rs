@@ -49,6 +49,8 @@ pub struct TextureUpdate {
     pub readbacks: u32,
     /// Pages requested in them (distinct per read-back, summed).
     pub requested: u32,
+    /// Distinct pages the newest read-back asked for (a frame's working set).
+    pub wanted: u32,
     pub loads: u32,
     pub evictions: u32,
     /// Requested pages that found no layer (the pool too small for the view).
@@ -529,6 +531,7 @@ impl TextureCache {
             self.max_resident = self.max_resident.max(self.residency.resident_count());
             update.readbacks += 1;
             update.requested += requested.len() as u32;
+            update.wanted = requested.len() as u32;
             update.loads += plan.loads.len() as u32;
             update.evictions += plan.evicted.len() as u32;
             update.refused += plan.refused;

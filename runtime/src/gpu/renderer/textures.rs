@@ -25,6 +25,9 @@ pub struct Settled {
     /// Pages loaded over all steps; requests refused by the last step.
     pub loads: u32,
     pub refused: u32,
+    /// Distinct pages the last step's read-back asked for: the view's working set (pinned
+    /// pages only where they were sampled as wanted).
+    pub wanted: u32,
 }
 
 impl Renderer {
@@ -45,7 +48,9 @@ impl Renderer {
         let device = &ctx.device;
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("draw.wgsl + texture.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(draw_textured_source().into()),
+            source: wgpu::ShaderSource::Wgsl(
+                draw_textured_source(ctx.capabilities.early_depth_test).into(),
+            ),
         });
         let layouts = [&self.draw_layout, &self.page_layout, &cache.group_layout];
         let (attributes, wireframe) = (self.header.attributes, ctx.capabilities.wireframe);
@@ -93,6 +98,7 @@ impl Renderer {
             let update = self.update_textures(ctx)?;
             settled.loads += update.loads;
             settled.refused = update.refused;
+            settled.wanted = update.wanted;
             // The frame's own read-back has arrived (the wait): nothing loaded means every
             // page it wanted was resident when it was drawn.
             let done = update.readbacks > 0 && update.loads == 0;
