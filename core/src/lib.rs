@@ -12,4 +12,5 @@ pub mod leb;
 pub mod metric;
 pub mod repository;
 pub mod texture;
+pub mod texture_codec;
 pub mod vec3;

@@ -33,12 +33,69 @@ pub const PAGE_PAYLOAD: u32 = 128;
 pub const PAGE_GUTTER: u32 = 4;
 /// Texels a stored page side: payload and both gutters.
 pub const PAGE_SIDE: u32 = PAGE_PAYLOAD + 2 * PAGE_GUTTER;
-/// Bytes of one stored page: `PAGE_SIDE²` RGBA8 texels, row-major, top row first.
+/// Bytes of one page's texels: `PAGE_SIDE²` RGBA8 texels, row-major, top row first (a page
+/// as `PageEncoding::Rgba8` stores it, and as every encoding decodes).
 pub const PAGE_BYTES: usize = (PAGE_SIDE * PAGE_SIDE * 4) as usize;
+/// Mips a page carries for filtering inside it: the page and its two halvings (136, 68 and 34
+/// texels a side), made by `texture_codec::page_mips`.
+pub const PAGE_MIPS: u32 = 3;
+/// Bytes of one `PageEncoding::Bc1` page: its three mips as BC1 blocks (8 bytes a 4 × 4
+/// block; 34², 17² and 9² blocks, the last mip's edge blocks half used).
+pub const BC1_PAGE_BYTES: usize = 8 * (34 * 34 + 17 * 17 + 9 * 9);
+const _: () = assert!(PAGE_SIDE == 136, "BC1_PAGE_BYTES counts 136-texel pages");
 /// Largest texture side a build accepts (texels), so every index below fits u32 with room.
 pub const MAX_TEXTURE_SIDE: u32 = 1 << 16;
 /// `Band::texture` of a band drawn with its colour alone.
 pub const NO_TEXTURE: u32 = u32::MAX;
+
+/// How a repository stores its pages (`texture_codec` encodes and decodes them). Every page
+/// of a repository has the same encoding, so page `g` lies at `g · page_bytes()`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum PageEncoding {
+    /// `PAGE_BYTES` of RGBA8 texels as cut, lossless; the renderer makes the two smaller mips
+    /// as it loads a page. What a section without an encoding field (code 0) holds.
+    #[default]
+    Rgba8,
+    /// `BC1_PAGE_BYTES`: the page's three mips (alpha made opaque), each as BC1 (DXT1) blocks
+    /// of sRGB colour, row-major, top row first; lossy (4 bits a texel), 6.06 times smaller,
+    /// uploaded to the GPU as they are where the adapter samples BC1, else decoded. What a
+    /// build writes unless told otherwise.
+    Bc1,
+}
+
+impl PageEncoding {
+    /// The texture section header's code: 0 RGBA8, 1 BC1.
+    pub fn code(self) -> u32 {
+        match self {
+            PageEncoding::Rgba8 => 0,
+            PageEncoding::Bc1 => 1,
+        }
+    }
+
+    pub fn from_code(code: u32) -> Option<PageEncoding> {
+        match code {
+            0 => Some(PageEncoding::Rgba8),
+            1 => Some(PageEncoding::Bc1),
+            _ => None,
+        }
+    }
+
+    /// Bytes of one stored page.
+    pub fn page_bytes(self) -> usize {
+        match self {
+            PageEncoding::Rgba8 => PAGE_BYTES,
+            PageEncoding::Bc1 => BC1_PAGE_BYTES,
+        }
+    }
+
+    /// `rgba8` or `bc1`, as the CLI and reports spell it.
+    pub fn name(self) -> &'static str {
+        match self {
+            PageEncoding::Rgba8 => "rgba8",
+            PageEncoding::Bc1 => "bc1",
+        }
+    }
+}
 
 /// What a texture coordinate outside `[0, 1)` samples, along one axis.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]

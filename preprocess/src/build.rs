@@ -34,8 +34,8 @@ use crate::texture_input::MeshTextures;
 use crate::vertex_table::LivePatch;
 
 pub use crate::build_config::{
-    BuildConfig, BuildError, BuildSummary, Domain, MemoryBudget, COARSEST_SHARE,
-    DEFAULT_LEAF_TRIANGLES, DEFAULT_LEAF_TRIANGLES_HEIGHT_FIELD, MAX_EXTENT,
+    BuildConfig, BuildError, BuildSummary, Domain, MemoryBudget, TexturePagesSummary,
+    COARSEST_SHARE, DEFAULT_LEAF_TRIANGLES, DEFAULT_LEAF_TRIANGLES_HEIGHT_FIELD, MAX_EXTENT,
 };
 
 /// Builds the repository for `mesh` and writes it to `out` (temporary file + rename: a failed
@@ -137,7 +137,7 @@ fn write_built(
     // pages are made while the writer writes their section, the file's last.
     let textures = config.textures.as_ref();
     let plan = textures
-        .map(|t| crate::texture::plan(t, config.memory.as_ref()))
+        .map(|t| crate::texture::plan(t, config.memory.as_ref(), config.texture_encoding))
         .transpose()?;
     if let Some(textures) = textures {
         check_wedges_in_bands(source, textures)?;
@@ -153,6 +153,7 @@ fn write_built(
             .map(|(t, p)| PageMaker::new(t, p)),
     };
     built.summary.repository_bytes = write_repository_streamed(out, &built.directory, &mut feed)?;
+    built.summary.textures = feed.pages.as_ref().map(PageMaker::summary);
     built
         .summary
         .stages

@@ -189,6 +189,7 @@ pub(crate) fn assemble(
         repository_bytes: 0,
         seconds: 0.0,
         stages,
+        textures: None,
     };
     Ok(Built {
         directory: RepositoryDirectory {

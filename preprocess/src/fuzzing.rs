@@ -175,7 +175,13 @@ pub fn repository(data: &[u8]) -> bool {
         assert_eq!(first, textures.page_count());
         for page in 0..textures.page_count() {
             match textures.page(page) {
-                Ok(texels) => assert_eq!(texels.len(), tessera_core::texture::PAGE_BYTES),
+                Ok(stored) => {
+                    let encoding = textures.encoding();
+                    assert_eq!(stored.len(), encoding.page_bytes());
+                    let texels = tessera_core::texture_codec::decode_page(encoding, stored)
+                        .expect("a page of its encoding's size decodes");
+                    assert_eq!(texels.len(), tessera_core::texture::PAGE_BYTES);
+                }
                 Err(e) => assert!(!e.to_string().trim().is_empty()),
             }
         }

@@ -35,7 +35,7 @@ pub mod vertex_table;
 
 pub use build::{
     build_contents, build_repository, build_repository_checkpointed, build_repository_staged,
-    BuildConfig, BuildError, BuildSummary, Domain, MemoryBudget,
+    BuildConfig, BuildError, BuildSummary, Domain, MemoryBudget, TexturePagesSummary,
 };
 pub use hierarchy::Construction;
 pub use mesh::InputMesh;

@@ -8,7 +8,8 @@ use std::path::{Path, PathBuf};
 
 use tessera_core::repository::format::SECTION_TEXTURES;
 use tessera_core::repository::Repository;
-use tessera_core::texture::{Band, TextureShape, Wrap, NO_TEXTURE};
+use tessera_core::texture::{Band, PageEncoding, TextureShape, Wrap, NO_TEXTURE};
+use tessera_core::texture_codec::encode_page;
 use tessera_preprocess::checkpoint::{manifest::Fingerprint, manifest_for};
 use tessera_preprocess::import::{load_mesh, stage_mesh};
 use tessera_preprocess::texture::decode::{decode, encoded_bytes};
@@ -115,9 +116,11 @@ fn build(mesh_path: &Path, config: &BuildConfig, out: &Path) -> Result<Vec<u8>, 
     Ok(std::fs::read(out).unwrap())
 }
 
-/// Every page of `repo` equals the pyramid and page cutter's from the decoded texture.
+/// Every page of `repo` is the pyramid and page cutter's from the decoded texture, stored in
+/// the repository's encoding (`texture_codec::encode_page`).
 fn assert_pages_are_the_pyramids(repo: &Repository, textures: &MeshTextures) {
     let table = repo.textures().expect("a texture section");
+    let encoding = table.encoding();
     let shapes = table.shapes();
     assert_eq!(
         shapes,
@@ -138,8 +141,8 @@ fn assert_pages_are_the_pyramids(repo: &Repository, textures: &MeshTextures) {
             cut_page(&levels[l as usize], shape, l, x, y, &mut page);
             let global = table.first_page(t as u32) + local;
             assert!(
-                table.page(global).unwrap() == page.as_slice(),
-                "texture {t} page {local} (level {l}, {x}, {y})"
+                table.page(global).unwrap() == encode_page(encoding, &page).as_slice(),
+                "texture {t} page {local} (level {l}, {x}, {y}), {encoding:?}"
             );
         }
     }
@@ -154,8 +157,23 @@ fn pages_are_the_pyramid_cut_and_do_not_depend_on_memory_or_threads() {
     let bytes = build(&mesh, &textured, &dir.path().join("a.tsr")).unwrap();
     let repo = Repository::open(dir.path().join("a.tsr")).unwrap();
     assert!(repo.header().attributes & 4 != 0, "the mesh has uvs");
+    assert_eq!(
+        repo.textures().unwrap().encoding(),
+        PageEncoding::Bc1,
+        "the default"
+    );
     assert_pages_are_the_pyramids(&repo, &textures);
     repo.validate_patches().unwrap();
+
+    // RGBA8 pages: the cut texels themselves.
+    let rgba8 = BuildConfig {
+        texture_encoding: PageEncoding::Rgba8,
+        ..config(Some(textures.clone()), 1)
+    };
+    build(&mesh, &rgba8, &dir.path().join("rgba8.tsr")).unwrap();
+    let lossless = Repository::open(dir.path().join("rgba8.tsr")).unwrap();
+    assert_eq!(lossless.textures().unwrap().encoding(), PageEncoding::Rgba8);
+    assert_pages_are_the_pyramids(&lossless, &textures);
 
     let two_threads = build(
         &mesh,

@@ -12,7 +12,8 @@ use tessera_runtime::gpu::texture_cache::layers_for;
 use tessera_runtime::gpu::texture_memory::MemoryPages;
 use tessera_runtime::gpu::texture_pages::TextureLayout;
 use tessera_runtime::gpu::{
-    Backend, FrameRequest, GpuContext, PageSource, Renderer, RendererOptions, ShadingMode,
+    Backend, FrameRequest, GpuContext, PageSource, PoolFormat, Renderer, RendererOptions,
+    ShadingMode,
 };
 use tessera_tests::{build, gpu_on, Built};
 
@@ -123,7 +124,9 @@ fn renderer(
     let mut renderer = Renderer::new(ctx, &built.repo, options).unwrap();
     if let Some((source, layers)) = pages {
         let layout = TextureLayout::new(source.shapes(), source.bands()).unwrap();
-        let layers = layers.unwrap_or_else(|| layers_for(ctx, &layout, None).unwrap());
+        let format = PoolFormat::for_pages(ctx, source.encoding());
+        let layers =
+            layers.unwrap_or_else(|| layers_for(ctx, &layout, None, format, (SIZE, SIZE)).unwrap());
         renderer.set_textures(ctx, source, layers).unwrap();
     }
     renderer
@@ -413,8 +416,9 @@ fn bands_without_texture_draw_as_without_textures() {
 }
 
 /// (e) Streaming under `--gpu-budget`: the texture cache takes at most a quarter of the
-/// budget (`layers_for`), a budget too small for the pinned pages and 16 more is refused
-/// naming it, and the streamed frames draw the expected texels once settled.
+/// budget and at most `SCREEN_PAGES` times the pages the viewport fills (`layers_for`), a
+/// budget too small for the pinned pages and 16 more is refused naming it, and the streamed
+/// frames draw the expected texels once settled.
 #[test]
 fn streaming_under_a_budget_counts_the_pages() {
     use tessera_runtime::gpu::texture_cache::cache_bytes;
@@ -446,16 +450,34 @@ fn streaming_under_a_budget_counts_the_pages() {
     };
     for backend in BACKENDS {
         let ctx = gpu_on(backend);
+        let rgba8 = PoolFormat::Rgba8;
+        let viewport = (SIZE, SIZE);
         for budget in [8u64 << 20, 64 << 20] {
-            let layers = layers_for(&ctx, &layout, Some(budget)).unwrap();
+            let layers = layers_for(&ctx, &layout, Some(budget), rgba8, viewport).unwrap();
             assert!(
-                cache_bytes(&layout, layers) <= budget / 4 && layers >= 17,
+                cache_bytes(&layout, layers, rgba8) <= budget / 4 && layers >= 17,
                 "{budget}: {layers}"
             );
         }
+        // 64 MiB would hold every page; the 256² viewport wants at most 8 × 4 pages' worth.
+        assert_eq!(layout.total_pages(), 85);
         assert_eq!(
-            layers_for(&ctx, &layout, Some(64 << 20)).unwrap(),
-            layout.total_pages()
+            layers_for(&ctx, &layout, Some(64 << 20), rgba8, viewport).unwrap(),
+            32
+        );
+        assert_eq!(
+            layers_for(&ctx, &layout, Some(64 << 20), rgba8, (2048, 2048)).unwrap(),
+            85
+        );
+        assert_eq!(
+            layers_for(&ctx, &layout, None, rgba8, viewport).unwrap(),
+            85
+        );
+        // BC1 layers are 7.95 times smaller: 8 MiB holds every page the viewport allows.
+        let bc1 = PoolFormat::Bc1;
+        assert_eq!(
+            layers_for(&ctx, &layout, Some(8 << 20), bc1, (2048, 2048)).unwrap(),
+            85
         );
         let small = GpuStreamer::with_textures(
             &ctx,
@@ -511,4 +533,64 @@ fn streaming_under_a_budget_counts_the_pages() {
         );
         ctx.check().unwrap();
     }
+}
+
+/// (f) BC1 pages (`--texture-encoding bc1`, the build's default): kept BC1 in the pool where
+/// the adapter samples it, decoded to RGBA8 where it does not (forced here); both settle, draw
+/// the expected texels, and differ by at most 2 levels (BC1's interpolation, rounded by the
+/// adapter and by the decoder); a BC1 layer is 12,208 bytes.
+#[test]
+fn bc1_pages_draw_in_either_pool_format() {
+    use tessera_core::texture::PageEncoding;
+    let mut mesh = InputMesh::default();
+    square(&mut mesh, [0.0, 1.0, 0.0, 1.0], 16, |x, y| {
+        [x as f32, (1.0 - y) as f32]
+    });
+    let built = built(&mesh);
+    let band = Band {
+        start: 0,
+        span: 1,
+        shift: 0,
+        texture: 0,
+    };
+    let pages = MemoryPages::new(&[blocks(1, 256, Wrap::Repeat)], &[band]).unwrap();
+    let pages: Arc<dyn PageSource> = Arc::new(pages.encoded(PageEncoding::Bc1));
+    for backend in BACKENDS {
+        let mut ctx = gpu_on(backend);
+        assert!(
+            ctx.capabilities.bc_textures,
+            "{backend:?}: lavapipe and llvmpipe sample BC1"
+        );
+        let mut images = Vec::new();
+        for compressed in [true, false] {
+            ctx.capabilities.bc_textures = compressed;
+            let mut renderer = renderer(&ctx, &built, Some((pages.clone(), None)));
+            let cache = renderer.textures().unwrap();
+            let format = if compressed {
+                PoolFormat::Bc1
+            } else {
+                PoolFormat::Rgba8
+            };
+            assert_eq!(cache.format(), format);
+            let (image, _) = settled(&ctx, &mut renderer, &request(ShadingMode::Color));
+            let what = format!("{backend:?} {format:?}");
+            let checked = check_texels(&image, &what, |x, y| {
+                expected(1, 256, Wrap::Repeat, x, 1.0 - y)
+            });
+            assert!(checked > 10_000, "{what}: {checked} pixels checked");
+            images.push(image);
+            ctx.check().unwrap();
+        }
+        let worst = images[0]
+            .pixels()
+            .zip(images[1].pixels())
+            .flat_map(|(a, b)| (0..3).map(move |c| a[c].abs_diff(b[c])))
+            .max()
+            .unwrap();
+        assert!(
+            worst <= 2,
+            "{backend:?}: BC1 on the GPU and decoded differ by {worst}"
+        );
+    }
+    assert_eq!(PoolFormat::Bc1.layer_bytes(), 12_208);
 }

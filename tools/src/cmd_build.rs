@@ -124,6 +124,11 @@ pub struct BuildArgs {
     /// `comment TextureFile`): no texture section, texture coordinates as the file has them.
     #[arg(long)]
     pub no_textures: bool,
+    /// How texture pages are stored: `bc1` (4 bits a texel, lossless it is not: `--json`
+    /// reports its PSNR; 6.06 times smaller on disk and 7.95 times on the GPU, where the
+    /// adapter samples BC1) or `rgba8` (32 bits a texel, lossless).
+    #[arg(long, value_name = "ENCODING", default_value = "bc1", value_parser = parse_page_encoding)]
+    pub texture_encoding: tessera_core::texture::PageEncoding,
     /// Report each stage's own peak resident memory in `--json` (Linux: resets the kernel's
     /// peak at each stage, so `/usr/bin/time` then reports only the last stage's peak; without
     /// this flag each stage's figure is the peak so far and external tools see the true peak).
@@ -313,6 +318,14 @@ pub fn run(args: BuildArgs) -> anyhow::Result<Outcome> {
 }
 
 /// The build's configuration for an input of `domain`.
+fn parse_page_encoding(text: &str) -> Result<tessera_core::texture::PageEncoding, String> {
+    use tessera_core::texture::PageEncoding;
+    [PageEncoding::Bc1, PageEncoding::Rgba8]
+        .into_iter()
+        .find(|e| e.name() == text)
+        .ok_or_else(|| format!("{text:?}: the texture encodings are bc1 and rgba8"))
+}
+
 fn configure(args: &BuildArgs, domain: Domain, memory: &Option<MemoryBudget>) -> BuildConfig {
     let mut config = BuildConfig {
         threads: args.threads,
@@ -329,6 +342,7 @@ fn configure(args: &BuildArgs, domain: Domain, memory: &Option<MemoryBudget>) ->
     config.simplify.colour_weight = args.colour_weight;
     config.simplify.uv_weight = args.uv_weight;
     config.position_bits = args.position_bits.unwrap_or(POSITION_BITS);
+    config.texture_encoding = args.texture_encoding;
     if let Some(n) = args.leaf_triangles {
         config.construction = Construction::LeafTriangles(n);
     }
@@ -415,6 +429,13 @@ pub fn summary_json(s: &BuildSummary, seconds: f64) -> serde_json::Value {
         "position_step": s.position_step,
         "quantisation_error": s.quantisation_error,
         "stages": s.stages.iter().map(|(name, t)| json!({"stage": name, "seconds": t})).collect::<Vec<_>>(),
+        // The texture pages written (null without textures); PSNR null where lossless.
+        "texture_pages": s.textures.as_ref().map(|t| json!({
+            "encoding": t.encoding.name(),
+            "pages": t.pages,
+            "bytes": t.page_bytes,
+            "psnr_db": t.psnr_db.is_finite().then_some(t.psnr_db),
+        })),
     })
 }
 
@@ -438,6 +459,19 @@ pub fn print_summary(s: &BuildSummary, position_bits: u32, seconds: f64, import_
          (counted in every stored error)",
         s.position_step[0], s.position_step[1], s.position_step[2], s.quantisation_error
     );
+    if let Some(t) = &s.textures {
+        let loss = if t.psnr_db.is_finite() {
+            format!("PSNR {:.2} dB against the texels as cut", t.psnr_db)
+        } else {
+            "lossless".to_string()
+        };
+        println!(
+            "texture pages: {} {}, {} bytes; {loss}",
+            t.pages,
+            t.encoding.name(),
+            t.page_bytes
+        );
+    }
     let stages: Vec<String> = s
         .stages
         .iter()

@@ -6,7 +6,6 @@ use clap::Args;
 use serde_json::json;
 use tessera_core::repository::format::{section_name, AttributeErrorRecord};
 use tessera_core::repository::patch::drawn_patch_bytes;
-use tessera_core::texture::PAGE_BYTES;
 
 use crate::Outcome;
 
@@ -87,18 +86,20 @@ pub fn run(args: InfoArgs) -> anyhow::Result<Outcome> {
                    "attribute_errors": level_errors(level).map(errors_json)})
         })
         .collect();
-    // Each texture: size, levels, pages and stored bytes (pages × PAGE_BYTES).
+    // Each texture: size, levels, pages and stored bytes (pages × the encoding's page bytes).
     let textures = repo.textures().map(|table| {
+        let page_bytes = table.encoding().page_bytes() as u64;
         let list: Vec<_> = table
             .shapes()
             .iter()
             .map(|s| {
                 let pages = s.page_count();
                 json!({"width": s.width, "height": s.height, "levels": s.levels(),
-                       "pages": pages, "bytes": pages as u64 * PAGE_BYTES as u64})
+                       "pages": pages, "bytes": pages as u64 * page_bytes})
             })
             .collect();
         json!({"count": list.len(), "bands": table.bands().len(), "pages": table.page_count(),
+               "encoding": table.encoding().name(), "page_bytes": page_bytes,
                "textures": list})
     });
     let codec = repo.codec().name();
@@ -181,8 +182,12 @@ pub fn run(args: InfoArgs) -> anyhow::Result<Outcome> {
         }
         if let Some(t) = &textures {
             println!(
-                "  textures: {} ({} pages of {PAGE_BYTES} bytes, {} bands)",
-                t["count"], t["pages"], t["bands"]
+                "  textures: {} ({} {} pages of {} bytes, {} bands)",
+                t["count"],
+                t["pages"],
+                t["encoding"].as_str().unwrap_or_default(),
+                t["page_bytes"],
+                t["bands"]
             );
             for (i, s) in t["textures"].as_array().into_iter().flatten().enumerate() {
                 println!(

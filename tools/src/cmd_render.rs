@@ -388,6 +388,11 @@ pub fn run(args: RenderArgs) -> anyhow::Result<Outcome> {
                 "pages_refused": t.refused,
                 "pages_wanted": t.wanted,
                 "pool_layers": cache.capacity(),
+                "pool_format": match cache.format() {
+                    tessera_runtime::gpu::PoolFormat::Bc1 => "bc1",
+                    tessera_runtime::gpu::PoolFormat::Rgba8 => "rgba8",
+                },
+                "pool_bytes": cache.bytes(),
                 "resident_pages": cache.resident(),
             });
         }

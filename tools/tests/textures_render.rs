@@ -68,8 +68,8 @@ fn psnr(a: &Path, b: &Path) -> f64 {
 }
 
 /// `relief.tsr` in `dir`: `gen mesh`'s 20,000-triangle relief with UVs and a `side`² texture,
-/// built.
-fn textured_relief(dir: &Path, side: u32) {
+/// built with `encoding`'s pages.
+fn textured_relief(dir: &Path, side: u32, encoding: &str) {
     let (mesh, side) = (dir.join("relief.ply"), side.to_string());
     let args = [
         "--triangles",
@@ -82,7 +82,12 @@ fn textured_relief(dir: &Path, side: u32) {
     ];
     run(&[&["gen", "mesh"][..], &args, &["--json"]].concat());
     let repo = dir.join("relief.tsr");
-    run(&["build", s(&mesh), "-o", s(&repo), "--json"]);
+    let encoding = ["--texture-encoding", encoding];
+    run(&[
+        &["build", s(&mesh), "-o", s(&repo), "--json"][..],
+        &encoding,
+    ]
+    .concat());
 }
 
 #[test]
@@ -90,8 +95,19 @@ fn spider_draws_its_textures_and_exports_them() {
     let dir = tempfile::tempdir().unwrap();
     let p = |name: &str| dir.path().join(name);
     let obj = spider();
-    let built = run(&["build", s(&obj), "-o", s(&p("spider.tsr")), "--json"]);
+    // Lossless pages: the export round trip below is then exact up to the PNG's bytes.
+    let built = run(&[
+        "build",
+        s(&obj),
+        "-o",
+        s(&p("spider.tsr")),
+        "--texture-encoding",
+        "rgba8",
+        "--json",
+    ]);
     assert_eq!(built["textures"], 4, "{built}");
+    assert_eq!(built["texture_pages"]["encoding"], "rgba8", "{built}");
+    assert_eq!(built["texture_pages"]["psnr_db"], serde_json::Value::Null);
     let frame = color_frame(
         &p("spider.tsr"),
         &p("spider.png"),
@@ -119,7 +135,15 @@ fn spider_draws_its_textures_and_exports_them() {
     );
 
     // The GLB keeps wedges, bands and textures: built again, it draws the same frame.
-    let back = run(&["build", s(&p("cut.glb")), "-o", s(&p("back.tsr")), "--json"]);
+    let back = run(&[
+        "build",
+        s(&p("cut.glb")),
+        "-o",
+        s(&p("back.tsr")),
+        "--texture-encoding",
+        "rgba8",
+        "--json",
+    ]);
     assert_eq!(back["textures"], 4, "{back}");
     color_frame(&p("back.tsr"), &p("back.png"), &[]);
     let again = psnr(&p("spider.png"), &p("back.png"));
@@ -133,7 +157,7 @@ fn spider_draws_its_textures_and_exports_them() {
 fn a_single_texture_survives_a_ply_export() {
     let dir = tempfile::tempdir().unwrap();
     let p = |name: &str| dir.path().join(name);
-    textured_relief(dir.path(), 512);
+    textured_relief(dir.path(), 512, "rgba8");
     // The UV error in texels: the stored UV error times the texture's 512 texels.
     let info = run(&["info", s(&p("relief.tsr")), "--json"]);
     let errors = &info["attribute_errors"];
@@ -149,7 +173,15 @@ fn a_single_texture_survives_a_ply_export() {
         &["--export", s(&p("cut.ply"))],
     );
     assert!(p("cut.tex0.png").exists(), "the texture beside the PLY");
-    let back = run(&["build", s(&p("cut.ply")), "-o", s(&p("back.tsr")), "--json"]);
+    let back = run(&[
+        "build",
+        s(&p("cut.ply")),
+        "-o",
+        s(&p("back.tsr")),
+        "--texture-encoding",
+        "rgba8",
+        "--json",
+    ]);
     assert_eq!(back["textures"], 1, "{back}");
     color_frame(&p("back.tsr"), &p("back.png"), &[]);
     let again = psnr(&p("relief.png"), &p("back.png"));
@@ -163,9 +195,11 @@ fn a_single_texture_survives_a_ply_export() {
 fn a_budget_smaller_than_the_texture_settles_to_the_unbudgeted_frame() {
     let dir = tempfile::tempdir().unwrap();
     let p = |name: &str| dir.path().join(name);
-    // 2048² texels: 16 MiB of level 0, 341 pages; a 28 MiB budget gives the cache a quarter,
-    // about 72 layers.
-    textured_relief(dir.path(), 2048);
+    // 2048² texels: 16 MiB of level 0, 341 pages (BC1, the default: 12,208 bytes each); the
+    // 320 × 240 view gives the cache 8 times the 4.7 pages its pixels fill, 38 layers, well
+    // under a quarter of the 28 MiB budget. The frame drawn with the default budget (the
+    // device's) is capped by the same view.
+    textured_relief(dir.path(), 2048, "bc1");
     let view = ["--size", "320x240"];
     let full = color_frame(&p("relief.tsr"), &p("full.png"), &view);
     let mut budgeted = view.to_vec();
@@ -178,7 +212,14 @@ fn a_budget_smaller_than_the_texture_settles_to_the_unbudgeted_frame() {
         small["resident_bytes"].as_u64() <= small["budget_bytes"].as_u64(),
         "{small}"
     );
-    assert!(full["textures"]["pool_layers"].as_u64().unwrap() > layers);
+    assert_eq!(layers, 38, "{small}");
+    assert_eq!(small["textures"]["pool_format"], "bc1", "{small}");
+    assert_eq!(
+        small["textures"]["pool_bytes"].as_u64().unwrap() / 12_208,
+        38,
+        "{small}"
+    );
+    assert_eq!(full["textures"]["settled"], true, "{full}");
     let same = compare(&p("full.png"), &p("small.png"));
     assert_eq!(
         same["max_difference"], 0,

@@ -110,6 +110,7 @@ pub fn repack_on_grid(
         textures: source.textures().map(|t| TextureDirectory {
             shapes: t.shapes(),
             bands: t.bands(),
+            encoding: t.encoding(),
         }),
     };
     let mut feed = Feed {

@@ -21,7 +21,6 @@ use super::format::{
 use super::reader::{corrupt, RepositoryError};
 use super::textures::{page_checksum, TextureDirectory};
 use super::writer::{lay_out_directory, write_atomically, Tables};
-use crate::texture::PAGE_BYTES;
 
 /// The in-memory part of a repository written by `write_repository_streamed`.
 #[derive(Clone, Debug, PartialEq)]
@@ -47,7 +46,8 @@ pub trait BlobFeed {
     fn patch(&mut self, tet: usize, out: &mut Vec<u8>) -> io::Result<()>;
     /// Appends tet `tet`'s global id stream (its `id_bytes` bytes) to `out`.
     fn ids(&mut self, tet: usize, out: &mut Vec<u8>) -> io::Result<()>;
-    /// Appends texture page `global` (`PAGE_BYTES` bytes) to `out`; asked in page order, once
+    /// Appends texture page `global` as stored (the directory's `encoding.page_bytes()` bytes)
+    /// to `out`; asked in page order, once
     /// each, only of a directory with textures (a feed without pages need not say more).
     fn texture_page(&mut self, global: u32, out: &mut Vec<u8>) -> io::Result<()> {
         let _ = out;
@@ -209,14 +209,16 @@ fn write_pages(
     let mut checksums = vec![0u32; pages as usize];
     let tables = textures.tables(&checksums);
     out.write_all(&tables)?;
-    let mut page = Vec::with_capacity(PAGE_BYTES);
+    let page_bytes = textures.encoding.page_bytes();
+    let mut page = Vec::with_capacity(page_bytes);
     for (global, checksum) in checksums.iter_mut().enumerate() {
         page.clear();
         feed.texture_page(global as u32, &mut page)?;
-        if page.len() != PAGE_BYTES {
+        if page.len() != page_bytes {
             return Err(mismatch(format!(
-                "texture page {global}: {} bytes fed, a page is {PAGE_BYTES}",
-                page.len()
+                "texture page {global}: {} bytes fed, a {} page is {page_bytes}",
+                page.len(),
+                textures.encoding.name()
             )));
         }
         *checksum = page_checksum(&page);

@@ -6,9 +6,15 @@
 //!                    TextureRecord × texture_count                   (32 bytes each)
 //!                    BandRecord × band_count                         (16 bytes each)
 //!                    u32 × page_count: each page's CRC-32, then zeros to a multiple of 8
-//!                    page × page_count, each PAGE_BYTES (73,984) raw RGBA8 texels
-//!                    (sRGB colour, linear alpha), row-major, top row first; no compression
+//!                    page × page_count, each `encoding.page_bytes()` bytes:
+//!                      encoding 0 (RGBA8): PAGE_BYTES (73,984) texels (sRGB colour, linear
+//!                        alpha), row-major, top row first;
+//!                      encoding 1 (BC1): BC1_PAGE_BYTES (12,208), the page's three mips as
+//!                        BC1 blocks (`texture_codec`)
 //! ```
+//!
+//! The header's last word, `encoding`, was a reserved 0 before BC1 pages existed, so older
+//! repositories read as RGBA8; a tessera that predates it refuses a BC1 section as corrupt.
 //!
 //! Pages follow the global page index (`crate::texture`): texture by texture, level by level,
 //! row by row. Every offset above is a multiple of 8, so the records are borrowed in place.
@@ -28,7 +34,7 @@ use bytemuck::{Pod, Zeroable};
 
 use super::format::{section_name, SECTION_TEXTURES};
 use super::reader::{corrupt, RepositoryError};
-use crate::texture::{bands_valid, Band, TextureShape, Wrap, PAGE_BYTES};
+use crate::texture::{bands_valid, Band, PageEncoding, TextureShape, Wrap};
 
 /// The section's first 16 bytes: how many of each table follow.
 #[repr(C)]
@@ -40,8 +46,8 @@ pub struct TextureSectionHeader {
     pub band_count: u32,
     /// u32, pages of all textures: the sum of every record's `page_count`.
     pub page_count: u32,
-    /// u32, 0.
-    pub reserved: u32,
+    /// u32, `PageEncoding::code` of every page (0 RGBA8, 1 BC1).
+    pub encoding: u32,
 }
 
 /// One texture: its shape (`TextureShape`) and where its pages start.
@@ -84,7 +90,8 @@ const HEADER_BYTES: u64 = std::mem::size_of::<TextureSectionHeader>() as u64;
 const RECORD_BYTES: u64 = std::mem::size_of::<TextureRecord>() as u64;
 const BAND_BYTES: u64 = std::mem::size_of::<BandRecord>() as u64;
 const _: () = assert!(HEADER_BYTES == 16 && RECORD_BYTES == 32 && BAND_BYTES == 16);
-const _: () = assert!(PAGE_BYTES.is_multiple_of(8));
+const _: () = assert!(crate::texture::PAGE_BYTES.is_multiple_of(8));
+const _: () = assert!(crate::texture::BC1_PAGE_BYTES.is_multiple_of(8));
 
 /// Bytes of the tables (everything before the pages) for these counts.
 fn tables_bytes(textures: u64, bands: u64, pages: u64) -> Option<u64> {
@@ -96,8 +103,9 @@ fn tables_bytes(textures: u64, bands: u64, pages: u64) -> Option<u64> {
 }
 
 /// Bytes of a whole section for these counts (`None` past u64).
-fn section_bytes_for(textures: u64, bands: u64, pages: u64) -> Option<u64> {
-    tables_bytes(textures, bands, pages)?.checked_add(pages.checked_mul(PAGE_BYTES as u64)?)
+fn section_bytes_for(textures: u64, bands: u64, pages: u64, encoding: PageEncoding) -> Option<u64> {
+    tables_bytes(textures, bands, pages)?
+        .checked_add(pages.checked_mul(encoding.page_bytes() as u64)?)
 }
 
 /// The value a page's CRC-32 entry holds for its bytes.
@@ -111,6 +119,8 @@ pub fn page_checksum(page: &[u8]) -> u32 {
 pub struct TextureDirectory {
     pub shapes: Vec<TextureShape>,
     pub bands: Vec<Band>,
+    /// How every page is stored.
+    pub encoding: PageEncoding,
 }
 
 impl TextureDirectory {
@@ -125,6 +135,7 @@ impl TextureDirectory {
             self.shapes.len() as u64,
             self.bands.len() as u64,
             self.page_count(),
+            self.encoding,
         )
         .expect("checked by `check`: counts fit u32")
     }
@@ -145,7 +156,7 @@ impl TextureDirectory {
         if !count_fits(self.shapes.len() as u64) || !count_fits(self.bands.len() as u64) {
             return Err(corrupt("too many textures or bands for u32 counts".into()));
         }
-        if !count_fits(pages) || section_bytes_for(0, 0, pages).is_none() {
+        if !count_fits(pages) || section_bytes_for(0, 0, pages, self.encoding).is_none() {
             return Err(corrupt(format!(
                 "{pages} texture pages do not fit the format"
             )));
@@ -166,7 +177,7 @@ impl TextureDirectory {
             texture_count: self.shapes.len() as u32,
             band_count: self.bands.len() as u32,
             page_count: page_checksums.len() as u32,
-            reserved: 0,
+            encoding: self.encoding.code(),
         };
         let mut out = bytemuck::bytes_of(&head).to_vec();
         let mut first_page = 0u32;
@@ -203,7 +214,7 @@ impl TextureDirectory {
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct TextureContents {
     pub directory: TextureDirectory,
-    /// Every page in global order, `PAGE_BYTES` each.
+    /// Every page in global order, `directory.encoding.page_bytes()` each.
     pub pages: Vec<u8>,
 }
 
@@ -213,14 +224,15 @@ impl TextureContents {
     pub(crate) fn section(&self) -> Result<Vec<u8>, RepositoryError> {
         self.directory.check()?;
         let pages = self.directory.page_count();
-        if self.pages.len() as u64 != pages * PAGE_BYTES as u64 {
+        let page_bytes = self.directory.encoding.page_bytes();
+        if self.pages.len() as u64 != pages * page_bytes as u64 {
             return Err(corrupt(format!(
-                "{} bytes of texture pages, not the {pages} pages of {PAGE_BYTES} bytes its \
+                "{} bytes of texture pages, not the {pages} pages of {page_bytes} bytes its \
                  textures have",
                 self.pages.len()
             )));
         }
-        let crcs: Vec<u32> = self.pages.chunks(PAGE_BYTES).map(page_checksum).collect();
+        let crcs: Vec<u32> = self.pages.chunks(page_bytes).map(page_checksum).collect();
         let mut out = self.directory.tables(&crcs);
         out.extend_from_slice(&self.pages);
         Ok(out)
@@ -236,6 +248,7 @@ pub(crate) struct TextureLayout {
     textures: usize,
     bands: usize,
     pages: u32,
+    encoding: PageEncoding,
     /// One bit a page: its checksum was verified. Relaxed atomics: a race verifies twice.
     verified: Vec<AtomicU64>,
 }
@@ -267,13 +280,18 @@ pub(crate) fn check_texture_section(
         u64::from(head.band_count),
         u64::from(head.page_count),
     );
-    if section_bytes_for(t, b, p) != Some(s.len() as u64) || head.reserved != 0 {
+    let encoding = PageEncoding::from_code(head.encoding).ok_or_else(|| {
+        corrupt(format!(
+            "texture section: page encoding {} is not one this tessera knows (0 RGBA8, 1 BC1)",
+            head.encoding
+        ))
+    })?;
+    if section_bytes_for(t, b, p, encoding) != Some(s.len() as u64) {
         return Err(corrupt(format!(
-            "texture section is {} bytes, but {t} textures, {b} bands and {p} pages take {} \
-             (or its reserved field {} is not 0)",
+            "texture section is {} bytes, but {t} textures, {b} bands and {p} {} pages take {}",
             s.len(),
-            section_bytes_for(t, b, p).map_or("more than u64".into(), |n| n.to_string()),
-            head.reserved
+            encoding.name(),
+            section_bytes_for(t, b, p, encoding).map_or("more than u64".into(), |n| n.to_string()),
         )));
     }
     // Within the section: its size was checked against the counts.
@@ -336,6 +354,7 @@ pub(crate) fn check_texture_section(
         textures: t as usize,
         bands: b as usize,
         pages: head.page_count,
+        encoding,
         verified: (0..p.div_ceil(64)).map(|_| AtomicU64::new(0)).collect(),
     })
 }
@@ -411,7 +430,13 @@ impl<'a> TextureTable<'a> {
         self.layout.pages
     }
 
-    /// Page `global` (`PAGE_BYTES` bytes, `crate::texture` for its texels), its CRC-32 checked
+    /// How every page is stored.
+    pub fn encoding(&self) -> PageEncoding {
+        self.layout.encoding
+    }
+
+    /// Page `global` as stored (`encoding().page_bytes()` bytes; `crate::texture_codec`
+    /// decodes them), its CRC-32 checked
     /// the first time it is read: a damaged page is `PageChecksumMismatch`, the rest stay
     /// readable. `NoSuchPage` past the last page.
     pub fn page(&self, global: u32) -> Result<&'a [u8], RepositoryError> {
@@ -426,8 +451,9 @@ impl<'a> TextureTable<'a> {
         let crc_at = tables_end - (u64::from(count) * 4).next_multiple_of(8) as usize;
         let crc_at = crc_at + 4 * global as usize;
         let stored = u32::from_le_bytes(self.section[crc_at..crc_at + 4].try_into().expect("4"));
-        let start = tables_end + global as usize * PAGE_BYTES;
-        let bytes = &self.section[start..start + PAGE_BYTES];
+        let page_bytes = self.layout.encoding.page_bytes();
+        let start = tables_end + global as usize * page_bytes;
+        let bytes = &self.section[start..start + page_bytes];
         let (word, bit) = (global as usize / 64, 1u64 << (global % 64));
         if self.layout.verified[word].load(Ordering::Relaxed) & bit == 0 {
             let computed = page_checksum(bytes);

@@ -85,7 +85,7 @@ fn lay_out(
     // The texture section's checksum covers its tables, the bytes before its pages.
     let textures_checksum = match (&section, textures) {
         (Some(bytes), Some(t)) => {
-            let pages = t.directory.page_count() as usize * crate::texture::PAGE_BYTES;
+            let pages = t.directory.page_count() as usize * t.directory.encoding.page_bytes();
             crc32fast::hash(&bytes[..bytes.len() - pages])
         }
         _ => 0,

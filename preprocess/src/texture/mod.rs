@@ -16,9 +16,10 @@ pub mod pyramid;
 use std::io;
 
 use tessera_core::repository::{BlobFeed, TextureDirectory};
-use tessera_core::texture::{bands_valid, Band, TextureShape};
+use tessera_core::texture::{bands_valid, Band, PageEncoding, TextureShape};
+use tessera_core::texture_codec::{colour_squared_error, decode_page, encode_page, psnr_db};
 
-use crate::build_config::{BuildError, MemoryBudget};
+use crate::build_config::{BuildError, MemoryBudget, TexturePagesSummary};
 use crate::texture_input::{MeshTextures, TextureInput};
 use pyramid::Level;
 
@@ -42,6 +43,7 @@ pub struct TexturePlan {
 pub fn plan(
     textures: &MeshTextures,
     memory: Option<&MemoryBudget>,
+    encoding: PageEncoding,
 ) -> Result<TexturePlan, BuildError> {
     let mut shapes = Vec::with_capacity(textures.textures.len());
     for t in &textures.textures {
@@ -84,6 +86,7 @@ pub fn plan(
         directory: TextureDirectory {
             shapes,
             bands: textures.bands.clone(),
+            encoding,
         },
     })
 }
@@ -134,6 +137,12 @@ pub struct PageMaker<'a> {
     next: u32,
     /// (texture, level index, that level's texels) being cut.
     current: Option<(usize, u32, Level)>,
+    encoding: PageEncoding,
+    /// A page as cut, before it is encoded.
+    cut: Vec<u8>,
+    /// The encoding's loss so far: squared error and channels (`TexturePagesSummary`).
+    squared_error: f64,
+    channels: u64,
 }
 
 impl<'a> PageMaker<'a> {
@@ -154,11 +163,25 @@ impl<'a> PageMaker<'a> {
             first_pages,
             next: 0,
             current: None,
+            encoding: plan.directory.encoding,
+            cut: Vec::new(),
+            squared_error: 0.0,
+            channels: 0,
         }
     }
 
-    /// Appends page `global` to `out`. Pages are asked in order, each once; a texture whose
-    /// file no longer decodes to its planned size fails naming it.
+    /// The pages made so far: their count, bytes and the encoding's PSNR.
+    pub fn summary(&self) -> TexturePagesSummary {
+        TexturePagesSummary {
+            encoding: self.encoding,
+            pages: self.next,
+            page_bytes: u64::from(self.next) * self.encoding.page_bytes() as u64,
+            psnr_db: psnr_db(self.squared_error, self.channels),
+        }
+    }
+
+    /// Appends page `global` to `out`, encoded as planned. Pages are asked in order, each once;
+    /// a texture whose file no longer decodes to its planned size fails naming it.
     pub fn page(&mut self, global: u32, out: &mut Vec<u8>) -> Result<(), BuildError> {
         if global != self.next {
             return Err(BuildError::Config(format!(
@@ -194,7 +217,22 @@ impl<'a> PageMaker<'a> {
             *level = pyramid::next_level(level);
             *at += 1;
         }
-        pages::cut_page(level, &shape, l, x, y, out);
+        self.cut.clear();
+        pages::cut_page(level, &shape, l, x, y, &mut self.cut);
+        match self.encoding {
+            PageEncoding::Rgba8 => {
+                out.extend_from_slice(&self.cut);
+                self.channels += self.cut.len() as u64 / 4 * 3;
+            }
+            encoding => {
+                let stored = encode_page(encoding, &self.cut);
+                let decoded = decode_page(encoding, &stored).expect("a page just encoded");
+                let (error, channels) = colour_squared_error(&decoded, &self.cut);
+                self.squared_error += error;
+                self.channels += channels;
+                out.extend_from_slice(&stored);
+            }
+        }
         self.next += 1;
         Ok(())
     }
@@ -282,14 +320,16 @@ mod tests {
     }
 
     fn refusal(textures: &MeshTextures, memory: Option<&MemoryBudget>) -> String {
-        plan(textures, memory).unwrap_err().to_string()
+        plan(textures, memory, PageEncoding::Bc1)
+            .unwrap_err()
+            .to_string()
     }
 
     #[test]
     fn bad_textures_are_refused_naming_them() {
         let good = png(40, 30);
         assert_eq!(
-            plan(&textures(good.clone()), None)
+            plan(&textures(good.clone()), None, PageEncoding::Bc1)
                 .unwrap()
                 .directory
                 .shapes[0],
@@ -343,15 +383,24 @@ mod tests {
     }
 
     #[test]
-    fn pages_are_made_in_order_only() {
+    fn pages_are_made_in_order_only_in_their_encoding() {
         let t = textures(png(300, 10));
-        let planned = plan(&t, None).unwrap();
-        let mut maker = PageMaker::new(&t, &planned);
-        let mut out = Vec::new();
-        assert!(maker.page(1, &mut out).is_err());
-        for g in 0..planned.directory.page_count() as u32 {
-            maker.page(g, &mut out).unwrap();
+        for encoding in [PageEncoding::Rgba8, PageEncoding::Bc1] {
+            let planned = plan(&t, None, encoding).unwrap();
+            let mut maker = PageMaker::new(&t, &planned);
+            let mut out = Vec::new();
+            assert!(maker.page(1, &mut out).is_err());
+            for g in 0..planned.directory.page_count() as u32 {
+                maker.page(g, &mut out).unwrap();
+            }
+            assert_eq!(out.len(), 6 * encoding.page_bytes());
+            let summary = maker.summary();
+            assert_eq!((summary.pages, summary.page_bytes), (6, out.len() as u64));
+            match encoding {
+                PageEncoding::Rgba8 => assert!(summary.psnr_db.is_infinite()),
+                // A noise texture: BC1's worst case, still a finite, positive PSNR.
+                PageEncoding::Bc1 => assert!(summary.psnr_db > 5.0 && summary.psnr_db < 60.0),
+            }
         }
-        assert_eq!(out.len(), 6 * tessera_core::texture::PAGE_BYTES);
     }
 }

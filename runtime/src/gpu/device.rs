@@ -187,6 +187,9 @@ pub struct Capabilities {
     /// then come from visible fragments only (a fragment with side effects otherwise runs
     /// before the depth test).
     pub early_depth_test: bool,
+    /// BC1-7 textures: BC1 texture pages stay compressed on the GPU (`texture_pages::PoolFormat`;
+    /// a test may clear it to exercise the decoding path).
+    pub bc_textures: bool,
 }
 
 /// A device and queue, with what they can do.
@@ -301,7 +304,8 @@ impl GpuContext {
         let features = adapter.features();
         let optional = wgpu::Features::TIMESTAMP_QUERY
             | wgpu::Features::POLYGON_MODE_LINE
-            | wgpu::Features::SHADER_EARLY_DEPTH_TEST;
+            | wgpu::Features::SHADER_EARLY_DEPTH_TEST
+            | wgpu::Features::TEXTURE_COMPRESSION_BC;
         let limits = options.limits.clone().unwrap_or_else(|| adapter.limits());
         required_limits(&limits).map_err(|missing| DeviceError::Unsupported {
             adapter: info.name.clone(),
@@ -359,6 +363,7 @@ impl GpuContext {
                 timestamps: features.contains(wgpu::Features::TIMESTAMP_QUERY),
                 wireframe: features.contains(wgpu::Features::POLYGON_MODE_LINE),
                 early_depth_test: features.contains(wgpu::Features::SHADER_EARLY_DEPTH_TEST),
+                bc_textures: features.contains(wgpu::Features::TEXTURE_COMPRESSION_BC),
             },
             info,
             backend,

@@ -56,4 +56,4 @@ pub use renderer::{
     Frame, FramePhases, FrameRequest, Readback, RenderError, Renderer, RendererOptions, Settled,
 };
 pub use streamer::{GpuStreamStats, GpuStreamer, StreamError, StreamedGpuFrame};
-pub use texture_pages::{PageSource, TextureError};
+pub use texture_pages::{PageSource, PoolFormat, TextureError};

@@ -6,7 +6,7 @@ use std::borrow::Cow;
 use std::sync::Arc;
 
 use tessera_core::repository::reader::Repository;
-use tessera_core::texture::{Band, TextureShape};
+use tessera_core::texture::{Band, PageEncoding, TextureShape};
 
 use super::texture_pages::PageSource;
 
@@ -15,17 +15,19 @@ pub struct RepositoryPages {
     repo: Arc<Repository>,
     shapes: Vec<TextureShape>,
     bands: Vec<Band>,
+    encoding: PageEncoding,
 }
 
 impl RepositoryPages {
     /// `None` where the repository has no texture section.
     pub fn new(repo: Arc<Repository>) -> Option<RepositoryPages> {
         let table = repo.textures()?;
-        let (shapes, bands) = (table.shapes(), table.bands());
+        let (shapes, bands, encoding) = (table.shapes(), table.bands(), table.encoding());
         Some(RepositoryPages {
             repo,
             shapes,
             bands,
+            encoding,
         })
     }
 
@@ -42,6 +44,10 @@ impl PageSource for RepositoryPages {
 
     fn bands(&self) -> &[Band] {
         &self.bands
+    }
+
+    fn encoding(&self) -> PageEncoding {
+        self.encoding
     }
 
     fn page(&self, global: u32) -> Result<Cow<'_, [u8]>, String> {

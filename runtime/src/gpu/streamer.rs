@@ -36,7 +36,7 @@ use super::resident::ResidentModel;
 use super::stream_budget::{fixed_bytes, largest_unit_bytes, FixedBytes};
 use super::stream_pool::{pool_model, Placement, PoolAllocator};
 use super::texture_cache::{cache_bytes, layers_for};
-use super::texture_pages::{PageSource, TextureLayout};
+use super::texture_pages::{PageSource, PoolFormat, TextureLayout};
 use crate::stream::loader::read_unit;
 use crate::stream::{stream_frame, LoadedUnit, Loader, Residency, StreamFrame, UnitTable};
 use tessera_core::repository::format::NO_INDEX;
@@ -141,7 +141,8 @@ impl GpuStreamer {
 
     /// `new`, the renderer drawing `textures` (`Renderer::set_textures`) when given: their
     /// page pool, tables and request bits take their share of `options.budget_bytes`
-    /// (`texture_cache::layers_for`: at most a quarter) and the geometry the rest; each
+    /// (`texture_cache::layers_for`: at most a quarter, and what the viewport can want) and
+    /// the geometry the rest; each
     /// `frame` loads the pages the frames asked for.
     pub fn with_textures(
         ctx: &GpuContext,
@@ -154,8 +155,10 @@ impl GpuStreamer {
             return Self::geometry(ctx, repo, options, upload_bytes_per_frame);
         };
         let layout = TextureLayout::new(source.shapes(), source.bands())?;
-        let layers = layers_for(ctx, &layout, Some(options.budget_bytes))?;
-        let bytes = cache_bytes(&layout, layers);
+        let format = PoolFormat::for_pages(ctx, source.encoding());
+        let viewport = (options.width, options.height);
+        let layers = layers_for(ctx, &layout, Some(options.budget_bytes), format, viewport)?;
+        let bytes = cache_bytes(&layout, layers, format);
         let geometry = RendererOptions {
             budget_bytes: options.budget_bytes - bytes,
             ..options

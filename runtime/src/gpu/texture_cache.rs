@@ -2,9 +2,12 @@
 //! and the fragment shader's request bits (`shaders/texture.wgsl`, bind group 2), and the
 //! loop that turns read-back requests into loads (`texture_residency.rs` decides).
 //!
-//! - Pool: one `D2Array` texture, `Rgba8UnormSrgb`, 136 × 136 a layer with the page's own 3
-//!   mips (`texture_pages::page_mips`), one layer a resident page: the layer count is the
-//!   cache's capacity (`LAYER_BYTES` each). Texture arrays exist on every backend (GL too).
+//! - Pool: one `D2Array` texture, 136 × 136 a layer with the page's own 3 mips, one layer a
+//!   resident page: the layer count is the cache's capacity. `Bc1RgbaUnormSrgb` (12,208
+//!   bytes a layer) where the pages are BC1 and the adapter samples it, the stored mips
+//!   uploaded as they are; else `Rgba8UnormSrgb` (`LAYER_BYTES`, 97,104), BC1 pages decoded
+//!   and RGBA8 pages given their mips (`texture_pages::page_mips`) as they load
+//!   (`texture_pages::PoolFormat`). Texture arrays exist on every backend (GL too).
 //! - Page table: a u32 a global page, layer + 1 (0: not resident), written as pages come and
 //!   go; a frame already submitted keeps what it read (writes land between submits).
 //! - Requests: a bit a global page, set by the fragments (`atomicOr`), copied after the frame's
@@ -19,9 +22,13 @@
 //! finest resident coarser level (correct, blurrier) instead of a wrong page.
 //!
 //! Budget rule (`layers_for`): with a GPU budget, the pool, table, info and request buffers
-//! take at most a quarter of it (the rest is the geometry's), at most every page, at least the
-//! pinned pages plus `MIN_FREE_LAYERS` (or every page, if fewer), else `BudgetTooSmall` names
-//! the budget; without one, every page. Both capped by `max_texture_array_layers`.
+//! take at most a quarter of it, and the pool no more layers than `SCREEN_PAGES` times the
+//! pages the viewport's pixels fill at one texel a pixel (a frame's working set grows with its
+//! pixels, not with the textures: at most 399 pages were wanted by a 1280 × 720 frame of the
+//! 4096² benchmark texture, 7.1 such pages); the rest is the geometry's. At most every page, at
+//! least the pinned pages plus `MIN_FREE_LAYERS` (or every page, if fewer), else
+//! `BudgetTooSmall` names the budget; without one, every page. Both capped by
+//! `max_texture_array_layers`.
 
 use std::sync::atomic::{AtomicU8, Ordering};
 use std::sync::Arc;
@@ -29,13 +36,15 @@ use std::sync::Arc;
 use tessera_core::texture::PAGE_SIDE;
 
 use super::device::{Backend, GpuContext, GpuFailure};
-use super::texture_pages::{
-    page_mips, PageSource, TextureError, TextureLayout, LAYER_BYTES, PAGE_MIPS,
-};
+use super::texture_pages::{PageSource, PoolFormat, TextureError, TextureLayout, PAGE_MIPS};
 use super::texture_residency::PageResidency;
+use tessera_core::texture_codec::{bc1_blocks_across, bc1_mip_range, decode_page_mips};
 
 /// Layers beyond the pinned pages a budget must allow.
 pub const MIN_FREE_LAYERS: u32 = 16;
+/// Under a budget, the pool's layers are at most this many times the pages a viewport's
+/// pixels fill at one texel a pixel (the module's budget rule).
+pub const SCREEN_PAGES: u64 = 8;
 /// Read-back buffers in the request ring.
 const RING: usize = 3;
 /// Storage buffers texture.wgsl adds to the fragment stage (info, table, requests); draw.wgsl
@@ -72,6 +81,7 @@ struct Staging {
 pub struct TextureCache {
     source: Arc<dyn PageSource>,
     layout: TextureLayout,
+    format: PoolFormat,
     residency: PageResidency,
     pool: wgpu::Texture,
     table: wgpu::Buffer,
@@ -99,16 +109,19 @@ pub fn table_bytes(layout: &TextureLayout) -> u64 {
         + request_words(layout.total_pages()) * 4 * (1 + RING as u64)
 }
 
-/// Every byte the cache allocates with `layers` layers.
-pub fn cache_bytes(layout: &TextureLayout, layers: u32) -> u64 {
-    table_bytes(layout) + layers as u64 * LAYER_BYTES
+/// Every byte the cache allocates with `layers` layers of `format`.
+pub fn cache_bytes(layout: &TextureLayout, layers: u32, format: PoolFormat) -> u64 {
+    table_bytes(layout) + layers as u64 * format.layer_bytes()
 }
 
-/// The pool's layers under `budget` (the module's budget rule), or why none fits.
+/// The pool's layers of `format` under `budget` for a `viewport` of pixels (the module's
+/// budget rule), or why none fits.
 pub fn layers_for(
     ctx: &GpuContext,
     layout: &TextureLayout,
     budget: Option<u64>,
+    format: PoolFormat,
+    viewport: (u32, u32),
 ) -> Result<u32, TextureError> {
     let all = layout.total_pages().max(2);
     let floor = all
@@ -124,14 +137,17 @@ pub fn layers_for(
     let layers = match budget {
         None => all,
         Some(budget) => {
-            let share = (budget / 4).saturating_sub(table_bytes(layout)) / LAYER_BYTES;
+            let share = (budget / 4).saturating_sub(table_bytes(layout)) / format.layer_bytes();
             if share < floor as u64 {
                 return Err(TextureError::BudgetTooSmall {
                     budget,
-                    needed: 4 * cache_bytes(layout, floor),
+                    needed: 4 * cache_bytes(layout, floor, format),
                 });
             }
-            all.min(share.min(u32::MAX as u64) as u32)
+            let payload = u64::from(tessera_core::texture::PAGE_PAYLOAD).pow(2);
+            let pixels = u64::from(viewport.0) * u64::from(viewport.1);
+            let screen = (SCREEN_PAGES * pixels).div_ceil(payload).max(floor as u64);
+            all.min(share.min(screen).min(u32::MAX as u64) as u32)
         }
     };
     Ok(layers.min(limit))
@@ -200,8 +216,9 @@ fn check_device(ctx: &GpuContext, layout: &TextureLayout) -> Result<(), TextureE
 }
 
 impl TextureCache {
-    /// The cache of `source`'s textures with `layers` layers (`layers_for`), its pinned pages
-    /// loaded. Refuses an adapter that cannot draw textures, naming what it lacks.
+    /// The cache of `source`'s textures with `layers` layers (`layers_for`) of the format
+    /// `PoolFormat::for_pages` gives, its pinned pages loaded. Refuses an adapter that cannot
+    /// draw textures, naming what it lacks.
     pub fn new(
         ctx: &GpuContext,
         source: Arc<dyn PageSource>,
@@ -209,6 +226,7 @@ impl TextureCache {
     ) -> Result<TextureCache, TextureError> {
         let layout = TextureLayout::new(source.shapes(), source.bands())?;
         check_device(ctx, &layout)?;
+        let format = PoolFormat::for_pages(ctx, source.encoding());
         let pinned = layout.pinned();
         let layers = layers.max(2).max(pinned.len() as u32);
         if layers > ctx.limits.max_texture_array_layers {
@@ -231,7 +249,7 @@ impl TextureCache {
             mip_level_count: PAGE_MIPS,
             sample_count: 1,
             dimension: wgpu::TextureDimension::D2,
-            format: wgpu::TextureFormat::Rgba8UnormSrgb,
+            format: format.texture_format(),
             usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
             view_formats: &[],
         });
@@ -316,7 +334,7 @@ impl TextureCache {
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(GpuFailure(format!(
                 "allocating {} bytes of texture pages: {e}",
-                cache_bytes(&layout, layers)
+                cache_bytes(&layout, layers, format)
             ))
             .into());
         }
@@ -325,6 +343,7 @@ impl TextureCache {
             residency: PageResidency::new(layers, &pinned, ctx.backend != Backend::Gl),
             source,
             layout,
+            format,
             pool,
             table,
             requests,
@@ -355,60 +374,58 @@ impl TextureCache {
         &self.layout
     }
 
+    /// The pool's format.
+    pub fn format(&self) -> PoolFormat {
+        self.format
+    }
+
+    /// Every byte the cache allocates.
+    pub fn bytes(&self) -> u64 {
+        cache_bytes(&self.layout, self.capacity(), self.format)
+    }
+
     /// Page `page` into layer `layer` (its three mips) and the table entry.
     fn upload(&self, ctx: &GpuContext, page: u32, layer: u32) -> Result<(), TextureError> {
-        let texels = self
+        let stored = self
             .source
             .page(page)
             .map_err(|message| TextureError::Page { page, message })?;
-        if texels.len() != tessera_core::texture::PAGE_BYTES {
-            return Err(TextureError::Page {
-                page,
-                message: format!(
-                    "{} bytes, not {}",
-                    texels.len(),
-                    tessera_core::texture::PAGE_BYTES
-                ),
-            });
-        }
-        // Through a buffer copy, rows padded to the copy alignment.
-        use wgpu::util::DeviceExt;
-        let mips = page_mips(&texels);
-        let row = |side: u32| (side * 4).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
-        let mut staged = Vec::new();
-        let mut offsets = Vec::new();
-        for (mip, bytes) in mips.iter().enumerate() {
-            let side = PAGE_SIDE >> mip;
-            offsets.push(staged.len() as u64);
-            for r in 0..side as usize {
-                let line = &bytes[r * side as usize * 4..][..side as usize * 4];
-                staged.extend_from_slice(line);
-                staged.resize(staged.len() + (row(side) - side * 4) as usize, 0);
+        let encoding = self.source.encoding();
+        let wrong_size = |message: String| TextureError::Page { page, message };
+        // Each mip: its bytes, bytes a row (of texels, or of 4 × 4 blocks), rows, and the
+        // extent copied (a BC1 mip's physical size: whole blocks).
+        let mips: Vec<(Vec<u8>, u32, u32, u32)> = match self.format {
+            PoolFormat::Bc1 => {
+                if stored.len() != encoding.page_bytes() {
+                    return Err(wrong_size(format!(
+                        "{} bytes, not {}",
+                        stored.len(),
+                        encoding.page_bytes()
+                    )));
+                }
+                (0..PAGE_MIPS)
+                    .map(|mip| {
+                        let blocks = bc1_blocks_across(mip);
+                        let bytes = stored[bc1_mip_range(mip)].to_vec();
+                        (bytes, blocks * 8, blocks, blocks * 4)
+                    })
+                    .collect()
             }
-        }
-        let buffer = ctx
-            .device
-            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("texture page upload"),
-                contents: &staged,
-                usage: wgpu::BufferUsages::COPY_SRC,
-            });
-        let mut encoder = ctx
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("texture page upload"),
-            });
-        for (mip, &offset) in offsets.iter().enumerate() {
-            let side = PAGE_SIDE >> mip;
-            encoder.copy_buffer_to_texture(
-                wgpu::TexelCopyBufferInfo {
-                    buffer: &buffer,
-                    layout: wgpu::TexelCopyBufferLayout {
-                        offset,
-                        bytes_per_row: Some(row(side)),
-                        rows_per_image: Some(side),
-                    },
-                },
+            PoolFormat::Rgba8 => decode_page_mips(encoding, &stored)
+                .map_err(|e| wrong_size(e.to_string()))?
+                .into_iter()
+                .enumerate()
+                .map(|(mip, bytes)| {
+                    let side = PAGE_SIDE >> mip;
+                    (bytes, side * 4, side, side)
+                })
+                .collect(),
+        };
+        // By `write_texture`, rows unpadded: wgpu stages them at the backend's own pitch,
+        // which on GL is what `glCompressedTexSubImage3D` needs (a BC1 copy with rows padded
+        // to 256 bytes is refused there, and an incomplete pool samples black).
+        for (mip, (bytes, row, rows, side)) in mips.iter().enumerate() {
+            ctx.queue.write_texture(
                 wgpu::TexelCopyTextureInfo {
                     texture: &self.pool,
                     mip_level: mip as u32,
@@ -419,14 +436,19 @@ impl TextureCache {
                     },
                     aspect: wgpu::TextureAspect::All,
                 },
+                bytes,
+                wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(*row),
+                    rows_per_image: Some(*rows),
+                },
                 wgpu::Extent3d {
-                    width: side,
-                    height: side,
+                    width: *side,
+                    height: *side,
                     depth_or_array_layers: 1,
                 },
             );
         }
-        ctx.queue.submit([encoder.finish()]);
         ctx.queue.write_buffer(
             &self.table,
             page as u64 * 4,

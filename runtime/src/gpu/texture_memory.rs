@@ -5,7 +5,7 @@
 use std::borrow::Cow;
 use std::sync::atomic::{AtomicU64, Ordering};
 
-use tessera_core::texture::{Band, TextureShape, PAGE_BYTES, PAGE_SIDE};
+use tessera_core::texture::{Band, PageEncoding, TextureShape, PAGE_BYTES, PAGE_SIDE};
 
 use super::texture_pages::{halve, PageSource, TextureError, TextureLayout};
 
@@ -14,6 +14,7 @@ pub struct MemoryPages {
     shapes: Vec<TextureShape>,
     bands: Vec<Band>,
     pages: Vec<Vec<u8>>,
+    encoding: PageEncoding,
     /// Pages handed out so far (`page` calls).
     reads: AtomicU64,
 }
@@ -48,8 +49,20 @@ impl MemoryPages {
             shapes,
             bands: bands.to_vec(),
             pages,
+            encoding: PageEncoding::Rgba8,
             reads: AtomicU64::new(0),
         })
+    }
+
+    /// The same pages stored in `encoding` (`tessera_core::texture_codec::encode_page`), as a
+    /// build with `--texture-encoding` would store them.
+    pub fn encoded(mut self, encoding: PageEncoding) -> MemoryPages {
+        assert_eq!(self.encoding, PageEncoding::Rgba8, "encoded once");
+        for page in &mut self.pages {
+            *page = tessera_core::texture_codec::encode_page(encoding, page);
+        }
+        self.encoding = encoding;
+        self
     }
 
     /// Pages read through `page` so far.
@@ -79,6 +92,10 @@ impl PageSource for MemoryPages {
 
     fn bands(&self) -> &[Band] {
         &self.bands
+    }
+
+    fn encoding(&self) -> PageEncoding {
+        self.encoding
     }
 
     fn page(&self, global: u32) -> Result<Cow<'_, [u8]>, String> {

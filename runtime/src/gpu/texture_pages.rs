@@ -5,33 +5,76 @@
 //! written operation for operation as the shader does it (f32, then i32 texel indices) and is
 //! tested against `core::texture`'s page numbering and gutter rule.
 //!
-//! A page in the GPU's pool carries its own two smaller mips (68 and 34 texels a side, made
-//! here by a 2 × 2 box in linear light, `page_mips`), so `textureSampleGrad` filters
-//! trilinearly up to two levels coarser than the page's level without leaving the page.
+//! A page in the GPU's pool carries its own two smaller mips (68 and 34 texels a side, made by
+//! a 2 × 2 box in linear light, `tessera_core::texture_codec::page_mips`), so
+//! `textureSampleGrad` filters trilinearly up to two levels coarser than the page's level
+//! without leaving the page. The pool's layers are BC1 where the pages are and the adapter
+//! samples BC1 (`PoolFormat`), else RGBA8 (BC1 pages decoded on the CPU as they load).
 
 use std::borrow::Cow;
 
+pub use tessera_core::texture::PAGE_MIPS;
 use tessera_core::texture::{
-    Band, TextureShape, NO_TEXTURE, PAGE_BYTES, PAGE_GUTTER, PAGE_PAYLOAD, PAGE_SIDE,
+    Band, PageEncoding, TextureShape, BC1_PAGE_BYTES, NO_TEXTURE, PAGE_GUTTER, PAGE_PAYLOAD,
+    PAGE_SIDE,
 };
+pub use tessera_core::texture_codec::{halve, linear_to_srgb, page_mips, srgb_to_linear};
+
+use super::device::GpuContext;
 
 /// Where a textured renderer reads its pages: the textures' shapes (in texture order), the
-/// bands naming them, and each page's `PAGE_BYTES` RGBA8 sRGB texels by global page index
+/// bands naming them, and each page as stored in its `encoding` by global page index
 /// (`first_page(t) + shape.page_index(l, x, y)`, `first_page(t)` the pages of the textures
 /// before `t`). Called from the render thread as pages are needed; an error is reported by
 /// the frame that asked (a missing or corrupt page).
 pub trait PageSource: Send + Sync {
     fn shapes(&self) -> &[TextureShape];
     fn bands(&self) -> &[Band];
-    /// The page's texels, `PAGE_BYTES` of them, row-major, top row first.
+    /// The page as stored: `encoding().page_bytes()` bytes (`tessera_core::texture_codec`).
     fn page(&self, global: u32) -> Result<Cow<'_, [u8]>, String>;
+    /// How every page is stored.
+    fn encoding(&self) -> PageEncoding {
+        PageEncoding::Rgba8
+    }
 }
 
-/// Mip levels each pool layer holds: the page and its two halvings (136, 68, 34 texels).
-pub const PAGE_MIPS: u32 = 3;
-/// Bytes one pool layer takes on the GPU (all three mips).
+/// Bytes one RGBA8 pool layer takes on the GPU (all three mips).
 pub const LAYER_BYTES: u64 =
     (PAGE_SIDE * PAGE_SIDE + (PAGE_SIDE / 2).pow(2) + (PAGE_SIDE / 4).pow(2)) as u64 * 4;
+
+/// The format of the pool's layers: BC1 pages stay BC1 on an adapter that samples it
+/// (`wgpu::Features::TEXTURE_COMPRESSION_BC`: 12,208 bytes a layer, 7.95 times fewer);
+/// otherwise every page is RGBA8 on the GPU (BC1 pages decoded as they load).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PoolFormat {
+    Rgba8,
+    Bc1,
+}
+
+impl PoolFormat {
+    /// The pool format for pages stored in `encoding` on `ctx`'s adapter.
+    pub fn for_pages(ctx: &GpuContext, encoding: PageEncoding) -> PoolFormat {
+        match encoding {
+            PageEncoding::Bc1 if ctx.capabilities.bc_textures => PoolFormat::Bc1,
+            _ => PoolFormat::Rgba8,
+        }
+    }
+
+    /// Bytes one layer (three mips) takes on the GPU.
+    pub fn layer_bytes(self) -> u64 {
+        match self {
+            PoolFormat::Rgba8 => LAYER_BYTES,
+            PoolFormat::Bc1 => BC1_PAGE_BYTES as u64,
+        }
+    }
+
+    pub fn texture_format(self) -> wgpu::TextureFormat {
+        match self {
+            PoolFormat::Rgba8 => wgpu::TextureFormat::Rgba8UnormSrgb,
+            PoolFormat::Bc1 => wgpu::TextureFormat::Bc1RgbaUnormSrgb,
+        }
+    }
+}
 /// Words of one texture record in the info buffer (texture.wgsl's `RECORD_WORDS`).
 pub const RECORD_WORDS: usize = 24;
 /// Words before the bands in the info buffer: band count, texture count, two pads.
@@ -226,64 +269,6 @@ impl TextureLayout {
     }
 }
 
-/// sRGB-encoded byte to linear light.
-pub fn srgb_to_linear(byte: u8) -> f32 {
-    let c = byte as f32 / 255.0;
-    if c <= 0.04045 {
-        c / 12.92
-    } else {
-        ((c + 0.055) / 1.055).powf(2.4)
-    }
-}
-
-/// Linear light to an sRGB-encoded byte (rounded).
-pub fn linear_to_srgb(linear: f32) -> u8 {
-    let c = linear.clamp(0.0, 1.0);
-    let s = if c <= 0.003_130_8 {
-        c * 12.92
-    } else {
-        1.055 * c.powf(1.0 / 2.4) - 0.055
-    };
-    (s * 255.0 + 0.5) as u8
-}
-
-/// An RGBA8 image (`w × h`) halved by a 2 × 2 box in linear light (alpha linear), an odd edge
-/// repeating its last texel: `(ceil(w / 2), ceil(h / 2))`.
-pub fn halve(texels: &[u8], w: u32, h: u32) -> (Vec<u8>, u32, u32) {
-    assert_eq!(
-        texels.len(),
-        (w * h * 4) as usize,
-        "an RGBA8 image of {w} × {h}"
-    );
-    let (hw, hh) = (w.div_ceil(2).max(1), h.div_ceil(2).max(1));
-    let lut: Vec<f32> = (0..=255u8).map(srgb_to_linear).collect();
-    let mut out = Vec::with_capacity((hw * hh * 4) as usize);
-    for y in 0..hh {
-        for x in 0..hw {
-            let mut sum = [0f32; 4];
-            for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
-                let (sx, sy) = ((2 * x + dx).min(w - 1), (2 * y + dy).min(h - 1));
-                let at = ((sy * w + sx) * 4) as usize;
-                for c in 0..3 {
-                    sum[c] += lut[texels[at + c] as usize];
-                }
-                sum[3] += texels[at + 3] as f32 / 255.0;
-            }
-            out.extend(sum[..3].iter().map(|&c| linear_to_srgb(c / 4.0)));
-            out.push((sum[3] / 4.0 * 255.0 + 0.5) as u8);
-        }
-    }
-    (out, hw, hh)
-}
-
-/// A page's three mips for the pool (136, 68 and 34 texels a side).
-pub fn page_mips(page: &[u8]) -> [Vec<u8>; PAGE_MIPS as usize] {
-    assert_eq!(page.len(), PAGE_BYTES, "a page is PAGE_BYTES bytes");
-    let (one, w1, h1) = halve(page, PAGE_SIDE, PAGE_SIDE);
-    let (two, _, _) = halve(&one, w1, h1);
-    [page.to_vec(), one, two]
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -388,7 +373,7 @@ mod tests {
         assert_eq!((w, h), (2, 1));
         assert_eq!(&half[..4], &[188, 188, 188, 255]);
         assert_eq!(&half[4..], &[0, 0, 0, 255]);
-        let page = vec![200u8; PAGE_BYTES];
+        let page = vec![200u8; tessera_core::texture::PAGE_BYTES];
         let mips = page_mips(&page);
         assert_eq!(mips[1].len(), 68 * 68 * 4);
         assert_eq!(mips[2].len(), 34 * 34 * 4);

@@ -62,8 +62,12 @@ pub fn export_textures(repo: &Repository) -> anyhow::Result<Option<ExportTexture
     let mut textures = Vec::with_capacity(shapes.len());
     for (t, shape) in shapes.iter().enumerate() {
         let first = table.first_page(t as u32);
-        let image = largest_level(shape, |index| Ok(table.page(first + index)?.to_vec()))
-            .with_context(|| format!("reading texture {t}'s pages"))?;
+        let encoding = table.encoding();
+        let image = largest_level(shape, |index| {
+            let stored = table.page(first + index)?;
+            Ok(tessera_core::texture_codec::decode_page(encoding, stored)?)
+        })
+        .with_context(|| format!("reading texture {t}'s pages"))?;
         let mut png = Vec::new();
         image::codecs::png::PngEncoder::new(&mut png)
             .write_image(
