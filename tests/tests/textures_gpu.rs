@@ -297,10 +297,11 @@ fn repeat_and_clamp_in_two_bands() {
     }
 }
 
-/// (c) A pool of 12 layers for a 1024² texture of 85 pages: settled frames of two regions,
+/// (c) A pool of 13 layers for a 1024² texture of 85 pages: settled frames of two regions,
 /// one after the other (the second evicts the first's pages), draw the expected texels and
 /// are pixel-equal to those of an unlimited pool, and the pool never holds more than its
-/// layers. On GL, which reuses no layer, the second region's pages are refused instead.
+/// layers, on both backends (a 12-layer pool asked for is given 11: see
+/// `texture_cache::not_cube_compatible`).
 #[test]
 fn a_small_pool_settles_to_the_unlimited_frame() {
     let mut mesh = InputMesh::default();
@@ -335,22 +336,16 @@ fn a_small_pool_settles_to_the_unlimited_frame() {
     for backend in BACKENDS {
         let ctx = gpu_on(backend);
         let mut unlimited = renderer(&ctx, &built, Some((pages.clone(), None)));
-        let mut small = renderer(&ctx, &built, Some((pages.clone(), Some(12))));
-        assert_eq!(small.textures().unwrap().capacity(), 12);
+        let mut small = renderer(&ctx, &built, Some((pages.clone(), Some(13))));
+        assert_eq!(small.textures().unwrap().capacity(), 13);
         for x0 in [0.0, 2.0] {
             let (want, _) = settled(&ctx, &mut unlimited, &view(x0));
             let (frame, settle) = small.render_settled(&ctx, &view(x0), 8).unwrap();
             let cache = small.textures().unwrap();
             assert!(
-                cache.max_resident <= 12 && cache.resident() <= 12,
+                cache.max_resident <= 13 && cache.resident() <= 13,
                 "{backend:?}"
             );
-            if backend == Backend::Gl && x0 == 2.0 {
-                // GL reuses no layer (texture_cache.rs): the full pool refuses the second
-                // view's pages.
-                assert!(!settle.settled && settle.refused > 0, "{settle:?}");
-                continue;
-            }
             assert!(
                 settle.settled && settle.steps >= 2,
                 "{backend:?}: {settle:?}"
@@ -376,8 +371,14 @@ fn a_small_pool_settles_to_the_unlimited_frame() {
                 &differing[..differing.len().min(5)]
             );
         }
+        let eleven = renderer(&ctx, &built, Some((pages.clone(), Some(12))));
+        assert_eq!(
+            eleven.textures().unwrap().capacity(),
+            11,
+            "not a multiple of 6"
+        );
         assert!(
-            unlimited.textures().unwrap().resident() > 12,
+            unlimited.textures().unwrap().resident() > 13,
             "{backend:?}: the views need more than the pool"
         );
         ctx.check().unwrap();

@@ -15,11 +15,8 @@
 //!   busy keeps its bits for the next), mapped without waiting like the streaming feedback
 //!   (`feedback.rs`); `update` reads what has arrived, a frame or two late.
 //!
-//! On wgpu's GL backend a layer is never reused: a page written into a layer that an earlier
-//! frame had sampled did not show on llvmpipe GL (the frame kept sampling the old page; by
-//! `queue.write_texture` and by a buffer copy alike, the page table right; cause not found),
-//! so there the pool fills once and requests beyond it are refused: those pixels draw the
-//! finest resident coarser level (correct, blurrier) instead of a wrong page.
+//! The pool's layer count is never a multiple of 6 (`not_cube_compatible`): wgpu's GL backend
+//! would make it a cube map array, which samples black or stale as a 2D array.
 //!
 //! Budget rule (`layers_for`): with a GPU budget, the pool, table, info and request buffers
 //! take at most a quarter of it, and the pool no more layers than `SCREEN_PAGES` times the
@@ -35,7 +32,7 @@ use std::sync::Arc;
 
 use tessera_core::texture::PAGE_SIDE;
 
-use super::device::{Backend, GpuContext, GpuFailure};
+use super::device::{GpuContext, GpuFailure};
 use super::texture_pages::{PageSource, PoolFormat, TextureError, TextureLayout, PAGE_MIPS};
 use super::texture_residency::PageResidency;
 use tessera_core::texture_codec::{bc1_blocks_across, bc1_mip_range, decode_page_mips};
@@ -150,7 +147,21 @@ pub fn layers_for(
             all.min(share.min(screen).min(u32::MAX as u64) as u32)
         }
     };
-    Ok(layers.min(limit))
+    Ok(not_cube_compatible(layers.min(limit), floor))
+}
+
+/// `layers`, or one fewer (one more if fewer than `at_least`) if it is a multiple of 6: wgpu's
+/// GL backend makes a square 2D texture whose layer count is a multiple of 6 a cube map
+/// (array; wgpu-hal `gles::Texture::get_info_from_desc`), which a `texture_2d_array` then
+/// samples wrongly: a 240- or 450-layer pool drew black on llvmpipe GL (239 and 449 did not),
+/// and a 12-layer one kept drawing a layer's old page after it was reused (13 did not). Done
+/// on every backend alike.
+pub fn not_cube_compatible(layers: u32, at_least: u32) -> u32 {
+    match layers.is_multiple_of(6) {
+        true if layers > at_least => layers - 1,
+        true => layers + 1,
+        false => layers,
+    }
 }
 
 /// The textures' bind group (texture.wgsl's group 2) over a new view of the pool.
@@ -228,7 +239,8 @@ impl TextureCache {
         check_device(ctx, &layout)?;
         let format = PoolFormat::for_pages(ctx, source.encoding());
         let pinned = layout.pinned();
-        let layers = layers.max(2).max(pinned.len() as u32);
+        let at_least = (pinned.len() as u32).max(2);
+        let layers = not_cube_compatible(layers.max(at_least), at_least);
         if layers > ctx.limits.max_texture_array_layers {
             return Err(TextureError::OverLayerLimit {
                 needed: layers,
@@ -339,8 +351,7 @@ impl TextureCache {
             .into());
         }
         let cache = TextureCache {
-            // GL: see the module's note on reuse.
-            residency: PageResidency::new(layers, &pinned, ctx.backend != Backend::Gl),
+            residency: PageResidency::new(layers, &pinned),
             source,
             layout,
             format,
@@ -559,5 +570,22 @@ impl TextureCache {
             update.refused += plan.refused;
         }
         Ok(update)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::not_cube_compatible;
+
+    #[test]
+    fn no_pool_has_a_multiple_of_6_layers() {
+        assert_eq!(not_cube_compatible(450, 17), 449);
+        assert_eq!(not_cube_compatible(449, 17), 449);
+        // One fewer would drop below the pinned pages: one more.
+        assert_eq!(not_cube_compatible(6, 6), 7);
+        assert_eq!(not_cube_compatible(12, 2), 11);
+        for layers in 2..2000 {
+            assert!(!not_cube_compatible(layers, 2).is_multiple_of(6));
+        }
     }
 }

@@ -26,9 +26,6 @@ pub struct PageResidency {
     /// Global page → layer.
     resident: HashMap<u32, u32>,
     free: Vec<u32>,
-    /// Whether a layer may take another page once it held one (`texture_cache.rs`: not on
-    /// GL).
-    reuse: bool,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -40,9 +37,8 @@ struct Layer {
 
 impl PageResidency {
     /// `capacity` layers, the first `pinned.len()` holding the pinned pages (loaded by the
-    /// caller); `reuse`: whether pages are evicted (else a full pool refuses). Panics if the
-    /// pinned pages do not fit.
-    pub fn new(capacity: u32, pinned: &[u32], reuse: bool) -> PageResidency {
+    /// caller). Panics if the pinned pages do not fit.
+    pub fn new(capacity: u32, pinned: &[u32]) -> PageResidency {
         assert!(pinned.len() as u32 <= capacity, "pinned pages fit the pool");
         let layers = (0..capacity)
             .map(|l| Layer {
@@ -59,7 +55,6 @@ impl PageResidency {
                 .map(|(l, &p)| (p, l as u32))
                 .collect(),
             free: (pinned.len() as u32..capacity).rev().collect(),
-            reuse,
         }
     }
 
@@ -100,7 +95,7 @@ impl PageResidency {
         let mut victims: Vec<u32> = (0..self.capacity())
             .filter(|&l| {
                 let layer = &self.layers[l as usize];
-                self.reuse && layer.page.is_some() && !layer.pinned && layer.stamp < stamp
+                layer.page.is_some() && !layer.pinned && layer.stamp < stamp
             })
             .collect();
         victims.sort_unstable_by_key(|&l| (std::cmp::Reverse(self.layers[l as usize].stamp), l));
@@ -154,7 +149,7 @@ mod tests {
 
     #[test]
     fn loads_fill_free_layers_then_evict_the_least_recently_requested() {
-        let mut r = PageResidency::new(4, &[999], true);
+        let mut r = PageResidency::new(4, &[999]);
         let plan = r.plan(&[1, 2, 3], 1, level);
         assert_eq!(plan.loads.len(), 3);
         assert!(plan.evicted.is_empty());
@@ -171,7 +166,7 @@ mod tests {
 
     #[test]
     fn requests_over_capacity_keep_the_coarser_pages_and_never_overflow() {
-        let mut r = PageResidency::new(3, &[999], true);
+        let mut r = PageResidency::new(3, &[999]);
         let plan = r.plan(&[1, 2, 100, 101], 1, level);
         let loaded: Vec<u32> = plan.loads.iter().map(|&(p, _)| p).collect();
         assert_eq!(loaded, vec![100, 101]);
@@ -188,17 +183,5 @@ mod tests {
         assert!(layers.iter().all(|&l| l < 3));
         r.unload(100);
         assert_eq!(r.plan(&[1], 2, level).loads.len(), 1);
-    }
-
-    #[test]
-    fn without_reuse_a_full_pool_refuses() {
-        let mut r = PageResidency::new(3, &[999], false);
-        assert_eq!(r.plan(&[1, 2], 1, level).loads.len(), 2);
-        let plan = r.plan(&[3], 2, level);
-        assert_eq!(
-            (plan.loads.len(), plan.evicted.len(), plan.refused),
-            (0, 0, 1)
-        );
-        assert!(r.layer_of(1).is_some() && r.layer_of(2).is_some());
     }
 }
