@@ -10,9 +10,6 @@ use std::time::Instant;
 
 use clap::Args;
 use serde_json::json;
-use tessera_core::cut::{diamond_rhos, select_stateless};
-use tessera_core::metric::eye_local;
-use tessera_core::repository::format::{AttributeErrorRecord, NO_INDEX};
 use tessera_core::repository::reader::Repository;
 use tessera_runtime::cut_patches::RepositoryPatches;
 use tessera_runtime::geometric_check::{check_cuts, check_metric, CheckConfig, CheckReport};
@@ -68,7 +65,14 @@ pub fn run(args: CheckArgs) -> anyhow::Result<Outcome> {
     // error here): the check holds one cut's triangles, not every level's.
     let patches = RepositoryPatches::new(&repo)?;
     let report = check_cuts(&repo, &patches, &config);
-    let attribute_errors = cut_attribute_errors(&repo, &config);
+    let eyes = check_views(repo.header().bbox_min, repo.header().bbox_max, config.views);
+    let attribute_errors = crate::attribute_cut::cut_attribute_errors(
+        &repo,
+        &check_metric(repo.header(), &config),
+        &eyes,
+        &config.tolerances,
+    );
+    let largest_side = crate::attribute_cut::largest_texture_side(&repo);
     let seconds = start.elapsed().as_secs_f64();
     let errors = match args.errors {
         true => Some(crate::check_errors::measure(
@@ -135,15 +139,8 @@ pub fn run(args: CheckArgs) -> anyhow::Result<Outcome> {
     };
     if args.json {
         let mut value = report_json(&report, seconds);
-        value["attribute_errors"] = attribute_errors.as_ref().map_or(json!(null), |per_tau| {
-            per_tau
-                .iter()
-                .map(|(tau, r)| {
-                    json!({"tolerance": tau, "colour": r.colour,
-                           "normal_degrees": r.normal_degrees, "uv": r.uv})
-                })
-                .collect()
-        });
+        value["attribute_errors"] =
+            crate::attribute_cut::per_tolerance_json(attribute_errors.as_deref(), largest_side);
         if let Some((pixels, seconds, adapter, backend)) = &gpu {
             value["gpu"] = pixel_report_json(pixels, *seconds, adapter);
             value["gpu"]["backend"] = (*backend).into();
@@ -161,12 +158,8 @@ pub fn run(args: CheckArgs) -> anyhow::Result<Outcome> {
         println!("{value}");
     } else {
         print_report(&report, seconds);
-        for (tau, r) in attribute_errors.iter().flatten() {
-            println!(
-                "attribute errors at τ = {tau} px (largest over the cuts' diamonds): colour {:.2} \
-                 (8-bit RGB), normal {:.2} degrees, uv {:.3e}",
-                r.colour, r.normal_degrees, r.uv
-            );
+        if let Some(per_tau) = &attribute_errors {
+            crate::attribute_cut::print_per_tolerance(per_tau, largest_side);
         }
         if let Some(e) = &errors {
             crate::check_errors::print_report(e);
@@ -181,33 +174,6 @@ pub fn run(args: CheckArgs) -> anyhow::Result<Outcome> {
     } else {
         Outcome::CheckFailed
     })
-}
-
-/// For each tolerance, the largest attribute errors (the repository's table, saturated) over
-/// the diamonds whose simplices the check's cuts draw, every view: a drawn simplex's patch is
-/// what its diamond's simplification kept (a leaf's is the input: no error). `None` where the
-/// repository has no attribute error table.
-fn cut_attribute_errors(
-    repo: &Repository,
-    config: &CheckConfig,
-) -> Option<Vec<(f32, AttributeErrorRecord)>> {
-    let table = repo.attribute_errors()?;
-    let header = repo.header();
-    let metric = check_metric(header, config);
-    let (tets, diamonds) = (repo.tets(), repo.diamonds());
-    let mut worst = vec![AttributeErrorRecord::default(); config.tolerances.len()];
-    for eye in check_views(header.bbox_min, header.bbox_max, config.views) {
-        let rhos = diamond_rhos(diamonds, eye_local(eye, header.origin), &metric);
-        for (w, &tau) in worst.iter_mut().zip(&config.tolerances) {
-            let drawn = select_stateless(tets, &rhos, tau)
-                .into_iter()
-                .map(|t| tets[t as usize].diamond)
-                .filter(|&d| d != NO_INDEX)
-                .map(|d| &table[d as usize]);
-            *w = AttributeErrorRecord::max_of(drawn.chain([&*w]));
-        }
-    }
-    Some(config.tolerances.iter().copied().zip(worst).collect())
 }
 
 pub fn pixel_report_json(r: &PixelCheckReport, seconds: f64, adapter: &str) -> serde_json::Value {

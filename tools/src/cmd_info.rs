@@ -55,14 +55,9 @@ pub fn run(args: InfoArgs) -> anyhow::Result<Outcome> {
     });
     // The UV error in texels: times the largest texture side, a bound for every texture (a
     // wedge's texture is not in the table). `None` without textures.
-    let largest_side = repo
-        .textures()
-        .and_then(|table| (table.shapes().iter()).map(|s| s.width.max(s.height)).max());
+    let largest_side = crate::attribute_cut::largest_texture_side(&repo);
     let uv_texels = |uv: f32| largest_side.map(|side| uv * side as f32);
-    let errors_json = |r: &AttributeErrorRecord| {
-        json!({"colour": r.colour, "normal_degrees": r.normal_degrees, "uv": r.uv,
-               "uv_texels": uv_texels(r.uv)})
-    };
+    let errors_json = |r: &AttributeErrorRecord| crate::attribute_cut::record_json(r, largest_side);
     let level_errors = |level: usize| {
         attribute_errors
             .as_ref()

@@ -5,6 +5,7 @@
 //! on stderr, no output file left behind); 3 the GPU device failed (lost, out of memory, a
 //! read-back that could not be mapped: a clear message on stderr, never a panic).
 
+mod attribute_cut;
 mod bench;
 mod bench_breakdown_locks;
 mod bench_render_stream;

@@ -2,8 +2,8 @@
 //! whose colours and texture coordinates vary independently of its shape builds; the colour
 //! and UV weights change what the diamonds keep (the finest diamonds' colour and UV errors
 //! with the weights at 0 far above the defaults'); the attribute error table is written,
-//! reported by `info` and `check`, the same with `--memory`; an input without colours or
-//! texture coordinates gets no table.
+//! reported by `info`, `check` and `bench`, the same with `--memory`; an input without colours
+//! or texture coordinates gets no table.
 
 mod cli_support;
 
@@ -172,6 +172,38 @@ fn weights_keep_appearance_and_the_table_is_stored_and_reported() {
     let colour = |k: usize| per_tau[k]["colour"].as_f64().unwrap();
     assert!(colour(0) <= colour(1), "a coarser cut: no smaller error");
     assert!(colour(1) <= w["attribute_errors"]["colour"].as_f64().unwrap());
+
+    // `bench` reports the same for ours at its dense pass's eyes (`check_views`, as `check`'s
+    // at a 1080-pixel height): `--error-views 4` gives exactly `check --views 4`'s figures.
+    let out = tessera(&[
+        "bench",
+        weighed.to_str().unwrap(),
+        "--source",
+        input.to_str().unwrap(),
+        "--views",
+        "1",
+        "--tolerances",
+        "0.5,8",
+        "--size",
+        "96x1080",
+        "--samples",
+        "200",
+        "--frames",
+        "1",
+        "--error-views",
+        "4",
+        "--json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let bench = json(&out);
+    assert_eq!(
+        bench["attribute_errors"], check["attribute_errors"],
+        "{bench}"
+    );
 
     // The out-of-core build writes the same bytes, table included.
     let staged = dir.path().join("staged.tsr");

@@ -265,6 +265,22 @@ pub fn run(args: TradeArgs) -> anyhow::Result<Outcome> {
         )?),
     };
 
+    // Our stored attribute errors over the diamonds our cuts draw at the dense pass's eyes, as
+    // `check` reports them (the peers store none).
+    let attribute_errors = (args.error_views > 0)
+        .then(|| {
+            let config = tessera_runtime::geometric_check::CheckConfig {
+                viewport_height: args.size.1,
+                ..Default::default()
+            };
+            let metric = tessera_runtime::geometric_check::check_metric(&h, &config);
+            let eyes =
+                tessera_runtime::views::check_views(h.bbox_min, h.bbox_max, args.error_views);
+            crate::attribute_cut::cut_attribute_errors(&repo, &metric, &eyes, &args.tolerances)
+        })
+        .flatten();
+    let largest_side = crate::attribute_cut::largest_texture_side(&repo);
+
     // The GPU side: every subject resident at once.
     stages.stage("upload");
     let ctx = args.gpu.context()?;
@@ -372,6 +388,11 @@ pub fn run(args: TradeArgs) -> anyhow::Result<Outcome> {
         "peers": peers.iter().map(|s| (s.name.to_string(), json!(rows_json(s)))).collect::<serde_json::Map<_, _>>(),
         // The dense pass and the headline verdict on it.
         "dense": dense.as_ref().map(|d| dense::pass_json(&d.pass)),
+        // Ours only, at the dense pass's eyes (null without the pass or without a table).
+        "attribute_errors": crate::attribute_cut::per_tolerance_json(
+            attribute_errors.as_deref(),
+            largest_side,
+        ),
         "verdict_dense": front_verdict::fronts_to_json(&fronts),
         "discrete_lod_levels": discrete.levels().map(|l| json!({
             "fraction": l.fraction,
@@ -470,6 +491,10 @@ pub fn run(args: TradeArgs) -> anyhow::Result<Outcome> {
     );
     for line in verdict::lines(&comparisons_max) {
         println!("{line}");
+    }
+    if let Some(per_tau) = &attribute_errors {
+        println!("ours, stored attribute errors of the cuts at the dense pass's eyes:");
+        crate::attribute_cut::print_per_tolerance(per_tau, largest_side);
     }
     for p in &plots {
         println!("plot written to {}", p.display());
