@@ -15,8 +15,13 @@ pub mod pyramid;
 
 use std::io;
 
+use std::collections::VecDeque;
 use tessera_core::repository::{BlobFeed, TextureDirectory};
-use tessera_core::texture::{bands_valid, Band, PageEncoding, TextureShape};
+
+use rayon::prelude::*;
+use tessera_core::texture::{
+    bands_valid, Band, PageEncoding, TextureShape, BC1_PAGE_BYTES, PAGE_BYTES,
+};
 use tessera_core::texture_codec::{colour_squared_error, decode_page, encode_page, psnr_db};
 
 use crate::build_config::{BuildError, MemoryBudget, TexturePagesSummary};
@@ -27,8 +32,14 @@ use pyramid::Level;
 /// held at once, at most that) and its decoded image once more (the decoder's own buffer
 /// while it is made RGBA8). A texture needing more than `--memory` is refused.
 pub fn texture_memory_bytes(shape: &TextureShape) -> u64 {
-    pyramid::pyramid_bytes(shape) + 4 * u64::from(shape.width) * u64::from(shape.height)
+    pyramid::pyramid_bytes(shape)
+        + 4 * u64::from(shape.width) * u64::from(shape.height)
+        + ENCODE_BATCH as u64 * (PAGE_BYTES + BC1_PAGE_BYTES) as u64
 }
+
+/// Pages cut at a time and encoded in parallel (in the build's thread pool), then handed to
+/// the writer in order: the bytes do not depend on the threads.
+const ENCODE_BATCH: usize = 64;
 
 /// The textures' shapes and bands, every image checked to decode.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -138,8 +149,8 @@ pub struct PageMaker<'a> {
     /// (texture, level index, that level's texels) being cut.
     current: Option<(usize, u32, Level)>,
     encoding: PageEncoding,
-    /// A page as cut, before it is encoded.
-    cut: Vec<u8>,
+    /// Pages from `next` on, encoded (at most `ENCODE_BATCH`).
+    ready: VecDeque<Vec<u8>>,
     /// The encoding's loss so far: squared error and channels (`TexturePagesSummary`).
     squared_error: f64,
     channels: u64,
@@ -164,7 +175,7 @@ impl<'a> PageMaker<'a> {
             next: 0,
             current: None,
             encoding: plan.directory.encoding,
-            cut: Vec::new(),
+            ready: VecDeque::new(),
             squared_error: 0.0,
             channels: 0,
         }
@@ -181,7 +192,8 @@ impl<'a> PageMaker<'a> {
     }
 
     /// Appends page `global` to `out`, encoded as planned. Pages are asked in order, each once;
-    /// a texture whose file no longer decodes to its planned size fails naming it.
+    /// a texture whose file no longer decodes to its planned size fails naming it. Pages are
+    /// cut `ENCODE_BATCH` at a time (within one texture) and encoded in parallel.
     pub fn page(&mut self, global: u32, out: &mut Vec<u8>) -> Result<(), BuildError> {
         if global != self.next {
             return Err(BuildError::Config(format!(
@@ -189,6 +201,44 @@ impl<'a> PageMaker<'a> {
                 self.next
             )));
         }
+        if self.ready.is_empty() {
+            let texture = self.first_pages.partition_point(|&f| f <= global) - 1;
+            let texture_end = self.first_pages[texture] + self.shapes[texture].page_count();
+            let end = texture_end.min(global + ENCODE_BATCH as u32);
+            let mut cut = Vec::with_capacity((end - global) as usize);
+            for g in global..end {
+                let mut page = Vec::with_capacity(PAGE_BYTES);
+                self.cut(g, &mut page)?;
+                cut.push(page);
+            }
+            let encoding = self.encoding;
+            let encoded: Vec<(Vec<u8>, f64, u64)> = cut
+                .par_iter()
+                .map(|page| match encoding {
+                    PageEncoding::Rgba8 => (page.clone(), 0.0, page.len() as u64 / 4 * 3),
+                    encoding => {
+                        let stored = encode_page(encoding, page);
+                        let decoded = decode_page(encoding, &stored).expect("a page just encoded");
+                        let (error, channels) = colour_squared_error(&decoded, page);
+                        (stored, error, channels)
+                    }
+                })
+                .collect();
+            // Summed in page order: the same total whatever the threads.
+            for (stored, error, channels) in encoded {
+                self.squared_error += error;
+                self.channels += channels;
+                self.ready.push_back(stored);
+            }
+        }
+        out.extend_from_slice(&self.ready.pop_front().expect("a batch was made"));
+        self.next += 1;
+        Ok(())
+    }
+
+    /// Appends page `global`'s texels as cut (`PAGE_BYTES`) to `out`, decoding its texture
+    /// and advancing its pyramid as needed (pages come in global order).
+    fn cut(&mut self, global: u32, out: &mut Vec<u8>) -> Result<(), BuildError> {
         let texture = self.first_pages.partition_point(|&f| f <= global) - 1;
         let shape = self.shapes[texture];
         let (l, x, y) = shape
@@ -217,23 +267,7 @@ impl<'a> PageMaker<'a> {
             *level = pyramid::next_level(level);
             *at += 1;
         }
-        self.cut.clear();
-        pages::cut_page(level, &shape, l, x, y, &mut self.cut);
-        match self.encoding {
-            PageEncoding::Rgba8 => {
-                out.extend_from_slice(&self.cut);
-                self.channels += self.cut.len() as u64 / 4 * 3;
-            }
-            encoding => {
-                let stored = encode_page(encoding, &self.cut);
-                let decoded = decode_page(encoding, &stored).expect("a page just encoded");
-                let (error, channels) = colour_squared_error(&decoded, &self.cut);
-                self.squared_error += error;
-                self.channels += channels;
-                out.extend_from_slice(&stored);
-            }
-        }
-        self.next += 1;
+        pages::cut_page(level, &shape, l, x, y, out);
         Ok(())
     }
 }
