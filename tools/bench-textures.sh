@@ -6,7 +6,7 @@
 # Vulkan (lavapipe) and GL (llvmpipe) with and without --gpu-budget 32, each budgeted frame
 # compared with the unbudgeted one.
 #
-#   tools/bench-textures.sh [TESSERA] [WORKDIR]
+#   [NEXUS=DIR] tools/bench-textures.sh [TESSERA] [WORKDIR]
 set -euo pipefail
 T=${1:-target/release/tessera}
 T=$(realpath "$T")
@@ -27,6 +27,14 @@ for r in $(seq "$rounds"); do
       "texture_pages $(python3 -c "import json; print(json.load(open('build.json'))['texture_pages'])")"
   done
 done
+# The peer: Nexus on the same textured PLY (its default JPEG q95 textures baked per node), then
+# compressed, where NEXUS names the directory holding nxsbuild and nxsedit.
+if [ -n "${NEXUS:-}" ]; then
+  mkdir -p nxtmp
+  TMPDIR=$PWD/nxtmp "$NEXUS/nxsbuild" g2m_tex.ply -o g2m_tex.nxs > /dev/null 2>&1
+  "$NEXUS/nxsedit" g2m_tex.nxs -z -o g2m_tex.nxz > /dev/null 2>&1
+  echo "nexus nxs $(stat -c %s g2m_tex.nxs) nxz $(stat -c %s g2m_tex.nxz); ours bc1 $(stat -c %s g2m_bc1.tsr)"
+fi
 [ -f bunny.tsr ] || "$T" build "$testdata/mesh/bunny00.off" -o bunny.tsr > /dev/null
 for be in vulkan gl; do
   base=$("$T" render bunny.tsr -o b.png --size 1280x720 --tolerance 1e9 --backend $be --json |
