@@ -136,6 +136,26 @@ impl BlobFeed for Feed<'_> {
     }
 }
 
+/// The geometry with `t` as the streaming writer (the build's) writes it, a page at a time.
+fn streamed_bytes(t: &TextureContents) -> Vec<u8> {
+    let mut c = geometry();
+    let mut plain = Vec::new();
+    write_repository(&mut plain, &c).unwrap();
+    c.tets = Repository::from_bytes(plain).unwrap().tets().to_vec();
+    let directory = RepositoryDirectory {
+        header: c.header,
+        diamonds: c.diamonds.clone(),
+        tets: c.tets.clone(),
+        codec: c.codec,
+        attribute_errors: None,
+        textures: Some(t.directory.clone()),
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let streamed = dir.path().join("streamed.tsr");
+    write_repository_streamed(&streamed, &directory, &mut Feed(&c, t)).unwrap();
+    std::fs::read(&streamed).unwrap()
+}
+
 #[test]
 fn the_section_round_trips_through_both_writers() {
     let t = textures();
@@ -160,24 +180,9 @@ fn the_section_round_trips_through_both_writers() {
     assert_eq!(entry.offset % 8, 0);
 
     // The streaming writer (the build's) writes the same bytes, a page at a time.
-    let mut c = geometry();
-    let mut plain = Vec::new();
-    write_repository(&mut plain, &c).unwrap();
-    let written = Repository::from_bytes(plain.clone()).unwrap();
-    c.tets = written.tets().to_vec();
-    let directory = RepositoryDirectory {
-        header: c.header,
-        diamonds: c.diamonds.clone(),
-        tets: c.tets.clone(),
-        codec: c.codec,
-        attribute_errors: None,
-        textures: Some(t.directory.clone()),
-    };
-    let dir = tempfile::tempdir().unwrap();
-    let streamed = dir.path().join("streamed.tsr");
-    write_repository_streamed(&streamed, &directory, &mut Feed(&c, &t)).unwrap();
-    assert_eq!(std::fs::read(&streamed).unwrap(), bytes);
-    let opened = Repository::open(&streamed).unwrap();
+    let streamed = streamed_bytes(&t);
+    assert_eq!(streamed, bytes);
+    let opened = Repository::from_bytes(streamed).unwrap();
     assert_eq!(
         opened.textures().unwrap().page(5).unwrap(),
         table.page(5).unwrap()
@@ -212,23 +217,7 @@ fn bc1_pages_round_trip_through_both_writers() {
     }
     let (_, entry) = texture_entry(&bytes);
     assert_eq!(entry.bytes as usize, TABLES + 6 * page_bytes);
-
-    let mut c = geometry();
-    let mut plain = Vec::new();
-    write_repository(&mut plain, &c).unwrap();
-    c.tets = Repository::from_bytes(plain).unwrap().tets().to_vec();
-    let directory = RepositoryDirectory {
-        header: c.header,
-        diamonds: c.diamonds.clone(),
-        tets: c.tets.clone(),
-        codec: c.codec,
-        attribute_errors: None,
-        textures: Some(t.directory.clone()),
-    };
-    let dir = tempfile::tempdir().unwrap();
-    let streamed = dir.path().join("streamed.tsr");
-    write_repository_streamed(&streamed, &directory, &mut Feed(&c, &t)).unwrap();
-    assert_eq!(std::fs::read(&streamed).unwrap(), bytes);
+    assert_eq!(streamed_bytes(&t), bytes);
 }
 
 #[test]

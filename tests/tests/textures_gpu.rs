@@ -53,6 +53,24 @@ fn square(
     }
 }
 
+/// The view's square [0, 1]² with texture coordinates (x, 1 − y): one texel a pixel for a
+/// 256² texture; built.
+fn straight_square() -> Built {
+    let mut mesh = InputMesh::default();
+    square(&mut mesh, [0.0, 1.0, 0.0, 1.0], 16, |x, y| {
+        [x as f32, (1.0 - y) as f32]
+    });
+    built(&mesh)
+}
+
+/// The band `[0, 1)` naming texture 0, unshifted.
+const BAND_0: Band = Band {
+    start: 0,
+    span: 1,
+    shift: 0,
+    texture: 0,
+};
+
 fn built(mesh: &InputMesh) -> Built {
     let config = BuildConfig {
         construction: Construction::LeafTriangles(256),
@@ -188,19 +206,9 @@ fn check_texels(
 /// shading factor (a flat model: face normal and light constant).
 #[test]
 fn one_texel_a_pixel_draws_the_texels() {
-    let mut mesh = InputMesh::default();
-    square(&mut mesh, [0.0, 1.0, 0.0, 1.0], 16, |x, y| {
-        [x as f32, (1.0 - y) as f32]
-    });
-    let built = built(&mesh);
+    let built = straight_square();
     let texture = blocks(1, 256, Wrap::Repeat);
-    let band = Band {
-        start: 0,
-        span: 1,
-        shift: 0,
-        texture: 0,
-    };
-    let pages: Arc<dyn PageSource> = Arc::new(MemoryPages::new(&[texture], &[band]).unwrap());
+    let pages: Arc<dyn PageSource> = Arc::new(MemoryPages::new(&[texture], &[BAND_0]).unwrap());
     for backend in BACKENDS {
         let ctx = gpu_on(backend);
         let mut renderer = renderer(&ctx, &built, Some((pages.clone(), None)));
@@ -316,13 +324,7 @@ fn a_small_pool_settles_to_the_unlimited_frame() {
         });
     }
     let built = built(&mesh);
-    let band = Band {
-        start: 0,
-        span: 1,
-        shift: 0,
-        texture: 0,
-    };
-    let source = Arc::new(MemoryPages::new(&[blocks(4, 1024, Wrap::Repeat)], &[band]).unwrap());
+    let source = Arc::new(MemoryPages::new(&[blocks(4, 1024, Wrap::Repeat)], &[BAND_0]).unwrap());
     let pages: Arc<dyn PageSource> = source.clone();
     let view = |x0: f64| {
         let mut c = camera();
@@ -389,11 +391,7 @@ fn a_small_pool_settles_to_the_unlimited_frame() {
 /// only band has none draw exactly the untextured renderer's pixels, lit and color.
 #[test]
 fn bands_without_texture_draw_as_without_textures() {
-    let mut mesh = InputMesh::default();
-    square(&mut mesh, [0.0, 1.0, 0.0, 1.0], 16, |x, y| {
-        [x as f32, (1.0 - y) as f32]
-    });
-    let built = built(&mesh);
+    let built = straight_square();
     let band = Band {
         start: -100,
         span: 200,
@@ -434,14 +432,8 @@ fn streaming_under_a_budget_counts_the_pages() {
         tessera_core::repository::reader::Repository::open(built.dir.path().join("model.tsr"))
             .unwrap(),
     );
-    let band = Band {
-        start: 0,
-        span: 1,
-        shift: 0,
-        texture: 0,
-    };
     let pages: Arc<dyn PageSource> =
-        Arc::new(MemoryPages::new(&[blocks(4, 1024, Wrap::Repeat)], &[band]).unwrap());
+        Arc::new(MemoryPages::new(&[blocks(4, 1024, Wrap::Repeat)], &[BAND_0]).unwrap());
     let layout = TextureLayout::new(pages.shapes(), pages.bands()).unwrap();
     let options = |budget| RendererOptions {
         width: SIZE,
@@ -543,18 +535,8 @@ fn streaming_under_a_budget_counts_the_pages() {
 #[test]
 fn bc1_pages_draw_in_either_pool_format() {
     use tessera_core::texture::PageEncoding;
-    let mut mesh = InputMesh::default();
-    square(&mut mesh, [0.0, 1.0, 0.0, 1.0], 16, |x, y| {
-        [x as f32, (1.0 - y) as f32]
-    });
-    let built = built(&mesh);
-    let band = Band {
-        start: 0,
-        span: 1,
-        shift: 0,
-        texture: 0,
-    };
-    let pages = MemoryPages::new(&[blocks(1, 256, Wrap::Repeat)], &[band]).unwrap();
+    let built = straight_square();
+    let pages = MemoryPages::new(&[blocks(1, 256, Wrap::Repeat)], &[BAND_0]).unwrap();
     let pages: Arc<dyn PageSource> = Arc::new(pages.encoded(PageEncoding::Bc1));
     for backend in BACKENDS {
         let mut ctx = gpu_on(backend);
