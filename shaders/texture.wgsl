@@ -35,10 +35,13 @@ fn level_size(record: u32, level: u32) -> vec2<u32> {
     return max(vec2<u32>(w, h), vec2<u32>(1u));
 }
 
-// Texel index i of a level n texels long, wrapped (repeat) or clamped into [0, n).
+// Texel index i of a level n texels long, wrapped (repeat) or clamped into [0, n). No `%` of
+// a negative operand: naga writes it into GLSL as it is, where it is undefined (llvmpipe GL
+// computed it as unsigned, right only for power-of-two sides); `/` truncates everywhere.
 fn wrap_texel(i: i32, n: i32, repeat: bool) -> i32 {
     if repeat {
-        return ((i % n) + n) % n;
+        let r = i - n * (i / n);
+        return select(r, r + n, r < 0);
     }
     return clamp(i, 0, n - 1);
 }

@@ -577,3 +577,36 @@ fn bc1_pages_draw_in_either_pool_format() {
     }
     assert_eq!(PoolFormat::Bc1.layer_bytes(), 12_208);
 }
+
+/// (g) Negative texture coordinates, as OBJ and PLY inputs store them (`shift − v`): the view's
+/// square mapped to v in [−1, 0) of a repeating 240² texture draws the texels that v + 1 names,
+/// on both backends. GLSL leaves `%` of a negative operand undefined (naga writes WGSL's `%`
+/// as it is) and llvmpipe GL computed it as unsigned, right only for a power-of-two side: it
+/// drew other texels here until `wrap_texel` stopped using it.
+#[test]
+fn negative_coordinates_wrap_on_every_backend() {
+    let mut mesh = InputMesh::default();
+    square(&mut mesh, [0.0, 1.0, 0.0, 1.0], 16, |x, y| {
+        [x as f32, (1.0 - y) as f32 - 1.0]
+    });
+    let built = built(&mesh);
+    let band = Band {
+        start: -1,
+        span: 1,
+        shift: 0,
+        texture: 0,
+    };
+    let pages: Arc<dyn PageSource> =
+        Arc::new(MemoryPages::new(&[blocks(6, 240, Wrap::Repeat)], &[band]).unwrap());
+    for backend in BACKENDS {
+        let ctx = gpu_on(backend);
+        let mut renderer = renderer(&ctx, &built, Some((pages.clone(), None)));
+        let (image, _) = settled(&ctx, &mut renderer, &request(ShadingMode::Color));
+        let what = format!("{backend:?} negative v");
+        let checked = check_texels(&image, &what, |x, y| {
+            expected(6, 240, Wrap::Repeat, x, 1.0 - y - 1.0)
+        });
+        assert!(checked > 10_000, "{what}: {checked} pixels checked");
+        ctx.check().unwrap();
+    }
+}
