@@ -136,8 +136,9 @@ impl BlobFeed for Feed<'_> {
     }
 }
 
-/// The geometry with `t` as the streaming writer (the build's) writes it, a page at a time.
-fn streamed_bytes(t: &TextureContents) -> Vec<u8> {
+/// The geometry (its tets with the offsets a write gives them) and the directory that the
+/// streaming writer is given for it with `t`.
+fn streamed_parts(t: &TextureContents) -> (RepositoryContents, RepositoryDirectory) {
     let mut c = geometry();
     let mut plain = Vec::new();
     write_repository(&mut plain, &c).unwrap();
@@ -150,6 +151,12 @@ fn streamed_bytes(t: &TextureContents) -> Vec<u8> {
         attribute_errors: None,
         textures: Some(t.directory.clone()),
     };
+    (c, directory)
+}
+
+/// The geometry with `t` as the streaming writer (the build's) writes it, a page at a time.
+fn streamed_bytes(t: &TextureContents) -> Vec<u8> {
+    let (c, directory) = streamed_parts(t);
     let dir = tempfile::tempdir().unwrap();
     let streamed = dir.path().join("streamed.tsr");
     write_repository_streamed(&streamed, &directory, &mut Feed(&c, t)).unwrap();
@@ -371,19 +378,8 @@ fn writers_refuse_invalid_textures() {
             Ok(())
         }
     }
-    let mut c = geometry();
-    let mut plain = Vec::new();
-    write_repository(&mut plain, &c).unwrap();
-    c.tets = Repository::from_bytes(plain).unwrap().tets().to_vec();
     let t = textures();
-    let directory = RepositoryDirectory {
-        header: c.header,
-        diamonds: c.diamonds.clone(),
-        tets: c.tets.clone(),
-        codec: c.codec,
-        attribute_errors: None,
-        textures: Some(t.directory.clone()),
-    };
+    let (c, directory) = streamed_parts(&t);
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("short.tsr");
     let err = write_repository_streamed(&path, &directory, &mut Short(Feed(&c, &t))).unwrap_err();
