@@ -32,8 +32,9 @@ pub fn linear_to_srgb(linear: f32) -> u8 {
     (s * 255.0 + 0.5) as u8
 }
 
-/// An RGBA8 image (`w × h`) halved by a 2 × 2 box in linear light (alpha linear), an odd edge
-/// repeating its last texel: `(ceil(w / 2), ceil(h / 2))`.
+/// An RGBA8 image (`w × h`) halved by a 2 × 2 box in linear light (alpha linear, its mean
+/// rounded), an odd edge repeating its last texel: `(ceil(w / 2), ceil(h / 2))`. The build's
+/// pyramid (`preprocess::texture::pyramid`) and every page's own mips are made by it.
 pub fn halve(texels: &[u8], w: u32, h: u32) -> (Vec<u8>, u32, u32) {
     assert_eq!(
         texels.len(),
@@ -52,10 +53,10 @@ pub fn halve(texels: &[u8], w: u32, h: u32) -> (Vec<u8>, u32, u32) {
                 for c in 0..3 {
                     sum[c] += lut[texels[at + c] as usize];
                 }
-                sum[3] += texels[at + 3] as f32 / 255.0;
+                sum[3] += f32::from(texels[at + 3]);
             }
             out.extend(sum[..3].iter().map(|&c| linear_to_srgb(c / 4.0)));
-            out.push((sum[3] / 4.0 * 255.0 + 0.5) as u8);
+            out.push((sum[3] / 4.0 + 0.5).floor() as u8);
         }
     }
     (out, hw, hh)
@@ -245,6 +246,13 @@ mod tests {
         let e = decode_page(PageEncoding::Bc1, &[0u8; 100]).unwrap_err();
         assert_eq!((e.expected, e.got), (BC1_PAGE_BYTES, 100));
         assert!(decode_page_mips(PageEncoding::Rgba8, &[0u8; 12]).is_err());
+    }
+
+    #[test]
+    fn the_srgb_round_trip_is_exact_on_8_bit_codes() {
+        for code in 0..=255u8 {
+            assert_eq!(linear_to_srgb(srgb_to_linear(code)), code);
+        }
     }
 
     #[test]

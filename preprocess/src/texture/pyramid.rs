@@ -6,6 +6,7 @@
 //! renderer samples), so the pyramid is held as 8-bit texels only: 4 bytes a texel.
 
 use tessera_core::texture::TextureShape;
+use tessera_core::texture_codec::halve;
 
 /// One level's texels: RGBA8, colour sRGB, row-major, top row first.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -24,59 +25,13 @@ impl Level {
     }
 }
 
-/// Linear value of each 8-bit sRGB code (IEC 61966-2-1).
-fn srgb_to_linear_table() -> [f32; 256] {
-    std::array::from_fn(|i| {
-        let s = i as f32 / 255.0;
-        if s <= 0.040_45 {
-            s / 12.92
-        } else {
-            ((s + 0.055) / 1.055).powf(2.4)
-        }
-    })
-}
-
-/// The 8-bit sRGB code nearest a linear value in `[0, 1]`.
-fn linear_to_srgb(l: f32) -> u8 {
-    let l = l.clamp(0.0, 1.0);
-    let s = if l <= 0.003_130_8 {
-        12.92 * l
-    } else {
-        1.055 * l.powf(1.0 / 2.4) - 0.055
-    };
-    (s * 255.0 + 0.5).floor().clamp(0.0, 255.0) as u8
-}
-
 /// The level after `level`: half its size rounded up (at least 1), each texel the linear-light
 /// mean of the 2 × 2 texels it covers, the last row or column repeated where the size is odd.
 pub fn next_level(level: &Level) -> Level {
-    let table = srgb_to_linear_table();
-    let (w, h) = (level.width, level.height);
-    let (nw, nh) = (w.div_ceil(2).max(1), h.div_ceil(2).max(1));
-    let mut texels = Vec::with_capacity(4 * nw as usize * nh as usize);
-    for y in 0..nh {
-        let rows = [2 * y, (2 * y + 1).min(h - 1)];
-        for x in 0..nw {
-            let columns = [2 * x, (2 * x + 1).min(w - 1)];
-            let mut sum = [0f32; 4];
-            for &sy in &rows {
-                for &sx in &columns {
-                    let t = level.texel(sx, sy);
-                    for c in 0..3 {
-                        sum[c] += table[t[c] as usize];
-                    }
-                    sum[3] += f32::from(t[3]);
-                }
-            }
-            for &channel in &sum[..3] {
-                texels.push(linear_to_srgb(channel / 4.0));
-            }
-            texels.push((sum[3] / 4.0 + 0.5).floor() as u8);
-        }
-    }
+    let (texels, width, height) = halve(&level.texels, level.width, level.height);
     Level {
-        width: nw,
-        height: nh,
+        width,
+        height,
         texels,
     }
 }
@@ -167,13 +122,5 @@ mod tests {
             );
         }
         assert_eq!(pyramid_bytes(&shape), 4 * (300 * 129 + 150 * 65 + 75 * 33));
-    }
-
-    #[test]
-    fn the_srgb_round_trip_is_exact_on_8_bit_codes() {
-        let table = srgb_to_linear_table();
-        for code in 0..=255u8 {
-            assert_eq!(linear_to_srgb(table[code as usize]), code);
-        }
     }
 }
